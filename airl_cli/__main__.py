@@ -1,0 +1,3 @@
+from airl_cli.cli import main
+
+main()

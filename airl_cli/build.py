@@ -1,0 +1,133 @@
+"""Build a problem and its demonstrations from settings: the bridge from config to core arrays.
+
+Randomness: one integer seed is split by ``numpy.random.SeedSequence.spawn`` into independent
+streams, one per use (``STREAMS``), so that, for example, the same seed gives the same MDP
+whatever N, and the same noise pattern (scaled) whatever sigma.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from airl_cli.config import GridMDPSettings, ProblemSettings
+from airl_cli.core import demos as core_demos
+from airl_cli.core import problems
+from airl_cli.core.planning import backward_induction
+from airl_cli.core.scores import performance
+from airl_cli.data import Dataset
+from airl_cli.errors import ConfigError
+
+#: Named random streams, in spawn order (append only: existing streams keep their numbers).
+STREAMS = ("mdp", "dynamics", "demos", "fit", "method")
+
+
+def streams(seed: int) -> dict[str, np.random.Generator]:
+    """Independent generators for each named use of randomness, from one seed."""
+    children = np.random.SeedSequence(seed).spawn(len(STREAMS))
+    return {name: np.random.default_rng(child) for name, child in zip(STREAMS, children)}
+
+
+@dataclass(frozen=True)
+class Problem:
+    """A problem without demonstrations: shapes as in ``airl_cli.data``."""
+
+    transitions: np.ndarray  # (M, S, A, S), index 0 = tau
+    features: np.ndarray  # (S, K)
+    initial: np.ndarray  # (S,)
+    horizon: int
+    true_weights: np.ndarray  # (K,)
+    loss: np.ndarray  # (S, S)
+    coordinates: np.ndarray | None = None  # (S, 2) grid cells (row, col), or None
+
+
+def resolved_loss(settings: ProblemSettings) -> str:
+    """The loss that ``loss=auto`` stands for: squared Euclidean on the grid, zero-one otherwise."""
+    if settings.loss != "auto":
+        return settings.loss
+    return "squared_euclidean" if isinstance(settings.mdp, GridMDPSettings) else "zero_one"
+
+
+def build_problem(settings: ProblemSettings) -> Problem:
+    """The MDP, its dynamics tau_0..tau_D, features, true weights and loss (SPEC §3)."""
+    rng = streams(settings.seed)
+    mdp, dyn = settings.mdp, settings.dynamics
+    coords = None
+    if isinstance(mdp, GridMDPSettings):
+        tau = problems.grid_world(epsilon=mdp.epsilon, size=mdp.size, start=mdp.start)
+        phi = problems.grid_features(size=mdp.size, start=mdp.start, goals=mdp.goals, dangers=mdp.dangers)
+        w_star = np.array(mdp.true_weights)
+        p0 = problems.grid_initial(size=mdp.size, start=mdp.start)
+        coords = problems.grid_coordinates(mdp.size)
+    else:
+        tau, phi, w_star, p0 = problems.random_mdp(
+            rng["mdp"],
+            n_states=mdp.n_states,
+            n_actions=mdp.n_actions,
+            n_features=mdp.n_features,
+            transition=mdp.transition,
+            dirichlet_alpha=mdp.dirichlet_alpha,
+        )
+    if dyn.kind == "gaussian":
+        others = problems.gaussian_perturbations(rng["dynamics"], tau, sigma=dyn.sigma, n_dynamics=dyn.n_dynamics)
+    elif dyn.kind == "same":
+        others = np.broadcast_to(tau, (dyn.n_dynamics,) + tau.shape)
+    else:
+        assert isinstance(mdp, GridMDPSettings)
+        others = np.stack(
+            [problems.grid_world(epsilon=mdp.epsilon, crosses=layout, size=mdp.size, start=mdp.start) for layout in dyn.layouts]
+        )
+    transitions = np.concatenate([tau[None], others], axis=0)
+    kind = resolved_loss(settings)
+    loss = problems.squared_euclidean_loss(coords) if kind == "squared_euclidean" else problems.zero_one_loss(tau.shape[0])
+    return Problem(transitions, phi, p0, mdp.horizon, w_star, loss, coords)
+
+
+def expert_policy(problem: Problem) -> np.ndarray:
+    """The demonstrator: the optimal policy (T-1, S) of w* . phi under tau (thesis §4.1)."""
+    policy, _ = backward_induction(problem.transitions[0], problem.features @ problem.true_weights, horizon=problem.horizon)
+    return policy
+
+
+def build_dataset(settings: ProblemSettings) -> tuple[Dataset, np.ndarray]:
+    """The dataset file's contents for ``settings``, and the expert's policy (T-1, S)."""
+    problem = build_problem(settings)
+    policy = expert_policy(problem)
+    P, p0, phi = problem.transitions, problem.initial, problem.features
+    fields: dict = {}
+    if settings.demos.kind == "sampled":
+        states, actions = core_demos.sample_trajectories(streams(settings.seed)["demos"], P[1:], policy, p0, settings.demos.n)
+        fields = dict(demo_states=states, demo_actions=actions)
+    elif settings.demos.kind == "exact":
+        fields = dict(feature_expectations=core_demos.expected_feature_sums(P[1:], policy, p0, phi))
+    else:
+        states, actions = core_demos.most_likely_trajectory(P[0], policy, p0)
+        for j in range(1, P.shape[0]):
+            if np.any(P[j, states[:-1], actions, states[1:]] <= 0):
+                raise ConfigError(
+                    f"the expert's most likely path under tau is impossible under tau_{j} (it enters a cross cell), "
+                    "so demos=optimal_path cannot use these dynamics"
+                )
+        D = P.shape[0] - 1
+        fields = dict(
+            demo_states=np.broadcast_to(states, (D, 1, states.size)).copy(),
+            demo_actions=np.broadcast_to(actions, (D, 1, actions.size)).copy(),
+        )
+    dataset = Dataset(
+        transitions=P,
+        features=phi,
+        initial=p0,
+        horizon=problem.horizon,
+        true_weights=problem.true_weights,
+        loss=problem.loss,
+        **fields,
+    )
+    return dataset, policy
+
+
+def expert_scores(dataset: Dataset, policy: np.ndarray) -> np.ndarray:
+    """The demonstrator's normalised performance (M,) under tau_0..tau_D (SPEC §6)."""
+    assert dataset.true_weights is not None
+    R = dataset.features @ dataset.true_weights
+    return np.array([performance(Pj, R, policy, dataset.initial) for Pj in dataset.transitions])

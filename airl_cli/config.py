@@ -1,0 +1,233 @@
+"""Typed settings read from a composed Hydra config, with one clear sentence per bad value.
+
+Hydra composes the YAML of ``conf/``; this module turns the plain values into frozen dataclasses
+and checks ranges and cross-group consistency (``dynamics=gaussian`` needs ``mdp=random``...),
+raising ``ConfigError`` that names the key. Jobs call ``problem_settings(cfg)`` and friends and
+never read the raw config again.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+from omegaconf import DictConfig, OmegaConf
+
+from airl_cli.errors import ConfigError
+
+Cell = tuple[int, int]
+
+
+class _Reader:
+    """Reads typed values from one config group, naming ``group.key`` in every error."""
+
+    def __init__(self, node: Any, group: str):
+        if not isinstance(node, Mapping):
+            raise ConfigError(f"'{group}' must be a config group (a mapping of keys), got {node!r}")
+        self.node, self.group = node, group
+
+    def _name(self, key: str) -> str:
+        return f"{self.group}.{key}" if self.group else key
+
+    def raw(self, key: str, default: Any = ...) -> Any:
+        if key not in self.node or self.node[key] is None:
+            if default is ...:
+                raise ConfigError(f"'{self._name(key)}' is missing")
+            return default
+        return self.node[key]
+
+    def int(self, key: str, *, lo: int | None = None, hi: int | None = None, default: Any = ...) -> int:
+        value = self.raw(key, default)
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise ConfigError(f"'{self._name(key)}' must be a whole number, got {value!r}")
+        if (lo is not None and value < lo) or (hi is not None and value > hi):
+            raise ConfigError(f"'{self._name(key)}' must be {_range(lo, hi)}, got {value}")
+        return value
+
+    def float(self, key: str, *, lo: float | None = None, hi: float | None = None, default: Any = ..., open_lo: bool = False) -> float:
+        value = self.raw(key, default)
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+            raise ConfigError(f"'{self._name(key)}' must be a finite number, got {value!r}")
+        value = float(value)
+        too_low = lo is not None and (value <= lo if open_lo else value < lo)
+        if too_low or (hi is not None and value > hi):
+            raise ConfigError(f"'{self._name(key)}' must be {_range(lo, hi, open_lo)}, got {value:g}")
+        return value
+
+    def choice(self, key: str, options: tuple[str, ...], default: Any = ...) -> str:
+        value = self.raw(key, default)
+        if value not in options:
+            raise ConfigError(f"'{self._name(key)}' must be one of {', '.join(options)}; got {value!r}")
+        return value
+
+    def floats(self, key: str, *, length: int | None = None) -> tuple[float, ...]:
+        value = self.raw(key)
+        if not isinstance(value, (list, tuple)) or not all(
+            isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in value
+        ):
+            raise ConfigError(f"'{self._name(key)}' must be a list of numbers, got {value!r}")
+        if length is not None and len(value) != length:
+            raise ConfigError(f"'{self._name(key)}' must have {length} numbers, got {len(value)}")
+        return tuple(float(v) for v in value)
+
+    def cell(self, key: str, value: Any, size: int) -> Cell:
+        ok = (
+            isinstance(value, (list, tuple))
+            and len(value) == 2
+            and all(isinstance(v, int) and not isinstance(v, bool) for v in value)
+        )
+        if not ok:
+            raise ConfigError(f"'{self._name(key)}' must hold cells [row, col], got {value!r}")
+        if not all(1 <= v <= size for v in value):
+            raise ConfigError(f"'{self._name(key)}' has the cell {list(value)} outside the {size}x{size} grid (rows and columns count from 1)")
+        return (int(value[0]), int(value[1]))
+
+    def cells(self, key: str, size: int, value: Any = ...) -> tuple[Cell, ...]:
+        value = self.raw(key) if value is ... else value
+        if not isinstance(value, (list, tuple)):
+            raise ConfigError(f"'{self._name(key)}' must be a list of cells [row, col], got {value!r}")
+        return tuple(self.cell(key, v, size) for v in value)
+
+
+def _range(lo: Any, hi: Any, open_lo: bool = False) -> str:
+    if lo is not None and hi is not None:
+        return f"between {lo} and {hi}"
+    if lo is not None:
+        return f"> {lo}" if open_lo else f">= {lo}"
+    return f"<= {hi}"
+
+
+def plain(cfg: DictConfig | Mapping) -> dict:
+    """The config as plain Python containers, interpolations resolved."""
+    if isinstance(cfg, DictConfig):
+        return OmegaConf.to_container(cfg, resolve=True)  # type: ignore[return-value]
+    return dict(cfg)
+
+
+# --------------------------------------------------------------------------- problem
+
+
+@dataclass(frozen=True)
+class RandomMDPSettings:
+    """``mdp=random``: thesis §7.2."""
+
+    n_states: int
+    n_actions: int
+    n_features: int
+    horizon: int
+    transition: str
+    dirichlet_alpha: float
+    name: str = "random"
+
+
+@dataclass(frozen=True)
+class GridMDPSettings:
+    """``mdp=grid``: thesis §7.3."""
+
+    size: int
+    epsilon: float
+    horizon: int
+    start: Cell
+    goals: tuple[Cell, ...]
+    dangers: tuple[Cell, ...]
+    true_weights: tuple[float, ...]
+    name: str = "grid"
+
+
+@dataclass(frozen=True)
+class DynamicsSettings:
+    """``dynamics=...``: how tau_1..tau_D are made from tau."""
+
+    name: str
+    kind: str  # gaussian | same | grid_layouts
+    n_dynamics: int
+    sigma: float = 0.0
+    layouts: tuple[tuple[Cell, ...], ...] = ()
+
+
+@dataclass(frozen=True)
+class DemoSettings:
+    """``demos=...``: what the learner is given."""
+
+    kind: str  # sampled | exact | optimal_path
+    n: int = 0
+
+
+@dataclass(frozen=True)
+class ProblemSettings:
+    """Everything ``airl generate`` needs."""
+
+    mdp: RandomMDPSettings | GridMDPSettings
+    dynamics: DynamicsSettings
+    demos: DemoSettings
+    loss: str  # auto | zero_one | squared_euclidean
+    seed: int
+
+
+def _mdp(node: Any) -> RandomMDPSettings | GridMDPSettings:
+    r = _Reader(node, "mdp")
+    name = r.choice("name", ("random", "grid"))
+    if name == "random":
+        return RandomMDPSettings(
+            n_states=r.int("n_states", lo=1),
+            n_actions=r.int("n_actions", lo=1),
+            n_features=r.int("n_features", lo=1),
+            horizon=r.int("horizon", lo=2),
+            transition=r.choice("transition", ("uniform", "dirichlet"), default="uniform"),
+            dirichlet_alpha=r.float("dirichlet_alpha", lo=0.0, open_lo=True, default=1.0),
+        )
+    size = r.int("size", lo=2)
+    start = r.cell("start", r.raw("start"), size)
+    goals = r.cells("goals", size)
+    dangers = r.cells("dangers", size)
+    if start in goals or start in dangers or set(goals) & set(dangers):
+        raise ConfigError("'mdp.start', 'mdp.goals' and 'mdp.dangers' must be different cells")
+    return GridMDPSettings(
+        size=size,
+        epsilon=r.float("epsilon", lo=0.0, hi=1.0),
+        horizon=r.int("horizon", lo=2),
+        start=start,
+        goals=goals,
+        dangers=dangers,
+        true_weights=r.floats("true_weights", length=4),
+    )
+
+
+def _dynamics(node: Any, mdp: RandomMDPSettings | GridMDPSettings) -> DynamicsSettings:
+    r = _Reader(node, "dynamics")
+    kind = r.choice("kind", ("gaussian", "same", "grid_layouts"))
+    name = str(r.raw("name", kind))
+    if kind == "gaussian":
+        if mdp.name != "random":
+            raise ConfigError(f"'dynamics={name}' perturbs a random MDP; use it with mdp=random (or use dynamics=same)")
+        return DynamicsSettings(name, kind, r.int("n_dynamics", lo=1), sigma=r.float("sigma", lo=0.0))
+    if kind == "same":
+        return DynamicsSettings(name, kind, r.int("n_dynamics", lo=1))
+    if mdp.name != "grid":
+        raise ConfigError(f"'dynamics={name}' places cross cells on the grid; use it with mdp=grid")
+    raw_layouts = r.raw("layouts")
+    if not isinstance(raw_layouts, (list, tuple)) or not raw_layouts:
+        raise ConfigError(f"'dynamics.layouts' must be a non-empty list of cell lists, got {raw_layouts!r}")
+    layouts = tuple(r.cells("layouts", mdp.size, layout) for layout in raw_layouts)
+    for layout in layouts:
+        if mdp.start in layout:
+            raise ConfigError(f"'dynamics.layouts' puts a cross on the START cell {list(mdp.start)}")
+    return DynamicsSettings(name, kind, len(layouts), layouts=layouts)
+
+
+def problem_settings(cfg: DictConfig | Mapping) -> ProblemSettings:
+    """Read and check the problem part of a composed config (groups mdp, dynamics, demos, loss; seed)."""
+    c = plain(cfg)
+    top = _Reader(c, "")
+    mdp = _mdp(top.raw("mdp"))
+    dynamics = _dynamics(top.raw("dynamics"), mdp)
+    d = _Reader(top.raw("demos"), "demos")
+    kind = d.choice("kind", ("sampled", "exact", "optimal_path"))
+    demos = DemoSettings(kind, d.int("n", lo=1) if kind == "sampled" else 0)
+    loss = _Reader(top.raw("loss"), "loss").choice("kind", ("auto", "zero_one", "squared_euclidean"))
+    if loss == "squared_euclidean" and mdp.name != "grid":
+        raise ConfigError("'loss=squared_euclidean' measures distances between grid cells; use it with mdp=grid")
+    seed = top.int("seed", lo=0)
+    return ProblemSettings(mdp=mdp, dynamics=dynamics, demos=demos, loss=loss, seed=seed)

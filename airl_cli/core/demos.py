@@ -1,0 +1,134 @@
+"""Demonstrations: vectorised trajectory sampling, the most likely trajectory, feature sums.
+
+Thesis §4.1 (eq. 4.2-4.5). Shapes: P (S, A, S) or a stack (D, S, A, S); policy (T-1, S) int;
+p0 (S,); states (..., N, T) int; actions (..., N, T-1) int; features phi (S, K).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from airl_cli.core.planning import state_marginals
+
+
+def _inverse_cdf(p: np.ndarray) -> np.ndarray:
+    """Cumulative sums of distributions along the last axis, made safe for ``count(C <= u)``.
+
+    From the last state of positive probability onwards the cumulative sum is set to exactly 1,
+    so a uniform u in [0, 1) never selects a state of probability zero despite rounding.
+    """
+    C = np.cumsum(p, axis=-1)
+    n = p.shape[-1]
+    positive = p > 0
+    last = n - 1 - np.argmax(positive[..., ::-1], axis=-1)
+    C[np.arange(n) >= last[..., None]] = 1.0
+    return C
+
+
+def sample_trajectories(
+    rng: np.random.Generator,
+    P: np.ndarray,
+    policy: np.ndarray,
+    p0: np.ndarray,
+    n: int,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Sample ``n`` trajectories of a deterministic policy under one or several dynamics.
+
+    All randomness is one block of uniforms drawn up front, shape (D, n, T), so the result
+    depends only on the generator's state; s_1 ~ p0, a_t = policy[t, s_t],
+    s_{t+1} ~ P_j[s_t, a_t, :].
+
+    Args:
+        P: (S, A, S) or (D, S, A, S).
+        policy: (T-1, S) int, the same policy under every dynamics.
+        p0: (S,) initial distribution.
+        n: number of trajectories per dynamics, N >= 1.
+
+    Returns:
+        states: (N, T) or (D, N, T) int64.
+        actions: (N, T-1) or (D, N, T-1) int64.
+    """
+    P = np.asarray(P, dtype=np.float64)
+    single = P.ndim == 3
+    if single:
+        P = P[None]
+    D = P.shape[0]
+    T = policy.shape[0] + 1
+    u = rng.random((D, n, T))
+    C0 = _inverse_cdf(np.asarray(p0, dtype=np.float64))
+    CP = _inverse_cdf(P)  # (D, S, A, S)
+    states = np.empty((D, n, T), dtype=np.int64)
+    actions = np.empty((D, n, T - 1), dtype=np.int64)
+    states[:, :, 0] = np.sum(C0 <= u[:, :, 0, None], axis=-1)
+    d_idx = np.arange(D)[:, None]
+    for t in range(T - 1):
+        s = states[:, :, t]
+        a = policy[t][s]
+        actions[:, :, t] = a
+        rows = CP[d_idx, s, a]  # (D, n, S)
+        states[:, :, t + 1] = np.sum(rows <= u[:, :, t + 1, None], axis=-1)
+    if single:
+        return states[0], actions[0]
+    return states, actions
+
+
+def most_likely_trajectory(
+    P: np.ndarray, policy: np.ndarray, p0: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """The single most likely state sequence of a deterministic policy (Viterbi).
+
+    Maximises p0(s_1) prod_t P[s_t, policy[t, s_t], s_{t+1}]; ties go to the lowest state index.
+
+    Args:
+        P: (S, A, S); policy: (T-1, S) int; p0: (S,).
+
+    Returns:
+        states: (T,) int64; actions: (T-1,) int64.
+    """
+    P = np.asarray(P, dtype=np.float64)
+    S = P.shape[0]
+    T = policy.shape[0] + 1
+    with np.errstate(divide="ignore"):
+        delta = np.log(np.asarray(p0, dtype=np.float64))
+        back = np.empty((T - 1, S), dtype=np.int64)
+        for t in range(T - 1):
+            step = np.log(P[np.arange(S), policy[t]])  # (S, S'): from s under its action to s'
+            scores = delta[:, None] + step
+            back[t] = np.argmax(scores, axis=0)
+            delta = scores[back[t], np.arange(S)]
+    states = np.empty(T, dtype=np.int64)
+    states[-1] = int(np.argmax(delta))
+    for t in range(T - 2, -1, -1):
+        states[t] = back[t, states[t + 1]]
+    actions = policy[np.arange(T - 1), states[:-1]].astype(np.int64)
+    return states, actions
+
+
+def feature_sums(states: np.ndarray, phi: np.ndarray) -> np.ndarray:
+    """Feature sum of each trajectory, c~_{i,j} = sum_t phi(s_t) (eq. 4.4).
+
+    Args:
+        states: (..., T) int.
+        phi: (S, K).
+
+    Returns:
+        (..., K).
+    """
+    return phi[states].sum(axis=-2)
+
+
+def expected_feature_sums(P: np.ndarray, policy: np.ndarray, p0: np.ndarray, phi: np.ndarray) -> np.ndarray:
+    """Exact expected feature sum E[sum_t phi(s_t)] of a policy under each dynamics.
+
+    The "infinitely many demonstrations" input of thesis §7.3.2.
+
+    Args:
+        P: (S, A, S) or (D, S, A, S); policy: (T-1, S) int or (T-1, S, A); p0: (S,); phi: (S, K).
+
+    Returns:
+        (K,) or (D, K).
+    """
+    P = np.asarray(P, dtype=np.float64)
+    if P.ndim == 3:
+        return state_marginals(P, policy, p0).sum(axis=0) @ phi
+    return np.stack([state_marginals(Pj, policy, p0).sum(axis=0) @ phi for Pj in P])

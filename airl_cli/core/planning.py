@@ -1,0 +1,135 @@
+"""Planning in one finite-horizon MDP: backward induction, evaluation, state marginals.
+
+Thesis §2.1, Theorems 2.1.1-2.1.2 (eq. 2.4-2.9), with per-time state rewards R[t, s]:
+
+    V[T-1, s] = R[T-1, s]
+    Q[t, s, a] = R[t, s] + sum_{s'} P[s, a, s'] V[t+1, s']            (eq. 2.6)
+    V[t, s]   = max_a Q[t, s, a]   (or min_a, or the soft maximum)     (eq. 2.8, 3.8)
+
+Shapes: P (S, A, S) one dynamics; R (T, S) or (S,); deterministic policy (T-1, S) int;
+stochastic policy (T-1, S, A); initial distribution p0 (S,); values and marginals (T, S).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.special import logsumexp
+
+from airl_cli.core.mdp import argmax_lowest, per_time
+
+
+def backward_induction(
+    P: np.ndarray, R: np.ndarray, *, horizon: int | None = None, maximize: bool = True
+) -> tuple[np.ndarray, np.ndarray]:
+    """Optimal deterministic non-stationary policy by backward induction (eq. 2.7-2.9).
+
+    Args:
+        P: dynamics (S, A, S), ``P[s, a, s']``.
+        R: per-time state rewards (T, S), or state rewards (S,) with ``horizon`` given.
+        horizon: T, needed only when ``R`` is (S,).
+        maximize: True for the best policy, False for the worst (the r-bar of SPEC §6).
+
+    Returns:
+        policy: (T-1, S) int, ``policy[t, s]`` the action at time t in state s; near-ties go to
+            the lowest action index.
+        V: (T, S) optimal values, ``V[t, s]`` = the best (worst) expected sum of R[t..T-1]
+            from state s at time t.
+    """
+    P = np.asarray(P, dtype=np.float64)
+    R = per_time(R, horizon if horizon is not None else np.asarray(R).shape[0])
+    T, S = R.shape
+    V = np.empty((T, S))
+    policy = np.empty((T - 1, S), dtype=np.int64)
+    V[T - 1] = R[T - 1]
+    sign = 1.0 if maximize else -1.0
+    for t in range(T - 2, -1, -1):
+        Q = R[t][:, None] + P @ V[t + 1]  # (S, A)
+        a = argmax_lowest(sign * Q, axis=1)
+        policy[t] = a
+        V[t] = Q[np.arange(S), a]
+    return policy, V
+
+
+def soft_backward_induction(P: np.ndarray, R: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Soft value iteration of maximum causal entropy IRL (thesis eq. 3.6-3.9), finite horizon.
+
+    Args:
+        P: dynamics (S, A, S).
+        R: per-time state rewards (T, S).
+
+    Returns:
+        policy: (T-1, S, A) float, ``pi[t, s, a] = exp(Q[t, s, a] - V[t, s])``.
+        V: (T, S) soft values, ``V[t, s] = log sum_a exp Q[t, s, a]`` for t < T-1 and
+            ``V[T-1] = R[T-1]``.
+    """
+    P = np.asarray(P, dtype=np.float64)
+    R = np.asarray(R, dtype=np.float64)
+    T, S = R.shape
+    A = P.shape[1]
+    V = np.empty((T, S))
+    policy = np.empty((T - 1, S, A))
+    V[T - 1] = R[T - 1]
+    for t in range(T - 2, -1, -1):
+        Q = R[t][:, None] + P @ V[t + 1]
+        V[t] = logsumexp(Q, axis=1)
+        policy[t] = np.exp(Q - V[t][:, None])
+    return policy, V
+
+
+def _next_state_matrix(P: np.ndarray, policy_t: np.ndarray) -> np.ndarray:
+    """Transition matrix (S, S) of one time step under a deterministic (S,) or stochastic (S, A) rule."""
+    if policy_t.ndim == 1:
+        return P[np.arange(P.shape[0]), policy_t]
+    return np.einsum("sa,sax->sx", policy_t, P)
+
+
+def policy_values(P: np.ndarray, R: np.ndarray, policy: np.ndarray) -> np.ndarray:
+    """Values of a given policy (Theorem 2.1.1, eq. 2.4-2.6).
+
+    Args:
+        P: dynamics (S, A, S).
+        R: per-time rewards (T, S).
+        policy: (T-1, S) int or (T-1, S, A) float.
+
+    Returns:
+        V: (T, S), ``V[t, s]`` = expected sum of R[t..T-1] from s at time t under ``policy``.
+    """
+    P = np.asarray(P, dtype=np.float64)
+    R = np.asarray(R, dtype=np.float64)
+    T, S = R.shape
+    V = np.empty((T, S))
+    V[T - 1] = R[T - 1]
+    for t in range(T - 2, -1, -1):
+        V[t] = R[t] + _next_state_matrix(P, np.asarray(policy[t])) @ V[t + 1]
+    return V
+
+
+def state_marginals(P: np.ndarray, policy: np.ndarray, p0: np.ndarray) -> np.ndarray:
+    """State distribution at every time step under a policy.
+
+    Args:
+        P: dynamics (S, A, S).
+        policy: (T-1, S) int or (T-1, S, A) float.
+        p0: initial distribution (S,).
+
+    Returns:
+        d: (T, S), ``d[t, s]`` = Pr(s_{t+1} = s); each row sums to 1.
+    """
+    P = np.asarray(P, dtype=np.float64)
+    policy = np.asarray(policy)
+    T = policy.shape[0] + 1
+    d = np.empty((T, P.shape[0]))
+    d[0] = p0
+    for t in range(T - 1):
+        d[t + 1] = d[t] @ _next_state_matrix(P, policy[t])
+    return d
+
+
+def expected_return(P: np.ndarray, R: np.ndarray, policy: np.ndarray, p0: np.ndarray) -> float:
+    """Expected sum of per-time rewards E[sum_t R[t, s_t]] under a policy (eq. 2.19).
+
+    Args:
+        P: dynamics (S, A, S); R: (T, S) or (S,); policy: (T-1, S) or (T-1, S, A); p0: (S,).
+    """
+    d = state_marginals(P, policy, p0)
+    return float(np.sum(d * per_time(R, d.shape[0])))

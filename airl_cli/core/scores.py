@@ -1,0 +1,53 @@
+"""Scores of SPEC §6 (thesis §7.2): normalised performance and cosine similarity."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from airl_cli.core.mdp import per_time
+from airl_cli.core.planning import backward_induction, expected_return
+
+
+def return_bounds(P: np.ndarray, R: np.ndarray, p0: np.ndarray, *, horizon: int | None = None) -> tuple[float, float]:
+    """Worst and best achievable expected returns (r-bar, R-bar) of thesis §7.2.
+
+    Args:
+        P: (S, A, S); R: (T, S), or (S,) with ``horizon``; p0: (S,).
+
+    Returns:
+        (r_min, r_max): expected returns of the minimising and maximising policies.
+    """
+    R = per_time(R, horizon if horizon is not None else np.asarray(R).shape[0])
+    _, V_max = backward_induction(P, R, maximize=True)
+    _, V_min = backward_induction(P, R, maximize=False)
+    return float(p0 @ V_min[0]), float(p0 @ V_max[0])
+
+
+def performance(P: np.ndarray, R: np.ndarray, policy: np.ndarray, p0: np.ndarray) -> float:
+    """Normalised performance (E[R] - r-bar) / (R-bar - r-bar) of a policy, in [0, 1].
+
+    Args:
+        P: (S, A, S) the dynamics the policy is run in.
+        R: (S,) or (T, S) the true reward.
+        policy: (T-1, S) int or (T-1, S, A) float.
+        p0: (S,).
+
+    Returns:
+        The share of the achievable range reached; 1.0 when every policy earns the same.
+    """
+    T = np.asarray(policy).shape[0] + 1
+    R = per_time(R, T)
+    r_min, r_max = return_bounds(P, R, p0)
+    value = expected_return(P, R, policy, p0)
+    span = r_max - r_min
+    if span <= 1e-12 * max(1.0, abs(r_max)):
+        return 1.0
+    return (value - r_min) / span
+
+
+def cosine_similarity(w: np.ndarray, w_star: np.ndarray) -> float:
+    """cos(w, w*) = w . w* / (|w| |w*|); 0.0 if either vector is zero. Both (K,)."""
+    w = np.asarray(w, dtype=np.float64).ravel()
+    w_star = np.asarray(w_star, dtype=np.float64).ravel()
+    norm = np.linalg.norm(w) * np.linalg.norm(w_star)
+    return float(w @ w_star / norm) if norm > 0 else 0.0

@@ -1,0 +1,39 @@
+"""``airl inspect PATH``: validate a dataset file and describe what it holds (no Hydra, no run folder)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from airl_cli.data import read_dataset
+from airl_cli.errors import AirlError
+from airl_cli.jobs.common import err_console, out_console
+
+
+def describe(path: str) -> str:
+    """A few lines on the dataset at ``path``; raises ``DatasetError`` if it does not validate."""
+    ds = read_dataset(path)
+    lines = [
+        f"{path}: a valid airl dataset",
+        f"  states S={ds.n_states}, actions A={ds.n_actions}, features K={ds.n_features}, horizon T={ds.horizon}",
+        f"  dynamics: tau and D={ds.n_dynamics} demonstration dynamics",
+    ]
+    if ds.demo_states is not None:
+        acts = "with actions" if ds.demo_actions is not None else "states only"
+        lines.append(f"  demonstrations: N={ds.n_demos} per dynamics ({acts})")
+    if ds.feature_expectations is not None:
+        lines.append("  feature expectations: given (used instead of the demonstrations' mean)")
+    lines.append("  true weights: " + ("given, runs will be scored" if ds.true_weights is not None else "absent, runs cannot be scored"))
+    lines.append("  loss: " + ("given (S, S)" if ds.loss is not None else "absent, the config's loss will be used"))
+    lines.append("  feature sums c~_j:")
+    for j, row in enumerate(ds.feature_targets(), start=1):
+        lines.append(f"    tau_{j}: " + np.array2string(row, precision=4, separator=", "))
+    return "\n".join(lines)
+
+
+def main(path: str) -> None:
+    try:
+        text = describe(path)
+    except AirlError as err:
+        err_console.print(f"[bold red]error:[/] {err}", soft_wrap=True)
+        raise SystemExit(2) from None
+    out_console.print(text, soft_wrap=True)

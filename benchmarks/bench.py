@@ -1,0 +1,77 @@
+"""Benchmarks of airl: `python benchmarks/bench.py [SECTION ...]` prints a table per section.
+
+Sections: sampling. Each measurement is the median of several repeats on one core
+(set OMP_NUM_THREADS=1 etc. for strict single-core numbers; the script sets them itself).
+"""
+
+from __future__ import annotations
+
+import os
+
+for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMBA_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
+
+import argparse  # noqa: E402
+import statistics  # noqa: E402
+import time  # noqa: E402
+from collections.abc import Callable  # noqa: E402
+
+import numpy as np  # noqa: E402
+from rich.console import Console  # noqa: E402
+from rich.table import Table  # noqa: E402
+
+from airl_cli.core.demos import sample_trajectories  # noqa: E402
+from airl_cli.core.planning import backward_induction  # noqa: E402
+from airl_cli.core.problems import gaussian_perturbations, random_mdp  # noqa: E402
+
+console = Console()
+
+
+def median_seconds(fn: Callable[[], object], *, repeats: int = 7, warmup: int = 1) -> float:
+    """Median wall time of ``fn()`` over ``repeats`` calls after ``warmup`` untimed calls."""
+    for _ in range(warmup):
+        fn()
+    times = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - start)
+    return statistics.median(times)
+
+
+def random_problem(seed: int = 0, *, S: int = 20, A: int = 5, K: int = 5, D: int = 3, sigma: float = 0.1):
+    rng = np.random.default_rng(seed)
+    tau, phi, w, p0 = random_mdp(rng, n_states=S, n_actions=A, n_features=K)
+    P = np.concatenate([tau[None], gaussian_perturbations(rng, tau, sigma=sigma, n_dynamics=D)])
+    return P, phi, w, p0
+
+
+def bench_sampling() -> None:
+    table = Table(title="demonstration sampling (N per dynamics, D=3, A=5)")
+    for col in ("S", "T", "N", "median ms"):
+        table.add_column(col, justify="right")
+    for S, T, N in [(20, 10, 1000), (20, 10, 10_000), (100, 20, 1000), (500, 50, 1000)]:
+        P, phi, w, p0 = random_problem(S=S)
+        policy, _ = backward_induction(P[0], phi @ w, horizon=T)
+        rng = np.random.default_rng(0)
+        t = median_seconds(lambda: sample_trajectories(rng, P[1:], policy, p0, N))
+        table.add_row(str(S), str(T), str(N), f"{1e3 * t:.2f}")
+    console.print(table)
+
+
+SECTIONS = {"sampling": bench_sampling}
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument("sections", nargs="*", metavar="SECTION", help=f"any of: {', '.join(SECTIONS)} (default: all)")
+    args = parser.parse_args()
+    unknown = [s for s in args.sections if s not in SECTIONS]
+    if unknown:
+        parser.error(f"unknown section {unknown[0]!r}; choose from {', '.join(SECTIONS)}")
+    for name in args.sections or SECTIONS:
+        SECTIONS[name]()
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,42 @@
+"""Imports flow one way: core is numpy/scipy only; nothing in core reaches up a layer."""
+
+from __future__ import annotations
+
+import ast
+import sys
+from pathlib import Path
+
+import airl_cli
+
+PACKAGE = Path(airl_cli.__file__).parent
+# numba compiles the planner's kernels; it is a compute library, not a layer above core.
+CORE_ALLOWED = {"numpy", "scipy", "numba"}
+
+
+def imports_of(path: Path) -> set[str]:
+    tree = ast.parse(path.read_text())
+    names = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            names |= {alias.name for alias in node.names}
+        elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+            names.add(node.module)
+    return names
+
+
+def test_core_is_pure():
+    files = sorted((PACKAGE / "core").glob("*.py"))
+    assert files
+    for path in files:
+        for name in imports_of(path):
+            top = name.split(".")[0]
+            if top == "airl_cli":
+                assert name.startswith("airl_cli.core"), f"{path.name} imports {name}, a layer above core"
+            else:
+                assert top in CORE_ALLOWED or top in sys.stdlib_module_names, f"{path.name} imports {name}"
+
+
+def test_plotting_never_imports_core():
+    path = PACKAGE / "plotting.py"
+    if path.exists():
+        assert not any(n.startswith("airl_cli.core") for n in imports_of(path))

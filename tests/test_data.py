@@ -1,0 +1,199 @@
+"""The dataset file (SPEC §4): round trip, same bytes, and one clear sentence for every bad input."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from airl_cli.cli import app
+from airl_cli.data import Dataset, read_dataset, validate, write_dataset
+from airl_cli.errors import DatasetError
+from tiny import random_dynamics
+
+S, A, K, T, D, N = 4, 2, 3, 5, 2, 6
+
+
+def good_arrays() -> dict[str, np.ndarray]:
+    """A valid dataset with every optional key, demonstrations sampled from dense dynamics."""
+    rng = np.random.default_rng(0)
+    P = np.stack([random_dynamics(rng, S, A) for _ in range(D + 1)])
+    states = rng.integers(0, S, size=(D, N, T))
+    return dict(
+        transitions=P,
+        features=rng.random((S, K)),
+        initial=np.full(S, 1 / S),
+        horizon=np.asarray(T),
+        demo_states=states,
+        demo_actions=rng.integers(0, A, size=(D, N, T - 1)),
+        feature_expectations=rng.random((D, K)),
+        true_weights=rng.normal(size=K),
+        loss=1 - np.eye(S),
+    )
+
+
+def _set(key, value):
+    def mutate(a):
+        a[key] = value(a) if callable(value) else value
+    return mutate
+
+
+def _drop(key):
+    def mutate(a):
+        del a[key]
+    return mutate
+
+
+def _edit(key, fn):
+    def mutate(a):
+        x = np.array(a[key], copy=True)
+        fn(x)
+        a[key] = x
+    return mutate
+
+
+def _nan(x):
+    x[0, 0, 0, 0] = np.nan
+
+
+def _neg(x):
+    x[1, 0, 1, 0] = -0.1
+    x[1, 0, 1, 1] += 0.1
+
+
+def _unnormalised(x):
+    x[2, 3, 1] *= 1.01
+
+
+def _impossible(a):
+    a["transitions"] = a["transitions"].copy()
+    a["transitions"][1, :, :, 3] = 0.0  # tau_1 can never enter state 3 ...
+    a["transitions"][1] /= a["transitions"][1].sum(-1, keepdims=True)
+    s = a["demo_states"].copy()
+    s[0, 2, 1] = 3  # ... but demonstration (0, 2) does
+    a["demo_states"] = s
+    del a["demo_actions"]
+
+
+BAD = [
+    ("missing transitions", _drop("transitions"), "transitions"),
+    ("missing features", _drop("features"), "features"),
+    ("missing initial", _drop("initial"), "initial"),
+    ("missing horizon", _drop("horizon"), "horizon"),
+    ("no demos and no expectations", lambda a: (a.pop("demo_states"), a.pop("demo_actions"), a.pop("feature_expectations")), "demo_states"),
+    ("actions without states", lambda a: (a.pop("demo_states")), "demo_actions"),
+    ("unknown key", _set("rewards", np.zeros(S)), "rewards"),
+    ("transitions 3-d", _set("transitions", lambda a: a["transitions"][0]), "transitions"),
+    ("transitions not square", _set("transitions", lambda a: a["transitions"][:, :, :, :3]), "transitions"),
+    ("only tau", _set("transitions", lambda a: a["transitions"][:1]), "transitions"),
+    ("NaN probability", _edit("transitions", _nan), "transitions"),
+    ("negative probability", _edit("transitions", _neg), "transitions"),
+    ("rows not summing to 1", _edit("transitions", _unnormalised), "transitions"),
+    ("features wrong S", _set("features", np.zeros((S + 1, K))), "features"),
+    ("features NaN", _edit("features", lambda x: x.__setitem__((0, 0), np.inf)), "features"),
+    ("initial wrong shape", _set("initial", np.full(S + 1, 1 / (S + 1))), "initial"),
+    ("initial not normalised", _set("initial", np.full(S, 0.3)), "initial"),
+    ("horizon below 2", _set("horizon", np.asarray(1)), "horizon"),
+    ("horizon float", _set("horizon", np.asarray(5.0)), "horizon"),
+    ("horizon array", _set("horizon", np.array([5])), "horizon"),
+    ("demo_states wrong D", _set("demo_states", lambda a: a["demo_states"][:1]), "demo_states"),
+    ("demo_states wrong T", _set("demo_states", lambda a: a["demo_states"][:, :, :-1]), "demo_states"),
+    ("demo_states float", _set("demo_states", lambda a: a["demo_states"].astype(float)), "demo_states"),
+    ("state index too large", _edit("demo_states", lambda x: x.__setitem__((1, 2, 3), S)), "demo_states"),
+    ("state index negative", _edit("demo_states", lambda x: x.__setitem__((0, 0, 0), -1)), "demo_states"),
+    ("impossible move", _impossible, "demo_states"),
+    ("demo_actions wrong shape", _set("demo_actions", lambda a: a["demo_actions"][:, :, :-1]), "demo_actions"),
+    ("action index out of range", _edit("demo_actions", lambda x: x.__setitem__((0, 1, 1), A)), "demo_actions"),
+    ("feature_expectations wrong K", _set("feature_expectations", np.zeros((D, K + 1))), "feature_expectations"),
+    ("true_weights wrong K", _set("true_weights", np.zeros(K + 2)), "true_weights"),
+    ("true_weights NaN", _set("true_weights", np.array([0.0, np.nan, 1.0])), "true_weights"),
+    ("loss wrong shape", _set("loss", np.zeros((S, S + 1))), "loss"),
+    ("loss negative", _set("loss", lambda a: a["loss"] - 2.0), "loss"),
+    ("text instead of numbers", _set("features", np.array([["a"] * K] * S)), "features"),
+]
+
+
+def test_good_dataset_validates_and_round_trips(tmp_path):
+    ds = validate(good_arrays())
+    path = write_dataset(tmp_path / "d.npz", ds)
+    back = read_dataset(path)
+    for key, value in ds.arrays().items():
+        assert np.array_equal(back.arrays()[key], value), key
+    assert back.horizon == T and back.n_dynamics == D and back.n_demos == N
+    assert np.array_equal(back.feature_targets(), ds.feature_expectations)
+
+
+def test_feature_targets_are_demo_means_without_expectations():
+    a = good_arrays()
+    del a["feature_expectations"]
+    ds = validate(a)
+    expected = np.array([[ds.features[ds.demo_states[j, n]].sum(0) for n in range(N)] for j in range(D)]).mean(1)
+    assert np.allclose(ds.feature_targets(), expected)
+
+
+def test_same_data_same_bytes(tmp_path):
+    ds = validate(good_arrays())
+    a = write_dataset(tmp_path / "a.npz", ds).read_bytes()
+    b = write_dataset(tmp_path / "b.npz", ds).read_bytes()
+    assert a == b
+
+
+def test_a_user_file_from_numpy_savez_reads(tmp_path):
+    np.savez(tmp_path / "mine.npz", **good_arrays())
+    assert read_dataset(tmp_path / "mine.npz").n_states == S
+
+
+@pytest.mark.parametrize("label, mutate, key", BAD, ids=[b[0] for b in BAD])
+def test_bad_input_names_the_key(tmp_path, label, mutate, key):
+    arrays = good_arrays()
+    mutate(arrays)
+    path = tmp_path / "bad.npz"
+    np.savez(path, **arrays)
+    with pytest.raises(DatasetError, match=f"'{key}'"):
+        read_dataset(path)
+    # the command line: one sentence on stderr, exit 2, no traceback
+    result = CliRunner().invoke(app, ["inspect", str(path)])
+    assert result.exit_code == 2
+    assert "Traceback" not in result.output
+    assert f"'{key}'" in result.output
+    assert len(result.output.strip().splitlines()) == 1, result.output
+
+
+@pytest.mark.parametrize(
+    "content, needle",
+    [(b"hello, not a zip", "not an .npz"), (None, "single .npy"), (b"", "not an .npz")],
+    ids=["text file", "npy file", "empty file"],
+)
+def test_not_an_npz(tmp_path, content, needle):
+    path = tmp_path / "x.npz"
+    if content is None:
+        with open(path, "wb") as fh:
+            np.save(fh, np.zeros(3))
+    else:
+        path.write_bytes(content)
+    with pytest.raises(DatasetError, match=needle):
+        read_dataset(path)
+    result = CliRunner().invoke(app, ["inspect", str(path)])
+    assert result.exit_code == 2 and "Traceback" not in result.output
+
+
+def test_object_array_is_refused(tmp_path):
+    arrays = good_arrays()
+    arrays["features"] = np.array([object()] * S, dtype=object)
+    np.savez(tmp_path / "o.npz", **arrays)
+    with pytest.raises(DatasetError, match="'features'"):
+        read_dataset(tmp_path / "o.npz")
+
+
+def test_missing_file(tmp_path):
+    with pytest.raises(DatasetError, match="does not exist"):
+        read_dataset(tmp_path / "nope.npz")
+
+
+def test_bad_dataset_is_never_written(tmp_path):
+    arrays = good_arrays()
+    arrays["initial"] = np.full(S, 0.3)
+    ds = Dataset(**{k: (int(v) if k == "horizon" else v) for k, v in arrays.items()})
+    with pytest.raises(DatasetError, match="'initial'"):
+        write_dataset(tmp_path / "d.npz", ds)
+    assert list(tmp_path.iterdir()) == []  # neither the file nor a temporary file

@@ -1,0 +1,116 @@
+"""Backward induction, policy evaluation and marginals against hand computation and enumeration."""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+import pytest
+
+from airl_cli.core.planning import (
+    backward_induction,
+    expected_return,
+    policy_values,
+    soft_backward_induction,
+    state_marginals,
+)
+from tiny import random_dynamics
+
+
+def test_backward_induction_by_hand(two_state_mdp):
+    P, R, p0 = two_state_mdp
+    policy, V = backward_induction(P, R)
+    # t = 2 (last): V = R.  t = 1: from 0 switch (0.9 -> state 1), from 1 stay.
+    assert np.allclose(V[2], [0, 1])
+    assert np.allclose(V[1], [0 + 0.9, 1 + 0.9])
+    # t = 0: Q(0, switch) = 0 + 0.1*0.9 + 0.9*1.9 = 1.8; Q(0, stay) = 0.9*0.9 + 0.1*1.9 = 1.0
+    assert np.allclose(V[0, 0], 1.8)
+    assert policy.tolist() == [[1, 0], [1, 0]]
+    assert expected_return(P, R, policy, p0) == pytest.approx(1.8)
+
+
+def _all_policies(T: int, S: int, A: int):
+    for flat in itertools.product(range(A), repeat=(T - 1) * S):
+        yield np.array(flat, dtype=np.int64).reshape(T - 1, S)
+
+
+@pytest.mark.parametrize("seed", range(10))
+def test_backward_induction_equals_enumeration(seed):
+    """On S=2, A=2, T=3 every one of the 16 deterministic policies is evaluated by hand-rolled sums."""
+    rng = np.random.default_rng(seed)
+    S, A, T = 2, 2, 3
+    P = random_dynamics(rng, S, A)
+    R = rng.normal(size=(T, S))
+    p0 = rng.dirichlet(np.ones(S))
+
+    def brute_value(policy):
+        # enumerate every state sequence s1, s2, s3 and multiply its probability by its return
+        total = 0.0
+        for seq in itertools.product(range(S), repeat=T):
+            prob = p0[seq[0]]
+            for t in range(T - 1):
+                prob *= P[seq[t], policy[t, seq[t]], seq[t + 1]]
+            total += prob * sum(R[t, seq[t]] for t in range(T))
+        return total
+
+    values = [brute_value(pi) for pi in _all_policies(T, S, A)]
+    best, V_max = backward_induction(P, R, maximize=True)
+    worst, V_min = backward_induction(P, R, maximize=False)
+    assert p0 @ V_max[0] == pytest.approx(max(values), abs=1e-12)
+    assert p0 @ V_min[0] == pytest.approx(min(values), abs=1e-12)
+    assert brute_value(best) == pytest.approx(max(values), abs=1e-12)
+    assert brute_value(worst) == pytest.approx(min(values), abs=1e-12)
+    # and the optimal values hold state by state, not only from p0
+    for s in range(S):
+        e = np.eye(S)[s]
+        assert expected_return(P, R, best, e) >= max(expected_return(P, R, pi, e) for pi in _all_policies(T, S, A)) - 1e-12
+
+
+def test_state_rewards_broadcast_over_time(two_state_mdp):
+    P, R, _ = two_state_mdp
+    pol_a, V_a = backward_induction(P, R[0], horizon=3)
+    pol_b, V_b = backward_induction(P, R)
+    assert np.array_equal(pol_a, pol_b) and np.allclose(V_a, V_b)
+
+
+def test_marginals_are_distributions_and_match_values():
+    rng = np.random.default_rng(3)
+    S, A, T = 6, 3, 8
+    P = random_dynamics(rng, S, A)
+    R = rng.normal(size=(T, S))
+    p0 = rng.dirichlet(np.ones(S))
+    policy, V = backward_induction(P, R)
+    d = state_marginals(P, policy, p0)
+    assert d.shape == (T, S)
+    assert np.allclose(d.sum(axis=1), 1.0)
+    assert np.all(d >= 0)
+    # two independent routes to the same expected return
+    assert np.sum(d * R) == pytest.approx(p0 @ V[0], rel=1e-12)
+    assert np.allclose(policy_values(P, R, policy), V)
+
+
+def test_stochastic_policy_evaluation_matches_mixture_of_actions():
+    rng = np.random.default_rng(4)
+    S, A, T = 4, 3, 5
+    P = random_dynamics(rng, S, A)
+    R = rng.normal(size=(T, S))
+    p0 = rng.dirichlet(np.ones(S))
+    det, _ = backward_induction(P, R)
+    one_hot = np.eye(A)[det]  # the same policy written as (T-1, S, A) probabilities
+    assert np.allclose(state_marginals(P, one_hot, p0), state_marginals(P, det, p0))
+    assert expected_return(P, R, one_hot, p0) == pytest.approx(expected_return(P, R, det, p0))
+
+
+def test_soft_backward_induction():
+    rng = np.random.default_rng(5)
+    S, A, T = 4, 3, 6
+    P = random_dynamics(rng, S, A)
+    R = rng.normal(size=(T, S))
+    pi, V = soft_backward_induction(P, R)
+    assert np.allclose(pi.sum(axis=-1), 1.0)
+    # soft value >= hard value (log-sum-exp >= max), and scaling rewards up makes it greedy
+    _, V_hard = backward_induction(P, R)
+    assert np.all(V >= V_hard - 1e-12)
+    pi_cold, _ = soft_backward_induction(P, 200.0 * R)
+    greedy, _ = backward_induction(P, R)
+    assert np.array_equal(pi_cold.argmax(axis=-1), greedy)
