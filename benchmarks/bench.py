@@ -1,6 +1,6 @@
 """Benchmarks of airl: `python benchmarks/bench.py [SECTION ...]` prints a table per section.
 
-Sections: sampling. Each measurement is the median of several repeats on one core
+Sections: sampling, planner. Each measurement is the median of several repeats on one core
 (set OMP_NUM_THREADS=1 etc. for strict single-core numbers; the script sets them itself).
 """
 
@@ -23,6 +23,7 @@ from rich.table import Table  # noqa: E402
 from airl_cli.core.demos import sample_trajectories  # noqa: E402
 from airl_cli.core.planning import backward_induction  # noqa: E402
 from airl_cli.core.problems import gaussian_perturbations, random_mdp  # noqa: E402
+from airl_cli.multimodel import expand_beliefs, solve  # noqa: E402
 
 console = Console()
 
@@ -59,7 +60,41 @@ def bench_sampling() -> None:
     console.print(table)
 
 
-SECTIONS = {"sampling": bench_sampling}
+def adversary_problem(seed: int = 0, *, S: int = 20, A: int = 5, K: int = 5, D: int = 3, T: int = 10):
+    """The shape of the adversary's best response (SPEC §5): MDP 0 is tau with a loss-like reward,
+    MDPs 1..D are the perturbed tau_j with w . phi."""
+    P, phi, w, p0 = random_problem(seed, S=S, A=A, K=K, D=D)
+    rng = np.random.default_rng(seed + 1)
+    R = np.empty((D + 1, T, S))
+    R[0] = rng.random((T, S))
+    R[1:] = phi @ w
+    return P, R, p0
+
+
+def bench_planner() -> None:
+    table = Table(title="multiple-MDP planner (modified PBVI): one solve with a given belief set = backup pass + exact marginals")
+    for col in ("S", "A", "T", "M", "iters", "beliefs", "alpha-vectors", "max per (t,s)", "expand ms", "solve ms"):
+        table.add_column(col, justify="right")
+    rows = [(20, 5, 10, 4, 8)]  # the thesis's scale first
+    rows += [(S, 5, 10, 4, 8) for S in (10, 40, 80)]
+    rows += [(20, 5, 10, M, 8) for M in (2, 3, 6)]
+    rows += [(20, 5, T, 4, 8) for T in (5, 20, 40)]
+    rows += [(20, 5, 10, 4, I) for I in (4, 6, 10)]
+    rows += [(100, 5, 20, 4, 8)]
+    for S, A, T, M, iters in rows:
+        P, R, p0 = adversary_problem(S=S, A=A, D=M - 1, T=T)
+        t_expand = median_seconds(lambda: expand_beliefs(P, iterations=iters, rng=np.random.default_rng(1)), repeats=3)
+        B = expand_beliefs(P, iterations=iters, rng=np.random.default_rng(1))
+        t_solve = median_seconds(lambda: solve(P, R, p0, beliefs=B), repeats=7 if S * T <= 400 else 3)
+        graph = solve(P, R, p0, beliefs=B).graph
+        table.add_row(
+            str(S), str(A), str(T), str(M), str(iters), str(len(B)), f"{int(graph.n_nodes.sum()):,}",
+            str(int(graph.nodes_per_state().max())), f"{1e3 * t_expand:.1f}", f"{1e3 * t_solve:.1f}",
+        )
+    console.print(table)
+
+
+SECTIONS = {"sampling": bench_sampling, "planner": bench_planner}
 
 
 def main() -> None:

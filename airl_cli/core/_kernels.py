@@ -1,0 +1,396 @@
+"""Compiled kernels of the multiple-MDP planner (numba, cached on disk after the first call).
+
+These are the inner loops of modified PBVI (thesis Tables III-IV) written for speed; the readable
+description and the public functions are in ``airl_cli.core.multimodel``. Layouts:
+
+* ``PT`` (S, A, S, M): dynamics with the model axis last, ``PT[s, a, s', j] = P_j(s' | s, a)``.
+* ``Bt`` (M, nb): beliefs as columns, ``Bt[j, i]`` = belief of model j at belief point i.
+* Nodes of one time step are stored flat and grouped by state: the nodes of state s are
+  ``offsets[s] .. offsets[s+1]-1``; ``alpha[k]`` (M,) is node k's exact value under each model.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+#: Actions whose backed-up values differ by less than this (relative) are ties: lowest index wins.
+ACTION_RTOL = 1e-12
+
+
+#: An action is skipped at a belief only if its upper bound is below the best lower bound by more
+#: than this (relative), so skipping can never change which action wins a near-tie.
+PRUNE_RTOL = 1e-9
+
+
+@njit(cache=True, fastmath={"contract"})
+def _scan(X, G, n_k, val_a, idx_a, val_b, idx_b):  # pragma: no cover - compiled
+    """Best candidate per column: max over k < n_k of sum_j X[j, i] G[k, j], and its k.
+
+    The running maximum alternates between two buffers (read one, write the other) so that
+    every store is unconditional and the loop over columns vectorises; the model axis is
+    unrolled for M <= 4. Ties keep the lowest k.
+
+    Args:
+        X: (M, n) scaled beliefs, one per column.
+        G: (>= n_k, M) candidate alpha-vectors.
+        val_a, idx_a, val_b, idx_b: (>= n,) scratch buffers.
+
+    Returns:
+        (values, indices): views of the buffers holding the result, (n,) each.
+    """
+    M, n = X.shape
+    for i in range(n):
+        val_a[i] = -np.inf
+        idx_a[i] = 0.0
+    src_v, src_k, dst_v, dst_k = val_a, idx_a, val_b, idx_b
+    if M == 2:
+        X0, X1 = X[0], X[1]
+        for k in range(n_k):
+            g0, g1 = G[k, 0], G[k, 1]
+            kk = float(k)
+            for i in range(n):
+                v = X0[i] * g0 + X1[i] * g1
+                old = src_v[i]
+                up = v > old
+                dst_v[i] = v if up else old
+                dst_k[i] = kk if up else src_k[i]
+            src_v, dst_v, src_k, dst_k = dst_v, src_v, dst_k, src_k
+    elif M == 3:
+        X0, X1, X2 = X[0], X[1], X[2]
+        for k in range(n_k):
+            g0, g1, g2 = G[k, 0], G[k, 1], G[k, 2]
+            kk = float(k)
+            for i in range(n):
+                v = X0[i] * g0 + X1[i] * g1 + X2[i] * g2
+                old = src_v[i]
+                up = v > old
+                dst_v[i] = v if up else old
+                dst_k[i] = kk if up else src_k[i]
+            src_v, dst_v, src_k, dst_k = dst_v, src_v, dst_k, src_k
+    elif M == 4:
+        X0, X1, X2, X3 = X[0], X[1], X[2], X[3]
+        for k in range(n_k):
+            g0, g1, g2, g3 = G[k, 0], G[k, 1], G[k, 2], G[k, 3]
+            kk = float(k)
+            for i in range(n):
+                v = X0[i] * g0 + X1[i] * g1 + X2[i] * g2 + X3[i] * g3
+                old = src_v[i]
+                up = v > old
+                dst_v[i] = v if up else old
+                dst_k[i] = kk if up else src_k[i]
+            src_v, dst_v, src_k, dst_k = dst_v, src_v, dst_k, src_k
+    else:
+        acc = np.empty(n)
+        for k in range(n_k):
+            kk = float(k)
+            for i in range(n):
+                acc[i] = 0.0
+            for j in range(M):
+                gj = G[k, j]
+                Xj = X[j]
+                for i in range(n):
+                    acc[i] += Xj[i] * gj
+            for i in range(n):
+                old = src_v[i]
+                up = acc[i] > old
+                dst_v[i] = acc[i] if up else old
+                dst_k[i] = kk if up else src_k[i]
+            src_v, dst_v, src_k, dst_k = dst_v, src_v, dst_k, src_k
+    return src_v, src_k
+
+
+@njit(cache=True)
+def backup_step(PT, R_t, Bt, alpha_next, offsets_next):  # pragma: no cover - compiled
+    """One modified value backup (Table III) at every belief, for every state, at one time step.
+
+    For belief b, state s and action a, the successor for next state s' is the node k of s' at
+    t+1 maximising sum_j b_j P_j(s'|s,a) alpha_next[k, j] (eq. 6.19-6.20); the action maximises
+    b . R_t(s) plus the sum of those maxima (ties within ``ACTION_RTOL`` go to the lowest action).
+    The new node's alpha-vector is its exact value:
+    alpha_j = R_j(t, s) + sum_{s'} P_j(s'|s,a) alpha_next[k(s'), j].
+
+    Exact pruning: for each (s, a, b) an upper bound (every model's best next value, valid since
+    beliefs and probabilities are non-negative) and a lower bound (the value of a concrete plan:
+    for each s' the node best at b itself) are cheap. An action whose upper bound is below the
+    best lower bound at b cannot win there and is not scanned; the result is the same as
+    without pruning.
+
+    Args:
+        PT: (S, A, S, M) dynamics, model axis last.
+        R_t: (M, S) rewards at this time step.
+        Bt: (M, nb) belief points.
+        alpha_next: (n_next, M) alpha-vectors of the nodes at t+1, grouped by state.
+        offsets_next: (S+1,) node ranges per state at t+1.
+
+    Returns:
+        action: (S, nb) the chosen action per state and belief.
+        succ: (S, nb, S) global index at t+1 of the successor node for each next state.
+        alpha: (S, nb, M) the new alpha-vectors.
+    """
+    S, A, _, M = PT.shape
+    nb = Bt.shape[1]
+    action = np.empty((S, nb), np.int64)
+    succ = np.empty((S, nb, S), np.int64)
+    alpha = np.empty((S, nb, M))
+    n_pairs = A * nb
+    # upper envelope per next state and model, and the node best at each belief itself
+    U = np.empty((S, M))
+    k_own = np.empty((S, nb), np.int64)
+    n_max = 0
+    for s2 in range(S):
+        k0, k1 = offsets_next[s2], offsets_next[s2 + 1]
+        n_max = max(n_max, k1 - k0)
+        for j in range(M):
+            top = -np.inf
+            for k in range(k0, k1):
+                top = max(top, alpha_next[k, j])
+            U[s2, j] = top
+    va = np.empty(n_pairs)
+    ia = np.empty(n_pairs)
+    vb = np.empty(n_pairs)
+    ib = np.empty(n_pairs)
+    for s2 in range(S):
+        k0, k1 = offsets_next[s2], offsets_next[s2 + 1]
+        _, kbest = _scan(Bt, alpha_next[k0:k1], k1 - k0, va, ia, vb, ib)
+        for b in range(nb):
+            k_own[s2, b] = k0 + int(kbest[b])
+    upper = np.empty((A, nb))
+    lower = np.empty((A, nb))
+    pair_a = np.empty(n_pairs, np.int64)
+    pair_b = np.empty(n_pairs, np.int64)
+    X_buf = np.empty(M * n_pairs)
+    total = np.empty(n_pairs)
+    keep_k = np.empty((n_pairs, S), np.int64)
+    best_total = np.empty(nb)
+    best_pair = np.empty(nb, np.int64)
+    w = np.empty(M)
+    for s in range(S):
+        # bounds on each action's backed-up value at each belief
+        for a in range(A):
+            for j in range(M):
+                acc = R_t[j, s]
+                for s2 in range(S):
+                    acc += PT[s, a, s2, j] * U[s2, j]
+                w[j] = acc
+            for b in range(nb):
+                up = 0.0
+                lo = 0.0
+                for j in range(M):
+                    up += Bt[j, b] * w[j]
+                    lo += Bt[j, b] * R_t[j, s]
+                for s2 in range(S):
+                    k = k_own[s2, b]
+                    for j in range(M):
+                        lo += Bt[j, b] * PT[s, a, s2, j] * alpha_next[k, j]
+                upper[a, b] = up
+                lower[a, b] = lo
+        n = 0
+        for b in range(nb):
+            top = lower[0, b]
+            for a in range(1, A):
+                top = max(top, lower[a, b])
+            cut = top - PRUNE_RTOL * (1.0 + abs(top))
+            for a in range(A):
+                if upper[a, b] >= cut:
+                    pair_a[n] = a
+                    pair_b[n] = b
+                    n += 1
+        # exact backup of the surviving (action, belief) pairs
+        for i in range(n):
+            acc = 0.0
+            for j in range(M):
+                acc += Bt[j, pair_b[i]] * R_t[j, s]
+            total[i] = acc
+        Xn = X_buf[: M * n].reshape((M, n))  # contiguous rows, so the scan vectorises
+        for s2 in range(S):
+            k0, k1 = offsets_next[s2], offsets_next[s2 + 1]
+            for j in range(M):
+                for i in range(n):
+                    Xn[j, i] = Bt[j, pair_b[i]] * PT[s, pair_a[i], s2, j]
+            vbest, kbest = _scan(Xn, alpha_next[k0:k1], k1 - k0, va, ia, vb, ib)
+            for i in range(n):
+                total[i] += vbest[i]
+                keep_k[i, s2] = k0 + int(kbest[i])
+        # the winning action per belief: highest total, near-ties to the lowest action
+        for b in range(nb):
+            best_total[b] = -np.inf
+        for i in range(n):
+            b = pair_b[i]
+            best_total[b] = max(best_total[b], total[i])
+        for b in range(nb):
+            best_pair[b] = -1
+        for i in range(n):
+            b = pair_b[i]
+            top = best_total[b]
+            if best_pair[b] < 0 and total[i] >= top - ACTION_RTOL * (1.0 + abs(top)):
+                best_pair[b] = i  # pairs are in increasing action order per belief
+        for b in range(nb):
+            i = best_pair[b]
+            a_star = pair_a[i]
+            action[s, b] = a_star
+            for j in range(M):
+                alpha[s, b, j] = R_t[j, s]
+            for s2 in range(S):
+                k = keep_k[i, s2]
+                succ[s, b, s2] = k
+                for j in range(M):
+                    alpha[s, b, j] += PT[s, a_star, s2, j] * alpha_next[k, j]
+    return action, succ, alpha
+
+
+@njit(cache=True)
+def unique_nodes(action, succ, alpha):  # pragma: no cover - compiled
+    """Remove duplicate alpha-vectors per state (Table III's pruning of repeated vectors).
+
+    Two belief points that back up to bit-identical alpha-vectors yield one node; the first
+    occurrence (lowest belief index) is kept, so the node order is deterministic.
+
+    Args:
+        action: (S, nb); succ: (S, nb, S); alpha: (S, nb, M) as returned by ``backup_step``.
+
+    Returns:
+        node_state (n,), node_action (n,), node_succ (n, S), node_alpha (n, M), offsets (S+1,).
+    """
+    S, nb, M = alpha.shape
+    keep = np.empty(S * nb, np.int64)
+    offsets = np.empty(S + 1, np.int64)
+    n = 0
+    for s in range(S):
+        offsets[s] = n
+        for b in range(nb):
+            dup = False
+            for u in range(offsets[s], n):
+                bu = keep[u] - s * nb
+                same = True
+                for j in range(M):
+                    if alpha[s, b, j] != alpha[s, bu, j]:
+                        same = False
+                        break
+                if same:
+                    dup = True
+                    break
+            if not dup:
+                keep[n] = s * nb + b
+                n += 1
+    offsets[S] = n
+    node_state = np.empty(n, np.int64)
+    node_action = np.empty(n, np.int64)
+    node_succ = np.empty((n, S), np.int64)
+    node_alpha = np.empty((n, M))
+    for u in range(n):
+        s = keep[u] // nb
+        b = keep[u] - s * nb
+        node_state[u] = s
+        node_action[u] = action[s, b]
+        for s2 in range(S):
+            node_succ[u, s2] = succ[s, b, s2]
+        for j in range(M):
+            node_alpha[u, j] = alpha[s, b, j]
+    return node_state, node_action, node_succ, node_alpha, offsets
+
+
+@njit(cache=True)
+def expand_once(PT, CT, B, n_old, u, sample, tol):  # pragma: no cover - compiled
+    """One modified belief expansion (Table IV) of the first ``n_old`` rows of ``B``.
+
+    For every belief b of the old set, every state s and action a, the candidate next beliefs
+    are b (.) P(s'|s,a), normalised (eq. 6.5): with ``sample`` one s'_j drawn from each model's
+    P_j(.|s,a) (the thesis's rule, using the uniforms ``u``), otherwise every s' that some model
+    can reach. The candidate farthest (L1) from the old set is added unless it is already in the
+    set (within ``tol``).
+
+    Args:
+        PT: (S, A, S, M) dynamics; CT: (S, A, M, S) cumulative sums of P_j(.|s,a) over s'.
+        B: (capacity, M) belief rows; rows 0..n_old-1 are the current set; new rows are appended.
+        n_old: size of the current set.
+        u: (n_old, S, A, M) uniforms for sampling.
+        sample: True for the thesis's sampling, False to consider every reachable s'.
+        tol: L1 distance under which two beliefs are the same.
+
+    Returns:
+        The new size of the set (rows n_old..returned-1 of ``B`` were written).
+    """
+    S, A, _, M = PT.shape
+    n = n_old
+    cand = np.empty(M)
+    best = np.empty(M)
+    for i in range(n_old):
+        best_d = -1.0
+        for s in range(S):
+            for a in range(A):
+                n_draws = M if sample else S
+                for r in range(n_draws):
+                    if sample:
+                        # inverse-CDF draw of s' from model r's P_r(.|s,a)
+                        s2 = 0
+                        while s2 < S - 1 and CT[s, a, r, s2] <= u[i, s, a, r]:
+                            s2 += 1
+                    else:
+                        s2 = r
+                    z = 0.0
+                    for j in range(M):
+                        cand[j] = B[i, j] * PT[s, a, s2, j]
+                        z += cand[j]
+                    if z <= 0.0:
+                        continue
+                    for j in range(M):
+                        cand[j] /= z
+                    d_min = np.inf
+                    for q in range(n_old):
+                        d = 0.0
+                        for j in range(M):
+                            d += abs(cand[j] - B[q, j])
+                        if d < d_min:
+                            d_min = d
+                            if d_min <= best_d:
+                                break
+                    if d_min > best_d:
+                        best_d = d_min
+                        for j in range(M):
+                            best[j] = cand[j]
+        if best_d <= tol:
+            continue
+        present = False
+        for q in range(n):
+            d = 0.0
+            for j in range(M):
+                d += abs(best[j] - B[q, j])
+            if d <= tol:
+                present = True
+                break
+        if not present:
+            for j in range(M):
+                B[n, j] = best[j]
+            n += 1
+    return n
+
+
+@njit(cache=True)
+def forward_step(P, mu, node_state, node_action, node_succ, n_next):  # pragma: no cover - compiled
+    """Push the node distribution of one time step to the next, for every model.
+
+    Args:
+        P: (M, S, A, S) dynamics.
+        mu: (M, n_t) probability of being at each node at time t under each model.
+        node_state, node_action: (n_t,) of the nodes at time t.
+        node_succ: (n_t, S) successor node at t+1 per next state.
+        n_next: number of nodes at t+1.
+
+    Returns:
+        (M, n_next) the node distribution at t+1.
+    """
+    M, S = P.shape[0], P.shape[1]
+    out = np.zeros((M, n_next))
+    for k in range(node_state.size):
+        s = node_state[k]
+        a = node_action[k]
+        for j in range(M):
+            m = mu[j, k]
+            if m == 0.0:
+                continue
+            for s2 in range(S):
+                p = P[j, s, a, s2]
+                if p != 0.0:
+                    out[j, node_succ[k, s2]] += m * p
+    return out

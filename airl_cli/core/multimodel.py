@@ -1,0 +1,530 @@
+"""One deterministic policy that is best over several MDPs at once (thesis chapter 6).
+
+Given M MDPs that share states, actions and the initial distribution p0 but each have their own
+dynamics P_j and per-time state rewards R_j(t, s), find one deterministic, history-dependent
+policy maximising the sum of expected returns (eq. 6.1, with state rewards):
+
+    max_pi  sum_j E[ sum_{t=1..T} R_j(t, s_t) | P_j, pi ].
+
+The problem is NP-hard. Theorem 6.2.1 turns it into a dynamic program over (state, belief),
+the belief b being the posterior over which model produced the history (uniform prior,
+update eq. 6.5); its value is piecewise linear and convex in b (Theorem 6.2.2), so it is a max
+over alpha-vectors, which modified point-based value iteration (PBVI, Tables II-IV) computes at
+a finite set of beliefs.
+
+Our choices (SPEC §5):
+
+* The answer is a **policy graph** (a finite controller): at each time t and state s a few nodes,
+  each with its action, its successor node for every next state, and its alpha-vector, the
+  exact value of following the graph from there under each model. Its expected return and its
+  state marginals under each model are therefore exact (a forward pass over (state, node)
+  pairs), with no Monte Carlo; sampling remains available for comparison.
+* The belief set depends only on the dynamics: ``expand_beliefs`` builds it once and ``solve``
+  reuses it for any rewards. Only the last backup pass of Table II matters, so one pass is run.
+* With per-time state rewards the backup adds R_j(t, s) directly (eq. 6.29 is not needed).
+
+Shapes: transitions P (M, S, A, S); rewards R (M, T, S); initial p0 (S,); beliefs (nb, M);
+marginals (M, T, S).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from airl_cli.core import _kernels
+from airl_cli.core.demos import _inverse_cdf
+from airl_cli.core.mdp import argmax_lowest, check_probabilities
+from airl_cli.core.planning import backward_induction, policy_values
+
+#: Two beliefs closer than this in L1 distance are the same point.
+BELIEF_TOL = 1e-12
+METHODS = ("pbvi", "exact", "mean")
+EXPANSIONS = ("sample", "all")
+EXPECTATIONS = ("exact", "monte_carlo")
+
+
+# --------------------------------------------------------------------------- policy graphs
+
+
+@dataclass(frozen=True)
+class PolicyGraph:
+    """A deterministic history-dependent policy as a layered finite controller.
+
+    Nodes are stored per time step t = 0..T-1, flat and grouped by state: the nodes of state s at
+    time t are ``offsets[t][s] .. offsets[t][s+1]-1``.
+
+    Attributes:
+        state: per t, (n_t,) the state of each node.
+        action: per t < T-1, (n_t,) the action the node takes.
+        successor: per t < T-1, (n_t, S) the node at t+1 to move to for each next state s'.
+        alpha: per t, (n_t, M) the node's exact value under each model: alpha[t][k, j] =
+            E_j[sum_{u >= t} R_j(u, s_u) | at node k at time t].
+        offsets: per t, (S+1,) node ranges per state.
+        start: (S,) the node at t = 0 for each initial state.
+    """
+
+    state: tuple[np.ndarray, ...]
+    action: tuple[np.ndarray, ...]
+    successor: tuple[np.ndarray, ...]
+    alpha: tuple[np.ndarray, ...]
+    offsets: tuple[np.ndarray, ...]
+    start: np.ndarray
+
+    @property
+    def horizon(self) -> int:
+        return len(self.state)
+
+    @property
+    def n_nodes(self) -> np.ndarray:
+        """(T,) the number of nodes at each time step."""
+        return np.array([s.size for s in self.state])
+
+    def nodes_per_state(self) -> np.ndarray:
+        """(T, S) the number of nodes (distinct alpha-vectors) at each time step and state."""
+        return np.stack([np.diff(o) for o in self.offsets])
+
+    def values(self, initial: np.ndarray) -> np.ndarray:
+        """(M,) the exact expected return under each model, from the start nodes' alpha-vectors."""
+        return initial @ self.alpha[0][self.start]
+
+    def marginals(self, transitions: np.ndarray, initial: np.ndarray) -> np.ndarray:
+        """Exact state distribution of the graph under each model, by a forward pass over nodes.
+
+        Args:
+            transitions: (M, S, A, S).
+            initial: (S,).
+
+        Returns:
+            (M, T, S): Pr_j(s_{t+1} = s); each (j, t) row sums to 1.
+        """
+        P = np.ascontiguousarray(transitions, dtype=np.float64)
+        M, S = P.shape[0], P.shape[1]
+        T = self.horizon
+        out = np.zeros((M, T, S))
+        mu = np.zeros((M, self.state[0].size))
+        np.add.at(mu, (slice(None), self.start), np.asarray(initial, dtype=np.float64)[None, :])
+        for t in range(T):
+            for j in range(M):
+                out[j, t] = np.bincount(self.state[t], weights=mu[j], minlength=S)
+            if t < T - 1:
+                mu = _kernels.forward_step(P, mu, self.state[t], self.action[t], self.successor[t], self.state[t + 1].size)
+        return out
+
+    def sample(self, rng: np.random.Generator, transitions: np.ndarray, initial: np.ndarray, n: int) -> np.ndarray:
+        """Sample ``n`` state sequences of the graph under each model.
+
+        Returns:
+            (M, n, T) int states.
+        """
+        M = transitions.shape[0]
+        T = self.horizon
+        u = rng.random((M, n, T))
+        C0 = _inverse_cdf(np.asarray(initial, dtype=np.float64))
+        CP = _inverse_cdf(np.asarray(transitions, dtype=np.float64))
+        states = np.empty((M, n, T), dtype=np.int64)
+        s = np.sum(C0 <= u[:, :, 0, None], axis=-1)
+        node = self.start[s]
+        states[:, :, 0] = s
+        j_idx = np.arange(M)[:, None]
+        for t in range(T - 1):
+            a = self.action[t][node]
+            s = np.sum(CP[j_idx, s, a] <= u[:, :, t + 1, None], axis=-1)
+            node = self.successor[t][node, s]
+            states[:, :, t + 1] = s
+        return states
+
+
+@dataclass(frozen=True)
+class Solution:
+    """What ``solve`` returns.
+
+    Attributes:
+        value: sum over models of the expected return, exact for the returned policy.
+        values: (M,) the expected return under each model.
+        marginals: (M, T, S) state distribution at each step under each model's dynamics (exact,
+            or a Monte Carlo estimate with ``expectations="monte_carlo"``).
+        graph: the policy.
+        beliefs: (nb, M) the belief set PBVI used (None for other methods).
+    """
+
+    value: float
+    values: np.ndarray
+    marginals: np.ndarray
+    graph: PolicyGraph
+    beliefs: np.ndarray | None = field(default=None)
+
+
+# --------------------------------------------------------------------------- checks
+
+
+def check_problem(transitions: np.ndarray, rewards: np.ndarray, initial: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Validate and convert a multiple-MDP problem; raise ``ValueError`` quoting shapes."""
+    P = np.asarray(transitions, dtype=np.float64)
+    R = np.asarray(rewards, dtype=np.float64)
+    p0 = np.asarray(initial, dtype=np.float64)
+    if P.ndim != 4 or P.shape[1] != P.shape[3]:
+        raise ValueError(f"transitions must have shape (M, S, A, S), got {P.shape}")
+    M, S, A, _ = P.shape
+    if M < 1 or S < 1 or A < 1:
+        raise ValueError(f"transitions needs at least one model, state and action, got {P.shape}")
+    if R.ndim != 3 or R.shape[0] != M or R.shape[2] != S or R.shape[1] < 2:
+        raise ValueError(f"rewards must have shape (M, T, S) = ({M}, T, {S}) with T >= 2, got {R.shape}")
+    if not np.all(np.isfinite(R)):
+        raise ValueError("rewards must be finite")
+    if p0.shape != (S,):
+        raise ValueError(f"initial must have shape (S,) = ({S},), got {p0.shape}")
+    check_probabilities(P, name="transitions")
+    check_probabilities(p0, name="initial")
+    return P, R, p0
+
+
+def _check_beliefs(beliefs: np.ndarray, M: int) -> np.ndarray:
+    B = np.asarray(beliefs, dtype=np.float64)
+    if B.ndim != 2 or B.shape[1] != M or B.shape[0] < 1:
+        raise ValueError(f"beliefs must have shape (nb, M) = (nb, {M}) with nb >= 1, got {B.shape}")
+    check_probabilities(B, name="beliefs")
+    return B
+
+
+# --------------------------------------------------------------------------- belief expansion
+
+
+def expand_beliefs(
+    transitions: np.ndarray,
+    *,
+    iterations: int = 8,
+    rng: np.random.Generator | None = None,
+    expansion: str = "sample",
+) -> np.ndarray:
+    """The belief set of modified PBVI after ``iterations`` (Tables II and IV).
+
+    Starts from the uniform belief b_1 = (1/M, ..., 1/M) (eq. 6.21) and runs ``iterations - 1``
+    expansions (Table II expands after each backup; the last expansion is never used). Each
+    expansion simulates every (s, a) from every belief and adds, per belief, the new belief
+    farthest (L1) from the set, so the set at most doubles: nb <= 2^(iterations-1).
+
+    The set depends only on the dynamics, not on rewards: compute it once and pass it to
+    ``solve(..., beliefs=B)`` for every new reward.
+
+    Args:
+        transitions: (M, S, A, S).
+        iterations: PBVI iterations, >= 1.
+        rng: generator for ``expansion="sample"``; None means ``numpy.random.default_rng(0)``.
+        expansion: "sample" draws one next state per model for each (s, a) as Table IV does;
+            "all" considers every reachable next state (no randomness).
+
+    Returns:
+        (nb, M) beliefs, each row a distribution over the models; row 0 is uniform.
+    """
+    P = np.asarray(transitions, dtype=np.float64)
+    if P.ndim != 4:
+        raise ValueError(f"transitions must have shape (M, S, A, S), got {P.shape}")
+    if iterations < 1:
+        raise ValueError(f"iterations must be >= 1, got {iterations}")
+    if expansion not in EXPANSIONS:
+        raise ValueError(f"expansion must be one of {EXPANSIONS}, got {expansion!r}")
+    rng = np.random.default_rng(0) if rng is None else rng
+    M, S, A, _ = P.shape
+    PT = np.ascontiguousarray(P.transpose(1, 2, 3, 0))
+    CT = np.ascontiguousarray(_inverse_cdf(P).transpose(1, 2, 0, 3))
+    B = np.empty((2 ** (iterations - 1), M))
+    B[0] = 1.0 / M
+    n = 1
+    for _ in range(iterations - 1):
+        u = rng.random((n, S, A, M)) if expansion == "sample" else np.empty((n, S, A, M))
+        n_new = _kernels.expand_once(PT, CT, B, n, u, expansion == "sample", BELIEF_TOL)
+        if n_new == n:
+            break
+        n = n_new
+    return B[:n].copy()
+
+
+# --------------------------------------------------------------------------- PBVI
+
+
+def pbvi_graph(P: np.ndarray, R: np.ndarray, beliefs: np.ndarray) -> PolicyGraph:
+    """One backup pass of modified PBVI (Table III) at the given beliefs, as a policy graph.
+
+    At t = T-1 each state has one node whose alpha-vector is R_j(T-1, s). Going backwards, each
+    (t, s) gets one node per belief point (its backed-up plan), duplicates removed. At t = 0 the
+    belief is always uniform, so only b_1 is backed up there: the backup at b_1 is the best of all
+    one-step plans at b_1, hence at least the value of any other belief's node.
+
+    Args:
+        P: (M, S, A, S); R: (M, T, S); beliefs: (nb, M).
+    """
+    M, S, _, _ = P.shape
+    T = R.shape[1]
+    PT = np.ascontiguousarray(P.transpose(1, 2, 3, 0))
+    Bt = np.ascontiguousarray(beliefs.T)
+    uniform = np.full((M, 1), 1.0 / M)
+    states, actions, succs, alphas, offsets = [None] * T, [None] * (T - 1), [None] * (T - 1), [None] * T, [None] * T
+    states[T - 1] = np.arange(S)
+    alphas[T - 1] = np.ascontiguousarray(R[:, T - 1, :].T)
+    offsets[T - 1] = np.arange(S + 1)
+    for t in range(T - 2, -1, -1):
+        R_t = np.ascontiguousarray(R[:, t, :])
+        points = uniform if t == 0 else Bt
+        action, succ, alpha = _kernels.backup_step(PT, R_t, points, alphas[t + 1], offsets[t + 1])
+        states[t], actions[t], succs[t], alphas[t], offsets[t] = _kernels.unique_nodes(action, succ, alpha)
+    start = _best_start_nodes(alphas[0], offsets[0])
+    return PolicyGraph(tuple(states), tuple(actions), tuple(succs), tuple(alphas), tuple(offsets), start)
+
+
+def _best_start_nodes(alpha0: np.ndarray, offsets0: np.ndarray) -> np.ndarray:
+    """(S,) per initial state, the node maximising the uniform-belief value sum_j alpha_j."""
+    S = offsets0.size - 1
+    total = alpha0.sum(axis=1)
+    start = np.empty(S, dtype=np.int64)
+    for s in range(S):
+        lo, hi = offsets0[s], offsets0[s + 1]
+        start[s] = lo + int(argmax_lowest(total[lo:hi]))
+    return start
+
+
+# --------------------------------------------------------------------------- baselines and exact
+
+
+def mean_graph(P: np.ndarray, R: np.ndarray) -> PolicyGraph:
+    """The naive baseline: the optimal Markov policy of the averaged MDP (mean P_j, mean R_j).
+
+    Its alpha-vectors are its exact values under each model, so its value is exact too.
+    """
+    M, S, _, _ = P.shape
+    T = R.shape[1]
+    policy, _ = backward_induction(P.mean(axis=0), R.mean(axis=0))
+    V = np.stack([policy_values(P[j], R[j], policy) for j in range(M)])  # (M, T, S)
+    states = tuple(np.arange(S) for _ in range(T))
+    actions = tuple(policy[t].astype(np.int64) for t in range(T - 1))
+    succs = tuple(np.broadcast_to(np.arange(S), (S, S)).copy() for _ in range(T - 1))
+    alphas = tuple(np.ascontiguousarray(V[:, t, :].T) for t in range(T))
+    offsets = tuple(np.arange(S + 1) for _ in range(T))
+    return PolicyGraph(states, actions, succs, alphas, offsets, np.arange(S))
+
+
+#: Refuse exact enumeration beyond this many histories.
+EXACT_MAX_HISTORIES = 2_000_000
+
+
+def exact_graph(P: np.ndarray, R: np.ndarray) -> PolicyGraph:
+    """The optimal history-dependent policy by enumerating every history (tiny problems only).
+
+    Recursively, a history h ending in state s at time t with unnormalised model weights rho_j
+    (the probability of h's states under model j) has value
+    V(h) = rho . R(t, s) + max_a sum_{s'} V(h a s'), with rho' = rho (.) P(s'|s, a); the weights
+    are exactly the unnormalised belief of Theorem 6.2.1, so this is the dynamic program
+    solved without approximation. The result is a tree: one node per history.
+
+    Raises:
+        ValueError: if the problem has more than ``EXACT_MAX_HISTORIES`` histories.
+    """
+    M, S, A, _ = P.shape
+    T = R.shape[1]
+    n_hist = S * (A * S) ** (T - 1)
+    if n_hist > EXACT_MAX_HISTORIES:
+        raise ValueError(
+            f"exact enumeration would visit {n_hist:,} histories (S={S}, A={A}, T={T}); use method='pbvi'"
+        )
+    nodes: list[list[tuple]] = [[] for _ in range(T)]  # per t: (state, action, successors, alpha)
+
+    def best(t: int, s: int, rho: np.ndarray) -> tuple[float, int]:
+        """Optimal plan from a history with weights rho at (t, s): (its value, its node index at t)."""
+        if t == T - 1:
+            nodes[t].append((s, -1, None, R[:, t, s].copy()))
+            return float(rho @ R[:, t, s]), len(nodes[t]) - 1
+        q_by_a, kids_by_a = [], []
+        for a in range(A):
+            q, kids = float(rho @ R[:, t, s]), []
+            for s2 in range(S):
+                v, k = best(t + 1, s2, rho * P[:, s, a, s2])
+                q += v
+                kids.append(k)
+            q_by_a.append(q)
+            kids_by_a.append(kids)
+        a_star = int(argmax_lowest(np.array(q_by_a)))
+        kids = kids_by_a[a_star]
+        alpha = R[:, t, s] + sum(P[:, s, a_star, s2] * nodes[t + 1][kids[s2]][3] for s2 in range(S))
+        nodes[t].append((s, a_star, np.array(kids), alpha))
+        return q_by_a[a_star], len(nodes[t]) - 1
+
+    start_raw = [best(0, s, np.full(M, 1.0 / M))[1] for s in range(S)]
+    # keep only nodes reachable from the chosen plans, regrouped by state
+    keep = [set() for _ in range(T)]
+    keep[0] = set(start_raw)
+    for t in range(T - 1):
+        for k in keep[t]:
+            keep[t + 1].update(int(x) for x in nodes[t][k][2])
+    remap = []
+    for t in range(T):
+        order = sorted(keep[t], key=lambda k: (nodes[t][k][0], k))
+        remap.append({k: i for i, k in enumerate(order)})
+    states, actions, succs, alphas, offsets = [], [], [], [], []
+    for t in range(T):
+        order = sorted(keep[t], key=lambda k: (nodes[t][k][0], k))
+        st = np.array([nodes[t][k][0] for k in order], dtype=np.int64)
+        states.append(st)
+        alphas.append(np.array([nodes[t][k][3] for k in order]).reshape(len(order), M))
+        offsets.append(np.searchsorted(st, np.arange(S + 1)))
+        if t < T - 1:
+            actions.append(np.array([nodes[t][k][1] for k in order], dtype=np.int64))
+            succs.append(np.array([[remap[t + 1][int(x)] for x in nodes[t][k][2]] for k in order], dtype=np.int64))
+    start = np.array([remap[0][k] for k in start_raw], dtype=np.int64)
+    return PolicyGraph(tuple(states), tuple(actions), tuple(succs), tuple(alphas), tuple(offsets), start)
+
+
+def exact_alpha_vectors(P: np.ndarray, R: np.ndarray, *, t: int, s: int, max_vectors: int = 5_000_000) -> np.ndarray:
+    """Every alpha-vector of the exact value function at (t, s), with no pruning (Theorem 6.3.1).
+
+    The set at (t, s) is the cross-sum over actions a and next states s' of
+    R(t, s) + P(s'|s, a) (.) alpha(t+1, s'), one vector per choice of an alpha at every s'; its
+    size is A^{(S^{T-1-t} - 1)/(S - 1)} (eq. 6.23, with T counting states). Identical vectors are
+    kept, as the thesis counts them. Meant for the two-model illustration of Fig. 2.
+
+    Args:
+        P: (M, S, A, S); R: (M, T, S); t, s: the time step and state.
+        max_vectors: refuse sets larger than this.
+
+    Returns:
+        (n, M) alpha-vectors.
+    """
+    M, S, A, _ = P.shape
+    T = R.shape[1]
+    exponent = sum(S**i for i in range(T - 1 - t))
+    count = A**exponent
+    if count > max_vectors:
+        raise ValueError(f"the exact set at t={t} has {count:,} alpha-vectors, more than max_vectors={max_vectors:,}")
+    sets = [R[:, T - 1, x][None, :] for x in range(S)]  # time T-1: one vector per state
+    for u in range(T - 2, t - 1, -1):
+        states = [s] if u == t else range(S)
+        new = [None] * S
+        for x in states:
+            per_action = []
+            for a in range(A):
+                acc = R[:, u, x][None, :]
+                for s2 in range(S):
+                    contrib = P[:, x, a, s2][None, :] * sets[s2]  # (n_s2, M)
+                    acc = (acc[:, None, :] + contrib[None, :, :]).reshape(-1, M)
+                per_action.append(acc)
+            new[x] = np.concatenate(per_action, axis=0)
+        sets = new
+    return sets[s]
+
+
+def upper_envelope_1d(alpha: np.ndarray) -> np.ndarray:
+    """Indices of the alpha-vectors (n, 2) that are maximal somewhere on b in [0, 1] (M = 2).
+
+    The value at belief b = (1 - x, x) is (1 - x) alpha_0 + x alpha_1; a vector is kept if it is
+    the unique maximum on an interval of positive length, or at an end point. Exact duplicates
+    keep their first copy.
+    """
+    alpha = np.asarray(alpha, dtype=np.float64)
+    if alpha.ndim != 2 or alpha.shape[1] != 2:
+        raise ValueError(f"alpha must have shape (n, 2), got {alpha.shape}")
+    _, first = np.unique(alpha, axis=0, return_index=True)
+    cand = np.sort(first)
+    a0, slope = alpha[cand, 0], alpha[cand, 1] - alpha[cand, 0]
+    # walk the envelope from x = 0 to x = 1 (a convex hull of lines)
+    order = np.lexsort((-slope, -a0))  # highest at x=0 first, steeper first on ties
+    keep = [order[0]]
+    x = 0.0
+    while True:
+        cur = keep[-1]
+        steeper = slope > slope[cur] + 1e-15
+        if not np.any(steeper):
+            break
+        # crossing point of each steeper line with the current one
+        xs = (a0[cur] - a0[steeper]) / (slope[steeper] - slope[cur])
+        idx = np.flatnonzero(steeper)
+        ok = xs < 1.0
+        if not np.any(ok):
+            break
+        xs, idx = xs[ok], idx[ok]
+        m = xs.min()
+        tied = idx[xs <= m + 1e-15]
+        nxt = tied[np.argmax(slope[tied])]
+        x = max(x, m)
+        keep.append(nxt)
+    return np.sort(cand[keep])
+
+
+# --------------------------------------------------------------------------- entry point
+
+
+def solve(
+    transitions: np.ndarray,
+    rewards: np.ndarray,
+    initial: np.ndarray,
+    *,
+    method: str = "pbvi",
+    iterations: int = 8,
+    rng: np.random.Generator | None = None,
+    beliefs: np.ndarray | None = None,
+    expansion: str = "sample",
+    expectations: str = "exact",
+    n_samples: int = 50_000,
+) -> Solution:
+    """Find one deterministic policy maximising the sum of expected returns over M MDPs.
+
+    Args:
+        transitions: (M, S, A, S), ``transitions[j, s, a, s']`` = P_j(s' | s, a).
+        rewards: (M, T, S), ``rewards[j, t, s]`` = R_j(t, s), earned in state s at step t
+            (t = 0..T-1; both the first and the last state count).
+        initial: (S,) the shared initial distribution p0.
+        method: "pbvi" (modified PBVI, Tables II-IV), "exact" (enumerate histories; tiny problems)
+            or "mean" (the optimal policy of the averaged MDP; the naive baseline).
+        iterations: PBVI iterations; the belief set has at most 2^(iterations-1) points.
+        rng: generator for belief sampling and Monte Carlo; None means ``default_rng(0)``.
+        beliefs: (nb, M) a belief set from ``expand_beliefs`` to reuse (skips the expansion).
+        expansion: "sample" (Table IV) or "all"; see ``expand_beliefs``.
+        expectations: "exact" (forward pass over the policy graph) or "monte_carlo" (the
+            thesis's estimate of the marginals from ``n_samples`` trajectories per model).
+        n_samples: trajectories per model for ``expectations="monte_carlo"``.
+
+    Returns:
+        A ``Solution``: ``value`` (exact sum over models of the expected return of the returned
+        policy), ``values`` (M,), ``marginals`` (M, T, S), ``graph`` and ``beliefs``.
+
+    Raises:
+        ValueError: on bad shapes or options.
+    """
+    P, R, p0 = check_problem(transitions, rewards, initial)
+    if method not in METHODS:
+        raise ValueError(f"method must be one of {METHODS}, got {method!r}")
+    if expectations not in EXPECTATIONS:
+        raise ValueError(f"expectations must be one of {EXPECTATIONS}, got {expectations!r}")
+    rng = np.random.default_rng(0) if rng is None else rng
+    B = None
+    if method == "pbvi":
+        if beliefs is None:
+            B = expand_beliefs(P, iterations=iterations, rng=rng, expansion=expansion)
+        else:
+            B = _check_beliefs(beliefs, P.shape[0])
+        graph = pbvi_graph(P, R, B)
+    elif method == "mean":
+        graph = mean_graph(P, R)
+    else:
+        graph = exact_graph(P, R)
+    values = graph.values(p0)
+    if expectations == "exact":
+        marginals = graph.marginals(P, p0)
+    else:
+        if n_samples < 1:
+            raise ValueError(f"n_samples must be >= 1, got {n_samples}")
+        states = graph.sample(rng, P, p0, n_samples)
+        S = P.shape[1]
+        marginals = np.stack(
+            [np.stack([np.bincount(states[j, :, t], minlength=S) for t in range(R.shape[1])]) for j in range(P.shape[0])]
+        ) / n_samples
+    return Solution(float(values.sum()), values, marginals, graph, B)
+
+
+__all__ = [
+    "PolicyGraph",
+    "Solution",
+    "solve",
+    "expand_beliefs",
+    "exact_alpha_vectors",
+    "upper_envelope_1d",
+]

@@ -1,0 +1,34 @@
+"""The multiple-MDP planner of thesis chapter 6, for use on its own.
+
+One deterministic, history-dependent policy that maximises the **sum** of expected returns over
+M MDPs sharing states, actions and the initial distribution, each with its own dynamics and
+per-time state rewards::
+
+    import numpy as np
+    from airl_cli.multimodel import expand_beliefs, solve
+
+    # P: (M, S, A, S) dynamics, R: (M, T, S) rewards, p0: (S,) initial distribution
+    sol = solve(P, R, p0, method="pbvi", iterations=8, rng=np.random.default_rng(0))
+    sol.value        # sum over models of the expected return (exact for the returned policy)
+    sol.values       # (M,) per model
+    sol.marginals    # (M, T, S) state distribution at each step under each model
+    sol.graph        # the policy: per (t, s) nodes with an action, successors and alpha-vectors
+
+    B = expand_beliefs(P, iterations=8, rng=np.random.default_rng(0))  # depends on P only
+    sol2 = solve(P, R2, p0, beliefs=B)                                   # reuse it for new rewards
+
+Methods: ``"pbvi"`` (modified point-based value iteration, thesis Tables II-IV), ``"exact"``
+(enumerate every history; tiny problems) and ``"mean"`` (the optimal policy of the averaged MDP,
+the naive baseline). See ``airl_cli.core.multimodel`` for the details.
+"""
+
+from airl_cli.core.multimodel import (
+    PolicyGraph,
+    Solution,
+    exact_alpha_vectors,
+    expand_beliefs,
+    solve,
+    upper_envelope_1d,
+)
+
+__all__ = ["PolicyGraph", "Solution", "exact_alpha_vectors", "expand_beliefs", "solve", "upper_envelope_1d"]
