@@ -123,6 +123,22 @@ def generate(
     run_hydra("generate", ctx.args, cfg=cfg, resolve=resolve, multirun=multirun)
 
 
+@app.command(context_settings=PASS_THROUGH, epilog=EPILOG)
+def fit(
+    ctx: typer.Context,
+    cfg: str | None = CfgOption,
+    resolve: bool = ResolveOption,
+    multirun: bool = MultirunOption,
+) -> None:
+    """Learn reward weights from demonstrations under several dynamics; write weights, metrics and history.
+
+    With data=PATH it learns from a dataset file (ours or yours); without, from the problem the
+    mdp/dynamics/demos groups describe, built in-process (and saved as dataset.npz). The run
+    folder is results/fit/<time>/ unless hydra.run.dir=PATH says otherwise.
+    """
+    run_hydra("fit", ctx.args, cfg=cfg, resolve=resolve, multirun=multirun)
+
+
 @app.command()
 def inspect(path: str = typer.Argument(..., help="A dataset file (.npz) of the schema in the README.")) -> None:
     """Check a dataset file against the schema and describe it; exit 2 with the reason if it is bad."""

@@ -15,6 +15,7 @@ from typing import Any
 
 from omegaconf import DictConfig, OmegaConf
 
+from airl_cli.core.learn import SCHEDULES, FitOptions, PlannerOptions
 from airl_cli.errors import ConfigError
 
 Cell = tuple[int, int]
@@ -217,6 +218,12 @@ def _dynamics(node: Any, mdp: RandomMDPSettings | GridMDPSettings) -> DynamicsSe
     return DynamicsSettings(name, kind, len(layouts), layouts=layouts)
 
 
+def loss_and_seed(cfg: DictConfig | Mapping) -> tuple[str, int]:
+    """The loss kind and the seed: all that matters of the problem groups when data=PATH is given."""
+    top = _Reader(plain(cfg), "")
+    return _Reader(top.raw("loss"), "loss").choice("kind", ("auto", "zero_one", "squared_euclidean")), top.int("seed", lo=0)
+
+
 def problem_settings(cfg: DictConfig | Mapping) -> ProblemSettings:
     """Read and check the problem part of a composed config (groups mdp, dynamics, demos, loss; seed)."""
     c = plain(cfg)
@@ -231,3 +238,59 @@ def problem_settings(cfg: DictConfig | Mapping) -> ProblemSettings:
         raise ConfigError("'loss=squared_euclidean' measures distances between grid cells; use it with mdp=grid")
     seed = top.int("seed", lo=0)
     return ProblemSettings(mdp=mdp, dynamics=dynamics, demos=demos, loss=loss, seed=seed)
+
+
+# --------------------------------------------------------------------------- learning
+
+
+@dataclass(frozen=True)
+class FitSettings:
+    """Everything ``airl fit`` needs beyond the problem."""
+
+    method: str
+    options: FitOptions
+    data: str | None
+
+
+def _planner(node: Any) -> PlannerOptions:
+    r = _Reader(node, "pbvi")
+    return PlannerOptions(
+        method=r.choice("method", ("pbvi", "exact", "mean")),
+        iterations=r.int("iterations", lo=1, hi=20),
+        expansion=r.choice("expansion", ("sample", "all")),
+        expectations=r.choice("expectations", ("exact", "monte_carlo")),
+        n_samples=r.int("n_samples", lo=1),
+        reuse_beliefs=_bool(r, "reuse_beliefs"),
+    )
+
+
+def _bool(r: _Reader, key: str) -> bool:
+    value = r.raw(key)
+    if not isinstance(value, bool):
+        raise ConfigError(f"'{r._name(key)}' must be true or false, got {value!r}")
+    return value
+
+
+def fit_settings(cfg: DictConfig | Mapping) -> FitSettings:
+    """Read and check the learning part of a composed config (groups method, pbvi, game, optim; data)."""
+    c = plain(cfg)
+    top = _Reader(c, "")
+    method = _Reader(top.raw("method"), "method").choice("name", ("airl",))
+    g = _Reader(top.raw("game"), "game")
+    o = _Reader(top.raw("optim"), "optim")
+    options = FitOptions(
+        weight_sharing=_bool(o, "weight_sharing"),
+        lam=o.float("lam", lo=0.0),
+        eta0=o.float("eta0", lo=0.0, open_lo=True),
+        schedule=o.choice("schedule", SCHEDULES),
+        tol=o.float("tol", lo=0.0),
+        max_steps=o.int("max_steps", lo=1),
+        threshold=g.float("threshold", lo=0.0),
+        max_oracle_iterations=g.int("max_iterations", lo=1),
+        prune_after=g.int("prune_after", lo=0),
+        planner=_planner(top.raw("pbvi")),
+    )
+    data = top.raw("data", None)
+    if data is not None and not isinstance(data, str):
+        raise ConfigError(f"'data' must be the path of a dataset file, got {data!r}")
+    return FitSettings(method=method, options=options, data=data)

@@ -9,8 +9,9 @@ from pathlib import Path
 import airl_cli
 
 PACKAGE = Path(airl_cli.__file__).parent
-# numba compiles the planner's kernels; it is a compute library, not a layer above core.
-CORE_ALLOWED = {"numpy", "scipy", "numba"}
+# numba compiles the planner's kernels and highspy is the HiGHS LP solver (scipy bundles the same
+# solver without the warm-start interface): compute libraries, not layers above core.
+CORE_ALLOWED = {"numpy", "scipy", "numba", "highspy"}
 
 
 def imports_of(path: Path) -> set[str]:

@@ -64,7 +64,7 @@ def main(cfg: DictConfig) -> None:
         write_text(folder / "summary.txt", text)
         save_config(cfg, folder)
         bar.update(task, advance=1)
-    out_console.print(text, end="")
+    out_console.print(text, end="", soft_wrap=True)
     out_console.print(f"\nwrote {folder / 'dataset.npz'}")
 
 

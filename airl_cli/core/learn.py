@@ -1,0 +1,245 @@
+"""Learning reward weights: batch gradient descent over the game of thesis §5.3 (Table I).
+
+With weight sharing (eq. 5.4) one w is learned; without it (Theorem 5.2.1, eq. 5.3) one w_j per
+demonstration dynamics. Each step solves the inner game by double oracle at the current weights
+and moves along (eq. 5.14)
+
+    grad_{w_j} f = F_j(pi_check*) - c~_j + lambda w_j        (summed over j with sharing)
+
+where F_j is the adversary equilibrium's expected feature sum under tau_j. The objective is
+f(w) = value(w) - sum_j w_j . c~_j + lambda/2 |w|^2, value(w) being the inner game's value.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from airl_cli.core.game import AdversaryOracle, GameProblem, RestrictedGame, double_oracle
+from airl_cli.core.multimodel import expand_beliefs, solve
+
+SCHEDULES = ("inverse_sqrt", "inverse", "constant")
+HISTORY_COLUMNS = (
+    "step",
+    "objective",
+    "grad_norm",
+    "feature_gap",
+    "game_value",
+    "eta",
+    "oracle_iterations",
+    "adversary_calls",
+    "oracle_capped",
+    "learner_strategies",
+    "adversary_strategies",
+    "seconds",
+)
+
+
+@dataclass(frozen=True)
+class PlannerOptions:
+    """How the adversary's best response is computed (SPEC §5).
+
+    method: "pbvi", "exact" (tiny problems) or "mean" (the naive baseline).
+    iterations / expansion: PBVI's belief set (see ``airl_cli.core.multimodel.expand_beliefs``).
+    expectations: "exact" (forward pass over the policy graph) or "monte_carlo" with n_samples.
+    reuse_beliefs: build the belief set once per fit (ours) or anew for every call (the thesis).
+    """
+
+    method: str = "pbvi"
+    iterations: int = 8
+    expansion: str = "sample"
+    expectations: str = "exact"
+    n_samples: int = 50_000
+    reuse_beliefs: bool = True
+
+
+@dataclass(frozen=True)
+class FitOptions:
+    """Gradient descent and double-oracle settings (Table I; SPEC §5).
+
+    ``prune_after``: a strategy that has had zero weight in the equilibrium for this many
+    consecutive gradient steps is dropped from the sets (0 keeps everything); the sets stay near
+    the equilibrium supports, so the restricted LPs stay small.
+    """
+
+    weight_sharing: bool = True
+    lam: float = 1e-3
+    eta0: float = 0.1
+    schedule: str = "inverse_sqrt"
+    tol: float = 1e-3
+    max_steps: int = 60
+    threshold: float = 1e-3
+    max_oracle_iterations: int = 50
+    prune_after: int = 10
+    planner: PlannerOptions = field(default_factory=PlannerOptions)
+
+
+@dataclass(frozen=True)
+class FitResult:
+    """The learned weights and how the fit went.
+
+    Attributes:
+        weights: (D, K) one row per demonstration dynamics (identical rows with sharing).
+        shared: whether weight sharing was used.
+        history: column -> (steps,) array, columns ``HISTORY_COLUMNS``, one row per step.
+        stopped: "tolerance" if (1/K) |grad|_1 fell below ``tol``, else "max_steps".
+        n_beliefs: size of the PBVI belief set (0 if none was used).
+        adversary_features: (D, K) the adversary's expected feature sums at the last step.
+        mean_adversary_features: (D, K) their average over the second half of the steps. The
+            objective is not smooth, so at its minimum the LP may return any of several equilibria
+            and the last step's features need not equal c~_j; their running average does converge.
+    """
+
+    weights: np.ndarray
+    shared: bool
+    history: dict[str, np.ndarray]
+    stopped: str
+    n_beliefs: int
+    adversary_features: np.ndarray
+    mean_adversary_features: np.ndarray
+
+
+def make_oracle(problem: GameProblem, options: PlannerOptions, rng: np.random.Generator) -> tuple[AdversaryOracle, int]:
+    """The adversary's best response as a function of its rewards, and the belief-set size.
+
+    The belief set depends only on the dynamics, so with ``reuse_beliefs`` it is built here once.
+    """
+    P, p0 = problem.transitions, problem.initial
+    beliefs = None
+    n_beliefs = 0
+    if options.method == "pbvi":
+        if options.reuse_beliefs:
+            beliefs = expand_beliefs(P, iterations=options.iterations, rng=rng, expansion=options.expansion)
+            n_beliefs = len(beliefs)
+        else:
+            n_beliefs = len(expand_beliefs(P, iterations=options.iterations, rng=np.random.default_rng(0), expansion=options.expansion))
+
+    def oracle(R: np.ndarray) -> tuple[float, np.ndarray]:
+        sol = solve(
+            P,
+            R,
+            p0,
+            method=options.method,
+            iterations=options.iterations,
+            rng=rng,
+            beliefs=beliefs,
+            expansion=options.expansion,
+            expectations=options.expectations,
+            n_samples=options.n_samples,
+        )
+        return sol.value, sol.marginals
+
+    return oracle, n_beliefs
+
+
+def _idle(idle: np.ndarray, mix: np.ndarray) -> np.ndarray:
+    """Update idle counters for a mixture over a strategy set that may have grown (new ones start at 0)."""
+    grown = np.concatenate([idle, np.zeros(mix.size - idle.size, dtype=np.int64)])
+    return np.where(mix > 0, 0, grown + 1)
+
+
+def step_size(options: FitOptions, step: int) -> float:
+    """eta_t for step t = 0, 1, ...: eta0/sqrt(1+t), eta0/(1+t) or eta0."""
+    if options.schedule == "inverse_sqrt":
+        return options.eta0 / np.sqrt(1.0 + step)
+    if options.schedule == "inverse":
+        return options.eta0 / (1.0 + step)
+    return options.eta0
+
+
+def check_options(options: FitOptions) -> None:
+    """Raise ``ValueError`` on out-of-range options."""
+    if options.schedule not in SCHEDULES:
+        raise ValueError(f"schedule must be one of {SCHEDULES}, got {options.schedule!r}")
+    if options.max_steps < 1 or options.max_oracle_iterations < 1 or options.prune_after < 0:
+        raise ValueError("max_steps and max_oracle_iterations must be >= 1 and prune_after >= 0")
+    if options.lam < 0 or options.eta0 <= 0 or options.tol < 0 or options.threshold < 0:
+        raise ValueError("lam, tol and threshold must be >= 0 and eta0 > 0")
+
+
+def fit(
+    problem: GameProblem,
+    targets: np.ndarray,
+    *,
+    rng: np.random.Generator,
+    options: FitOptions = FitOptions(),
+    oracle: AdversaryOracle | None = None,
+    callback: Callable[[dict], None] | None = None,
+) -> FitResult:
+    """Learn reward weights from the demonstrations' feature sums (thesis Table I).
+
+    Args:
+        problem: the game's problem (dynamics with tau at index 0, phi, p0, loss, T).
+        targets: (D, K) c~_j, the demonstrations' (mean or exact) feature sums under each tau_j.
+        rng: the only source of randomness (w_0 ~ N(0, I), PBVI's belief sampling, Monte Carlo).
+        options: see ``FitOptions``.
+        oracle: the adversary's best response; by default built from ``options.planner``.
+        callback: called after every step with that step's history row (a dict).
+
+    Returns:
+        A ``FitResult``.
+    """
+    check_options(options)
+    targets = np.asarray(targets, dtype=np.float64)
+    D, K = problem.n_models - 1, problem.features.shape[1]
+    if targets.shape != (D, K):
+        raise ValueError(f"targets must have shape (D, K) = ({D}, {K}), got {targets.shape}")
+    shared = options.weight_sharing
+    w = rng.standard_normal(K) if shared else rng.standard_normal((D, K))
+    n_beliefs = 0
+    if oracle is None:
+        oracle, n_beliefs = make_oracle(problem, options.planner, rng)
+    game = RestrictedGame(problem)
+    idle_l = np.zeros(0, dtype=np.int64)  # consecutive steps each strategy has been out of the support
+    idle_a = np.zeros(0, dtype=np.int64)
+    rows: list[dict] = []
+    stopped = "max_steps"
+    F = np.zeros((D, K))
+    F_history = []
+    for step in range(options.max_steps):
+        start = time.perf_counter()
+        W = np.broadcast_to(w, (D, K)) if shared else w
+        result = double_oracle(game, np.array(W), oracle, threshold=options.threshold, max_iterations=options.max_oracle_iterations)
+        F = result.adversary_features
+        F_history.append(F)
+        idle_l = _idle(idle_l, result.learner_mix)
+        idle_a = _idle(idle_a, result.adversary_mix)
+        grad = (F - targets).sum(axis=0) + options.lam * w if shared else F - targets + options.lam * w
+        objective = result.value - float(np.sum(W * targets)) + 0.5 * options.lam * float(np.sum(w * w))
+        grad_norm = float(np.mean(np.abs(grad)))
+        eta = step_size(options, step)
+        n_l, n_a = game.sizes
+        row = dict(
+            step=step,
+            objective=objective,
+            grad_norm=grad_norm,
+            feature_gap=float(np.mean(np.abs(F - targets))),
+            game_value=result.value,
+            eta=eta,
+            oracle_iterations=result.iterations,
+            adversary_calls=result.adversary_calls,
+            oracle_capped=int(result.capped),
+            learner_strategies=n_l,
+            adversary_strategies=n_a,
+            seconds=time.perf_counter() - start,
+        )
+        rows.append(row)
+        if callback is not None:
+            callback(row)
+        if grad_norm < options.tol:
+            stopped = "tolerance"
+            break
+        if step + 1 < options.max_steps:
+            w = w - eta * grad
+        if options.prune_after:
+            keep_l = np.flatnonzero(idle_l < options.prune_after)
+            keep_a = np.flatnonzero(idle_a < options.prune_after)
+            game.keep(keep_l, keep_a)
+            idle_l, idle_a = idle_l[keep_l], idle_a[keep_a]
+    history = {c: np.array([r[c] for r in rows]) for c in HISTORY_COLUMNS}
+    weights = np.broadcast_to(w, (D, K)).copy() if shared else w.copy()
+    F_mean = np.mean(F_history[len(F_history) // 2 :], axis=0)
+    return FitResult(weights, shared, history, stopped, n_beliefs, F, F_mean)

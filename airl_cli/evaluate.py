@@ -1,0 +1,54 @@
+"""Scores of a learned reward on a dataset (SPEC §6), one row per dynamics."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from airl_cli.core.planning import backward_induction
+from airl_cli.core.scores import cosine_similarity, performance
+from airl_cli.data import Dataset
+
+
+def dynamics_name(j: int) -> str:
+    """'tau' for index 0, 'tau_j' for the demonstration dynamics."""
+    return "tau" if j == 0 else f"tau_{j}"
+
+
+def weights_for(weights: np.ndarray, j: int) -> np.ndarray:
+    """The learner's weights for dynamics j: w_j for j >= 1; under tau (j = 0, never demonstrated)
+    the mean of the w_j (with weight sharing all rows are equal)."""
+    return weights.mean(axis=0) if j == 0 else weights[j - 1]
+
+
+def learner_policy(dataset: Dataset, weights: np.ndarray, j: int) -> np.ndarray:
+    """The learner's policy (T-1, S) for dynamics j: optimal for its w . phi under tau_j."""
+    R = dataset.features @ weights_for(weights, j)
+    policy, _ = backward_induction(dataset.transitions[j], R, horizon=dataset.horizon)
+    return policy
+
+
+def score_rows(dataset: Dataset, weights: np.ndarray | None, policies: list[np.ndarray] | None = None) -> list[dict]:
+    """Per dynamics j = 0..D: the learner's and the demonstrator's normalised performance and cos(w, w*).
+
+    The demonstrator is the optimal policy of w* . phi under tau, run in tau_j. The learner's
+    policy per dynamics comes from ``weights`` (D, K), or is given directly as ``policies`` (for
+    methods that learn a policy, not a reward). Scores are None when the dataset has no true
+    weights; the cosine is None without weights.
+    """
+    rows = []
+    w_star = dataset.true_weights
+    expert = None
+    if w_star is not None:
+        expert, _ = backward_induction(dataset.transitions[0], dataset.features @ w_star, horizon=dataset.horizon)
+    for j in range(dataset.transitions.shape[0]):
+        P = dataset.transitions[j]
+        policy = policies[j] if policies is not None else learner_policy(dataset, weights, j)
+        row = {"dynamics": dynamics_name(j), "learner_score": None, "demonstrator_score": None, "cosine_similarity": None}
+        if w_star is not None:
+            R = dataset.features @ w_star
+            row["learner_score"] = performance(P, R, policy, dataset.initial)
+            row["demonstrator_score"] = performance(P, R, expert, dataset.initial)
+            if weights is not None:
+                row["cosine_similarity"] = cosine_similarity(weights_for(weights, j), w_star)
+        rows.append(row)
+    return rows

@@ -1,0 +1,146 @@
+"""`airl fit` through Typer's test runner: in-process problems, dataset files, the three inputs."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pandas as pd
+import pytest
+from typer.testing import CliRunner
+
+from airl_cli.cli import app
+
+runner = CliRunner()
+# a small random problem and a short fit keep each run to a second or two
+SMALL = ["mdp.n_states=6", "mdp.n_actions=3", "mdp.horizon=5", "mdp.n_features=3", "demos.n=30", "optim.max_steps=4", "pbvi.iterations=4"]
+
+
+@pytest.fixture(autouse=True)
+def in_tmp(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+
+
+def run(*args):
+    result = runner.invoke(app, list(args))
+    return result
+
+
+def test_fit_in_process_writes_every_file(tmp_path):
+    out = tmp_path / "run"
+    result = run("fit", f"hydra.run.dir={out}", *SMALL)
+    assert result.exit_code == 0, result.output
+    assert {p.name for p in out.iterdir()} >= {
+        "weights.json", "metrics.json", "history.csv", "summary.txt", "timing.json", "config.yaml", "dataset.npz"
+    }
+    weights = json.loads((out / "weights.json").read_text())
+    assert weights["shared"] is True and np.array(weights["weights"]).shape == (3, 3)
+    assert len({tuple(r) for r in weights["weights"]}) == 1  # with sharing, D identical rows
+    metrics = json.loads((out / "metrics.json").read_text())
+    assert metrics["scored"] and [r["dynamics"] for r in metrics["dynamics"]] == ["tau", "tau_1", "tau_2", "tau_3"]
+    for row in metrics["dynamics"]:
+        assert 0.0 <= row["learner_score"] <= 1.0 + 1e-9 and 0.0 <= row["demonstrator_score"] <= 1.0 + 1e-9
+        assert -1.0 <= row["cosine_similarity"] <= 1.0
+    history = pd.read_csv(out / "history.csv")
+    assert list(history["step"]) == [0, 1, 2, 3]
+    assert {"objective", "grad_norm", "oracle_iterations", "oracle_capped", "learner_strategies", "adversary_strategies", "seconds"} <= set(history)
+    assert "learner" in result.output and str(out) in result.output
+
+
+def test_fit_without_weight_sharing(tmp_path):
+    out = tmp_path / "run"
+    result = run("fit", f"hydra.run.dir={out}", *SMALL, "optim.weight_sharing=false")
+    assert result.exit_code == 0, result.output
+    weights = json.loads((out / "weights.json").read_text())
+    assert weights["shared"] is False and len({tuple(r) for r in weights["weights"]}) == 3
+
+
+def test_same_seed_same_bytes(tmp_path):
+    outs = []
+    for name in ("a", "b"):
+        out = tmp_path / name
+        assert run("fit", f"hydra.run.dir={out}", *SMALL, "seed=5").exit_code == 0
+        outs.append(out)
+    for f in ("weights.json", "metrics.json", "dataset.npz"):
+        assert (outs[0] / f).read_bytes() == (outs[1] / f).read_bytes(), f
+
+
+def test_fit_from_a_generated_dataset_file(tmp_path):
+    gen = tmp_path / "gen"
+    assert run("generate", f"hydra.run.dir={gen}", *SMALL[:5]).exit_code == 0
+    out = tmp_path / "fit"
+    result = run("fit", f"data={gen / 'dataset.npz'}", f"hydra.run.dir={out}", "optim.max_steps=3", "pbvi.iterations=4")
+    assert result.exit_code == 0, result.output
+    assert not (out / "dataset.npz").exists()  # the data came from a file
+    assert json.loads((out / "metrics.json").read_text())["scored"]
+
+
+def test_fit_a_users_own_file_without_true_weights_or_loss(tmp_path):
+    rng = np.random.default_rng(0)
+    S, A, T, D, K, N = 5, 2, 4, 2, 2, 20
+    P = rng.dirichlet(np.ones(S), size=(D + 1, S, A))
+    states = np.zeros((D, N, T), dtype=np.int64)
+    for j in range(D):  # walk each demonstration through its own dynamics
+        for n in range(N):
+            for t in range(T - 1):
+                states[j, n, t + 1] = rng.choice(S, p=P[j + 1, states[j, n, t], 0])
+    path = tmp_path / "mine.npz"
+    np.savez(path, transitions=P, features=rng.random((S, K)), initial=np.eye(S)[0], horizon=np.int64(T), demo_states=states)
+    out = tmp_path / "fit"
+    result = run("fit", f"data={path}", f"hydra.run.dir={out}", "optim.max_steps=3", "pbvi.iterations=4")
+    assert result.exit_code == 0, result.output
+    metrics = json.loads((out / "metrics.json").read_text())
+    assert metrics["scored"] is False and metrics["dynamics"][1]["learner_score"] is None
+    assert "no true weights" in result.output
+
+
+@pytest.mark.parametrize("demos", ["exact", "optimal_path", "sampled"])
+def test_the_three_inputs_on_the_grid(tmp_path, demos):
+    out = tmp_path / demos
+    result = run("fit", f"hydra.run.dir={out}", "mdp=grid", "dynamics=grid_suboptimal", f"demos={demos}", "demos.n=50" if demos == "sampled" else "seed=0", "optim.max_steps=3", "pbvi.iterations=4")
+    assert result.exit_code == 0, result.output
+    metrics = json.loads((out / "metrics.json").read_text())
+    assert len(metrics["dynamics"]) == 3 and all(np.isfinite(r["learner_score"]) for r in metrics["dynamics"])
+
+
+def test_bad_data_file_one_sentence_and_no_run_folder(tmp_path):
+    bad = tmp_path / "bad.npz"
+    bad.write_text("not numpy")
+    out = tmp_path / "fit"
+    result = run("fit", f"data={bad}", f"hydra.run.dir={out}")
+    assert result.exit_code == 2 and "Traceback" not in result.output
+    assert "not an .npz" in result.output and len(result.output.strip().splitlines()) == 1
+    assert not out.exists()
+
+
+@pytest.mark.parametrize(
+    "overrides, key",
+    [
+        (["optim.lam=-1"], "optim.lam"),
+        (["optim.eta0=0"], "optim.eta0"),
+        (["optim.schedule=fast"], "optim.schedule"),
+        (["optim.weight_sharing=maybe"], "optim.weight_sharing"),
+        (["game.max_iterations=0"], "game.max_iterations"),
+        (["pbvi.iterations=0"], "pbvi.iterations"),
+        (["pbvi.expectations=guess"], "pbvi.expectations"),
+        (["data=/nonexistent/file.npz"], "does not exist"),
+    ],
+)
+def test_bad_fit_config_values(tmp_path, overrides, key):
+    out = tmp_path / "fit"
+    result = run("fit", f"hydra.run.dir={out}", *overrides)
+    assert result.exit_code == 2 and key in result.output and "Traceback" not in result.output
+    assert not out.exists()
+
+
+def test_squared_euclidean_loss_needs_coordinates(tmp_path):
+    gen = tmp_path / "gen"
+    assert run("generate", f"hydra.run.dir={gen}", *SMALL[:5]).exit_code == 0
+    result = run("fit", f"data={gen / 'dataset.npz'}", "mdp=grid", "loss=squared_euclidean", f"hydra.run.dir={tmp_path / 'f'}")
+    assert result.exit_code == 2 and "coordinates" in result.output
+
+
+def test_the_thesis_way_of_computing(tmp_path):
+    out = tmp_path / "run"
+    result = run("fit", f"hydra.run.dir={out}", *SMALL, "pbvi=thesis", "pbvi.n_samples=500", "optim.max_steps=2")
+    assert result.exit_code == 0, result.output

@@ -1,0 +1,109 @@
+"""The gradient loop of Table I on tiny problems."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from airl_cli.core.demos import expected_feature_sums
+from airl_cli.core.game import GameProblem, RestrictedGame, double_oracle
+from airl_cli.core.learn import FitOptions, PlannerOptions, fit, make_oracle
+from airl_cli.core.planning import backward_induction
+from tiny import random_dynamics
+
+
+def tiny_irl(seed=0, *, S=4, A=2, T=4, D=2, K=3, concentration=0.4):
+    """A tiny problem with an expert optimal under tau and its exact feature sums under each tau_j."""
+    rng = np.random.default_rng(seed)
+    P = np.stack([random_dynamics(rng, S, A, concentration=concentration) for _ in range(D + 1)])
+    phi = rng.random((S, K))
+    p0 = np.full(S, 1.0 / S)
+    w_star = rng.normal(size=K)
+    expert, _ = backward_induction(P[0], phi @ w_star, horizon=T)
+    targets = expected_feature_sums(P[1:], expert, p0, phi)
+    return GameProblem(P, phi, p0, 1.0 - np.eye(S), T), targets, w_star
+
+
+EXACT = PlannerOptions(method="exact")
+
+
+def test_gradient_equals_a_finite_difference_of_the_objective():
+    problem, targets, _ = tiny_irl(1)
+    oracle, _ = make_oracle(problem, EXACT, np.random.default_rng(0))
+    lam = 1e-2
+
+    def f_and_grad(w):
+        r = double_oracle(RestrictedGame(problem), np.broadcast_to(w, targets.shape).copy(), oracle, threshold=1e-12, max_iterations=1000)
+        f = r.value - w @ targets.sum(0) + 0.5 * lam * w @ w
+        return f, (r.adversary_features - targets).sum(0) + lam * w
+
+    w = np.random.default_rng(2).normal(size=3)
+    _, g = f_and_grad(w)
+    h = 1e-5
+    fd = np.array([(f_and_grad(w + h * e)[0] - f_and_grad(w - h * e)[0]) / (2 * h) for e in np.eye(3)])
+    assert np.allclose(g, fd, atol=1e-5)
+
+
+def test_objective_goes_down_overall_and_rows_share_weights():
+    problem, targets, _ = tiny_irl(2)
+    res = fit(problem, targets, rng=np.random.default_rng(0), options=FitOptions(max_steps=40, eta0=0.3, planner=EXACT))
+    obj = res.history["objective"]
+    assert obj[-8:].mean() < obj[:8].mean()
+    assert obj.min() < obj[0]
+    assert res.weights.shape == (2, 3) and np.allclose(res.weights[0], res.weights[1])
+    assert set(res.history) >= {"objective", "grad_norm", "oracle_iterations", "learner_strategies", "adversary_strategies", "seconds"}
+    assert len(res.history["step"]) == 40 and res.stopped == "max_steps"
+
+
+def test_without_sharing_each_dynamics_has_its_own_weights():
+    problem, targets, _ = tiny_irl(3)
+    res = fit(problem, targets, rng=np.random.default_rng(0), options=FitOptions(max_steps=10, weight_sharing=False, planner=EXACT))
+    assert res.weights.shape == (2, 3) and not np.allclose(res.weights[0], res.weights[1])
+    assert not res.shared
+
+
+@pytest.mark.parametrize("shared", [True, False])
+def test_same_seed_same_weights(shared):
+    problem, targets, _ = tiny_irl(4)
+    opts = FitOptions(max_steps=12, weight_sharing=shared)
+    a = fit(problem, targets, rng=np.random.default_rng(7), options=opts)
+    b = fit(problem, targets, rng=np.random.default_rng(7), options=opts)
+    assert np.array_equal(a.weights, b.weights)
+    assert np.array_equal(a.history["objective"], b.history["objective"])
+
+
+def test_tiny_lambda_matches_the_demonstrated_features():
+    """At the optimum 0 is a subgradient, F(q) - c~ + lambda w: the adversary matches c~_j.
+
+    The objective is not smooth, so the last step's equilibrium may sit on either side of a kink;
+    the running average of the adversary's features is what converges to c~_j.
+    """
+    planner = PlannerOptions(iterations=10)  # exact on problems this small (see test_multimodel)
+    gaps = []
+    for seed in (5, 6, 7, 8):
+        problem, targets, _ = tiny_irl(seed, S=3, D=1)
+        options = FitOptions(max_steps=300, eta0=3.0, lam=1e-6, threshold=1e-9, tol=1e-4, planner=planner)
+        res = fit(problem, targets, rng=np.random.default_rng(0), options=options)
+        gaps.append(np.max(np.abs(res.mean_adversary_features - targets)))
+    assert max(gaps) < 0.02 and np.median(gaps) < 0.005
+
+
+def test_fit_stops_on_the_gradient_tolerance():
+    problem, targets, _ = tiny_irl(6)
+    res = fit(problem, targets, rng=np.random.default_rng(0), options=FitOptions(max_steps=50, tol=10.0, planner=EXACT))
+    assert res.stopped == "tolerance" and len(res.history["step"]) == 1
+
+
+def test_the_thesis_way_of_computing_runs():
+    problem, targets, _ = tiny_irl(7)
+    opts = FitOptions(max_steps=3, planner=PlannerOptions(expectations="monte_carlo", n_samples=2000, reuse_beliefs=False, iterations=4))
+    res = fit(problem, targets, rng=np.random.default_rng(0), options=opts)
+    assert np.all(np.isfinite(res.weights)) and res.n_beliefs >= 1
+
+
+def test_bad_options_and_shapes():
+    problem, targets, _ = tiny_irl(0)
+    with pytest.raises(ValueError, match="schedule"):
+        fit(problem, targets, rng=np.random.default_rng(0), options=FitOptions(schedule="fast"))
+    with pytest.raises(ValueError, match="targets"):
+        fit(problem, targets[:1], rng=np.random.default_rng(0))
