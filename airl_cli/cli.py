@@ -133,8 +133,9 @@ def fit(
     """Learn reward weights from demonstrations under several dynamics; write weights, metrics and history.
 
     With data=PATH it learns from a dataset file (ours or yours); without, from the problem the
-    mdp/dynamics/demos groups describe, built in-process (and saved as dataset.npz). The run
-    folder is results/fit/<time>/ unless hydra.run.dir=PATH says otherwise.
+    mdp/dynamics/demos groups describe, built in-process (and saved as dataset.npz).
+    method=airl (default), mce, projection, mmp or bc picks the learner. The run folder is
+    results/fit/<time>/ unless hydra.run.dir=PATH says otherwise.
     """
     run_hydra("fit", ctx.args, cfg=cfg, resolve=resolve, multirun=multirun)
 

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 from omegaconf import DictConfig, OmegaConf
@@ -243,13 +243,35 @@ def problem_settings(cfg: DictConfig | Mapping) -> ProblemSettings:
 # --------------------------------------------------------------------------- learning
 
 
+METHODS = ("airl", "mce", "projection", "mmp", "bc")
+
+
 @dataclass(frozen=True)
 class FitSettings:
-    """Everything ``airl fit`` needs beyond the problem."""
+    """Everything ``airl fit`` needs beyond the problem.
+
+    ``options`` configures the thesis's method (method=airl); ``method_options`` holds the
+    keyword options of a comparison method (method=mce, projection, mmp; empty for bc).
+    """
 
     method: str
     options: FitOptions
     data: str | None
+    method_options: dict = field(default_factory=dict)
+
+
+def _method_options(r: _Reader, name: str) -> dict:
+    if name == "mce":
+        return {"lam": r.float("lam", lo=0.0), "max_iterations": r.int("max_iterations", lo=1)}
+    if name == "projection":
+        return {"max_iterations": r.int("max_iterations", lo=1), "tol": r.float("tol", lo=0.0)}
+    if name == "mmp":
+        return {
+            "lam": r.float("lam", lo=0.0),
+            "eta0": r.float("eta0", lo=0.0, open_lo=True),
+            "max_iterations": r.int("max_iterations", lo=1),
+        }
+    return {}
 
 
 def _planner(node: Any) -> PlannerOptions:
@@ -275,7 +297,8 @@ def fit_settings(cfg: DictConfig | Mapping) -> FitSettings:
     """Read and check the learning part of a composed config (groups method, pbvi, game, optim; data)."""
     c = plain(cfg)
     top = _Reader(c, "")
-    method = _Reader(top.raw("method"), "method").choice("name", ("airl",))
+    m = _Reader(top.raw("method"), "method")
+    method = m.choice("name", METHODS)
     g = _Reader(top.raw("game"), "game")
     o = _Reader(top.raw("optim"), "optim")
     options = FitOptions(
@@ -283,14 +306,16 @@ def fit_settings(cfg: DictConfig | Mapping) -> FitSettings:
         lam=o.float("lam", lo=0.0),
         eta0=o.float("eta0", lo=0.0, open_lo=True),
         schedule=o.choice("schedule", SCHEDULES),
+        normalize=_bool(o, "normalize"),
         tol=o.float("tol", lo=0.0),
         max_steps=o.int("max_steps", lo=1),
         threshold=g.float("threshold", lo=0.0),
         max_oracle_iterations=g.int("max_iterations", lo=1),
         prune_after=g.int("prune_after", lo=0),
+        normalize_loss=_bool(g, "normalize_loss"),
         planner=_planner(top.raw("pbvi")),
     )
     data = top.raw("data", None)
     if data is not None and not isinstance(data, str):
         raise ConfigError(f"'data' must be the path of a dataset file, got {data!r}")
-    return FitSettings(method=method, options=options, data=data)
+    return FitSettings(method=method, options=options, data=data, method_options=_method_options(m, method))

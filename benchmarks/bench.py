@@ -1,6 +1,6 @@
 """Benchmarks of airl: `python benchmarks/bench.py [SECTION ...]` prints a table per section.
 
-Sections: sampling, planner. Each measurement is the median of several repeats on one core
+Sections: sampling, planner, fit. Each measurement is the median of several repeats on one core
 (set OMP_NUM_THREADS=1 etc. for strict single-core numbers; the script sets them itself).
 """
 
@@ -25,7 +25,7 @@ from airl_cli.core.planning import backward_induction  # noqa: E402
 from airl_cli.core.problems import gaussian_perturbations, random_mdp  # noqa: E402
 from airl_cli.multimodel import expand_beliefs, solve  # noqa: E402
 
-console = Console()
+console = Console(width=150)
 
 
 def median_seconds(fn: Callable[[], object], *, repeats: int = 7, warmup: int = 1) -> float:
@@ -94,7 +94,65 @@ def bench_planner() -> None:
     console.print(table)
 
 
-SECTIONS = {"sampling": bench_sampling, "planner": bench_planner}
+def thesis_scale_dataset(seed: int, transition: str = "uniform", alpha: float = 1.0):
+    """The thesis's random-MDP setting: S=20, A=5, T=10, K=5, D=3 (sigma=0.1), N=1000 demos."""
+    from airl_cli.build import build_dataset
+    from airl_cli.config import DemoSettings, DynamicsSettings, ProblemSettings, RandomMDPSettings
+
+    settings = ProblemSettings(
+        mdp=RandomMDPSettings(20, 5, 5, 10, transition, alpha),
+        dynamics=DynamicsSettings("gaussian", "gaussian", 3, sigma=0.1),
+        demos=DemoSettings("sampled", 1000),
+        loss="auto",
+        seed=seed,
+    )
+    return build_dataset(settings)[0]
+
+
+def timed_fit(dataset, options, seed):
+    from airl_cli.build import streams
+    from airl_cli.core.game import GameProblem
+    from airl_cli.core.learn import fit
+
+    problem = GameProblem(dataset.transitions, dataset.features, dataset.initial, dataset.loss, dataset.horizon)
+    start = time.perf_counter()
+    result = fit(problem, dataset.feature_targets(), rng=streams(seed)["fit"], options=options)
+    return time.perf_counter() - start, result
+
+
+def bench_fit() -> None:
+    from airl_cli.core.learn import FitOptions, PlannerOptions
+
+    ours = FitOptions()
+    thesis = FitOptions(planner=PlannerOptions(expectations="monte_carlo", n_samples=50_000, reuse_beliefs=False))
+    table = Table(title="a whole fit at the thesis's scale: S=20, A=5, T=10, D=3, K=5, N=1000, PBVI 8 iterations, 60 steps")
+    for col in ("problem", "computation", "seeds", "median s", "min s", "max s", "adversary calls (median)"):
+        table.add_column(col, justify="right")
+    cases = [
+        ("random MDP, uniform rows (SPEC)", "uniform", 1.0, "ours: exact, beliefs once", ours, 5),
+        ("random MDP, Dirichlet(0.3) rows", "dirichlet", 0.3, "ours: exact, beliefs once", ours, 5),
+        ("random MDP, uniform rows (SPEC)", "uniform", 1.0, "thesis: Monte Carlo 50,000, beliefs every call", thesis, 3),
+    ]
+    medians = {}
+    for name, transition, alpha, label, options, n_seeds in cases:
+        times, calls = [], []
+        for seed in range(n_seeds):
+            dataset = thesis_scale_dataset(seed, transition, alpha)
+            if seed == 0:
+                timed_fit(dataset, FitOptions(max_steps=1), seed)  # compile / load the kernels first
+            seconds, result = timed_fit(dataset, options, seed)
+            times.append(seconds)
+            calls.append(int(result.history["adversary_calls"].sum()))
+        medians[(name, label)] = statistics.median(times)
+        table.add_row(name, label, str(n_seeds), f"{statistics.median(times):.2f}", f"{min(times):.2f}", f"{max(times):.2f}", str(int(statistics.median(calls))))
+    console.print(table)
+    ratio = medians[("random MDP, uniform rows (SPEC)", "thesis: Monte Carlo 50,000, beliefs every call")] / medians[
+        ("random MDP, uniform rows (SPEC)", "ours: exact, beliefs once")
+    ]
+    console.print(f"the thesis's way of computing is {ratio:.1f}x slower on the SPEC's random MDP")
+
+
+SECTIONS = {"sampling": bench_sampling, "planner": bench_planner, "fit": bench_fit}
 
 
 def main() -> None:

@@ -144,3 +144,26 @@ def test_the_thesis_way_of_computing(tmp_path):
     out = tmp_path / "run"
     result = run("fit", f"hydra.run.dir={out}", *SMALL, "pbvi=thesis", "pbvi.n_samples=500", "optim.max_steps=2")
     assert result.exit_code == 0, result.output
+
+
+@pytest.mark.parametrize("method", ["mce", "projection", "mmp", "bc"])
+def test_every_comparison_method_writes_the_same_files(tmp_path, method):
+    out = tmp_path / method
+    result = run("fit", f"method={method}", f"hydra.run.dir={out}", *SMALL)
+    assert result.exit_code == 0, result.output
+    metrics = json.loads((out / "metrics.json").read_text())
+    assert metrics["method"] == method and len(metrics["dynamics"]) == 4
+    assert all(np.isfinite(r["learner_score"]) and 0 <= r["learner_score"] <= 1 + 1e-9 for r in metrics["dynamics"])
+    if method == "bc":
+        assert not (out / "weights.json").exists()
+        policy = np.load(out / "policy.npy")
+        assert policy.shape == (4, 6, 3) and np.allclose(policy.sum(-1), 1)
+    else:
+        weights = json.loads((out / "weights.json").read_text())
+        assert np.array(weights["weights"]).shape == (3, 3) and weights["shared"]
+
+
+def test_behavioural_cloning_needs_actions(tmp_path):
+    result = run("fit", "method=bc", "demos=exact", f"hydra.run.dir={tmp_path / 'bc'}", *SMALL[:4])
+    assert result.exit_code == 2 and "demo_actions" in result.output
+    assert not (tmp_path / "bc").exists()

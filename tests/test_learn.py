@@ -82,7 +82,8 @@ def test_tiny_lambda_matches_the_demonstrated_features():
     gaps = []
     for seed in (5, 6, 7, 8):
         problem, targets, _ = tiny_irl(seed, S=3, D=1)
-        options = FitOptions(max_steps=300, eta0=3.0, lam=1e-6, threshold=1e-9, tol=1e-4, planner=planner)
+        # plain Table I steps (eta_t * grad) shrink with the gradient and settle tighter than normalised ones
+        options = FitOptions(max_steps=300, eta0=3.0, normalize=False, lam=1e-6, threshold=1e-9, tol=1e-4, planner=planner)
         res = fit(problem, targets, rng=np.random.default_rng(0), options=options)
         gaps.append(np.max(np.abs(res.mean_adversary_features - targets)))
     assert max(gaps) < 0.02 and np.median(gaps) < 0.005

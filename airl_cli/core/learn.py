@@ -12,6 +12,7 @@ f(w) = value(w) - sum_j w_j . c~_j + lambda/2 |w|^2, value(w) being the inner ga
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -60,20 +61,31 @@ class PlannerOptions:
 class FitOptions:
     """Gradient descent and double-oracle settings (Table I; SPEC §5).
 
+    ``normalize``: step along grad / |grad|, so that a step moves w by eta_t whatever the scale of
+    the gradient (which grows with D, T and the features); the usual form of the subgradient
+    method for a non-smooth objective. False takes plain steps eta_t * grad as Table I writes.
+
+    ``normalize_loss``: divide the loss matrix by its largest entry. Scaling the loss by c scales
+    the game's optimal w by c when lambda = 0 and leaves its direction, hence the learner's
+    policies, unchanged; with a loss of scale 1 the same step sizes and lambda suit every problem
+    (the grid's squared distances reach 32, the zero-one loss 1).
+
     ``prune_after``: a strategy that has had zero weight in the equilibrium for this many
     consecutive gradient steps is dropped from the sets (0 keeps everything); the sets stay near
     the equilibrium supports, so the restricted LPs stay small.
     """
 
     weight_sharing: bool = True
-    lam: float = 1e-3
-    eta0: float = 0.1
+    lam: float = 1e-2
+    eta0: float = 0.3
     schedule: str = "inverse_sqrt"
+    normalize: bool = True
     tol: float = 1e-3
     max_steps: int = 60
     threshold: float = 1e-3
     max_oracle_iterations: int = 50
     prune_after: int = 10
+    normalize_loss: bool = True
     planner: PlannerOptions = field(default_factory=PlannerOptions)
 
 
@@ -183,6 +195,8 @@ def fit(
         A ``FitResult``.
     """
     check_options(options)
+    if options.normalize_loss and np.max(problem.loss) > 0:
+        problem = dataclasses.replace(problem, loss=problem.loss / np.max(problem.loss))
     targets = np.asarray(targets, dtype=np.float64)
     D, K = problem.n_models - 1, problem.features.shape[1]
     if targets.shape != (D, K):
@@ -233,7 +247,8 @@ def fit(
             stopped = "tolerance"
             break
         if step + 1 < options.max_steps:
-            w = w - eta * grad
+            scale = 1.0 / max(float(np.linalg.norm(grad)), 1e-12) if options.normalize else 1.0
+            w = w - eta * scale * grad
         if options.prune_after:
             keep_l = np.flatnonzero(idle_l < options.prune_after)
             keep_a = np.flatnonzero(idle_a < options.prune_after)

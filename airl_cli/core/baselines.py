@@ -1,0 +1,471 @@
+"""Baseline learners for comparison: MCE IRL, projection, maximum margin planning, cloning.
+
+The three reward learners learn one reward vector w shared by all demonstration dynamics,
+R(s) = w . phi(s), from the targets c~_j (D, K), the demonstrations' mean feature sums
+sum_t phi(s_t) under tau_j (row j-1 for j = 1..D):
+
+* ``mce_irl``: maximum causal entropy IRL (Ziebart et al.), finite horizon, its dual summed
+  over the dynamics and maximised by L-BFGS-B.
+* ``projection``: Abbeel & Ng's projection method, feature expectations summed over dynamics.
+* ``max_margin_planning``: Ratliff et al.'s maximum margin planning by subgradient descent,
+  one loss-augmented planning problem per dynamics.
+
+``behavioral_cloning`` learns no reward: it returns the demonstrations' action frequencies.
+
+Shapes: transitions (M, S, A, S) with index 0 the expert's dynamics tau (unused here: these
+methods only see the demonstration dynamics 1..D = M-1); features phi (S, K); initial p0 (S,);
+horizon T counts states; targets (D, K); per-time rewards (T, S); deterministic policies
+(T-1, S) int, stochastic ones (T-1, S, A).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.optimize import minimize
+
+from airl_cli.core.mdp import check_probabilities, check_transitions
+from airl_cli.core.planning import backward_induction, soft_backward_induction, state_marginals
+
+
+@dataclass(frozen=True)
+class BaselineResult:
+    """What a baseline learned.
+
+    Attributes:
+        weights: (D, K) one row per demonstration dynamics; the rows are identical because these
+            methods learn one shared w. None for behavioural cloning.
+        policy: (T-1, S, A) stochastic policy for behavioural cloning, else None.
+        history: column -> (iterations,) array, one row per iteration; the columns depend on
+            the method (empty for behavioural cloning, which does not iterate).
+    """
+
+    weights: np.ndarray | None
+    policy: np.ndarray | None
+    history: dict[str, np.ndarray]
+
+
+def _check_problem(
+    transitions: np.ndarray, features: np.ndarray, initial: np.ndarray, horizon: int, targets: np.ndarray | None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray | None]:
+    """Validate the common inputs and return float64 copies (P, phi, p0, targets).
+
+    Raises:
+        ValueError: quoting the shape of the offending array.
+    """
+    P = np.array(transitions, dtype=np.float64)
+    if P.ndim != 4 or P.shape[0] < 2:
+        raise ValueError(f"transitions must have shape (M, S, A, S) with M = D+1 >= 2, got {P.shape}")
+    S, _ = check_transitions(P)
+    D = P.shape[0] - 1
+    phi = np.array(features, dtype=np.float64)
+    if phi.ndim != 2 or phi.shape[0] != S:
+        raise ValueError(f"features must have shape (S, K) with S = {S}, got {phi.shape}")
+    p0 = np.array(initial, dtype=np.float64)
+    if p0.shape != (S,):
+        raise ValueError(f"initial must have shape (S,) = ({S},), got {p0.shape}")
+    check_probabilities(p0, name="initial")
+    if int(horizon) != horizon or horizon < 2:
+        raise ValueError(f"horizon must be an integer >= 2 (T counts states), got {horizon}")
+    if targets is None:
+        return P, phi, p0, None
+    c = np.array(targets, dtype=np.float64)
+    K = phi.shape[1]
+    if c.shape != (D, K):
+        raise ValueError(f"targets must have shape (D, K) = ({D}, {K}), got {c.shape}")
+    if not np.all(np.isfinite(c)):
+        raise ValueError("targets must be finite")
+    return P, phi, p0, c
+
+
+def _check_weights(w: np.ndarray, K: int) -> np.ndarray:
+    """Return w as a float64 (K,) copy, or raise ``ValueError`` quoting its shape."""
+    w = np.array(w, dtype=np.float64)
+    if w.shape != (K,):
+        raise ValueError(f"w must have shape (K,) = ({K},), got {w.shape}")
+    return w
+
+
+def _feature_sum(P: np.ndarray, policy: np.ndarray, p0: np.ndarray, phi: np.ndarray) -> np.ndarray:
+    """Expected feature sum E[sum_t phi(s_t)] (K,) of a (T-1, S) or (T-1, S, A) policy under P (S, A, S)."""
+    return state_marginals(P, policy, p0).sum(axis=0) @ phi
+
+
+def expected_features_per_dynamics(
+    transitions: np.ndarray, policies: np.ndarray, initial: np.ndarray, features: np.ndarray
+) -> np.ndarray:
+    """Expected feature sums F_j = E[sum_t phi(s_t)] under the demonstration dynamics tau_1..tau_D.
+
+    Args:
+        transitions: (M, S, A, S), index 0 = tau (not used), 1..D = tau_1..tau_D.
+        policies: one policy used under every tau_j, (T-1, S) int or (T-1, S, A) float; or one
+            policy per demonstration dynamics, (D, T-1, S) int or (D, T-1, S, A) float, where
+            ``policies[j-1]`` is run under tau_j.
+        initial: (S,) initial distribution p0.
+        features: (S, K) phi.
+
+    Returns:
+        (D, K), row j-1 the expected feature sum under tau_j.
+
+    Raises:
+        ValueError: on inconsistent shapes.
+    """
+    policies = np.asarray(policies)
+    integer = np.issubdtype(policies.dtype, np.integer)
+    n_axes = 2 if integer else 3  # axes of one policy
+    if policies.ndim not in (n_axes, n_axes + 1):
+        kind = "(T-1, S) or (D, T-1, S) for int" if integer else "(T-1, S, A) or (D, T-1, S, A) for float"
+        raise ValueError(f"policies must have shape {kind} policies, got {policies.shape}")
+    horizon = policies.shape[policies.ndim - n_axes] + 1
+    P, phi, p0, _ = _check_problem(transitions, features, initial, horizon, None)
+    D, S, A = P.shape[0] - 1, P.shape[1], P.shape[2]
+    single = (horizon - 1, S) if integer else (horizon - 1, S, A)
+    if policies.shape == single:
+        stack = np.broadcast_to(policies, (D, *single))
+    elif policies.shape == (D, *single):
+        stack = policies
+    else:
+        raise ValueError(
+            f"policies must have shape {single} (one policy) or {(D, *single)} (one per dynamics), got {policies.shape}"
+        )
+    if integer and stack.size and (stack.min() < 0 or stack.max() >= A):
+        raise ValueError(f"policy actions must lie in [0, {A}), got range [{stack.min()}, {stack.max()}]")
+    if not integer:
+        check_probabilities(stack, name="policies")
+    return np.stack([_feature_sum(P[j + 1], stack[j], p0, phi) for j in range(D)])
+
+
+def _mce_value_and_grad(
+    w: np.ndarray, P: np.ndarray, phi: np.ndarray, p0: np.ndarray, horizon: int, targets: np.ndarray, lam: float
+) -> tuple[float, np.ndarray]:
+    """g(w) and its gradient on validated inputs (see ``mce_objective``)."""
+    R = np.broadcast_to(phi @ w, (horizon, phi.shape[0]))
+    value = float(w @ targets.sum(axis=0)) - 0.5 * lam * float(w @ w)
+    grad = targets.sum(axis=0) - lam * w
+    for Pj in P[1:]:
+        policy, V = soft_backward_induction(Pj, R)
+        value -= float(p0 @ V[0])
+        grad = grad - _feature_sum(Pj, policy, p0, phi)
+    return value, grad
+
+
+def mce_objective(
+    w: np.ndarray,
+    transitions: np.ndarray,
+    features: np.ndarray,
+    initial: np.ndarray,
+    horizon: int,
+    targets: np.ndarray,
+    *,
+    lam: float = 1e-3,
+) -> tuple[float, np.ndarray]:
+    """The MCE IRL dual with several dynamics and its gradient (to be maximised).
+
+        g(w) = sum_j [ w . c~_j - p0 . V_j(w)[0] ] - lam/2 |w|^2
+        grad g(w) = sum_j (c~_j - F_j(w)) - lam w
+
+    V_j (T, S) is the soft value of ``soft_backward_induction`` under tau_j with reward w . phi
+    at every time, and F_j (K,) the expected feature sum of its soft policy under tau_j.
+
+    Args:
+        w: (K,) shared reward weights.
+        transitions: (M, S, A, S), index 0 = tau (not used), 1..D = tau_1..tau_D.
+        features: (S, K) phi.
+        initial: (S,) p0.
+        horizon: T, the number of states per trajectory.
+        targets: (D, K), row j-1 the demonstrations' mean feature sum c~_j under tau_j.
+        lam: L2 regularisation strength >= 0.
+
+    Returns:
+        (value, gradient): g(w) as a float and its gradient (K,).
+    """
+    P, phi, p0, c = _check_problem(transitions, features, initial, horizon, targets)
+    if lam < 0:
+        raise ValueError(f"lam must be >= 0, got {lam}")
+    return _mce_value_and_grad(_check_weights(w, phi.shape[1]), P, phi, p0, horizon, c, lam)
+
+
+def mce_irl(
+    transitions: np.ndarray,
+    features: np.ndarray,
+    initial: np.ndarray,
+    horizon: int,
+    targets: np.ndarray,
+    *,
+    lam: float = 1e-3,
+    max_iterations: int = 200,
+    tol: float = 1e-8,
+) -> BaselineResult:
+    """Maximum causal entropy IRL (Ziebart et al.) with one w shared by all dynamics.
+
+    Maximises ``mce_objective`` by L-BFGS-B on its negative, starting from w = 0.
+
+    Args:
+        transitions: (M, S, A, S), index 0 = tau (not used), 1..D = tau_1..tau_D.
+        features: (S, K) phi.
+        initial: (S,) p0.
+        horizon: T.
+        targets: (D, K) c~_j.
+        lam: L2 regularisation strength >= 0.
+        max_iterations: L-BFGS-B iterations, >= 1.
+        tol: scipy's ``tol`` for L-BFGS-B (its gradient and relative-decrease tolerances).
+
+    Returns:
+        ``BaselineResult`` with weights (D, K) (identical rows) and history columns "step",
+        "objective" (g(w), maximised) and "grad_norm" (Euclidean norm of grad g); row 0 is the
+        starting point w = 0, then one row per L-BFGS-B iteration.
+    """
+    P, phi, p0, c = _check_problem(transitions, features, initial, horizon, targets)
+    if lam < 0 or max_iterations < 1 or tol < 0:
+        raise ValueError(f"need lam >= 0, max_iterations >= 1 and tol >= 0, got {lam}, {max_iterations}, {tol}")
+    K = phi.shape[1]
+    last: dict[str, object] = {}
+
+    def negative(w: np.ndarray) -> tuple[float, np.ndarray]:
+        value, grad = _mce_value_and_grad(w, P, phi, p0, horizon, c, lam)
+        last.update(w=w.copy(), value=value, grad=grad)
+        return -value, -grad
+
+    def evaluated(w: np.ndarray) -> tuple[float, np.ndarray]:
+        if "w" in last and np.array_equal(last["w"], w):
+            return last["value"], last["grad"]
+        return _mce_value_and_grad(w, P, phi, p0, horizon, c, lam)
+
+    objective, grad_norm = [], []
+
+    def record(intermediate_result) -> None:
+        value, grad = evaluated(intermediate_result.x)
+        objective.append(value)
+        grad_norm.append(float(np.linalg.norm(grad)))
+
+    w0 = np.zeros(K)
+    value0, grad0 = _mce_value_and_grad(w0, P, phi, p0, horizon, c, lam)
+    objective.append(value0)
+    grad_norm.append(float(np.linalg.norm(grad0)))
+    result = minimize(
+        negative, w0, jac=True, method="L-BFGS-B", tol=tol, callback=record, options={"maxiter": max_iterations}
+    )
+    history = {
+        "step": np.arange(len(objective)),
+        "objective": np.array(objective),
+        "grad_norm": np.array(grad_norm),
+    }
+    D = P.shape[0] - 1
+    return BaselineResult(np.tile(result.x, (D, 1)), None, history)
+
+
+def _optimal_features(P: np.ndarray, phi: np.ndarray, p0: np.ndarray, horizon: int, w: np.ndarray) -> np.ndarray:
+    """mu(w) = sum_j F_j(pi_{w,j}) (K,), pi_{w,j} optimal for w . phi under tau_j, j = 1..D."""
+    R = phi @ w
+    return sum(_feature_sum(Pj, backward_induction(Pj, R, horizon=horizon)[0], p0, phi) for Pj in P[1:])
+
+
+def projection(
+    transitions: np.ndarray,
+    features: np.ndarray,
+    initial: np.ndarray,
+    horizon: int,
+    targets: np.ndarray,
+    *,
+    max_iterations: int = 50,
+    tol: float = 1e-6,
+) -> BaselineResult:
+    """Abbeel & Ng's projection method with one w shared by all dynamics.
+
+    Feature expectations are summed over the dynamics: mu(w) = sum_j F_j(pi_{w,j}) with
+    pi_{w,j} the optimal deterministic policy for w . phi under tau_j, and mu_E = sum_j c~_j.
+    Step 0 plans for w = 0 (action 0 everywhere, ties going to the lowest index) and sets
+    mu_bar = mu(0). Each later step sets w = mu_E - mu_bar, plans, and projects mu_E onto the
+    segment from mu_bar to mu(w):
+
+        mu_bar += ((mu(w) - mu_bar) . (mu_E - mu_bar) / |mu(w) - mu_bar|^2) (mu(w) - mu_bar)
+
+    It stops when the margin |mu_E - mu_bar| falls below ``tol``, when mu(w) equals mu_bar (no
+    projection is possible), or after ``max_iterations`` steps after step 0.
+
+    The method yields one candidate policy per step; of these the one whose features mu(w) are
+    closest to mu_E is returned (the earliest on ties). The last w = mu_E - mu_bar itself is not
+    returned: once the features are matched exactly it is 0, whose optimal policy is arbitrary.
+
+    Args:
+        transitions: (M, S, A, S), index 0 = tau (not used), 1..D = tau_1..tau_D.
+        features: (S, K) phi.
+        initial: (S,) p0.
+        horizon: T.
+        targets: (D, K) c~_j.
+        max_iterations: number of w updates after step 0, >= 1.
+        tol: margin below which to stop, >= 0.
+
+    Returns:
+        ``BaselineResult`` with weights (D, K), identical rows holding the chosen w; the learner's
+        policies are the optimal policies for it. History columns "step", "margin"
+        (|mu_E - mu_bar| after that step) and "feature_gap" (|mu_E - mu(w)| of that step's w),
+        one row per step, step 0 included.
+    """
+    P, phi, p0, c = _check_problem(transitions, features, initial, horizon, targets)
+    if max_iterations < 1 or tol < 0:
+        raise ValueError(f"need max_iterations >= 1 and tol >= 0, got {max_iterations}, {tol}")
+    mu_E = c.sum(axis=0)
+    w = np.zeros(phi.shape[1])
+    mu_bar = _optimal_features(P, phi, p0, horizon, w)
+    margins = [float(np.linalg.norm(mu_E - mu_bar))]
+    gaps = list(margins)
+    best_w = w
+    for _ in range(max_iterations):
+        if margins[-1] < tol:
+            break
+        w = mu_E - mu_bar
+        mu = _optimal_features(P, phi, p0, horizon, w)
+        step = mu - mu_bar
+        denom = float(step @ step)
+        if denom <= 1e-24 * max(1.0, float(mu_bar @ mu_bar)):
+            break
+        mu_bar = mu_bar + (float(step @ w) / denom) * step
+        margins.append(float(np.linalg.norm(mu_E - mu_bar)))
+        gaps.append(float(np.linalg.norm(mu_E - mu)))
+        if gaps[-1] < min(gaps[:-1]):
+            best_w = w
+    history = {"step": np.arange(len(margins)), "margin": np.array(margins), "feature_gap": np.array(gaps)}
+    return BaselineResult(np.tile(best_w, (P.shape[0] - 1, 1)), None, history)
+
+
+def max_margin_planning(
+    transitions: np.ndarray,
+    features: np.ndarray,
+    initial: np.ndarray,
+    horizon: int,
+    targets: np.ndarray,
+    *,
+    demo_marginals: np.ndarray | None = None,
+    loss: np.ndarray | None = None,
+    lam: float = 1e-3,
+    eta0: float = 0.1,
+    max_iterations: int = 100,
+) -> BaselineResult:
+    """Ratliff et al.'s maximum margin planning by subgradient descent, one MDP per dynamics.
+
+    Minimises over one shared w
+
+        f(w) = lam/2 |w|^2 + sum_j [ max_pi (w . F_j(pi) + L_j(pi)) - w . c~_j ]
+
+    where the inner maximum is the loss-augmented planning problem under tau_j with per-time
+    reward r_j(t, s) = w . phi(s) + l_j(t, s), l_j(t, s) = sum_{s'} loss[s, s'] d~_j(t, s'), solved
+    by backward induction (its value is p0 . V_j[0]). If ``demo_marginals`` or ``loss`` is None,
+    l_j = 0 and this is the plain max-margin structured perceptron; then, when every c~_j is
+    achievable under tau_j (for instance exact expected features of a policy), f >= f(0) = 0 and
+    the best w seen is 0.
+
+    Steps: w <- w - eta_t g_t with g_t = sum_j (F_j(pi*_j) - c~_j) + lam w, pi*_j the
+    loss-augmented optimal policy under tau_j, eta_t = eta0 / sqrt(1 + t), from w = 0.
+
+    Args:
+        transitions: (M, S, A, S), index 0 = tau (not used), 1..D = tau_1..tau_D.
+        features: (S, K) phi.
+        initial: (S,) p0.
+        horizon: T.
+        targets: (D, K) c~_j.
+        demo_marginals: (D, T, S) d~_j(t, s), the demonstrations' empirical state distribution at
+            time t under tau_j (row j-1), or None.
+        loss: (S, S) loss[s, s'] of being in s where the demonstration is in s', or None.
+        lam: L2 regularisation strength >= 0.
+        eta0: initial step size > 0.
+        max_iterations: number of subgradient evaluations, >= 1.
+
+    Returns:
+        ``BaselineResult`` with weights (D, K), identical rows holding the w of the lowest
+        objective seen. History columns "step", "objective" (f at that step's w), "grad_norm"
+        (Euclidean norm of the subgradient) and "eta", one row per iteration.
+    """
+    P, phi, p0, c = _check_problem(transitions, features, initial, horizon, targets)
+    if lam < 0 or eta0 <= 0 or max_iterations < 1:
+        raise ValueError(f"need lam >= 0, eta0 > 0 and max_iterations >= 1, got {lam}, {eta0}, {max_iterations}")
+    D, S = P.shape[0] - 1, P.shape[1]
+    augment = np.zeros((D, horizon, S))
+    if demo_marginals is not None and loss is not None:
+        d = np.asarray(demo_marginals, dtype=np.float64)
+        if d.shape != (D, horizon, S):
+            raise ValueError(f"demo_marginals must have shape (D, T, S) = {(D, horizon, S)}, got {d.shape}")
+        check_probabilities(d, name="demo_marginals")
+        L = np.asarray(loss, dtype=np.float64)
+        if L.shape != (S, S):
+            raise ValueError(f"loss must have shape (S, S) = {(S, S)}, got {L.shape}")
+        if not np.all(np.isfinite(L)):
+            raise ValueError("loss must be finite")
+        augment = d @ L.T  # (D, T, S): l_j(t, s) = sum_{s'} loss[s, s'] d~_j(t, s')
+    target_sum = c.sum(axis=0)
+    w = np.zeros(phi.shape[1])
+    best_w, best_f = w, np.inf
+    objective, grad_norm, etas = [], [], []
+    for t in range(max_iterations):
+        f = 0.5 * lam * float(w @ w) - float(w @ target_sum)
+        g = lam * w - target_sum
+        for j in range(D):
+            policy, V = backward_induction(P[j + 1], phi @ w + augment[j])
+            f += float(p0 @ V[0])
+            g = g + _feature_sum(P[j + 1], policy, p0, phi)
+        if f < best_f:
+            best_w, best_f = w, f
+        eta = eta0 / np.sqrt(1.0 + t)
+        objective.append(f)
+        grad_norm.append(float(np.linalg.norm(g)))
+        etas.append(eta)
+        w = w - eta * g
+    history = {
+        "step": np.arange(max_iterations),
+        "objective": np.array(objective),
+        "grad_norm": np.array(grad_norm),
+        "eta": np.array(etas),
+    }
+    return BaselineResult(np.tile(best_w, (D, 1)), None, history)
+
+
+def behavioral_cloning(
+    demo_states: np.ndarray, demo_actions: np.ndarray | None, *, n_states: int, n_actions: int
+) -> BaselineResult:
+    """Behavioural cloning by counting: the demonstrations' action frequencies per (t, s).
+
+    Counts are pooled over all dynamics and demonstrations. Where (t, s) was never visited,
+    the policy falls back to the action frequencies of state s pooled over all times; where s
+    was never visited at any time t < T-1 (states at the last time take no action), it is
+    uniform over actions.
+
+    Args:
+        demo_states: (D, N, T) int, state s_t of demonstration n under tau_j (row j-1).
+        demo_actions: (D, N, T-1) int, the action taken after each of the first T-1 states.
+        n_states: S.
+        n_actions: A.
+
+    Returns:
+        ``BaselineResult`` with weights None, policy (T-1, S, A) float whose last axis sums to 1,
+        and an empty history.
+
+    Raises:
+        ValueError: if there are no actions or the shapes or values do not fit.
+    """
+    if demo_actions is None:
+        raise ValueError("behavioural cloning needs the demonstrations' actions, but demo_actions is None")
+    states = np.asarray(demo_states)
+    actions = np.asarray(demo_actions)
+    if n_states < 1 or n_actions < 1:
+        raise ValueError(f"n_states and n_actions must be >= 1, got {n_states}, {n_actions}")
+    if not (np.issubdtype(states.dtype, np.integer) and np.issubdtype(actions.dtype, np.integer)):
+        raise ValueError(f"demo_states and demo_actions must be integer arrays, got {states.dtype} and {actions.dtype}")
+    if states.ndim != 3 or states.shape[2] < 2:
+        raise ValueError(f"demo_states must have shape (D, N, T) with T >= 2, got {states.shape}")
+    D, N, T = states.shape
+    if actions.shape != (D, N, T - 1):
+        raise ValueError(f"demo_actions must have shape (D, N, T-1) = {(D, N, T - 1)}, got {actions.shape}")
+    if states.size and (states.min() < 0 or states.max() >= n_states):
+        raise ValueError(f"demo_states must lie in [0, {n_states}), got range [{states.min()}, {states.max()}]")
+    if actions.size and (actions.min() < 0 or actions.max() >= n_actions):
+        raise ValueError(f"demo_actions must lie in [0, {n_actions}), got range [{actions.min()}, {actions.max()}]")
+    counts = np.zeros((T - 1, n_states, n_actions))
+    times = np.broadcast_to(np.arange(T - 1), actions.shape)
+    np.add.at(counts, (times, states[:, :, :-1], actions), 1.0)
+    pooled = counts.sum(axis=0)  # (S, A)
+    pooled_total = pooled.sum(axis=1, keepdims=True)
+    fallback = np.where(pooled_total > 0, pooled / np.maximum(pooled_total, 1.0), 1.0 / n_actions)
+    totals = counts.sum(axis=2, keepdims=True)
+    policy = np.where(totals > 0, counts / np.maximum(totals, 1.0), fallback[None])
+    return BaselineResult(None, policy, {})
