@@ -8,27 +8,12 @@ its job module (``airl_cli.jobs.<name>``), whose configs are loaded from the ins
 
 from __future__ import annotations
 
-import importlib
-import sys
-from pathlib import Path
-
 import typer
 
-from airl_cli.paths import conf_dir
+from airl_cli.errors import AirlError
+from airl_cli.launch import check_group_choices, config_groups, run_hydra
 
 PASS_THROUGH = {"allow_extra_args": True, "ignore_unknown_options": True}
-
-
-def config_groups() -> dict[str, list[str]]:
-    """Config group -> its options, read from the packaged ``conf/`` folder."""
-    root = Path(conf_dir())
-    groups: dict[str, list[str]] = {}
-    for entry in sorted(root.iterdir(), key=lambda e: e.name):
-        if entry.is_dir() and not entry.name.startswith(("_", ".")) and entry.name != "hydra":
-            options = sorted(e.name[:-5] for e in entry.iterdir() if e.name.endswith(".yaml"))
-            if options:
-                groups[entry.name] = options
-    return groups
 
 
 def _groups_epilog() -> str:
@@ -47,6 +32,7 @@ app = typer.Typer(
     ),
     no_args_is_help=True,
     add_completion=False,
+    pretty_exceptions_enable=False,
     rich_markup_mode=None,
 )
 
@@ -68,39 +54,6 @@ def _root(
     Every command takes Hydra overrides (GROUP=OPTION, KEY=VALUE) after its options; run
     `airl COMMAND --help` for its config groups and `airl COMMAND --cfg job` to see the config.
     """
-
-
-def check_group_choices(overrides: list[str]) -> None:
-    """Refuse ``GROUP=OPTION`` with an unknown OPTION in one sentence (Hydra would print its search path)."""
-    groups = config_groups()
-    for item in overrides:
-        key, sep, value = item.partition("=")
-        key = key.lstrip("+~")
-        if not sep or key not in groups or value.startswith(("choice(", "range(", "glob(")):
-            continue
-        for option in value.split(","):
-            if option and option not in groups[key]:
-                typer.echo(f"error: '{option}' is not an option of the config group '{key}'; choose one of: {', '.join(groups[key])}", err=True)
-                raise typer.Exit(2)
-
-
-def run_hydra(job: str, overrides: list[str], *, cfg: str | None = None, resolve: bool = False, multirun: bool = False) -> None:
-    """Run the Hydra app of ``airl_cli.jobs.<job>`` with these overrides."""
-    check_group_choices(overrides)
-    module = importlib.import_module(f"airl_cli.jobs.{job}")
-    argv = [f"airl {job}"]
-    if multirun:
-        argv.append("--multirun")
-    if cfg is not None:
-        argv += ["--cfg", cfg]
-    if resolve:
-        argv.append("--resolve")
-    saved = sys.argv
-    sys.argv = argv + list(overrides)
-    try:
-        module.hydra_main()
-    finally:
-        sys.argv = saved
 
 
 CfgOption = typer.Option(None, "--cfg", help="Print the composed config instead of running: job, hydra or all.")
@@ -138,6 +91,51 @@ def fit(
     results/fit/<time>/ unless hydra.run.dir=PATH says otherwise.
     """
     run_hydra("fit", ctx.args, cfg=cfg, resolve=resolve, multirun=multirun)
+
+
+@app.command(context_settings=PASS_THROUGH)
+def sweep(
+    ctx: typer.Context,
+    cfg: str | None = CfgOption,
+    resolve: bool = ResolveOption,
+    plot: bool = typer.Option(True, "--plot/--no-plot", help="Draw the experiment's figures when the sweep is done."),
+) -> None:
+    """Run an experiment of thesis chapter 7 (a Hydra multirun on every core), collect its table, draw its figures.
+
+    Takes experiment=NAME and any overrides, e.g. airl sweep experiment=fig05 profile=quick.
+    Jobs that finished in an earlier run of the same command are skipped. The folder is
+    results/sweeps/<experiment>-<profile>/ unless hydra.sweep.dir=PATH says otherwise.
+    """
+    if cfg is not None:  # print the config (Hydra takes --cfg without --multirun)
+        run_hydra("sweep", ctx.args, cfg=cfg, resolve=resolve)
+        return
+    from airl_cli.jobs.common import err_console, out_console
+    from airl_cli.sweeps import run
+
+    check_group_choices(ctx.args)
+    try:
+        status = run(ctx.args, draw=plot, console=err_console, out=out_console)
+    except AirlError as err:
+        err_console.print(f"[bold red]error:[/] {err}", soft_wrap=True)
+        raise typer.Exit(2) from None
+    raise typer.Exit(status)
+
+
+@app.command()
+def plot(folder: str = typer.Argument(..., help="A sweep folder (results/sweeps/NAME-PROFILE).")) -> None:
+    """Draw the thesis's figure(s) of a finished sweep from its results table, as PNG and PDF."""
+    from pathlib import Path
+
+    from airl_cli.jobs.common import err_console, out_console
+    from airl_cli.plotting import draw
+
+    try:
+        paths = draw(Path(folder))
+    except (ValueError, FileNotFoundError) as err:
+        err_console.print(f"[bold red]error:[/] {err}", soft_wrap=True)
+        raise typer.Exit(2) from None
+    for path in paths:
+        out_console.print(f"figure {path}", soft_wrap=True)
 
 
 @app.command()

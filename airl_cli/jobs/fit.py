@@ -4,6 +4,9 @@ from __future__ import annotations
 
 import io
 import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
 
 import hydra
 import numpy as np
@@ -91,35 +94,25 @@ def npy_bytes(array: np.ndarray) -> bytes:
     return buf.getvalue()
 
 
-def main(cfg: DictConfig) -> None:
+@dataclass(frozen=True)
+class FitRun:
+    """One finished fit: its data, what was learned, the score rows, the wall time and the summary."""
+
+    dataset: Dataset
+    settings: FitSettings
+    learned: Learned
+    rows: list[dict]
+    seconds: float
+    text: str
+
+
+def fit_and_write(cfg: DictConfig, folder: Path, on_step: Callable[[dict], None] | None = None) -> FitRun:
+    """Learn as the config says and write every output file of a fit into ``folder``."""
     settings = fit_settings(cfg)
     dataset, seed, generated = load_dataset(cfg, settings)
-    folder = output_dir()
-    o = settings.options
     rng = streams(seed)["fit" if settings.method == "airl" else "method"]
     start = time.perf_counter()
-    if settings.method == "airl":
-        with err_console.status("loading the planner (the first run after installing compiles it, about 10 s)"):
-            warm_up()
-        start = time.perf_counter()
-        columns = (
-            TextColumn("fit"),
-            BarColumn(),
-            TextColumn("step {task.completed}/{task.total}"),
-            TextColumn("objective {task.fields[objective]}"),
-            TextColumn("|grad| {task.fields[grad]}"),
-            TimeElapsedColumn(),
-        )
-        with Progress(*columns, console=err_console, transient=True) as bar:
-            task = bar.add_task("fit", total=o.max_steps, objective="-", grad="-")
-
-            def on_step(row: dict) -> None:
-                bar.update(task, advance=1, objective=f"{row['objective']:.5g}", grad=f"{row['grad_norm']:.3g}")
-
-            learned = learn(dataset, settings, rng, callback=on_step)
-    else:
-        with err_console.status(f"fitting method={settings.method}"):
-            learned = learn(dataset, settings, rng)
+    learned = learn(dataset, settings, rng, callback=on_step)
     seconds = time.perf_counter() - start
     policies = None if learned.policy is None else [learned.policy] * dataset.transitions.shape[0]
     rows = score_rows(dataset, learned.weights, policies)
@@ -130,20 +123,41 @@ def main(cfg: DictConfig) -> None:
         write_json(folder / "weights.json", {"shared": learned.shared, "weights": learned.weights.tolist()})
     else:
         atomic_write(folder / "policy.npy", lambda h: h.write(npy_bytes(learned.policy)))
-    metrics = {
-        "method": learned.method,
-        "shared": learned.shared,
-        **learned.info,
-        "scored": dataset.true_weights is not None,
-        "dynamics": rows,
-    }
+    metrics = {"method": learned.method, "shared": learned.shared, **learned.info, "scored": dataset.true_weights is not None, "dynamics": rows}
     write_json(folder / "metrics.json", metrics)
     write_json(folder / "timing.json", {"fit_seconds": round(seconds, 6)})
     if learned.history:
         write_text(folder / "history.csv", pd.DataFrame(learned.history).to_csv(index=False))
     write_text(folder / "summary.txt", text)
     save_config(cfg, folder)
-    out_console.print(text, end="", soft_wrap=True)
+    return FitRun(dataset, settings, learned, rows, seconds, text)
+
+
+def main(cfg: DictConfig) -> None:
+    folder = output_dir()
+    settings = fit_settings(cfg)
+    if settings.method != "airl":
+        with err_console.status(f"fitting method={settings.method}"):
+            run = fit_and_write(cfg, folder)
+    else:
+        with err_console.status("loading the planner (the first run after installing compiles it, about 10 s)"):
+            warm_up()
+        columns = (
+            TextColumn("fit"),
+            BarColumn(),
+            TextColumn("step {task.completed}/{task.total}"),
+            TextColumn("objective {task.fields[objective]}"),
+            TextColumn("|grad| {task.fields[grad]}"),
+            TimeElapsedColumn(),
+        )
+        with Progress(*columns, console=err_console, transient=True) as bar:
+            task = bar.add_task("fit", total=settings.options.max_steps, objective="-", grad="-")
+
+            def on_step(row: dict) -> None:
+                bar.update(task, advance=1, objective=f"{row['objective']:.5g}", grad=f"{row['grad_norm']:.3g}")
+
+            run = fit_and_write(cfg, folder, on_step)
+    out_console.print(run.text, end="", soft_wrap=True)
     out_console.print(f"\nwrote {folder}")
 
 

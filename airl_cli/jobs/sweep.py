@@ -1,0 +1,118 @@
+"""The job of ``airl sweep``: one point of an experiment's grid, skipped if an earlier run finished it.
+
+A fit experiment runs ``airl fit``'s work into the job folder and then writes ``rows.csv``, its
+tidy rows for the results table; the alpha-vector experiment (thesis Figs. 2-3) writes
+``alphas.npz`` and one row. ``rows.csv`` is written last, atomically: its presence means done.
+Bad input stops the job with ``error.txt`` (one sentence) instead of rows.
+"""
+
+from __future__ import annotations
+
+import io
+import time
+
+import hydra
+import numpy as np
+import pandas as pd
+from omegaconf import DictConfig, OmegaConf
+
+from airl_cli import sweeps
+from airl_cli.build import resolved_loss, streams
+from airl_cli.config import plain, problem_settings
+from airl_cli.core.multimodel import exact_alpha_vectors, expand_beliefs, pbvi_graph, upper_envelope_1d
+from airl_cli.errors import AirlError
+from airl_cli.jobs.common import output_dir, save_config
+from airl_cli.jobs.fit import fit_and_write
+from airl_cli.paths import conf_dir
+from airl_cli.results import atomic_write, write_text
+
+
+def fit_rows(cfg: DictConfig, folder) -> list[dict]:
+    """Run the fit of this job; one row per dynamics in the schema ``sweeps.FIT_COLUMNS``."""
+    run = fit_and_write(cfg, folder)
+    c = plain(cfg)
+    exp = c["experiment"]
+    ds = run.dataset
+    base = {
+        "experiment": exp["name"],
+        "method": run.settings.method,
+        "seed": c["seed"],
+        "run": c["seed"],
+        "x": float(OmegaConf.select(cfg, exp["x_key"])),
+        "x_name": exp["x"],
+        "mdp": c["mdp"]["name"],
+        "dynamics_kind": c["dynamics"]["name"],
+        "n_dynamics": ds.n_dynamics,
+        "n_features": ds.n_features,
+        "n_demos": ds.n_demos if ds.feature_expectations is None else 0,
+        "demos": c["demos"]["kind"],
+        "sigma": float(c["dynamics"].get("sigma", 0.0)),
+        "weight_sharing": run.settings.options.weight_sharing,
+        "loss": resolved_loss(problem_settings(cfg)),
+    }
+    out = []
+    for row in run.rows:
+        out.append(
+            {
+                **base,
+                "dynamics": row["dynamics"],
+                "learner_score": row["learner_score"],
+                "demonstrator_score": row["demonstrator_score"],
+                "cosine_similarity": row["cosine_similarity"],
+                "seconds": run.seconds,
+            }
+        )
+    return out
+
+
+def alpha_rows(cfg: DictConfig, folder) -> list[dict]:
+    """Thesis Figs. 2-3: every exact alpha-vector at one (t, s) of two random MDPs, and PBVI's."""
+    exp = plain(cfg)["experiment"]
+    seed = int(cfg.seed)
+    rng = streams(seed)["mdp"]
+    S, A, T, t, s = exp["n_states"], exp["n_actions"], exp["horizon"], exp["t"], exp["s"]
+    start = time.perf_counter()
+    P = rng.dirichlet(np.ones(S), size=(2, S, A))
+    R = rng.normal(size=(2, T, S))
+    exact = exact_alpha_vectors(P, R, t=t, s=s)
+    envelope = upper_envelope_1d(exact)
+    beliefs = expand_beliefs(P, iterations=exp["pbvi_iterations"], rng=streams(seed)["fit"])
+    graph = pbvi_graph(P, R, beliefs)
+    pbvi = graph.alpha[t][graph.offsets[t][s] : graph.offsets[t][s + 1]]
+    x = np.linspace(0.0, 1.0, 2001)
+    curve = lambda a: np.max(np.outer(1 - x, a[:, 0]) + np.outer(x, a[:, 1]), axis=1)  # noqa: E731
+    gap = float(np.max(curve(exact[envelope]) - curve(pbvi)))
+    buf = io.BytesIO()
+    np.savez(buf, exact=exact, exact_envelope=envelope, pbvi=pbvi, t=t, s=s)
+    atomic_write(folder / "alphas.npz", lambda h: h.write(buf.getvalue()))
+    save_config(cfg, folder)
+    return [
+        {
+            "experiment": exp["name"],
+            "seed": seed,
+            "n_exact": len(exact),
+            "n_envelope": len(envelope),
+            "n_pbvi": len(pbvi),
+            "n_beliefs": len(beliefs),
+            "max_value_gap": gap,
+            "seconds": time.perf_counter() - start,
+        }
+    ]
+
+
+def main(cfg: DictConfig) -> None:
+    folder = output_dir()
+    if (folder / sweeps.ROWS).exists():
+        return  # finished in an earlier run of the same sweep
+    (folder / sweeps.ERROR).unlink(missing_ok=True)
+    try:
+        rows = alpha_rows(cfg, folder) if cfg.experiment.kind == "alphas" else fit_rows(cfg, folder)
+    except AirlError as err:
+        write_text(folder / sweeps.ERROR, f"{err}\n")
+        return
+    write_text(folder / sweeps.ROWS, pd.DataFrame(rows).to_csv(index=False))
+
+
+@hydra.main(version_base="1.3", config_path=conf_dir(), config_name="airl")
+def hydra_main(cfg: DictConfig) -> None:
+    main(cfg)

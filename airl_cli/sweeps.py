@@ -1,0 +1,235 @@
+"""Sweeps: the experiments of thesis chapter 7 as Hydra multiruns, resumable, collected into one table.
+
+An experiment config (``conf/experiment/NAME.yaml``) sets the problem and lists its sweep in
+``hydra.sweeper.params``; the values depend on the profile through the ``airl.sweep`` resolver.
+Every job writes its rows (``rows.csv``) into its own folder, named from its overrides, as its last
+act; the sweep folder is fixed per experiment and profile. Running the same command again skips
+jobs whose ``rows.csv`` exists, and the results table is always rebuilt from those files, so an
+interrupted sweep never leaves duplicated or partial rows.
+"""
+
+from __future__ import annotations
+
+import json
+import threading
+from collections.abc import Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass
+from pathlib import Path
+
+import pandas as pd
+from hydra import compose, initialize_config_dir
+from hydra._internal.config_loader_impl import get_overrides_dirname
+from hydra._internal.core_plugins.basic_sweeper import BasicSweeper
+from hydra.core.override_parser.overrides_parser import OverridesParser
+from hydra.errors import HydraException
+from omegaconf import DictConfig, OmegaConf
+from rich.console import Console
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+from airl_cli.config import fit_settings, plain, problem_settings
+from airl_cli.errors import ConfigError
+from airl_cli.paths import conf_dir
+from airl_cli.results import atomic_write, write_json, write_text
+
+ROWS = "rows.csv"
+ERROR = "error.txt"
+TABLE = "results.csv"
+META = "experiment.json"
+
+#: Columns of the results table of a fit experiment, in order (one row per job x dynamics).
+FIT_COLUMNS = (
+    "experiment", "method", "seed", "run", "x", "x_name", "mdp", "dynamics_kind", "n_dynamics", "n_features",
+    "n_demos", "demos", "sigma", "weight_sharing", "loss", "dynamics", "learner_score", "demonstrator_score",
+    "cosine_similarity", "seconds",
+)  # fmt: skip
+#: Quick profile: this many runs at most, the first and last swept value, the first two methods.
+QUICK_RUNS = 2
+QUICK_METHODS = 2
+
+
+def _sweep_values(what: str, *, _root_: DictConfig) -> str:
+    """``${airl.sweep:runs|values|methods}``: the sweep of the experiment under the current profile."""
+    exp = _root_.experiment
+    quick = _root_.profile.name == "quick"
+    if what == "runs":
+        n = min(int(exp.runs), QUICK_RUNS) if quick else int(exp.runs)
+        return f"range(0,{n})"
+    if what == "values":
+        values = list(exp["values"])
+        if quick:
+            values = list(dict.fromkeys([values[0], values[-1]]))
+        return ",".join(str(v) for v in values)
+    if what == "methods":
+        methods = list(exp.methods)
+        return ",".join(methods[:QUICK_METHODS] if quick else methods)
+    raise ValueError(f"airl.sweep takes runs, values or methods, not {what!r}")
+
+
+OmegaConf.register_new_resolver("airl.sweep", _sweep_values, replace=True)
+
+
+# --------------------------------------------------------------------------- planning
+
+
+@dataclass(frozen=True)
+class SweepPlan:
+    """What ``airl sweep`` will run.
+
+    Attributes:
+        experiment: the experiment's settings (the ``experiment`` node, plain).
+        folder: the sweep folder.
+        jobs: the job folder names, in launch order.
+    """
+
+    experiment: dict
+    folder: Path
+    jobs: tuple[str, ...]
+
+    def done(self) -> list[str]:
+        return [j for j in self.jobs if (self.folder / j / ROWS).exists()]
+
+    def failed(self) -> dict[str, str]:
+        """Job -> its error sentence, for jobs that stopped on bad input."""
+        out = {}
+        for j in self.jobs:
+            err = self.folder / j / ERROR
+            if not (self.folder / j / ROWS).exists() and err.exists():
+                out[j] = err.read_text().strip()
+        return out
+
+
+def _is_task_override(item: str) -> bool:
+    key = item.lstrip("+~").split("=", 1)[0]
+    return not (key.startswith("hydra.") or key.startswith("hydra/"))
+
+
+def _compose(overrides: list[str]) -> DictConfig:
+    with initialize_config_dir(config_dir=conf_dir(), version_base="1.3", job_name="sweep"):
+        return compose("airl", overrides=overrides, return_hydra_config=True)
+
+
+def plan(overrides: list[str]) -> SweepPlan:
+    """The sweep folder and job list for these command-line overrides; checks the first job's config.
+
+    Raises:
+        ConfigError: no experiment named, an unknown override, or a bad value in the first job.
+    """
+    parser = OverridesParser.create()
+    try:
+        parsed = parser.parse_overrides(overrides)
+    except HydraException as err:
+        raise ConfigError(f"cannot read the overrides: {err}") from None
+    # compose with the first value of every swept override, as the first job will
+    first = [
+        f"{o.get_key_element()}={next(iter(o.sweep_string_iterator()))}" if o.is_sweep_override() else o.input_line
+        for o in parsed
+    ]
+    try:
+        cfg = _compose(first)
+    except HydraException as err:
+        raise ConfigError(str(err).splitlines()[0]) from None
+    if cfg.get("experiment") is None:
+        raise ConfigError("name an experiment: airl sweep experiment=NAME (see airl sweep --help)")
+    params = [f"{k}={v}" for k, v in (cfg.hydra.sweeper.params or {}).items()]
+    task_args = [o for o in overrides if _is_task_override(o)]
+    jobs_overrides = BasicSweeper.split_arguments(parser.parse_overrides(params + task_args), None)[0]
+    exclude = list(cfg.hydra.job.config.override_dirname.exclude_keys)
+    jobs = tuple(get_overrides_dirname(parser.parse_overrides(job), exclude, ",", "=") for job in jobs_overrides)
+    try:
+        first_job = _compose([o for o in overrides if not _is_task_override(o)] + jobs_overrides[0])
+    except HydraException as err:
+        raise ConfigError(str(err).splitlines()[0]) from None
+    if first_job.experiment.kind == "fit":
+        problem_settings(first_job)
+        fit_settings(first_job)
+    return SweepPlan(plain(cfg.experiment), Path(cfg.hydra.sweep.dir), jobs)
+
+
+# --------------------------------------------------------------------------- progress and collection
+
+
+@contextmanager
+def progress(sweep: SweepPlan, console: Console, interval: float = 0.5) -> Iterator[None]:
+    """Show a progress bar of finished jobs while the multirun works (jobs run in other processes)."""
+    stop = threading.Event()
+    columns = (TextColumn(f"sweep {sweep.experiment['name']}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn())
+    with Progress(*columns, console=console, transient=True) as bar:
+        task = bar.add_task("jobs", total=len(sweep.jobs), completed=len(sweep.done()))
+
+        def watch() -> None:
+            while not stop.wait(interval):
+                bar.update(task, completed=len(sweep.done()))
+
+        thread = threading.Thread(target=watch, daemon=True)
+        thread.start()
+        try:
+            yield
+        finally:
+            stop.set()
+            thread.join()
+            bar.update(task, completed=len(sweep.done()))
+
+
+def collect(sweep: SweepPlan) -> pd.DataFrame:
+    """Concatenate the rows of every finished job of this sweep into the results table.
+
+    Writes ``results.csv`` (sorted, one row per job x dynamics) and ``experiment.json`` into the
+    sweep folder, atomically; returns the table.
+    """
+    frames = [pd.read_csv(sweep.folder / j / ROWS) for j in sweep.done()]
+    table = pd.concat(frames, ignore_index=True) if frames else pd.DataFrame()
+    if not table.empty:
+        keys = [c for c in ("method", "x", "seed", "dynamics") if c in table]
+        table = table.sort_values(keys, kind="stable").reset_index(drop=True)
+    write_text(sweep.folder / TABLE, table.to_csv(index=False))
+    finished = sweep.done()
+    if sweep.experiment.get("kind") == "alphas" and finished:
+        data = (sweep.folder / finished[0] / "alphas.npz").read_bytes()
+        atomic_write(sweep.folder / "alphas.npz", lambda h: h.write(data))
+    write_json(sweep.folder / META, {**sweep.experiment, "jobs": len(sweep.jobs), "finished": int(len(frames))})
+    return table
+
+
+def experiment_names() -> list[str]:
+    """Every experiment config shipped in conf/experiment/."""
+    return sorted(p.stem for p in (Path(conf_dir()) / "experiment").glob("*.yaml") if not p.name.startswith("_"))
+
+
+def read_meta(folder: Path) -> dict:
+    return json.loads((folder / META).read_text())
+
+
+# --------------------------------------------------------------------------- the command
+
+
+def run(overrides: list[str], *, draw: bool, console: Console, out: Console) -> int:
+    """``airl sweep``: plan, run the jobs not yet done, collect the table, draw the figures.
+
+    Returns:
+        The exit status: 0, or 1 if some jobs stopped on bad input.
+    """
+    from airl_cli.launch import run_hydra
+
+    sweep = plan(overrides)
+    done = len(sweep.done())
+    name = sweep.experiment["name"]
+    out.print(f"sweep {name}: {len(sweep.jobs)} jobs, {done} finished earlier; folder {sweep.folder}", soft_wrap=True)
+    if done < len(sweep.jobs):
+        # an absolute folder: launcher workers may be reused processes with another working directory
+        absolute = [*overrides, f"hydra.sweep.dir={sweep.folder.resolve()}"]
+        with progress(sweep, console):
+            run_hydra("sweep", absolute, multirun=True)
+    table = collect(sweep)
+    failed = sweep.failed()
+    out.print(f"finished {len(sweep.done())} of {len(sweep.jobs)} jobs; table {sweep.folder / TABLE} ({len(table)} rows)", soft_wrap=True)
+    if draw and not table.empty:
+        from airl_cli.plotting import draw as draw_figures
+
+        for path in draw_figures(sweep.folder):
+            out.print(f"figure {path}", soft_wrap=True)
+    if failed:
+        job, message = next(iter(failed.items()))
+        console.print(f"[bold red]error:[/] {len(failed)} job(s) stopped on bad input, for example {job}: {message}", soft_wrap=True)
+        return 1
+    return 0

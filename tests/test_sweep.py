@@ -1,0 +1,127 @@
+"""airl sweep and airl plot: every experiment composes and runs small; sweeps resume after a kill."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pandas as pd
+import pytest
+from typer.testing import CliRunner
+
+from airl_cli.cli import app
+from airl_cli.sweeps import FIT_COLUMNS, experiment_names, plan
+
+runner = CliRunner()
+EXPERIMENTS = ["fig02_03", "fig04", "fig05", "fig06", "fig07", "fig08", "fig09", "fig12", "fig13", "fig14", "fig15", "fig17", "fig18"]
+
+
+@pytest.fixture(autouse=True)
+def in_tmp(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+
+
+def test_every_thesis_experiment_has_a_config():
+    assert experiment_names() == EXPERIMENTS
+
+
+@pytest.mark.parametrize("name", EXPERIMENTS)
+@pytest.mark.parametrize("profile", ["full", "quick"])
+def test_every_experiment_composes_and_plans(name, profile):
+    sweep = plan([f"experiment={name}", f"profile={profile}"])
+    assert sweep.experiment["name"] == name
+    assert sweep.folder == Path("results/sweeps") / f"{sweep.experiment['study']}-{profile}"
+    assert len(sweep.jobs) == len(set(sweep.jobs)) >= 1
+    if profile == "quick":
+        assert len(sweep.jobs) <= 8
+
+
+def test_full_sizes_follow_the_thesis():
+    assert len(plan(["experiment=fig04"]).jobs) == 100 * 5  # 100 datasets, five methods
+    assert len(plan(["experiment=fig05"]).jobs) == 7 * 10 * 5  # N in {1, 3, ..., 1000}
+    assert len(plan(["experiment=fig17", "method=airl"]).jobs) == 20  # 20 runs
+
+
+@pytest.mark.parametrize("name", EXPERIMENTS)
+def test_every_experiment_runs_small_in_process(tmp_path, name):
+    """Each experiment at the quick size, through the in-process launcher, to a table and figures."""
+    result = runner.invoke(app, ["sweep", f"experiment={name}", "profile=quick", "hydra/launcher=basic", "method=airl"])
+    assert result.exit_code == 0, result.output
+    folder = next((tmp_path / "results" / "sweeps").iterdir())
+    table = pd.read_csv(folder / "results.csv")
+    assert len(table) >= 1
+    if name != "fig02_03":
+        assert list(table.columns) == list(FIT_COLUMNS)
+        assert table["learner_score"].between(0, 1 + 1e-9).all()
+    assert list((folder / "figures").glob("*.png")) and list((folder / "figures").glob("*.pdf"))
+
+
+@pytest.mark.parametrize("name", ["fig04", "fig12"])
+def test_quick_sweep_end_to_end_on_every_core(tmp_path, name):
+    """The real launcher (joblib, every core): sweep, table, figures; then airl plot draws them again."""
+    result = runner.invoke(app, ["sweep", f"experiment={name}", "profile=quick"])
+    assert result.exit_code == 0, result.output
+    folder = tmp_path / "results" / "sweeps" / f"{name}-quick"
+    table = pd.read_csv(folder / "results.csv")
+    assert set(table["method"]) == {"airl", "mce"} and set(table["seed"]) == {0, 1}
+    assert not table.duplicated(["method", "seed", "dynamics"]).any()
+    pngs = sorted(p.name for p in (folder / "figures").glob("*.png"))
+    assert pngs
+    (folder / "figures" / pngs[0]).unlink()
+    replot = runner.invoke(app, ["plot", str(folder)])
+    assert replot.exit_code == 0 and (folder / "figures" / pngs[0]).exists()
+
+
+def test_a_killed_sweep_resumes_without_duplicates(tmp_path):
+    cmd = [sys.executable, "-m", "airl_cli", "sweep", "experiment=fig05", "profile=quick", "--no-plot"]
+    folder = tmp_path / "results" / "sweeps" / "fig05-quick"
+    proc = subprocess.Popen(cmd, cwd=tmp_path, start_new_session=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    deadline = time.time() + 240
+    while time.time() < deadline and len(list(folder.glob("*/rows.csv"))) < 2:
+        time.sleep(0.2)
+    os.killpg(proc.pid, signal.SIGKILL)  # the whole sweep, workers included, mid-run
+    proc.wait()
+    finished = list(folder.glob("*/rows.csv"))
+    assert 2 <= len(finished)
+    # make one finished job look half-written: its other files are there, its rows are not
+    finished[0].unlink()
+    result = subprocess.run(cmd, cwd=tmp_path, capture_output=True, text=True, timeout=600)
+    assert result.returncode == 0, result.stderr
+    table = pd.read_csv(folder / "results.csv")
+    assert len(table) == 8 * 4  # 8 jobs x (tau + three tau_j)
+    assert not table.duplicated(["method", "x", "seed", "dynamics"]).any()
+    assert f"{len(finished) - 1} finished earlier" in result.stdout
+
+
+def test_a_job_that_fails_on_bad_input_is_reported(tmp_path):
+    # behavioural cloning cannot use exact feature expectations: the job stops with error.txt
+    result = runner.invoke(app, ["sweep", "experiment=fig12", "profile=quick", "method=bc", "hydra/launcher=basic"])
+    assert result.exit_code == 1
+    assert "stopped on bad input" in result.output and "demo_actions" in result.output and "Traceback" not in result.output
+    errors = list((tmp_path / "results" / "sweeps" / "fig12-quick").glob("*/error.txt"))
+    assert len(errors) == 2
+
+
+@pytest.mark.parametrize(
+    "args, needle",
+    [
+        (["sweep"], "experiment=NAME"),
+        (["sweep", "experiment=fig99"], "fig99"),
+        (["sweep", "experiment=fig05", "optim.lam=-1"], "optim.lam"),
+        (["plot", "nowhere"], "nowhere"),
+    ],
+)
+def test_bad_sweep_input(args, needle):
+    result = runner.invoke(app, args)
+    assert result.exit_code == 2 and needle in result.output and "Traceback" not in result.output
+
+
+def test_a_cluster_launcher_composes():
+    pytest.importorskip("hydra_plugins.hydra_submitit_launcher")
+    result = runner.invoke(app, ["sweep", "experiment=fig05", "hydra/launcher=submitit_slurm", "hydra.launcher.partition=gpu", "--cfg", "hydra"])
+    assert result.exit_code == 0, result.output
+    assert "submitit" in result.output and "partition: gpu" in result.output
