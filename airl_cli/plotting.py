@@ -11,13 +11,11 @@ only tables and arrays; it never imports the solver (``airl_cli.core``).
 
 from __future__ import annotations
 
-import textwrap
-
 import json
 import math
 import os
 import re
-import tempfile
+import textwrap
 from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -29,6 +27,8 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
 from matplotlib.ticker import FixedLocator, FuncFormatter, NullLocator
+
+from airl_cli.results import atomic_write
 
 __all__ = [
     "METHOD_COLOURS",
@@ -669,34 +669,13 @@ def _read_alphas(folder: Path) -> dict[str, Any]:
     return data
 
 
-def _umask() -> int:
-    mask = os.umask(0)
-    os.umask(mask)
-    return mask
-
-
-_UMASK = _umask()
 
 
 def _save(fig: Figure, path: Path) -> Path:
     """Save ``fig`` to ``path`` atomically (a temporary file in the same folder, then a rename)."""
     fmt = path.suffix.lstrip(".")
     metadata = PNG_METADATA if fmt == "png" else PDF_METADATA
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        os.chmod(tmp, 0o666 & ~_UMASK)  # mkstemp creates 0600; give the usual permissions
-        with os.fdopen(fd, "wb") as handle:
-            fig.savefig(handle, format=fmt, dpi=DPI, metadata=metadata)
-            handle.flush()
-            os.fsync(handle.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except FileNotFoundError:
-            pass
-        raise
-    return path
+    return atomic_write(path, lambda handle: fig.savefig(handle, format=fmt, dpi=DPI, metadata=metadata))
 
 
 def draw(folder: str | os.PathLike) -> list[Path]:

@@ -22,8 +22,8 @@ from airl_cli.data import Dataset, read_dataset, write_dataset
 from airl_cli.errors import ConfigError
 from airl_cli.evaluate import score_rows
 from airl_cli.jobs.common import err_console, out_console, output_dir, run_job, save_config
-from airl_cli.paths import conf_dir
 from airl_cli.learners import Learned, learn
+from airl_cli.paths import conf_dir
 from airl_cli.results import atomic_write, write_json, write_text
 
 
