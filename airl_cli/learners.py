@@ -89,5 +89,10 @@ def learn(
     elif name == "projection":
         res = baselines.projection(P, phi, p0, T, targets, **opts)
     else:
-        res = baselines.max_margin_planning(P, phi, p0, T, targets, demo_marginals=demo_marginals(dataset), loss=dataset.loss, **opts)
+        # the margin is the loss: scaled like the thesis's method's (game.normalize_loss), or a grid's
+        # squared distances (up to 32 a step) swamp any w that 100 subgradient steps can reach
+        loss = dataset.loss
+        if settings.options.normalize_loss and loss is not None and np.max(loss) > 0:
+            loss = loss / np.max(loss)
+        res = baselines.max_margin_planning(P, phi, p0, T, targets, demo_marginals=demo_marginals(dataset), loss=loss, **opts)
     return Learned(name, res.weights, None, res.history, {"iterations": int(len(next(iter(res.history.values()), [])))})

@@ -10,6 +10,7 @@ interrupted sweep never leaves duplicated or partial rows.
 
 from __future__ import annotations
 
+import hashlib
 import json
 import threading
 from collections.abc import Iterator
@@ -143,7 +144,22 @@ def plan(overrides: list[str]) -> SweepPlan:
     if first_job.experiment.kind == "fit":
         problem_settings(first_job)
         fit_settings(first_job)
-    return SweepPlan(plain(cfg.experiment), Path(cfg.hydra.sweep.dir), jobs)
+    return SweepPlan(plain(cfg.experiment), _folder(cfg, overrides, parser), jobs)
+
+
+def _folder(cfg: DictConfig, overrides: list[str], parser: OverridesParser) -> Path:
+    """The sweep folder: results/sweeps/<study>-<profile>, plus the command's other overrides.
+
+    A variant of an experiment (say mdp.transition=dirichlet) thus gets a folder of its own and
+    never mixes its table with the plain experiment's; hydra.sweep.dir=PATH names it outright.
+    """
+    if any(o.split("=", 1)[0] == "hydra.sweep.dir" for o in overrides):
+        return Path(cfg.hydra.sweep.dir)
+    extra = [o for o in overrides if _is_task_override(o) and o.lstrip("+~").split("=", 1)[0] not in ("experiment", "profile")]
+    suffix = get_overrides_dirname(parser.parse_overrides(extra), [], ",", "=") if extra else ""
+    if len(suffix) > 100:
+        suffix = hashlib.sha1(suffix.encode()).hexdigest()[:12]
+    return Path(f"{cfg.hydra.sweep.dir}-{suffix}" if suffix else cfg.hydra.sweep.dir)
 
 
 # --------------------------------------------------------------------------- progress and collection
@@ -217,7 +233,9 @@ def run(overrides: list[str], *, draw: bool, console: Console, out: Console) -> 
     out.print(f"sweep {name}: {len(sweep.jobs)} jobs, {done} finished earlier; folder {sweep.folder}", soft_wrap=True)
     if done < len(sweep.jobs):
         # an absolute folder: launcher workers may be reused processes with another working directory
-        absolute = [*overrides, f"hydra.sweep.dir={sweep.folder.resolve()}"]
+        quoted = str(sweep.folder.resolve()).replace("\\", "\\\\").replace("'", "\\'")
+        absolute = [*overrides, f"hydra.sweep.dir='{quoted}'"]  # quoted: folder names hold '=' and ','
+
         with progress(sweep, console):
             run_hydra("sweep", absolute, multirun=True)
     table = collect(sweep)

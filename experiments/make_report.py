@@ -10,29 +10,30 @@ the sweeps.
 
 from __future__ import annotations
 
-import json
 import shutil
 import sys
 from pathlib import Path
 
 import pandas as pd
 
+from airl_cli.sweeps import experiment_names, plan
+
 HERE = Path(__file__).resolve().parent
 ORDER = ["airl", "mce", "projection", "mmp", "bc"]
 
 
 def load(sweeps: Path) -> dict[str, tuple[dict, pd.DataFrame]]:
-    """experiment name -> (its metadata, its results table), for every finished full sweep."""
+    """experiment name -> (its metadata, its results table), for every experiment whose full sweep finished.
+
+    The metadata comes from the experiment's own config: two experiments may share one sweep
+    (fig14 and fig15 are one study), whose experiment.json names only the last one run.
+    """
     out = {}
-    for folder in sorted(sweeps.glob("*-full")):
-        if not (folder / "results.csv").exists():
-            continue
-        meta = json.loads((folder / "experiment.json").read_text())
-        table = pd.read_csv(folder / "results.csv")
-        names = {meta["name"]} | ({"fig14", "fig15"} if meta["study"] == "fig14_15" else set())
-        names |= {"fig17", "fig18"} if meta["study"] == "fig17_18" else set()
-        for name in names:
-            out[name] = ({**meta, "folder": str(folder)}, table)
+    for name in experiment_names():
+        meta = plan([f"experiment={name}"]).experiment
+        folder = sweeps / f"{meta['study']}-full"
+        if (folder / "results.csv").exists():
+            out[name] = ({**meta, "folder": str(folder)}, pd.read_csv(folder / "results.csv"))
     return out
 
 

@@ -40,6 +40,14 @@ def test_every_experiment_composes_and_plans(name, profile):
         assert len(sweep.jobs) <= 8
 
 
+def test_a_variant_gets_its_own_folder():
+    plain_run = plan(["experiment=fig05", "profile=quick"])
+    variant = plan(["experiment=fig05", "profile=quick", "mdp.transition=dirichlet", "mdp.dirichlet_alpha=0.3"])
+    assert plain_run.folder == Path("results/sweeps/fig05-quick")
+    assert variant.folder == Path("results/sweeps/fig05-quick-mdp.dirichlet_alpha=0.3,mdp.transition=dirichlet")
+    assert plan(["experiment=fig05", "hydra.sweep.dir=elsewhere"]).folder == Path("elsewhere")
+
+
 def test_full_sizes_follow_the_thesis():
     assert len(plan(["experiment=fig04"]).jobs) == 100 * 5  # 100 datasets, five methods
     assert len(plan(["experiment=fig05"]).jobs) == 7 * 10 * 5  # N in {1, 3, ..., 1000}
