@@ -178,8 +178,10 @@ def _title(fig: Figure, meta: Mapping[str, Any], fallback: str) -> None:
 
 
 def _legend(fig: Figure, handles: list, ncols: int | None = None) -> None:
+    """A legend below the axes, in as many rows as the figure's width needs (about 2.3 inches an entry)."""
     if handles:
-        fig.legend(handles=handles, loc="outside lower center", ncols=ncols or min(len(handles), 6), frameon=False)
+        fits = max(1, int(fig.get_figwidth() / 2.3))
+        fig.legend(handles=handles, loc="outside lower center", ncols=ncols or min(len(handles), 6, fits), frameon=False)
 
 
 def _x_axis(ax, xs: np.ndarray, log: bool, label: str) -> None:
@@ -215,11 +217,11 @@ def _quartiles(values: Any) -> pd.DataFrame:
     ).sort_index()
 
 
-def _band(ax, stats: pd.DataFrame, colour: str, label: str, linestyle: str = "-", marker: str = "o"):
+def _band(ax, stats: pd.DataFrame, colour: str, label: str, linestyle: str = "-", marker: str = "o", zorder: float = 2):
     x = stats.index.to_numpy(dtype=float)
     ax.fill_between(x, stats["q25"], stats["q75"], color=colour, alpha=0.18, linewidth=0)
     (line,) = ax.plot(x, stats["median"], color=colour, linestyle=linestyle, marker=marker, markersize=4,
-                      linewidth=2 if linestyle == "-" else 1.6, label=label)
+                      linewidth=2 if linestyle == "-" else 1.6, label=label, zorder=zorder)
     return line
 
 
@@ -354,8 +356,9 @@ def curves(df: pd.DataFrame, meta: Mapping[str, Any]) -> Figure:
         # the demonstrator does not depend on the method: one score per (x, seed)
         demo = rows.groupby(["x", "seed"])["demonstrator_score"].mean().dropna()
         if len(demo):
+            # on top: a method that copies the demonstrator (behavioural cloning) would hide it
             _band(ax, _quartiles(demo.groupby(level="x")), DEMONSTRATOR_COLOUR, "demonstrator",
-                  linestyle="--", marker="")
+                  linestyle="--", marker="", zorder=5)
         for method in methods:
             learner = rows.loc[rows["method"].astype(str) == method].dropna(subset=["learner_score"])
             if learner.empty:

@@ -10,6 +10,7 @@ the sweeps.
 
 from __future__ import annotations
 
+import re
 import shutil
 import sys
 from pathlib import Path
@@ -34,6 +35,19 @@ def load(sweeps: Path) -> dict[str, tuple[dict, pd.DataFrame]]:
         folder = sweeps / f"{meta['study']}-full"
         if (folder / "results.csv").exists():
             out[name] = ({**meta, "folder": str(folder)}, pd.read_csv(folder / "results.csv"))
+    return out
+
+
+def load_variants(sweeps: Path, experiments: dict) -> dict[str, tuple[dict, pd.DataFrame]]:
+    """Variants run as `airl sweep experiment=NAME OVERRIDES`: folder <study>-full-<overrides>."""
+    out = {}
+    by_study = {meta["study"]: (name, meta) for name, (meta, _) in experiments.items()}
+    for folder in sorted(sweeps.glob("*-full-*")):
+        study, _, overrides = folder.name.partition("-full-")
+        if study not in by_study or not (folder / "results.csv").exists():
+            continue
+        name, meta = by_study[study]
+        out[f"{name} with {overrides}"] = ({**meta, "folder": str(folder), "slug": re.sub(r"[^A-Za-z0-9.]+", "_", overrides)}, pd.read_csv(folder / "results.csv"))
     return out
 
 
@@ -154,6 +168,16 @@ def main() -> None:
         for png in sorted(Path(meta["folder"], "figures").glob(f"{name}_*.png")):
             shutil.copyfile(png, figures / png.name)
             parts += ["", f"![{png.stem}](figures/{png.name})"]
+    variants = load_variants(sweeps, experiments)
+    if variants:
+        parts += ["", "# Variants", "", "The same experiments with one setting changed, each in a sweep folder of its own."]
+    for label, (meta, table) in variants.items():
+        name = label.split(" with ")[0]
+        parts += ["", f"## {label}", "", summary(name, meta, table)]
+        for png in sorted(Path(meta["folder"], "figures").glob(f"{name}_*.png")):
+            target = f"{meta['slug']}_{png.name}"
+            shutil.copyfile(png, figures / target)
+            parts += ["", f"![{target}](figures/{target})"]
     (HERE / "results.md").write_text("\n".join(parts) + "\n")
     print(f"wrote {HERE / 'results.md'} and {len(list(figures.glob('*.png')))} figures")
 

@@ -110,7 +110,7 @@ def test_a_job_that_fails_on_bad_input_is_reported(tmp_path):
     result = runner.invoke(app, ["sweep", "experiment=fig12", "profile=quick", "method=bc", "hydra/launcher=basic"])
     assert result.exit_code == 1
     assert "stopped on bad input" in result.output and "demo_actions" in result.output and "Traceback" not in result.output
-    errors = list((tmp_path / "results" / "sweeps" / "fig12-quick").glob("*/error.txt"))
+    errors = list((tmp_path / "results" / "sweeps" / "fig12-quick-method=bc").glob("*/error.txt"))
     assert len(errors) == 2
 
 
