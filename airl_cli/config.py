@@ -15,6 +15,7 @@ from typing import Any
 
 from omegaconf import DictConfig, OmegaConf
 
+from airl_cli.core.certified import CertifiedOptions
 from airl_cli.core.learn import SCHEDULES, FitOptions, PlannerOptions
 from airl_cli.errors import ConfigError
 
@@ -244,20 +245,27 @@ def problem_settings(cfg: DictConfig | Mapping) -> ProblemSettings:
 
 
 METHODS = ("airl", "mce", "projection", "mmp", "bc")
+#: How the thesis's method minimises its objective: exactly with a certificate, or Table I's gradient steps.
+OPTIMIZERS = ("exact", "gradient")
 
 
 @dataclass(frozen=True)
 class FitSettings:
     """Everything ``airl fit`` needs beyond the problem.
 
-    ``options`` configures the thesis's method (method=airl); ``method_options`` holds the
-    keyword options of a comparison method (method=mce, projection, mmp; empty for bc).
+    ``optimizer`` picks how method=airl minimises eq. 5.9: "exact" uses ``certified``, "gradient"
+    uses ``options`` (Table I; with ``certify`` it also runs the exact solve for comparison). Both
+    share ``options.planner``, ``options.lam`` and ``options.weight_sharing``.
+    ``method_options`` holds the keyword options of a comparison method (mce, projection, mmp).
     """
 
     method: str
     options: FitOptions
     data: str | None
     method_options: dict = field(default_factory=dict)
+    optimizer: str = "exact"
+    certified: CertifiedOptions = field(default_factory=CertifiedOptions)
+    certify: bool = False
 
 
 def _method_options(r: _Reader, name: str) -> dict:
@@ -283,6 +291,8 @@ def _planner(node: Any) -> PlannerOptions:
         expectations=r.choice("expectations", ("exact", "monte_carlo")),
         n_samples=r.int("n_samples", lo=1),
         reuse_beliefs=_bool(r, "reuse_beliefs"),
+        belief_seed=None if r.raw("belief_seed", None) is None else r.int("belief_seed", lo=0),
+        screen_beliefs=r.int("screen_beliefs", lo=0, default=8),
     )
 
 
@@ -301,21 +311,49 @@ def fit_settings(cfg: DictConfig | Mapping) -> FitSettings:
     method = m.choice("name", METHODS)
     g = _Reader(top.raw("game"), "game")
     o = _Reader(top.raw("optim"), "optim")
-    options = FitOptions(
-        weight_sharing=_bool(o, "weight_sharing"),
-        lam=o.float("lam", lo=0.0),
-        eta0=o.float("eta0", lo=0.0, open_lo=True),
-        schedule=o.choice("schedule", SCHEDULES),
-        normalize=_bool(o, "normalize"),
-        tol=o.float("tol", lo=0.0),
-        max_steps=o.int("max_steps", lo=1),
+    optimizer = o.choice("name", OPTIMIZERS)
+    planner = _planner(top.raw("pbvi"))
+    sharing, normalize_loss = _bool(o, "weight_sharing"), _bool(g, "normalize_loss")
+    # double oracle's settings (used by optim=gradient) are checked whatever the optimiser
+    game = dict(
         threshold=g.float("threshold", lo=0.0),
         max_oracle_iterations=g.int("max_iterations", lo=1),
         prune_after=g.int("prune_after", lo=0),
-        normalize_loss=_bool(g, "normalize_loss"),
-        planner=_planner(top.raw("pbvi")),
     )
+    certify = False
+    if optimizer == "exact":
+        certified = CertifiedOptions(
+            weight_sharing=sharing,
+            lam=o.float("lam", lo=0.0, open_lo=True),
+            tol=o.float("tol", lo=0.0, open_lo=True),
+            max_iterations=o.int("max_iterations", lo=1),
+            normalize_loss=normalize_loss,
+        )
+        options = FitOptions(weight_sharing=sharing, lam=certified.lam, normalize_loss=normalize_loss, planner=planner)
+    else:
+        options = FitOptions(
+            weight_sharing=sharing,
+            lam=o.float("lam", lo=0.0),
+            eta0=o.float("eta0", lo=0.0, open_lo=True),
+            schedule=o.choice("schedule", SCHEDULES),
+            normalize=_bool(o, "normalize"),
+            tol=o.float("tol", lo=0.0),
+            max_steps=o.int("max_steps", lo=1),
+            normalize_loss=normalize_loss,
+            **game,
+            planner=planner,
+        )
+        certify = _bool(o, "certify") and options.lam > 0
+        certified = CertifiedOptions(weight_sharing=sharing, lam=max(options.lam, 1e-12), normalize_loss=normalize_loss)
     data = top.raw("data", None)
     if data is not None and not isinstance(data, str):
         raise ConfigError(f"'data' must be the path of a dataset file, got {data!r}")
-    return FitSettings(method=method, options=options, data=data, method_options=_method_options(m, method))
+    return FitSettings(
+        method=method,
+        options=options,
+        data=data,
+        method_options=_method_options(m, method),
+        optimizer=optimizer,
+        certified=certified,
+        certify=certify,
+    )

@@ -10,7 +10,8 @@ import numpy as np
 from airl_cli.config import FitSettings
 from airl_cli.core import baselines
 from airl_cli.core.game import GameProblem
-from airl_cli.core.learn import fit
+from airl_cli.core.certified import minimize, objective_at
+from airl_cli.core.learn import fit, make_oracles
 from airl_cli.data import Dataset
 from airl_cli.errors import ConfigError
 
@@ -65,17 +66,7 @@ def learn(
     targets = dataset.feature_targets()
     name, opts = settings.method, settings.method_options
     if name == "airl":
-        problem = GameProblem(P, phi, p0, dataset.loss, T)
-        result = fit(problem, targets, rng=rng, options=settings.options, callback=callback)
-        info = {
-            "stopped": result.stopped,
-            "steps": int(len(result.history["step"])),
-            "objective": float(result.history["objective"][-1]),
-            "grad_norm": float(result.history["grad_norm"][-1]),
-            "n_beliefs": int(result.n_beliefs),
-            "oracle_capped_steps": int(result.history["oracle_capped"].sum()),
-        }
-        return Learned(name, result.weights, None, result.history, info)
+        return _learn_airl(GameProblem(P, phi, p0, dataset.loss, T), targets, settings, rng, callback)
     if name == "bc":
         if dataset.demo_actions is None:
             raise ConfigError(
@@ -96,3 +87,80 @@ def learn(
             loss = loss / np.max(loss)
         res = baselines.max_margin_planning(P, phi, p0, T, targets, demo_marginals=demo_marginals(dataset), loss=loss, **opts)
     return Learned(name, res.weights, None, res.history, {"iterations": int(len(next(iter(res.history.values()), [])))})
+
+
+def certificate(relative_gap: float, tol: float, converged: bool, oracle: str) -> str:
+    """One phrase for the summary: how far from the minimum the fit is proven to be.
+
+    The bounds are exact when the adversary's oracle is (pbvi.method=exact). PBVI's best response
+    can fall short of the true one, so its upper bound can too: then the gap is relative to PBVI,
+    and a negative gap shows that PBVI missed better adversary strategies.
+    """
+    if not converged:
+        return f"NOT converged: the iteration cap was reached with relative gap {relative_gap:.2g} (tolerance {tol:g})"
+    text = f"optimal to {tol:g} (relative gap {relative_gap:.2g})"
+    if oracle == "pbvi":
+        text = f"optimal to {tol:g} against PBVI's best responses (relative gap {relative_gap:.2g})"
+        if relative_gap < -1e-9:
+            text += "; the gap is negative because PBVI missed better adversary strategies: more pbvi.iterations sharpen it"
+    elif oracle != "exact":
+        text += f" against the {oracle} oracle's best responses"
+    return text
+
+
+def _learn_airl(
+    problem: GameProblem,
+    targets: np.ndarray,
+    settings: FitSettings,
+    rng: np.random.Generator,
+    callback: Callable[[dict], None] | None,
+) -> Learned:
+    """The thesis's method: the certified minimiser of eq. 5.9, or Table I's gradient steps."""
+    oracle, screen, n_beliefs = make_oracles(problem, settings.options.planner, rng)
+    if settings.optimizer == "exact":
+        res = minimize(problem, targets, oracle, screen=screen, options=settings.certified, callback=callback)
+        h = res.history
+        info = {
+            "optimizer": "exact",
+            "stopped": res.stopped,
+            "converged": res.converged,
+            "objective": res.objective,
+            "lower_bound": res.lower,
+            "gap": res.gap,
+            "relative_gap": res.relative_gap,
+            "tol": settings.certified.tol,
+            "oracle": settings.options.planner.method,
+            "certificate": certificate(res.relative_gap, settings.certified.tol, res.converged, settings.options.planner.method),
+            "iterations": int(h["iteration"][-1]),
+            "planner_calls": int(h["planner_calls"][-1]),
+            "screen_calls": int(h["screen_calls"][-1]),
+            "qp_fallbacks": res.qp_fallbacks,
+            "n_beliefs": int(n_beliefs),
+        }
+        return Learned("airl", res.weights, None, res.history, info)
+    result = fit(problem, targets, rng=rng, options=settings.options, oracle=oracle, callback=callback)
+    history = dict(result.history)
+    info = {
+        "optimizer": "gradient",
+        "stopped": result.stopped,
+        "steps": int(len(history["step"])),
+        "objective": float(history["objective"][-1]),
+        "grad_norm": float(history["grad_norm"][-1]),
+        "n_beliefs": int(n_beliefs or result.n_beliefs),
+        "oracle_capped_steps": int(history["oracle_capped"].sum()),
+    }
+    if settings.certify:
+        # the same objective minimised exactly, with the same oracle: how far did the steps stop?
+        best = minimize(problem, targets, oracle, screen=screen, options=settings.certified)
+        f_last = objective_at(
+            problem, targets, result.weights, oracle, lam=settings.options.lam, shared=result.shared, normalize_loss=settings.options.normalize_loss
+        )
+        info |= {
+            "objective_at_weights": f_last,
+            "certified_optimum": best.objective,
+            "certified_lower_bound": best.lower,
+            "above_optimum": f_last - best.objective,
+            "relative_above_optimum": (f_last - best.objective) / max(1.0, abs(best.objective)),
+        }
+        history["above_optimum"] = history["objective"] - best.objective
+    return Learned("airl", result.weights, None, history, info)

@@ -42,7 +42,7 @@ META = "experiment.json"
 FIT_COLUMNS = (
     "experiment", "method", "seed", "run", "x", "x_name", "mdp", "dynamics_kind", "n_dynamics", "n_features",
     "n_demos", "demos", "sigma", "weight_sharing", "loss", "dynamics", "learner_score", "demonstrator_score",
-    "cosine_similarity", "seconds",
+    "cosine_similarity", "seconds", "optimizer", "objective", "relative_gap", "converged",
 )  # fmt: skip
 #: Quick profile: this many runs at most, the first and last swept value, the first two methods.
 QUICK_RUNS = 2

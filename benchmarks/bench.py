@@ -1,6 +1,6 @@
 """Benchmarks of airl: `python benchmarks/bench.py [SECTION ...]` prints a table per section.
 
-Sections: sampling, planner, fit. Each measurement is the median of several repeats on one core
+Sections: sampling, planner, fit, certified. Each measurement is the median of several repeats on one core
 (set OMP_NUM_THREADS=1 etc. for strict single-core numbers; the script sets them itself).
 """
 
@@ -152,7 +152,64 @@ def bench_fit() -> None:
     console.print(f"the thesis's way of computing is {ratio:.1f}x slower on the SPEC's random MDP")
 
 
-SECTIONS = {"sampling": bench_sampling, "planner": bench_planner, "fit": bench_fit}
+def grid_dataset(seed: int = 0):
+    """Fig. 12's data: the grid world, the sub-optimal layouts, exact feature expectations."""
+    from airl_cli.build import build_dataset
+    from airl_cli.config import problem_settings
+    from hydra import compose, initialize_config_module
+
+    with initialize_config_module("airl_cli.conf", version_base="1.3"):
+        cfg = compose("airl", overrides=["mdp=grid", "dynamics=grid_suboptimal", "demos=exact", f"seed={seed}"])
+    return build_dataset(problem_settings(cfg))[0]
+
+
+def certified_fit(dataset, planner=None, options=None):
+    """One certified fit (optim=exact's defaults): seconds and the result."""
+    from airl_cli.core.certified import CertifiedOptions, minimize
+    from airl_cli.core.game import GameProblem
+    from airl_cli.core.learn import PlannerOptions, make_oracles
+
+    problem = GameProblem(dataset.transitions, dataset.features, dataset.initial, dataset.loss, dataset.horizon)
+    start = time.perf_counter()
+    oracle, screen, _ = make_oracles(problem, planner or PlannerOptions(), np.random.default_rng(0))
+    result = minimize(problem, dataset.feature_targets(), oracle, screen=screen, options=options or CertifiedOptions())
+    return time.perf_counter() - start, result
+
+
+def bench_certified() -> None:
+    from airl_cli.core.learn import PlannerOptions
+
+    certified_fit(grid_dataset())  # compile / load the kernels first
+    table = Table(title="certified fit (optim=exact, tol 1e-4, PBVI 8 iterations): whole fit incl. belief set, one core")
+    for col in ("problem", "variant", "seeds", "median s", "min s", "max s", "iterations", "planner calls", "screen calls", "QP s", "rel. gap", "converged"):
+        table.add_column(col, justify="right")
+    cases = [
+        ("grid, Fig. 12 data", "default", lambda s: grid_dataset(s), PlannerOptions(), 5),
+        ("random S=20 A=5 T=10 D=3 K=5 N=1000", "default", lambda s: thesis_scale_dataset(s), PlannerOptions(), 9),
+        ("random S=20 A=5 T=10 D=3 K=5 N=1000", "no screening", lambda s: thesis_scale_dataset(s), PlannerOptions(screen_beliefs=0), 5),
+        ("random, Dirichlet(0.3) rows", "default", lambda s: thesis_scale_dataset(s, "dirichlet", 0.3), PlannerOptions(), 5),
+    ]
+    for name, variant, make, planner, n_seeds in cases:
+        times, its, calls, screens, qps, gaps, conv = [], [], [], [], [], [], []
+        for seed in range(n_seeds):
+            seconds, res = certified_fit(make(seed), planner)
+            h = res.history
+            times.append(seconds)
+            its.append(int(h["iteration"][-1]))
+            calls.append(int(h["planner_calls"][-1]))
+            screens.append(int(h["screen_calls"][-1]))
+            qps.append(float(h["qp_seconds"].sum()))
+            gaps.append(res.relative_gap)
+            conv.append(res.converged)
+        med = statistics.median
+        table.add_row(
+            name, variant, str(n_seeds), f"{med(times):.3f}", f"{min(times):.3f}", f"{max(times):.3f}", str(int(med(its))),
+            str(int(med(calls))), str(int(med(screens))), f"{med(qps):.3f}", f"{max(gaps):.1e}", f"{sum(conv)}/{n_seeds}",
+        )
+    console.print(table)
+
+
+SECTIONS = {"sampling": bench_sampling, "planner": bench_planner, "fit": bench_fit, "certified": bench_certified}
 
 
 def main() -> None:

@@ -10,8 +10,9 @@ import airl_cli
 
 PACKAGE = Path(airl_cli.__file__).parent
 # numba compiles the planner's kernels and highspy is the HiGHS LP solver (scipy bundles the same
-# solver without the warm-start interface): compute libraries, not layers above core.
-CORE_ALLOWED = {"numpy", "scipy", "numba", "highspy"}
+# solver without the warm-start interface), clarabel the interior-point QP solver the certified
+# learner falls back on: compute libraries, not layers above core.
+CORE_ALLOWED = {"numpy", "scipy", "numba", "highspy", "clarabel"}
 
 
 def imports_of(path: Path) -> set[str]:

@@ -13,7 +13,7 @@ from airl_cli.cli import app
 
 runner = CliRunner()
 # a small random problem and a short fit keep each run to a second or two
-SMALL = ["mdp.n_states=6", "mdp.n_actions=3", "mdp.horizon=5", "mdp.n_features=3", "demos.n=30", "optim.max_steps=4", "pbvi.iterations=4"]
+SMALL = ["mdp.n_states=6", "mdp.n_actions=3", "mdp.horizon=5", "mdp.n_features=3", "demos.n=30", "pbvi.iterations=4"]
 
 
 @pytest.fixture(autouse=True)
@@ -41,9 +41,14 @@ def test_fit_in_process_writes_every_file(tmp_path):
     for row in metrics["dynamics"]:
         assert 0.0 <= row["learner_score"] <= 1.0 + 1e-9 and 0.0 <= row["demonstrator_score"] <= 1.0 + 1e-9
         assert -1.0 <= row["cosine_similarity"] <= 1.0
+    # the default learner is the certified exact solve: it states where it stopped
+    assert metrics["optimizer"] == "exact" and metrics["converged"] is True
+    assert metrics["relative_gap"] <= metrics["tol"] == 1e-4 and metrics["oracle"] == "pbvi"
     history = pd.read_csv(out / "history.csv")
-    assert list(history["step"]) == [0, 1, 2, 3]
-    assert {"objective", "grad_norm", "oracle_iterations", "oracle_capped", "learner_strategies", "adversary_strategies", "seconds"} <= set(history)
+    assert list(history["iteration"]) == list(range(1, len(history) + 1))
+    assert {"upper", "lower", "gap", "relative_gap", "learner_strategies", "adversary_strategies", "planner_calls", "qp_seconds", "seconds"} <= set(history)
+    assert history["relative_gap"].iloc[-1] <= 1e-4
+    assert "optimal to 0.0001 against PBVI's best responses" in (out / "summary.txt").read_text()
     assert "learner" in result.output and str(out) in result.output
 
 
@@ -69,7 +74,7 @@ def test_fit_from_a_generated_dataset_file(tmp_path):
     gen = tmp_path / "gen"
     assert run("generate", f"hydra.run.dir={gen}", *SMALL[:5]).exit_code == 0
     out = tmp_path / "fit"
-    result = run("fit", f"data={gen / 'dataset.npz'}", f"hydra.run.dir={out}", "optim.max_steps=3", "pbvi.iterations=4")
+    result = run("fit", f"data={gen / 'dataset.npz'}", f"hydra.run.dir={out}", "pbvi.iterations=4")
     assert result.exit_code == 0, result.output
     assert not (out / "dataset.npz").exists()  # the data came from a file
     assert json.loads((out / "metrics.json").read_text())["scored"]
@@ -87,7 +92,7 @@ def test_fit_a_users_own_file_without_true_weights_or_loss(tmp_path):
     path = tmp_path / "mine.npz"
     np.savez(path, transitions=P, features=rng.random((S, K)), initial=np.eye(S)[0], horizon=np.int64(T), demo_states=states)
     out = tmp_path / "fit"
-    result = run("fit", f"data={path}", f"hydra.run.dir={out}", "optim.max_steps=3", "pbvi.iterations=4")
+    result = run("fit", f"data={path}", f"hydra.run.dir={out}", "pbvi.iterations=4")
     assert result.exit_code == 0, result.output
     metrics = json.loads((out / "metrics.json").read_text())
     assert metrics["scored"] is False and metrics["dynamics"][1]["learner_score"] is None
@@ -97,7 +102,7 @@ def test_fit_a_users_own_file_without_true_weights_or_loss(tmp_path):
 @pytest.mark.parametrize("demos", ["exact", "optimal_path", "sampled"])
 def test_the_three_inputs_on_the_grid(tmp_path, demos):
     out = tmp_path / demos
-    result = run("fit", f"hydra.run.dir={out}", "mdp=grid", "dynamics=grid_suboptimal", f"demos={demos}", "demos.n=50" if demos == "sampled" else "seed=0", "optim.max_steps=3", "pbvi.iterations=4")
+    result = run("fit", f"hydra.run.dir={out}", "mdp=grid", "dynamics=grid_suboptimal", f"demos={demos}", "demos.n=50" if demos == "sampled" else "seed=0", "pbvi.iterations=4")
     assert result.exit_code == 0, result.output
     metrics = json.loads((out / "metrics.json").read_text())
     assert len(metrics["dynamics"]) == 3 and all(np.isfinite(r["learner_score"]) for r in metrics["dynamics"])
@@ -117,8 +122,14 @@ def test_bad_data_file_one_sentence_and_no_run_folder(tmp_path):
     "overrides, key",
     [
         (["optim.lam=-1"], "optim.lam"),
-        (["optim.eta0=0"], "optim.eta0"),
-        (["optim.schedule=fast"], "optim.schedule"),
+        (["optim.lam=0"], "optim.lam"),  # the exact solve needs lambda > 0
+        (["optim.tol=0"], "optim.tol"),
+        (["optim.tol=-1e-3"], "optim.tol"),
+        (["optim.max_iterations=0"], "optim.max_iterations"),
+        (["optim.name=fancy"], "optim.name"),
+        (["optim=fancy"], "fancy"),
+        (["optim=gradient", "optim.eta0=0"], "optim.eta0"),
+        (["optim=gradient", "optim.schedule=fast"], "optim.schedule"),
         (["optim.weight_sharing=maybe"], "optim.weight_sharing"),
         (["game.max_iterations=0"], "game.max_iterations"),
         (["pbvi.iterations=0"], "pbvi.iterations"),
@@ -130,7 +141,45 @@ def test_bad_fit_config_values(tmp_path, overrides, key):
     out = tmp_path / "fit"
     result = run("fit", f"hydra.run.dir={out}", *overrides)
     assert result.exit_code == 2 and key in result.output and "Traceback" not in result.output
+    assert len(result.output.strip().splitlines()) == 1
     assert not out.exists()
+
+
+def test_the_gradient_learner_reports_its_distance_to_the_certified_optimum(tmp_path):
+    out = tmp_path / "run"
+    result = run("fit", f"hydra.run.dir={out}", *SMALL, "optim=gradient", "optim.max_steps=5")
+    assert result.exit_code == 0, result.output
+    metrics = json.loads((out / "metrics.json").read_text())
+    assert metrics["optimizer"] == "gradient" and metrics["steps"] == 5
+    # five steps do not reach the minimum, and f at their w is never below the certified optimum
+    assert metrics["above_optimum"] >= -1e-6 and metrics["objective_at_weights"] >= metrics["certified_lower_bound"] - 1e-9
+    history = pd.read_csv(out / "history.csv")
+    assert list(history["step"]) == [0, 1, 2, 3, 4] and "above_optimum" in history
+    assert "certified by optim=exact" in (out / "summary.txt").read_text()
+
+
+def test_with_the_exact_oracle_the_certificate_brackets_the_minimum(tmp_path):
+    out = tmp_path / "run"
+    tiny = ["mdp.n_states=3", "mdp.n_actions=2", "mdp.horizon=3", "mdp.n_features=2", "dynamics.n_dynamics=2", "demos=exact"]
+    result = run("fit", f"hydra.run.dir={out}", *tiny, "pbvi=exact")
+    assert result.exit_code == 0, result.output
+    metrics = json.loads((out / "metrics.json").read_text())
+    assert metrics["oracle"] == "exact" and metrics["converged"]
+    assert -1e-9 <= metrics["objective"] - metrics["lower_bound"] <= 1e-4 * max(1.0, abs(metrics["objective"]))
+    assert "optimal to 0.0001 (relative gap" in (out / "summary.txt").read_text()
+
+
+def test_the_certified_weights_do_not_depend_on_the_seed(tmp_path):
+    """Fig. 12's data (grid, exact expectations: the data are the same for every seed) under 10 seeds."""
+    weights = []
+    for seed in range(10):
+        out = tmp_path / f"s{seed}"
+        result = run("fit", f"hydra.run.dir={out}", "mdp=grid", "dynamics=grid_suboptimal", "demos=exact", f"seed={seed}")
+        assert result.exit_code == 0, result.output
+        metrics = json.loads((out / "metrics.json").read_text())
+        assert metrics["converged"] and metrics["relative_gap"] <= 1e-4
+        weights.append(json.loads((out / "weights.json").read_text())["weights"][0])
+    assert np.ptp(np.array(weights), axis=0).max() <= 1e-6
 
 
 def test_squared_euclidean_loss_needs_coordinates(tmp_path):
@@ -142,7 +191,7 @@ def test_squared_euclidean_loss_needs_coordinates(tmp_path):
 
 def test_the_thesis_way_of_computing(tmp_path):
     out = tmp_path / "run"
-    result = run("fit", f"hydra.run.dir={out}", *SMALL, "pbvi=thesis", "pbvi.n_samples=500", "optim.max_steps=2")
+    result = run("fit", f"hydra.run.dir={out}", *SMALL, "pbvi=thesis", "pbvi.n_samples=500")
     assert result.exit_code == 0, result.output
 
 

@@ -65,6 +65,9 @@ def test_every_experiment_runs_small_in_process(tmp_path, name):
     if name != "fig02_03":
         assert list(table.columns) == list(FIT_COLUMNS)
         assert table["learner_score"].between(0, 1 + 1e-9).all()
+        # the certificate holds at the end of every fit: converged to the default tolerance
+        assert (table["optimizer"] == "exact").all()
+        assert table["converged"].astype(bool).all() and (table["relative_gap"] <= 1e-4).all()
     assert list((folder / "figures").glob("*.png")) and list((folder / "figures").glob("*.pdf"))
 
 

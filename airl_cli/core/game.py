@@ -234,6 +234,13 @@ class RestrictedGame:
         return solve_matrix_game(self.payoff())
 
 
+def idle_counters(idle: np.ndarray, mix: np.ndarray) -> np.ndarray:
+    """Consecutive solves each strategy has had weight 0, for a mixture (n,) over a set that may
+    have grown since ``idle`` (new strategies start at 0)."""
+    grown = np.concatenate([idle, np.zeros(mix.size - idle.size, dtype=np.int64)])
+    return np.where(mix > 0, 0, grown + 1)
+
+
 def learner_best_response(problem: GameProblem, adversary_tau: np.ndarray) -> np.ndarray:
     """The learner's best response (eq. 5.6-5.7) to the adversary's mixed marginals under tau.
 

@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from airl_cli.core.game import AdversaryOracle, GameProblem, RestrictedGame, double_oracle
+from airl_cli.core.game import AdversaryOracle, GameProblem, RestrictedGame, double_oracle, idle_counters
 from airl_cli.core.multimodel import expand_beliefs, solve
 
 SCHEDULES = ("inverse_sqrt", "inverse", "constant")
@@ -47,6 +47,10 @@ class PlannerOptions:
     iterations / expansion: PBVI's belief set (see ``airl_cli.core.multimodel.expand_beliefs``).
     expectations: "exact" (forward pass over the policy graph) or "monte_carlo" with n_samples.
     reuse_beliefs: build the belief set once per fit (ours) or anew for every call (the thesis).
+    belief_seed: seeds the belief sampling of a reused belief set, so that the learned weights are
+        a function of the data alone; None draws it from the fit's generator instead.
+    screen_beliefs: the certified learner first asks PBVI restricted to the first this many
+        beliefs (a cheap, weaker best response; 0 turns screening off).
     """
 
     method: str = "pbvi"
@@ -55,6 +59,8 @@ class PlannerOptions:
     expectations: str = "exact"
     n_samples: int = 50_000
     reuse_beliefs: bool = True
+    belief_seed: int | None = 0
+    screen_beliefs: int = 8
 
 
 @dataclass(frozen=True)
@@ -114,43 +120,54 @@ class FitResult:
     mean_adversary_features: np.ndarray
 
 
-def make_oracle(problem: GameProblem, options: PlannerOptions, rng: np.random.Generator) -> tuple[AdversaryOracle, int]:
-    """The adversary's best response as a function of its rewards, and the belief-set size.
+def make_oracles(
+    problem: GameProblem, options: PlannerOptions, rng: np.random.Generator
+) -> tuple[AdversaryOracle, AdversaryOracle | None, int]:
+    """The adversary's best response as a function of its rewards, a cheaper screening one, and the belief-set size.
 
-    The belief set depends only on the dynamics, so with ``reuse_beliefs`` it is built here once.
+    The belief set depends only on the dynamics, so with ``reuse_beliefs`` it is built here once
+    (from ``belief_seed`` if set). The screening oracle is PBVI at the first
+    ``screen_beliefs`` beliefs of that set (None if there is nothing to screen with).
     """
     P, p0 = problem.transitions, problem.initial
     beliefs = None
     n_beliefs = 0
     if options.method == "pbvi":
         if options.reuse_beliefs:
-            beliefs = expand_beliefs(P, iterations=options.iterations, rng=rng, expansion=options.expansion)
+            belief_rng = rng if options.belief_seed is None else np.random.default_rng(options.belief_seed)
+            beliefs = expand_beliefs(P, iterations=options.iterations, rng=belief_rng, expansion=options.expansion)
             n_beliefs = len(beliefs)
         else:
             n_beliefs = len(expand_beliefs(P, iterations=options.iterations, rng=np.random.default_rng(0), expansion=options.expansion))
 
-    def oracle(R: np.ndarray) -> tuple[float, np.ndarray]:
-        sol = solve(
-            P,
-            R,
-            p0,
-            method=options.method,
-            iterations=options.iterations,
-            rng=rng,
-            beliefs=beliefs,
-            expansion=options.expansion,
-            expectations=options.expectations,
-            n_samples=options.n_samples,
-        )
-        return sol.value, sol.marginals
+    def oracle_at(B: np.ndarray | None) -> AdversaryOracle:
+        def oracle(R: np.ndarray) -> tuple[float, np.ndarray]:
+            sol = solve(
+                P,
+                R,
+                p0,
+                method=options.method,
+                iterations=options.iterations,
+                rng=rng,
+                beliefs=B,
+                expansion=options.expansion,
+                expectations=options.expectations,
+                n_samples=options.n_samples,
+            )
+            return sol.value, sol.marginals
 
+        return oracle
+
+    screen = None
+    if beliefs is not None and 0 < options.screen_beliefs < n_beliefs:
+        screen = oracle_at(beliefs[: options.screen_beliefs])
+    return oracle_at(beliefs), screen, n_beliefs
+
+
+def make_oracle(problem: GameProblem, options: PlannerOptions, rng: np.random.Generator) -> tuple[AdversaryOracle, int]:
+    """The adversary's best response as a function of its rewards, and the belief-set size."""
+    oracle, _, n_beliefs = make_oracles(problem, options, rng)
     return oracle, n_beliefs
-
-
-def _idle(idle: np.ndarray, mix: np.ndarray) -> np.ndarray:
-    """Update idle counters for a mixture over a strategy set that may have grown (new ones start at 0)."""
-    grown = np.concatenate([idle, np.zeros(mix.size - idle.size, dtype=np.int64)])
-    return np.where(mix > 0, 0, grown + 1)
 
 
 def step_size(options: FitOptions, step: int) -> float:
@@ -219,8 +236,8 @@ def fit(
         result = double_oracle(game, np.array(W), oracle, threshold=options.threshold, max_iterations=options.max_oracle_iterations)
         F = result.adversary_features
         F_history.append(F)
-        idle_l = _idle(idle_l, result.learner_mix)
-        idle_a = _idle(idle_a, result.adversary_mix)
+        idle_l = idle_counters(idle_l, result.learner_mix)
+        idle_a = idle_counters(idle_a, result.adversary_mix)
         grad = (F - targets).sum(axis=0) + options.lam * w if shared else F - targets + options.lam * w
         objective = result.value - float(np.sum(W * targets)) + 0.5 * options.lam * float(np.sum(w * w))
         grad_norm = float(np.mean(np.abs(grad)))

@@ -54,8 +54,12 @@ def summary_text(dataset: Dataset, settings: FitSettings, learned: Learned, rows
     info = learned.info
     if learned.method == "airl":
         o = settings.options
-        how = f"{'one shared w' if o.weight_sharing else 'one w_j per dynamics'}, {info['steps']} steps (stopped: {info['stopped']}), "
-        how += f"lambda={o.lam:g}, PBVI {o.planner.iterations} iterations ({info['n_beliefs']} beliefs)"
+        how = f"{'one shared w' if o.weight_sharing else 'one w_j per dynamics'}, lambda={o.lam:g}, "
+        if info["optimizer"] == "exact":
+            how += f"exact solve of eq. 5.9: {info['iterations']} iterations, {info['planner_calls']} planner calls, "
+        else:
+            how += f"gradient descent (Table I): {info['steps']} steps (stopped: {info['stopped']}), "
+        how += f"PBVI {o.planner.iterations} iterations ({info['n_beliefs']} beliefs)"
     elif learned.method == "bc":
         how = "action frequencies of the demonstrations"
     else:
@@ -67,9 +71,7 @@ def summary_text(dataset: Dataset, settings: FitSettings, learned: Learned, rows
         f"fit       {how}, {seconds:.2f} s",
     ]
     if learned.method == "airl":
-        lines.append(f"objective {info['objective']:.6g}, (1/K)|grad|_1 = {info['grad_norm']:.3g}")
-        if info["oracle_capped_steps"]:
-            lines.append(f"note      double oracle reached its iteration cap in {info['oracle_capped_steps']} step(s) (game.max_iterations)")
+        lines += _objective_lines(info)
     if learned.weights is not None:
         lines += ["", "learned weights:"]
         if learned.shared:
@@ -78,7 +80,7 @@ def summary_text(dataset: Dataset, settings: FitSettings, learned: Learned, rows
             for j, row in enumerate(learned.weights, start=1):
                 lines.append(f"  w_{j}: " + np.array2string(row, precision=4, separator=", "))
     if rows and rows[0]["learner_score"] is not None:
-        lines += ["", "normalised performance under the true reward (SPEC §6):", ""]
+        lines += ["", "normalised performance under the true reward (thesis §7.2):", ""]
         lines.append(f"  {'dynamics':<10}{'learner':>9}{'demonstrator':>14}{'cos(w, w*)':>12}")
         for r in rows:
             cos = "-" if r["cosine_similarity"] is None else f"{r['cosine_similarity']:.3f}"
@@ -86,6 +88,23 @@ def summary_text(dataset: Dataset, settings: FitSettings, learned: Learned, rows
     else:
         lines += ["", "the dataset has no true weights: nothing to score against"]
     return "\n".join(lines) + "\n"
+
+
+def _objective_lines(info: dict) -> list[str]:
+    """The objective and where the optimiser stopped relative to the minimum."""
+    if info["optimizer"] == "exact":
+        return [
+            f"objective {info['objective']:.6g} (lower bound {info['lower_bound']:.6g}): {info['certificate']}",
+        ]
+    lines = [f"objective {info['objective']:.6g} at the last step, (1/K)|grad|_1 = {info['grad_norm']:.3g}"]
+    if "certified_optimum" in info:
+        lines.append(
+            f"optimum   {info['certified_optimum']:.6g} (certified by optim=exact); f at the learned w is "
+            f"{info['objective_at_weights']:.6g}, {info['above_optimum']:.3g} above it ({100 * info['relative_above_optimum']:.2g}%)"
+        )
+    if info["oracle_capped_steps"]:
+        lines.append(f"note      double oracle reached its iteration cap in {info['oracle_capped_steps']} step(s) (game.max_iterations)")
+    return lines
 
 
 def npy_bytes(array: np.ndarray) -> bytes:
@@ -125,7 +144,10 @@ def fit_and_write(cfg: DictConfig, folder: Path, on_step: Callable[[dict], None]
         atomic_write(folder / "policy.npy", lambda h: h.write(npy_bytes(learned.policy)))
     metrics = {"method": learned.method, "shared": learned.shared, **learned.info, "scored": dataset.true_weights is not None, "dynamics": rows}
     write_json(folder / "metrics.json", metrics)
-    write_json(folder / "timing.json", {"fit_seconds": round(seconds, 6)})
+    timing = {"fit_seconds": round(seconds, 6)}
+    if "qp_seconds" in learned.history:
+        timing["qp_seconds"] = round(float(np.sum(learned.history["qp_seconds"])), 6)
+    write_json(folder / "timing.json", timing)
     if learned.history:
         write_text(folder / "history.csv", pd.DataFrame(learned.history).to_csv(index=False))
     write_text(folder / "summary.txt", text)
@@ -142,20 +164,41 @@ def main(cfg: DictConfig) -> None:
     else:
         with err_console.status("loading the planner (the first run after installing compiles it, about 10 s)"):
             warm_up()
-        columns = (
-            TextColumn("fit"),
-            BarColumn(),
-            TextColumn("step {task.completed}/{task.total}"),
-            TextColumn("objective {task.fields[objective]}"),
-            TextColumn("|grad| {task.fields[grad]}"),
-            TimeElapsedColumn(),
-        )
+        if settings.optimizer == "exact":
+            columns = (
+                TextColumn("fit (exact)"),
+                TextColumn("iteration {task.completed}"),
+                TextColumn("upper {task.fields[upper]}  lower {task.fields[lower]}"),
+                TextColumn("relative gap {task.fields[gap]} -> {task.fields[tol]}"),
+                TimeElapsedColumn(),
+            )
+            total, fields = None, dict(upper="-", lower="-", gap="-", tol=f"{settings.certified.tol:g}")
+
+            def describe(row: dict) -> dict:
+                return dict(upper=f"{row['upper']:.6g}", lower=f"{row['lower']:.6g}", gap=f"{row['relative_gap']:.2g}")
+
+        else:
+            columns = (
+                TextColumn("fit (gradient)"),
+                BarColumn(),
+                TextColumn("step {task.completed}/{task.total}"),
+                TextColumn("objective {task.fields[objective]}"),
+                TextColumn("|grad| {task.fields[grad]}"),
+                TimeElapsedColumn(),
+            )
+            total, fields = settings.options.max_steps, dict(objective="-", grad="-")
+
+            def describe(row: dict) -> dict:
+                return dict(objective=f"{row['objective']:.5g}", grad=f"{row['grad_norm']:.3g}")
+
         with Progress(*columns, console=err_console, transient=True) as bar:
-            task = bar.add_task("fit", total=settings.options.max_steps, objective="-", grad="-")
+            task = bar.add_task("fit", total=total, **fields)
 
             def on_step(row: dict) -> None:
-                bar.update(task, advance=1, objective=f"{row['objective']:.5g}", grad=f"{row['grad_norm']:.3g}")
+                bar.update(task, advance=1, **describe(row))
 
+            if settings.optimizer == "gradient" and settings.certify:
+                bar.console.print("after the gradient steps, the exact solve certifies the optimum for comparison (optim.certify)")
             run = fit_and_write(cfg, folder, on_step)
     out_console.print(run.text, end="", soft_wrap=True)
     out_console.print(f"\nwrote {folder}")

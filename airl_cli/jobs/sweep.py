@@ -50,6 +50,14 @@ def fit_rows(cfg: DictConfig, folder) -> list[dict]:
         "weight_sharing": run.settings.options.weight_sharing,
         "loss": resolved_loss(problem_settings(cfg)),
     }
+    info = run.learned.info
+    certified = run.settings.method == "airl" and info.get("optimizer") == "exact"
+    fit_facts = {
+        "optimizer": info.get("optimizer", "") if run.settings.method == "airl" else "",
+        "objective": info.get("objective", np.nan) if run.settings.method == "airl" else np.nan,
+        "relative_gap": info["relative_gap"] if certified else np.nan,
+        "converged": info["converged"] if certified else np.nan,
+    }
     out = []
     for row in run.rows:
         out.append(
@@ -60,6 +68,7 @@ def fit_rows(cfg: DictConfig, folder) -> list[dict]:
                 "demonstrator_score": row["demonstrator_score"],
                 "cosine_similarity": row["cosine_similarity"],
                 "seconds": run.seconds,
+                **fit_facts,
             }
         )
     return out

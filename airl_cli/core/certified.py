@@ -1,0 +1,362 @@
+"""The learner's objective minimised exactly, with an optimality certificate (thesis eq. 5.9).
+
+With weight sharing (eq. 5.4) the learner minimises over w the convex function
+
+    f(w) = max_q min_p  p^T L q + w . (Phi q - C) + (lambda/2) |w|^2               (eq. 5.9)
+
+where p mixes the learner's deterministic Markov policies under tau, q the adversary's
+deterministic history-dependent policies (Def. 5.3.1), L[i, k] is the expected loss of the pure
+pair (i, k) under tau, Phi[:, k] = sum_j F_k[j] the adversary strategy k's expected feature sums
+summed over the demonstration dynamics tau_1..tau_D, and C = sum_j c~_j. Without weight sharing
+(Theorem 5.2.1, eq. 5.3) w, Phi[:, k] and C are the (D*K,) stacks of the per-dynamics blocks
+w_j, F_k[j] and c~_j; nothing else changes. f is strongly convex for lambda > 0, so its
+minimiser is unique.
+
+Because min_w min_p max_k is a joint minimisation, the whole problem is one convex QP over the
+strategies found so far (I learner strategies, K adversary strategies):
+
+    min_{w, p, v}  v - w . C + (lambda/2) |w|^2
+    s.t.  v >= sum_i p_i L[i, k] + w . Phi[:, k]     for every adversary strategy k in K
+          sum_i p_i = 1,  p >= 0.
+
+The duals of the K rows are the adversary's mixture q. The sets grow by column and constraint
+generation: the learner's oracle (backward induction under tau, eq. 5.6-5.7) against q adds a
+column, the adversary's oracle (the multiple-MDP planner of chapter 6) against (w, p) adds a row.
+Every iteration yields two bounds on f* = min_w f(w):
+
+    upper = max(v, adversary's best-response value at (w, p)) - w . C + (lambda/2) |w|^2 >= f(w)
+    lower = min_i (L q)_i - |Phi q - C|^2 / (2 lambda)       (learner's best response against q)
+
+(the lower bound is min_w of the affine-plus-quadratic minorant of f at q). The fit stops when
+min(upper) - max(lower) <= tol * max(1, |min(upper)|), or when neither oracle improves (the QP's
+answer is then exactly optimal for the oracles), or at an iteration cap, which is recorded. No step
+size, no random start: the answer depends only on the data and the oracles. The certificate is
+exact when the adversary's oracle is exact (pbvi.method=exact); with PBVI it holds against the
+best responses PBVI finds at its belief set.
+
+The QP is kept in one HiGHS model for the whole fit (``airl_cli.core.qp``).
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from airl_cli.core.game import (
+    AdversaryOracle,
+    GameProblem,
+    RestrictedGame,
+    adversary_rewards,
+    double_oracle,
+    idle_counters,
+    learner_best_response,
+)
+from airl_cli.core.planning import backward_induction, state_marginals
+from airl_cli.core.qp import MasterQP
+
+#: A screening best response is added without asking the full oracle if it raises the restricted
+#: value by more than this fraction of the current gap.
+SCREEN_FRACTION = 0.1
+#: A strategy out of the QP's solution (weight 0) for this many consecutive iterations is dropped:
+#: the QP stays small and far from degenerate. The bounds stay valid whatever the sets hold.
+PRUNE_AFTER = 20
+
+HISTORY_COLUMNS = (
+    "iteration",
+    "upper",
+    "lower",
+    "gap",
+    "relative_gap",
+    "objective",
+    "learner_strategies",
+    "adversary_strategies",
+    "planner_calls",
+    "screen_calls",
+    "qp_seconds",
+    "seconds",
+)
+
+
+@dataclass(frozen=True)
+class CertifiedOptions:
+    """Settings of the certified solve.
+
+    weight_sharing: one w (eq. 5.4) or one w_j per dynamics (eq. 5.3).
+    lam: lambda > 0, the L2 regularisation (it makes f strongly convex and the lower bound finite).
+    tol: stop when the relative gap (upper - lower) / max(1, |upper|) <= tol.
+    max_iterations: the cap on QP solves (reaching it is reported, never silent).
+    normalize_loss: divide the loss by its largest entry (as the gradient learner does).
+    """
+
+    weight_sharing: bool = True
+    lam: float = 1e-2
+    tol: float = 1e-4
+    max_iterations: int = 500
+    normalize_loss: bool = True
+
+
+@dataclass(frozen=True)
+class CertifiedResult:
+    """The minimiser of f and its certificate.
+
+    Attributes:
+        weights: (D, K) one row per demonstration dynamics (identical rows with sharing).
+        objective: f at the returned weights, as certified: the smallest upper bound found.
+        lower: the largest lower bound on min f found.
+        gap: objective - lower (>= 0 up to the QP's tolerance).
+        relative_gap: gap / max(1, |objective|), the quantity compared with ``tol``.
+        converged: True if the gap met the tolerance (or no oracle could improve).
+        stopped: "tolerance", "no_improvement" or "max_iterations".
+        history: column -> (iterations,) array, columns ``HISTORY_COLUMNS``.
+        adversary_features: (D, K) the adversary mixture's expected feature sums F_j(q) at the end.
+        learner_mix: (n,) p; adversary_mix: (m,) q, over the final strategy sets.
+        qp_fallbacks: QP solves that HiGHS did not finish and Clarabel did.
+    """
+
+    weights: np.ndarray
+    objective: float
+    lower: float
+    gap: float
+    relative_gap: float
+    converged: bool
+    stopped: str
+    history: dict[str, np.ndarray]
+    adversary_features: np.ndarray
+    learner_mix: np.ndarray
+    adversary_mix: np.ndarray
+    qp_fallbacks: int
+
+
+def check_options(options: CertifiedOptions) -> None:
+    """Raise ``ValueError`` on out-of-range options."""
+    if not options.lam > 0:
+        raise ValueError(f"the certified solve needs lam > 0 (it makes f strongly convex), got {options.lam}")
+    if not options.tol > 0:
+        raise ValueError(f"tol must be > 0, got {options.tol}")
+    if options.max_iterations < 1:
+        raise ValueError(f"max_iterations must be >= 1, got {options.max_iterations}")
+
+
+def scaled_loss(problem: GameProblem, normalize: bool) -> GameProblem:
+    """The problem with its loss divided by the largest entry (if ``normalize`` and the loss is not 0)."""
+    top = float(np.max(problem.loss))
+    if not normalize or top <= 0:
+        return problem
+    return GameProblem(problem.transitions, problem.features, problem.initial, problem.loss / top, problem.horizon)
+
+
+class _Sets:
+    """The strategies found so far, as the marginals the QP's coefficients are built from.
+
+    Attributes (i: learner strategy, k: adversary strategy, d = K with sharing, D*K without):
+        l_loss: (n, T*S) p_hat_i(t) @ loss, flattened, so L = l_loss @ a_tau.T.
+        l_marg: (n, T, S) learner marginals under tau.
+        a_tau: (m, T*S) adversary marginals under tau, flattened.
+        a_F: (m, D, K) F_k[j], adversary feature sums under tau_1..tau_D.
+        a_phi: (m, d) Phi[:, k].
+    """
+
+    def __init__(self, problem: GameProblem, qp: MasterQP, shared: bool):
+        T, S = problem.horizon, problem.transitions.shape[1]
+        D, K = problem.n_models - 1, problem.features.shape[1]
+        self.problem, self.qp, self.shared = problem, qp, shared
+        self.l_loss = np.empty((0, T * S))
+        self.l_marg = np.empty((0, T, S))
+        self.a_tau = np.empty((0, T * S))
+        self.a_F = np.empty((0, D, K))
+        self.a_phi = np.empty((0, qp.d))
+
+    def add_learner(self, marginals: np.ndarray) -> None:
+        """A learner strategy from its marginals (T, S) under tau."""
+        row = (marginals @ self.problem.loss).reshape(-1)
+        self.qp.add_learner(self.a_tau @ row)
+        self.l_loss = np.vstack([self.l_loss, row[None]])
+        self.l_marg = np.concatenate([self.l_marg, marginals[None]])
+
+    def keep(self, learner: np.ndarray, adversary: np.ndarray) -> None:
+        """Keep only these strategies (sorted index arrays), here and in the QP."""
+        self.qp.keep(learner, adversary)
+        self.l_loss, self.l_marg = self.l_loss[learner], self.l_marg[learner]
+        self.a_tau, self.a_F, self.a_phi = self.a_tau[adversary], self.a_F[adversary], self.a_phi[adversary]
+
+    def add_adversary(self, marginals: np.ndarray) -> None:
+        """An adversary strategy from its marginals (M, T, S) under tau_0..tau_D."""
+        tau = marginals[0].reshape(-1)
+        F = marginals[1:].sum(axis=1) @ self.problem.features  # (D, K)
+        phi_k = F.sum(axis=0) if self.shared else F.reshape(-1)
+        self.qp.add_adversary(self.l_loss @ tau, phi_k)
+        self.a_tau = np.vstack([self.a_tau, tau[None]])
+        self.a_F = np.concatenate([self.a_F, F[None]])
+        self.a_phi = np.vstack([self.a_phi, phi_k[None]])
+
+
+def minimize(
+    problem: GameProblem,
+    targets: np.ndarray,
+    oracle: AdversaryOracle,
+    *,
+    screen: AdversaryOracle | None = None,
+    options: CertifiedOptions = CertifiedOptions(),
+    callback: Callable[[dict], None] | None = None,
+) -> CertifiedResult:
+    """Minimise f (eq. 5.9) by column and constraint generation on the QP above.
+
+    Each iteration solves the QP, asks the learner's oracle (cheap) for a better column and, unless
+    the learner's side is still further from its restricted optimum than the adversary's side was
+    at its last call, the adversary's oracle for a better row. A ``screen`` (a cheaper, weaker
+    adversary oracle, e.g. PBVI on a few beliefs) is asked first: a strategy it finds is added
+    without calling ``oracle`` if it raises the restricted value by more than ``SCREEN_FRACTION``
+    of the current gap. Only ``oracle`` yields upper bounds, so the certificate is ``oracle``'s.
+
+    Args:
+        problem: the game's problem (dynamics with tau at index 0, phi, p0, loss, T).
+        targets: (D, K) c~_j, the demonstrations' feature sums under each tau_j.
+        oracle: the adversary's best response: rewards (M, T, S) -> (exact value of the returned
+            policy, its marginals (M, T, S)); see ``airl_cli.core.game.AdversaryOracle``.
+        screen: an optional cheaper adversary oracle of the same signature.
+        options: see ``CertifiedOptions``.
+        callback: called after every iteration with that iteration's history row (a dict).
+
+    Returns:
+        A ``CertifiedResult``.
+    """
+    check_options(options)
+    problem = scaled_loss(problem, options.normalize_loss)
+    targets = np.asarray(targets, dtype=np.float64)
+    P, phi, p0, T = problem.transitions, problem.features, problem.initial, problem.horizon
+    D, K, S = P.shape[0] - 1, phi.shape[1], P.shape[1]
+    if targets.shape != (D, K):
+        raise ValueError(f"targets must have shape (D, K) = ({D}, {K}), got {targets.shape}")
+    shared, lam = options.weight_sharing, options.lam
+    C = targets.sum(axis=0) if shared else targets.reshape(-1)
+
+    def per_dynamics(w: np.ndarray) -> np.ndarray:
+        """(D, K) weights per dynamics from the QP's w (d,)."""
+        return np.broadcast_to(w, (D, K)).copy() if shared else w.reshape(D, K).copy()
+
+    qp = MasterQP(C, lam)
+    sets = _Sets(problem, qp, shared)
+    # Start: the learner plays the optimal policy of the demonstrations' mean features under tau,
+    # the adversary its best response to that at w = 0.
+    policy, _ = backward_induction(P[0], phi @ targets.mean(axis=0), horizon=T)
+    sets.add_learner(state_marginals(P[0], policy, p0))
+    sets.add_adversary(oracle(adversary_rewards(problem, sets.l_marg[0], np.zeros((D, K))))[1])
+    planner_calls, screen_calls = 1, 0
+
+    best_upper, best_lower = np.inf, -np.inf
+    best_w = np.zeros(C.size)
+    gap_a = np.inf  # the adversary's improvement at its last full call
+    idle_l = np.zeros(0, dtype=np.int64)  # consecutive iterations each strategy has had weight 0
+    idle_a = np.zeros(0, dtype=np.int64)
+    rows: list[dict] = []
+    stopped = "max_iterations"
+    start = time.perf_counter()
+    for it in range(1, options.max_iterations + 1):
+        t0 = time.perf_counter()
+        w, v, p, q, qp_objective = qp.solve()
+        qp_seconds = time.perf_counter() - t0
+        idle_l, idle_a = idle_counters(idle_l, p), idle_counters(idle_a, q)
+        if it % PRUNE_AFTER == 0 and (np.any(idle_l >= PRUNE_AFTER) or np.any(idle_a >= PRUNE_AFTER)):
+            keep_l, keep_a = np.flatnonzero(idle_l < PRUNE_AFTER), np.flatnonzero(idle_a < PRUNE_AFTER)
+            sets.keep(keep_l, keep_a)
+            idle_l, idle_a, p, q = idle_l[keep_l], idle_a[keep_a], p[keep_l], q[keep_a]
+        reg = -float(w @ C) + 0.5 * lam * float(w @ w)
+        tiny = 1e-9 * (1.0 + abs(v))
+        # the learner's best response against q: a lower bound, and maybe a new column
+        q_tau = q @ sets.a_tau
+        br = learner_best_response(problem, q_tau.reshape(T, S))
+        br_loss = float((br @ problem.loss).reshape(-1) @ q_tau)
+        g = q @ sets.a_phi - C
+        best_lower = max(best_lower, br_loss - float(g @ g) / (2.0 * lam))
+        gap_l = float(np.min(sets.l_loss @ q_tau)) - br_loss
+        added_l = gap_l > tiny
+        if added_l:
+            sets.add_learner(br)
+        added_a = False
+        if not added_l or gap_l <= gap_a:
+            rewards = adversary_rewards(problem, np.tensordot(p, sets.l_marg[: p.size], axes=1), per_dynamics(w))
+            if screen is not None and np.isfinite(best_upper):
+                value_s, marg_s = screen(rewards)
+                screen_calls += 1
+                if value_s - v > SCREEN_FRACTION * (best_upper - best_lower):
+                    sets.add_adversary(marg_s)
+                    added_a = True
+            if not added_a:
+                # the adversary's best response against (w, p): an upper bound on f(w)
+                value, marg = oracle(rewards)
+                planner_calls += 1
+                if max(value, v) + reg < best_upper:
+                    best_upper, best_w = max(value, v) + reg, w.copy()
+                gap_a = value - v
+                added_a = gap_a > tiny
+                if added_a:
+                    sets.add_adversary(marg)
+        gap = best_upper - best_lower
+        relative = gap / max(1.0, abs(best_upper)) if np.isfinite(gap) else np.inf
+        row = dict(
+            iteration=it,
+            upper=best_upper,
+            lower=best_lower,
+            gap=gap,
+            relative_gap=relative,
+            objective=qp_objective,
+            learner_strategies=qp.n,
+            adversary_strategies=qp.m,
+            planner_calls=planner_calls,
+            screen_calls=screen_calls,
+            qp_seconds=qp_seconds,
+            seconds=time.perf_counter() - start,
+        )
+        rows.append(row)
+        if callback is not None:
+            callback(row)
+        if relative <= options.tol:
+            stopped = "tolerance"
+            break
+        if not (added_l or added_a):
+            stopped = "no_improvement"
+            break
+    history = {c: np.array([r[c] for r in rows]) for c in HISTORY_COLUMNS}
+    F_q = np.einsum("m,mjk->jk", q, sets.a_F[: q.size])
+    return CertifiedResult(
+        weights=per_dynamics(best_w),
+        objective=float(best_upper),
+        lower=float(best_lower),
+        gap=float(best_upper - best_lower),
+        relative_gap=float(rows[-1]["relative_gap"]),
+        converged=stopped != "max_iterations",
+        stopped=stopped,
+        history=history,
+        adversary_features=F_q,
+        learner_mix=p,
+        adversary_mix=q,
+        qp_fallbacks=qp.fallbacks,
+    )
+
+
+def objective_at(
+    problem: GameProblem,
+    targets: np.ndarray,
+    weights: np.ndarray,
+    oracle: AdversaryOracle,
+    *,
+    lam: float,
+    shared: bool,
+    normalize_loss: bool = True,
+    threshold: float = 1e-9,
+) -> float:
+    """f at given weights (eq. 5.9): the inner game's value by double oracle, minus w . c~, plus lambda/2 |w|^2.
+
+    Args:
+        weights: (D, K) one row per demonstration dynamics.
+        shared: whether the rows are one shared w (then |w|^2 counts it once, as in eq. 5.4).
+        threshold: double oracle's relative improvement threshold (tight by default).
+    """
+    problem = scaled_loss(problem, normalize_loss)
+    W = np.asarray(weights, dtype=np.float64)
+    result = double_oracle(RestrictedGame(problem), W, oracle, threshold=threshold, max_iterations=10_000)
+    norm2 = float(W[0] @ W[0]) if shared else float(np.sum(W * W))
+    return result.value - float(np.sum(W * np.asarray(targets))) + 0.5 * lam * norm2

@@ -1,0 +1,212 @@
+"""The certified learner (eq. 5.9 solved exactly) against brute force on fully enumerated games."""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+import pytest
+from scipy.optimize import linprog, minimize as scipy_minimize
+
+from airl_cli.core.certified import CertifiedOptions, minimize, objective_at
+from airl_cli.core.demos import expected_feature_sums
+from airl_cli.core.game import GameProblem
+from airl_cli.core.learn import FitOptions, PlannerOptions, fit, make_oracle
+from airl_cli.core.planning import backward_induction, state_marginals
+from airl_cli.core.qp import MasterQP, solve_clarabel
+from tiny import random_dynamics
+
+T = 3  # the brute force below enumerates histories (s0, s1) of a 3-step horizon
+
+
+def tiny(seed, *, S=2, A=2, D=2, K=2):
+    """A tiny problem (tau at index 0) with an expert optimal under tau and its exact feature sums under each tau_j."""
+    rng = np.random.default_rng(seed)
+    P = np.stack([random_dynamics(rng, S, A, concentration=0.5) for _ in range(D + 1)])
+    phi = rng.random((S, K))
+    p0 = rng.dirichlet(np.ones(S))
+    expert, _ = backward_induction(P[0], phi @ rng.normal(size=K), horizon=T)
+    # the expert's exact feature sums, moved so that no policy matches them: w* is not 0
+    targets = expected_feature_sums(P[1:], expert, p0, phi) + rng.normal(scale=0.3, size=(D, K))
+    loss = rng.random((S, S)) * (1 - np.eye(S))
+    return GameProblem(P, phi, p0, loss, T), targets
+
+
+def learner_marginals(problem):
+    """(n, T, S) marginals under tau of every deterministic Markov policy."""
+    P0, S, A = problem.transitions[0], problem.transitions.shape[1], problem.transitions.shape[2]
+    out = []
+    for actions in itertools.product(range(A), repeat=(T - 1) * S):
+        out.append(state_marginals(P0, np.array(actions).reshape(T - 1, S), problem.initial))
+    return np.array(out)
+
+
+def adversary_marginals(problem):
+    """(m, M, T, S) marginals of every deterministic history-dependent policy: a0 = pi(s0), a1 = pi(s0, s1)."""
+    P, p0 = problem.transitions, problem.initial
+    M, S, A, _ = P.shape
+    out = []
+    for actions in itertools.product(range(A), repeat=S + S * S):
+        a0, a1 = np.array(actions[:S]), np.array(actions[S:]).reshape(S, S)
+        marg = np.zeros((M, T, S))
+        for j in range(M):
+            marg[j, 0] = p0
+            for s0 in range(S):
+                p1 = p0[s0] * P[j, s0, a0[s0]]
+                marg[j, 1] += p1
+                for s1 in range(S):
+                    marg[j, 2] += p1[s1] * P[j, s1, a1[s0, s1]]
+        out.append(marg)
+    return np.array(out)
+
+
+def enumerated_game(problem, targets, shared):
+    """L (n, m), Phi (m, d) and C (d,) of the whole game, with the loss scaled as the learner scales it."""
+    loss = problem.loss / problem.loss.max()
+    lm, am = learner_marginals(problem), adversary_marginals(problem)
+    L = np.einsum("nts,su,mtu->nm", lm, loss, am[:, 0])
+    F = am[:, 1:].sum(axis=2) @ problem.features  # (m, D, K)
+    Phi = F.sum(axis=1) if shared else F.reshape(len(F), -1)
+    C = targets.sum(axis=0) if shared else targets.reshape(-1)
+    return L, Phi, C
+
+
+def game_value(G):
+    """min_p max_k (p^T G)_k by linear programming."""
+    n, m = G.shape
+    res = linprog(np.r_[np.zeros(n), 1.0], A_ub=np.hstack([G.T, -np.ones((m, 1))]), b_ub=np.zeros(m),
+                  A_eq=np.r_[np.ones(n), 0.0][None], b_eq=[1.0], bounds=[(0, None)] * n + [(None, None)], method="highs")
+    return res.fun
+
+
+def f_brute(w, L, Phi, C, lam):
+    """f(w) (eq. 5.9) from the enumerated game."""
+    return game_value(L + (Phi @ w)[None, :]) - w @ C + 0.5 * lam * w @ w
+
+
+def brute_minimum(L, Phi, C, lam):
+    """min_w f(w) by SLSQP (a generic routine) on the epigraph form over every enumerated strategy."""
+    _, keep = np.unique(np.round(np.hstack([L.T, Phi]), 12), axis=0, return_index=True)  # identical strategies
+    L, Phi = L[:, keep], Phi[keep]
+    n, m = L.shape
+    d = C.size
+    x0 = np.r_[np.zeros(d), np.ones(n) / n, L.max() + 1.0]
+
+    def obj(x):
+        w = x[:d]
+        return x[-1] - w @ C + 0.5 * lam * w @ w
+
+    def jac(x):
+        return np.r_[-C + lam * x[:d], np.zeros(n), 1.0]
+
+    cons = [
+        {"type": "ineq", "fun": lambda x: x[-1] - L.T @ x[d : d + n] - Phi @ x[:d], "jac": lambda x: np.hstack([-Phi, -L.T, np.ones((m, 1))])},
+        {"type": "eq", "fun": lambda x: x[d : d + n].sum() - 1.0, "jac": lambda x: np.r_[np.zeros(d), np.ones(n), 0.0][None]},
+    ]
+    bounds = [(None, None)] * d + [(0, None)] * n + [(None, None)]
+    res = scipy_minimize(obj, x0, jac=jac, constraints=cons, bounds=bounds, method="SLSQP", options={"ftol": 1e-13, "maxiter": 1000})
+    # status 8 is SLSQP's "cannot improve further" at the limit of precision; accept it when feasible
+    feasible = np.min(cons[0]["fun"](res.x)) > -1e-10 and abs(cons[1]["fun"](res.x)) < 1e-10
+    assert res.success or (res.status == 8 and feasible), res.message
+    return res.x[:d], res.fun
+
+
+def exact_oracle(problem):
+    return make_oracle(problem, PlannerOptions(method="exact"), np.random.default_rng(0))[0]
+
+
+@pytest.mark.parametrize("seed,S,shared", [(0, 2, True), (1, 2, False), (2, 3, True), (3, 2, True), (4, 3, False)])
+def test_certified_minimum_equals_brute_force(seed, S, shared):
+    problem, targets = tiny(seed, S=S)
+    lam = 0.05
+    L, Phi, C = enumerated_game(problem, targets, shared)
+    w_brute, f_star = brute_minimum(L, Phi, C, lam)
+    res = minimize(problem, targets, exact_oracle(problem), options=CertifiedOptions(weight_sharing=shared, lam=lam, tol=1e-12))
+    assert res.converged
+    w = res.weights[0] if shared else res.weights.reshape(-1)
+    assert res.objective == pytest.approx(f_star, abs=1e-6)
+    assert np.allclose(w, w_brute, atol=1e-6), (w, w_brute)
+    # f recomputed from the enumerated game at the certified w, and the certificate brackets it
+    assert f_brute(w, L, Phi, C, lam) == pytest.approx(f_star, abs=1e-6)
+    assert res.lower <= f_star + 1e-7 and res.objective >= f_star - 1e-7
+    if not shared:
+        assert not np.allclose(res.weights[0], res.weights[1])
+
+
+@pytest.mark.parametrize("seed", [5, 6])
+def test_bounds_bracket_the_minimum_at_every_iteration(seed):
+    problem, targets = tiny(seed, S=3)
+    lam = 0.02
+    L, Phi, C = enumerated_game(problem, targets, True)
+    _, f_star = brute_minimum(L, Phi, C, lam)
+    rows = []
+    minimize(problem, targets, exact_oracle(problem), options=CertifiedOptions(lam=lam, tol=1e-10), callback=rows.append)
+    assert len(rows) > 2
+    for r in rows:
+        assert r["lower"] <= f_star + 1e-7 <= r["upper"] + 2e-7
+    uppers = [r["upper"] for r in rows]
+    assert all(b <= a for a, b in zip(uppers, uppers[1:]))  # best-so-far bounds only improve
+
+
+def test_a_loose_tolerance_stops_early_with_a_valid_certificate():
+    problem, targets = tiny(7, S=3)
+    lam = 0.02
+    L, Phi, C = enumerated_game(problem, targets, True)
+    _, f_star = brute_minimum(L, Phi, C, lam)
+    res = minimize(problem, targets, exact_oracle(problem), options=CertifiedOptions(lam=lam, tol=1e-2))
+    assert res.stopped == "tolerance" and res.relative_gap <= 1e-2
+    # the returned w is within the certified gap of the minimum
+    assert f_star - 1e-7 <= f_brute(res.weights[0], L, Phi, C, lam) <= f_star + res.gap + 1e-7
+
+
+def test_the_cap_is_reported():
+    problem, targets = tiny(8, S=3)
+    res = minimize(problem, targets, exact_oracle(problem), options=CertifiedOptions(tol=1e-12, max_iterations=2))
+    assert res.stopped == "max_iterations" and not res.converged
+    assert len(res.history["iteration"]) == 2
+
+
+def test_gradient_descent_approaches_the_certified_optimum_from_above():
+    problem, targets = tiny(9, S=3)
+    lam = 0.05
+    L, Phi, C = enumerated_game(problem, targets, True)
+    _, f_star = brute_minimum(L, Phi, C, lam)
+    oracle = exact_oracle(problem)
+    above = []
+    for steps in (5, 50, 400):
+        res = fit(problem, targets, rng=np.random.default_rng(0),
+                  options=FitOptions(lam=lam, max_steps=steps, eta0=1.0, threshold=1e-9, tol=0.0), oracle=oracle)
+        f = f_brute(res.weights[0], L, Phi, C, lam)
+        assert f >= f_star - 1e-9  # never below the minimum
+        assert objective_at(problem, targets, res.weights, oracle, lam=lam, shared=True) == pytest.approx(f, abs=1e-7)
+        above.append(f - f_star)
+    assert above[2] < above[0] and above[2] < 1e-2 * max(1.0, abs(f_star)), above
+
+
+def test_master_qp_equals_clarabel_on_random_restricted_games():
+    rng = np.random.default_rng(0)
+    for _ in range(5):
+        n, m, d = rng.integers(2, 12, size=3)
+        L, Phi, C = rng.random((n, m)), rng.normal(size=(m, d)), rng.normal(size=d)
+        qp = MasterQP(C, 0.1)
+        qp.add_learner(np.empty(0))
+        qp.add_adversary(L[:1, 0], Phi[0])
+        for k in range(1, m):
+            qp.add_adversary(L[:1, k], Phi[k])
+        for i in range(1, n):
+            qp.add_learner(L[i])
+        w, v, p, q, obj = qp.solve()
+        w2, v2, p2, q2, obj2 = solve_clarabel(C, 0.1, L, Phi)
+        assert obj == pytest.approx(obj2, abs=1e-6)
+        assert np.allclose(w, w2, atol=1e-5)
+        assert q.sum() == pytest.approx(1.0) and np.all(q >= 0)
+        # q is the adversary's mixture: stationarity in w gives lam w = C - Phi^T q
+        assert np.allclose(0.1 * w, C - Phi.T @ q, atol=1e-5)
+
+
+def test_bad_options():
+    problem, targets = tiny(0)
+    oracle = exact_oracle(problem)
+    for bad in (CertifiedOptions(lam=0.0), CertifiedOptions(tol=0.0), CertifiedOptions(max_iterations=0)):
+        with pytest.raises(ValueError):
+            minimize(problem, targets, oracle, options=bad)
