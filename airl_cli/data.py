@@ -256,6 +256,9 @@ def read_dataset(path: str | os.PathLike) -> Dataset:
         DatasetError: the file is missing, not an .npz, or any key fails ``validate``.
     """
     path = Path(path)
+    if path.is_dir():
+        inside = " (it holds dataset.npz: give that file)" if (path / "dataset.npz").is_file() else ""
+        raise DatasetError(f"'{path}' is a folder, not a dataset file{inside}")
     if not path.is_file():
         raise DatasetError(f"dataset file '{path}' does not exist")
     try:

@@ -2,13 +2,16 @@
 
 from __future__ import annotations
 
+import difflib
 import importlib
 import sys
 from pathlib import Path
 
 import typer
+from omegaconf import OmegaConf
 
 from airl_cli.paths import conf_dir
+from airl_cli.results import new_run_folder, writable_problem
 
 
 def config_groups() -> dict[str, list[str]]:
@@ -37,9 +40,88 @@ def check_group_choices(overrides: list[str]) -> None:
                 raise typer.Exit(2)
 
 
+def _compose_choices(overrides: list[str]):
+    """The config with only the group choices of these overrides (first value of a sweep)."""
+    from hydra import compose, initialize_config_dir
+
+    groups = config_groups()
+    choices = []
+    for item in overrides:
+        key, sep, value = item.partition("=")
+        if sep and key.lstrip("+~") in groups and not key.startswith("~"):
+            first = value.split(",")[0]
+            if not first.startswith(("choice(", "range(", "glob(")):
+                choices.append(f"{key}={first}")
+    with initialize_config_dir(config_dir=conf_dir(), version_base="1.3", job_name="check"):
+        return compose("airl", overrides=choices)
+
+
+def check_keys(overrides: list[str]) -> None:
+    """Refuse ``GROUP.KEY=VALUE`` for a KEY the group does not have, in one sentence.
+
+    Hydra would advise ``+GROUP.KEY=VALUE``, which adds a key no code reads: the run goes ahead
+    and silently ignores it. So ``+GROUP.KEY`` of a key airl does not know is refused too.
+
+    Raises:
+        typer.Exit: status 2, after the sentence (the key, the group's real keys, the closest).
+    """
+    groups = config_groups()
+    values = []
+    for item in overrides:
+        key, sep, _ = item.partition("=")
+        name = key.lstrip("+~")
+        if sep and not key.startswith("~") and not name.startswith(("hydra.", "hydra/")) and name not in groups:
+            values.append((key, name))
+    if not values:
+        return
+    from omegaconf import DictConfig, OmegaConf
+
+    try:
+        cfg = _compose_choices(overrides)
+    except Exception:  # noqa: BLE001 (a bad choice is reported by Hydra itself)
+        return
+    for key, name in values:
+        parent, _, leaf = name.rpartition(".")
+        node = OmegaConf.select(cfg, parent) if parent else cfg
+        if isinstance(node, DictConfig) and leaf in node:
+            continue
+        if parent and not isinstance(node, DictConfig):
+            top = parent.split(".")[0]
+            known = [k for k in cfg.keys() if isinstance(cfg[k], DictConfig)]
+            close = difflib.get_close_matches(top, known, n=1)
+            hint = f"did you mean '{close[0]}'? " if close else ""
+            typer.echo(f"error: '{name}' names no setting: '{top}' is not a config group; {hint}the groups are: {', '.join(known)}", err=True)
+            raise typer.Exit(2)
+        keys = [str(k) for k in node.keys()]
+        close = difflib.get_close_matches(leaf, keys, n=1, cutoff=0.7)
+        hint = f"did you mean '{parent + '.' if parent else ''}{close[0]}'? " if close else ""
+        where = f"the config group '{parent}'" + (f" ({parent}={node.name})" if "name" in node and not isinstance(node.name, DictConfig) else "")
+        where = where if parent else "the top level of the config"
+        adds = " (a leading + would add a key that airl never reads)" if key.startswith("+") else ""
+        typer.echo(f"error: '{name}' is not a key of {where}{adds}; {hint}its keys are: {', '.join(keys)}", err=True)
+        raise typer.Exit(2)
+
+
+def check_output_folder(overrides: list[str], *, multirun: bool) -> None:
+    """Refuse, in one sentence, an output folder that cannot be written (before Hydra makes it)."""
+    key = "hydra.sweep.dir" if multirun else "hydra.run.dir"
+    folder = "results"
+    for item in overrides:
+        name, sep, value = item.partition("=")
+        if sep and name.lstrip("+~") == key:
+            folder = value.strip("'\"")
+    problem = writable_problem(folder)
+    if problem is not None:
+        typer.echo(f"error: cannot write the results to {folder} ({problem}); choose a writable folder with {key}=PATH", err=True)
+        raise typer.Exit(2)
+
+
 def run_hydra(job: str, overrides: list[str], *, cfg: str | None = None, resolve: bool = False, multirun: bool = False) -> None:
     """Run the Hydra app of ``airl_cli.jobs.<job>`` with these overrides."""
     check_group_choices(overrides)
+    check_keys(overrides)
+    if cfg is None:
+        check_output_folder(overrides, multirun=multirun)
     module = importlib.import_module(f"airl_cli.jobs.{job}")
     argv = [f"airl {job}"]
     if multirun:
@@ -50,7 +132,12 @@ def run_hydra(job: str, overrides: list[str], *, cfg: str | None = None, resolve
         argv.append("--resolve")
     saved = sys.argv
     sys.argv = argv + list(overrides)
+    claim = not multirun and cfg is None
+    if claim:  # a folder of its own for this run, even if another started in the same second
+        OmegaConf.register_new_resolver("airl.new_run_folder", new_run_folder, replace=True)
     try:
         module.hydra_main()
     finally:
         sys.argv = saved
+        if claim:
+            OmegaConf.register_new_resolver("airl.new_run_folder", lambda path: path, replace=True)

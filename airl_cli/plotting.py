@@ -626,6 +626,8 @@ _NEEDS = {"histogram": HISTOGRAM_COLUMNS, "curves": CURVES_COLUMNS, "run_bars": 
 
 def _read_meta(folder: Path) -> dict[str, Any]:
     path = folder / "experiment.json"
+    if not folder.is_dir():
+        raise ValueError(f"The sweep folder {folder} does not exist." if not folder.exists() else f"{folder} is a file, not a sweep folder.")
     if not path.is_file():
         raise ValueError(f"The sweep folder {folder} has no experiment.json.")
     try:

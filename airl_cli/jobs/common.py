@@ -11,7 +11,8 @@ from omegaconf import DictConfig, OmegaConf
 from rich.console import Console
 
 from airl_cli.errors import AirlError
-from airl_cli.results import write_text
+from airl_cli.results import UNWRITABLE, describe_os_error, write_text
+
 
 #: Progress and errors go to stderr; the final "where it went" line to stdout.
 err_console = Console(stderr=True, highlight=False)
@@ -31,12 +32,17 @@ def save_config(cfg: DictConfig, folder: Path) -> None:
 def run_job(main: Callable[[DictConfig], object], cfg: DictConfig) -> object:
     """Run ``main(cfg)``; on bad input print one sentence and exit with status 2.
 
-    Nothing half-written stays behind: a run folder that holds only Hydra's own records is
+    A results folder that cannot be written (read-only, full disk) is bad input too. Nothing
+    half-written stays behind: a run folder that holds only Hydra's own records is
     removed when the job fails on bad input.
     """
     try:
         return main(cfg)
-    except AirlError as err:
+    except (AirlError, OSError) as err:
+        if isinstance(err, OSError):
+            if err.errno not in UNWRITABLE:
+                raise
+            err = AirlError(f"cannot write the results ({describe_os_error(err)}); choose a writable folder with hydra.run.dir=PATH")
         err_console.print(f"[bold red]error:[/] {err}", soft_wrap=True)
         try:
             folder = output_dir()
