@@ -225,3 +225,67 @@ def test_inspect_a_folder_and_plot_a_missing_folder(tmp_path):
     assert result.exit_code == 2 and "is a folder, not a dataset file" in result.output and "dataset.npz" in result.output
     result = runner.invoke(app, ["plot", str(tmp_path / "nowhere")])
     assert result.exit_code == 2 and "does not exist" in result.output
+
+
+# ------------------------------------------------------------------ 3 and 4, for real: a busy folder, a killed parent
+
+
+def _stat(pid: int) -> tuple[str, int] | None:
+    """(state, parent pid) of a process, None if it is gone."""
+    try:
+        with open(f"/proc/{pid}/stat") as f:
+            fields = f.read().rsplit(")", 1)[1].split()
+    except OSError:
+        return None
+    return fields[0], int(fields[1])
+
+
+def descendants(root: int) -> set[int]:
+    children: dict[int, list[int]] = {}
+    for entry in os.listdir("/proc"):
+        if entry.isdigit() and (st := _stat(int(entry))) is not None:
+            children.setdefault(st[1], []).append(int(entry))
+    out, todo = set(), [root]
+    while todo:
+        for child in children.get(todo.pop(), []):
+            out.add(child)
+            todo.append(child)
+    return out
+
+
+def running(pid: int) -> bool:
+    st = _stat(pid)
+    return st is not None and st[0] != "Z"
+
+
+@pytest.mark.slow  # about 30 s: a real sweep on two workers, twice
+@pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="reads /proc")
+def test_a_busy_folder_refuses_and_no_worker_outlives_a_killed_sweep(tmp_path):
+    cmd = [sys.executable, "-m", "airl_cli", "sweep", "experiment=fig05", "profile=quick", "--no-plot", "hydra.launcher.n_jobs=2"]
+    folder = tmp_path / "results" / "sweeps" / "fig05-quick"
+    proc = subprocess.Popen(cmd, cwd=tmp_path, start_new_session=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    try:
+        deadline = time.time() + 120
+        workers: set[int] = set()
+        while time.time() < deadline and not (len(workers) >= 2 and list(folder.glob("*/.hydra"))):
+            time.sleep(0.2)
+            workers = {p for p in descendants(proc.pid) if "loky" in Path(f"/proc/{p}/cmdline").read_text(errors="replace")}
+        assert len(workers) >= 2, "the joblib workers never started"
+        second = subprocess.run(cmd, cwd=tmp_path, capture_output=True, text=True, timeout=120)
+        assert second.returncode == 2 and one_sentence(second.stderr), second.stderr
+        assert "in use by another airl sweep" in second.stderr
+        everything = descendants(proc.pid)
+        os.kill(proc.pid, signal.SIGKILL)  # the parent only, as a user's kill -9 would
+        proc.wait()
+        gone_by = time.time() + 5
+        while time.time() < gone_by and any(running(p) for p in everything):
+            time.sleep(0.1)
+        assert not [p for p in everything if running(p)], "workers outlived the sweep"
+    finally:
+        try:
+            os.killpg(proc.pid, signal.SIGKILL)
+        except ProcessLookupError:
+            pass
+    # the lock died with its holder: the same command resumes
+    resumed = subprocess.run(cmd, cwd=tmp_path, capture_output=True, text=True, timeout=300)
+    assert resumed.returncode == 0, resumed.stderr
