@@ -116,6 +116,27 @@ def check_output_folder(overrides: list[str], *, multirun: bool) -> None:
         raise typer.Exit(2)
 
 
+def quote(value: str) -> str:
+    """A Hydra override value quoted, so that ',' '=' and brackets are taken literally."""
+    return "'" + value.replace("\\", "\\\\").replace("'", "\\'") + "'"
+
+
+def quote_paths(overrides: list[str]) -> list[str]:
+    """``data=PATH`` quoted when PATH is an existing file whose name Hydra would misread.
+
+    A sweep job's dataset (``.../demos.n=10,method=airl,seed=3/dataset.npz``) holds ',' and '=',
+    which Hydra's override grammar takes for a sweep; the user should not need to quote it.
+    """
+    out = []
+    for item in overrides:
+        key, sep, value = item.partition("=")
+        special = any(c in value for c in ",=[]{}()'\" \\:$*?")
+        if sep and key.lstrip("+") == "data" and special and not value.startswith(("'", '"')) and Path(value).is_file():
+            item = f"{key}={quote(value)}"
+        out.append(item)
+    return out
+
+
 def run_hydra(job: str, overrides: list[str], *, cfg: str | None = None, resolve: bool = False, multirun: bool = False) -> None:
     """Run the Hydra app of ``airl_cli.jobs.<job>`` with these overrides."""
     check_group_choices(overrides)
@@ -131,7 +152,7 @@ def run_hydra(job: str, overrides: list[str], *, cfg: str | None = None, resolve
     if resolve:
         argv.append("--resolve")
     saved = sys.argv
-    sys.argv = argv + list(overrides)
+    sys.argv = argv + quote_paths(list(overrides))
     claim = not multirun and cfg is None
     if claim:  # a folder of its own for this run, even if another started in the same second
         OmegaConf.register_new_resolver("airl.new_run_folder", new_run_folder, replace=True)

@@ -227,6 +227,17 @@ def test_inspect_a_folder_and_plot_a_missing_folder(tmp_path):
     assert result.exit_code == 2 and "does not exist" in result.output
 
 
+# ------------------------------------------------------------------ 7. a sweep job's dataset, unquoted
+
+
+def test_a_sweep_jobs_dataset_path_is_taken_as_it_is(tmp_path):
+    job = tmp_path / "demos.n=30,method=airl,seed=0"
+    assert runner.invoke(app, ["generate", f"hydra.run.dir='{job}'", *SMALL[:5]]).exit_code == 0
+    result = runner.invoke(app, ["fit", f"data={job / 'dataset.npz'}", f"hydra.run.dir={tmp_path / 'fit'}", "optim.max_steps=2", "pbvi.iterations=3"])
+    assert result.exit_code == 0, result.output
+    assert OmegaConf.load(tmp_path / "fit" / "config.yaml").data == str(job / "dataset.npz")
+
+
 # ------------------------------------------------------------------ 3 and 4, for real: a busy folder, a killed parent
 
 
