@@ -161,11 +161,23 @@ def plan(overrides: list[str]) -> SweepPlan:
     if first_job.experiment.kind == "fit":
         problem_settings(first_job)
         fit_settings(first_job)
+        from airl_cli.jobs.common import check_memory
+
+        check_memory(first_job, workers=_workers(first_job))
     swept = tuple(sorted({_key(o) for o in jobs_overrides[0] if _is_task_override(o)}))
     job_config = OmegaConf.to_container(first_job, resolve=False)
     del job_config["hydra"]
     settings = shared_settings(plain(OmegaConf.create(job_config)), swept)
     return SweepPlan(plain(cfg.experiment), _folder(cfg, overrides, parser), jobs, settings, swept)
+
+
+def _workers(cfg: DictConfig) -> int:
+    """How many jobs the launcher runs at once on this machine (joblib's n_jobs; 1 otherwise)."""
+    n_jobs = OmegaConf.select(cfg, "hydra.launcher.n_jobs", default=None)
+    if not isinstance(n_jobs, int):
+        return 1
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+    return max(1, cores + 1 + n_jobs if n_jobs < 0 else min(n_jobs, cores))
 
 
 def _key(override: str) -> str:

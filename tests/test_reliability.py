@@ -21,6 +21,7 @@ from typer.testing import CliRunner
 
 from airl_cli import sweeps
 from airl_cli.cli import app
+from airl_cli.core.budget import estimate_fit, refusal
 from airl_cli.jobs.sweep import finished_earlier
 from airl_cli.results import new_run_folder
 
@@ -300,3 +301,57 @@ def test_a_busy_folder_refuses_and_no_worker_outlives_a_killed_sweep(tmp_path):
     # the lock died with its holder: the same command resumes
     resumed = subprocess.run(cmd, cwd=tmp_path, capture_output=True, text=True, timeout=300)
     assert resumed.returncode == 0, resumed.stderr
+
+
+# ------------------------------------------------------------------ 8. too large: refused before any work
+
+
+def test_the_estimate_grows_with_the_problem_and_the_refusal_says_what_to_lower():
+    small = estimate_fit(n_states=20, n_actions=5, horizon=10, n_dynamics=3, n_demos=100, iterations=8)
+    assert small.n_beliefs == 2**7 and refusal(small, 4 * 2**30) is None
+    more_states = estimate_fit(n_states=200, n_actions=5, horizon=10, n_dynamics=3, n_demos=100, iterations=8)
+    more_iterations = estimate_fit(n_states=20, n_actions=5, horizon=10, n_dynamics=3, n_demos=100, iterations=12)
+    assert more_states.total > small.total and more_iterations.total > small.total
+    baseline = estimate_fit(n_states=200, n_actions=5, horizon=10, n_dynamics=3, n_demos=100, method="mce", iterations=20)
+    assert "policy graph" not in baseline.parts and baseline.total < more_states.total
+    big = estimate_fit(n_states=300, n_actions=5, horizon=30, n_dynamics=3, n_demos=1000, iterations=12)
+    sentence = refusal(big, 4 * 2**30, iterations=12)
+    assert sentence is not None and "\n" not in sentence
+    assert "lower pbvi.iterations (to 9 or less)" in sentence and "mdp.n_states" in sentence
+    lowered = estimate_fit(n_states=300, n_actions=5, horizon=30, n_dynamics=3, n_demos=1000, iterations=9)
+    assert refusal(lowered, 4 * 2**30) is None  # the advice is enough
+    assert "hydra.launcher.n_jobs" in refusal(lowered, 4 * 2**30, iterations=9, workers=4)
+
+
+@pytest.mark.parametrize(
+    "args",
+    [
+        ["fit", "mdp.n_states=2000", "mdp.horizon=50", "pbvi.iterations=20"],
+        ["sweep", "experiment=fig05", "mdp.n_states=2000", "mdp.horizon=50", "pbvi.iterations=20"],
+    ],
+)
+def test_a_too_large_problem_is_refused_before_any_work(tmp_path, args):
+    start = time.perf_counter()
+    result = runner.invoke(app, args)
+    assert result.exit_code == 2 and one_sentence(result.output), result.output
+    assert "of memory" in result.output and "lower pbvi.iterations" in result.output
+    assert time.perf_counter() - start < 20  # building S=2000 alone would take longer
+    assert not list(tmp_path.rglob("dataset.npz")) and not list(tmp_path.rglob("rows.csv"))
+
+
+@pytest.mark.slow  # about 20 s: three real fits, each measured
+@pytest.mark.parametrize("S, T, iterations", [(20, 10, 8), (100, 10, 10), (150, 15, 8)])
+def test_the_estimate_is_above_the_measured_peak(tmp_path, S, T, iterations):
+    import resource
+
+    code = (
+        "import resource, sys; from airl_cli.cli import main; sys.argv = sys.argv[1:]\n"
+        "try:\n    main()\nexcept SystemExit:\n    pass\n"
+        "print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss)"
+    )
+    args = ["airl", "fit", f"mdp.n_states={S}", f"mdp.horizon={T}", f"pbvi.iterations={iterations}", "optim.max_steps=2", f"hydra.run.dir={tmp_path / 'run'}"]
+    out = subprocess.run([sys.executable, "-c", code, *args], capture_output=True, text=True, timeout=300, cwd=tmp_path)
+    peak = int(out.stdout.strip().splitlines()[-1]) * 1024
+    estimate = estimate_fit(n_states=S, n_actions=5, horizon=T, n_dynamics=3, n_demos=100, iterations=iterations)
+    assert peak < estimate.total < 3 * peak, (peak, estimate.total)
+    del resource

@@ -21,7 +21,7 @@ from airl_cli.core.problems import zero_one_loss
 from airl_cli.data import Dataset, read_dataset, write_dataset
 from airl_cli.errors import ConfigError
 from airl_cli.evaluate import score_rows
-from airl_cli.jobs.common import err_console, out_console, output_dir, run_job, save_config
+from airl_cli.jobs.common import check_memory, err_console, out_console, output_dir, run_job, save_config, size_note
 from airl_cli.learners import Learned, learn
 from airl_cli.paths import conf_dir
 from airl_cli.results import atomic_write, write_json, write_text
@@ -109,6 +109,7 @@ class FitRun:
 def fit_and_write(cfg: DictConfig, folder: Path, on_step: Callable[[dict], None] | None = None) -> FitRun:
     """Learn as the config says and write every output file of a fit into ``folder``."""
     settings = fit_settings(cfg)
+    check_memory(cfg)  # before any work: refuse, in one sentence, what will not fit in memory
     dataset, seed, generated = load_dataset(cfg, settings)
     rng = streams(seed)["fit" if settings.method == "airl" else "method"]
     start = time.perf_counter()
@@ -140,6 +141,8 @@ def main(cfg: DictConfig) -> None:
         with err_console.status(f"fitting method={settings.method}"):
             run = fit_and_write(cfg, folder)
     else:
+        if note := size_note(cfg):
+            err_console.print(note, soft_wrap=True)
         with err_console.status("loading the planner (the first run after installing compiles it, about 10 s)"):
             warm_up()
         columns = (
