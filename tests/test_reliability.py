@@ -355,3 +355,47 @@ def test_the_estimate_is_above_the_measured_peak(tmp_path, S, T, iterations):
     estimate = estimate_fit(n_states=S, n_actions=5, horizon=T, n_dynamics=3, n_demos=100, iterations=iterations)
     assert peak < estimate.total < 3 * peak, (peak, estimate.total)
     del resource
+
+
+# ------------------------------------------------------------------ 9. a sweep that talks
+
+
+def test_progress_reports_each_failure_as_it_happens(tmp_path):
+    from rich.console import Console
+
+    sweep = sweeps.SweepPlan({"name": "figX"}, tmp_path, ("a", "b"))
+    console = Console(file=__import__("io").StringIO(), width=200, force_terminal=False)
+    with sweeps.progress(sweep, console, interval=0.05):
+        (tmp_path / "a").mkdir()
+        (tmp_path / "a" / sweeps.ERROR).write_text("'demo_actions' is missing\n")
+        time.sleep(0.3)
+        printed_while_running = console.file.getvalue()
+    assert "failed: a: 'demo_actions' is missing" in printed_while_running
+
+
+def test_the_end_of_a_sweep_prints_median_scores_beside_the_thesis():
+    import pandas as pd
+
+    rows = [
+        {"method": m, "x": x, "seed": s, "dynamics": d, "learner_score": score, "demonstrator_score": 0.5}
+        for m, base in (("airl", 0.9), ("mce", 0.7))
+        for x in (1, 10)
+        for s, score in ((0, base - 0.1), (1, base), (2, base + 0.05))
+        for d in ("tau", "tau_1")
+    ]
+    text = sweeps.medians_text({"x": "n_demos", "dynamics": ["tau_1"], "thesis": "the learner wins"}, pd.DataFrame(rows))
+    lines = text.strip().splitlines()
+    assert "over runs and tau_1" in lines[0] and lines[1].split() == ["n_demos", "airl", "mce", "demonstrator"]
+    assert lines[2].split() == ["1", "0.9000", "0.7000", "0.5000"] and lines[-1] == "thesis: the learner wins"
+
+
+def test_ctrl_c_says_how_to_resume(tmp_path, monkeypatch):
+    import airl_cli.launch
+
+    def interrupted(*_args, **_kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(airl_cli.launch, "run_hydra", interrupted)
+    result = runner.invoke(app, ["sweep", "experiment=fig13", "profile=quick", "--no-plot"])
+    assert result.exit_code == 130
+    assert "interrupted: run the same command again to resume" in result.output
