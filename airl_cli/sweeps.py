@@ -42,7 +42,8 @@ ERROR = "error.txt"
 TABLE = "results.csv"
 META = "experiment.json"
 
-#: Columns of the results table of a fit experiment, in order (one row per job x dynamics).
+#: The first columns of the results table of a fit experiment, in order (one row per job x
+#: dynamics); every setting of the problem and learner groups follows (``jobs.sweep.setting_columns``).
 FIT_COLUMNS = (
     "experiment", "method", "seed", "run", "x", "x_name", "mdp", "dynamics_kind", "n_dynamics", "n_features",
     "n_demos", "demos", "sigma", "weight_sharing", "loss", "dynamics", "learner_score", "demonstrator_score",

@@ -9,6 +9,7 @@ Bad input stops the job with ``error.txt`` (one sentence) instead of rows.
 from __future__ import annotations
 
 import io
+import json
 import os
 import signal
 import socket
@@ -32,7 +33,7 @@ from airl_cli.results import atomic_write, write_text
 
 
 def fit_rows(cfg: DictConfig, folder) -> list[dict]:
-    """Run the fit of this job; one row per dynamics in the schema ``sweeps.FIT_COLUMNS``."""
+    """Run the fit of this job; one row per dynamics: ``sweeps.FIT_COLUMNS``, then every setting."""
     run = fit_and_write(cfg, folder)
     c = plain(cfg)
     exp = c["experiment"]
@@ -54,6 +55,7 @@ def fit_rows(cfg: DictConfig, folder) -> list[dict]:
         "weight_sharing": run.settings.options.weight_sharing,
         "loss": resolved_loss(problem_settings(cfg)),
     }
+    settings = setting_columns(c)
     out = []
     for row in run.rows:
         out.append(
@@ -64,8 +66,26 @@ def fit_rows(cfg: DictConfig, folder) -> list[dict]:
                 "demonstrator_score": row["demonstrator_score"],
                 "cosine_similarity": row["cosine_similarity"],
                 "seconds": run.seconds,
+                **settings,
             }
         )
+    return out
+
+
+#: The config groups whose every setting becomes a column of the results table.
+SETTING_GROUPS = ("mdp", "dynamics", "demos", "loss", "method", "pbvi", "game", "optim")
+
+
+def setting_columns(config: dict) -> dict[str, object]:
+    """Every setting of the problem and learner groups as a column (``optim.lam``, ``mdp.transition``...).
+
+    A variant's table (say ``mdp.transition=dirichlet``) thus says what it ran, row by row. Lists
+    (grid cells) are written as JSON text.
+    """
+    out: dict[str, object] = {}
+    for group in SETTING_GROUPS:
+        for key, value in sweeps.shared_settings({group: config.get(group) or {}}, ()).items():
+            out[key] = json.dumps(value) if isinstance(value, (list, dict)) else value
     return out
 
 
