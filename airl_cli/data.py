@@ -1,4 +1,4 @@
-"""The dataset file of SPEC §4: one ``.npz`` that ``airl generate`` writes and ``airl fit`` reads.
+"""The dataset file (README, 'Bring your own MDP and demonstrations'): one ``.npz`` that ``airl generate`` writes and ``airl fit`` reads.
 
 A user brings their own MDP and demonstrations by writing these keys with ``numpy.savez``:
 
@@ -93,7 +93,7 @@ class Dataset:
         return feature_sums(self.demo_states, self.features).mean(axis=1)
 
     def arrays(self) -> dict[str, np.ndarray]:
-        """The keys present, in SPEC order, as arrays."""
+        """The keys present, in the README's order, as arrays."""
         out = {}
         for f in fields(self):
             value = getattr(self, f.name)
@@ -138,7 +138,7 @@ def _probabilities(key: str, x: np.ndarray) -> None:
 
 
 def validate(raw: dict[str, np.ndarray]) -> Dataset:
-    """Check the arrays of a dataset file against SPEC §4 and build a ``Dataset``.
+    """Check the arrays of a dataset file against the schema of the README and build a ``Dataset``.
 
     Args:
         raw: key -> array, as loaded from the file.
