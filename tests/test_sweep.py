@@ -134,3 +134,19 @@ def test_a_cluster_launcher_composes():
     result = runner.invoke(app, ["sweep", "experiment=fig05", "hydra/launcher=submitit_slurm", "hydra.launcher.partition=gpu", "--cfg", "hydra"])
     assert result.exit_code == 0, result.output
     assert "submitit" in result.output and "partition: gpu" in result.output
+
+
+@pytest.mark.slow  # about 30 s: the same quick sweep through two launchers
+def test_the_cluster_code_path_gives_the_same_table_as_the_local_one(tmp_path):
+    """hydra/launcher=submitit_local runs each job as a submitit job, as SLURM would (same plugin,
+    same pickled job function), only on this machine."""
+    pytest.importorskip("hydra_plugins.hydra_submitit_launcher")
+    tables = {}
+    for launcher in ("submitit_local", "basic"):
+        folder = tmp_path / launcher
+        result = runner.invoke(app, ["sweep", "experiment=fig13", "profile=quick", f"hydra/launcher={launcher}", f"hydra.sweep.dir={folder}", "--no-plot"])
+        assert result.exit_code == 0, result.output
+        tables[launcher] = pd.read_csv(folder / "results.csv").drop(columns=["seconds"])
+    assert len(tables["basic"]) == 12
+    pd.testing.assert_frame_equal(tables["submitit_local"], tables["basic"])
+    assert list((tmp_path / "submitit_local").glob("*/.submitit")) or list((tmp_path / "submitit_local").rglob("*_log.out"))
