@@ -323,14 +323,18 @@ def test_bc_rows_with_empty_cosine_survive_the_csv(tmp_path):
 
 
 def test_plotting_imports_only_pandas_numpy_matplotlib_the_standard_library_and_results():
-    path = Path(airl_cli.__file__).parent / "plotting.py"
+    files = sorted((Path(airl_cli.__file__).parent / "plotting").glob("*.py"))
+    assert files
     names = set()
-    for node in ast.walk(ast.parse(path.read_text())):
-        if isinstance(node, ast.Import):
-            names |= {alias.name for alias in node.names}
-        elif isinstance(node, ast.ImportFrom):
-            assert node.level == 0, "plotting.py uses a relative import"
-            names.add(node.module)
+    for path in files:
+        assert len(path.read_text().splitlines()) <= 400, f"{path.name}: split it by figure kind"
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.Import):
+                names |= {alias.name for alias in node.names}
+            elif isinstance(node, ast.ImportFrom):
+                assert node.level == 0, f"{path.name} uses a relative import"
+                names.add(node.module)
+    names = {n for n in names if not n.startswith("airl_cli.plotting")}
     assert not any(name.startswith("airl_cli.core") for name in names)
     assert {n for n in names if n.startswith("airl_cli")} <= {"airl_cli.results"}  # plotting -> results only
     assert "matplotlib.pyplot" not in names
