@@ -371,7 +371,8 @@ def collect(sweep: SweepPlan) -> pd.DataFrame:
     if sweep.experiment.get("kind") == "alphas" and finished:
         data = (sweep.folder / finished[0] / "alphas.npz").read_bytes()
         atomic_write(sweep.folder / "alphas.npz", lambda h: h.write(data))
-    write_json(sweep.folder / META, {**sweep.experiment, "jobs": len(sweep.jobs), "finished": int(len(frames))})
+    profile = sweep.settings.get("profile.name")
+    write_json(sweep.folder / META, {**sweep.experiment, "profile": profile, "jobs": len(sweep.jobs), "finished": int(len(frames))})
     return table
 
 

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 from pathlib import Path
 from typing import Any
 
@@ -125,6 +126,25 @@ def _save(fig: Figure, path: Path) -> Path:
     return atomic_write(path, lambda handle: fig.savefig(handle, format=fmt, dpi=DPI, metadata=metadata))
 
 
+def sized_title(meta: dict[str, Any], df: pd.DataFrame) -> str:
+    """The experiment's title, told the truth about a smaller run than the thesis's.
+
+    A quick-profile sweep (or any sweep with fewer runs than the experiment lists) keeps the
+    figure's title but says how many runs each point has, and "over 100 datasets" becomes the
+    number actually drawn.
+    """
+    title = str(meta.get("title") or "")
+    if not title or "seed" not in df.columns:
+        return title
+    n = int(df["seed"].nunique())
+    full = meta.get("runs")
+    quick = meta.get("profile") == "quick"
+    if not quick and (full is None or n >= int(full)):
+        return title
+    title = re.sub(r"\bover \d+ (datasets|runs)\b", lambda m: f"over {n} {m.group(1)}", title)
+    return f"{title} [{'quick profile: ' if quick else ''}{n} run{'s' if n != 1 else ''} per point]"
+
+
 def draw(folder: str | os.PathLike) -> list[Path]:
     """Draw every figure experiment.json lists; return the PNG and PDF paths written.
 
@@ -145,6 +165,8 @@ def draw(folder: str | os.PathLike) -> list[Path]:
         needs = _cosine_columns(df, meta) if kind == "cosine" else _NEEDS[kind]
         _require(df, needs, kind)
 
+    if df is not None:
+        meta = {**meta, "title": sized_title(meta, df)}
     figures: list[tuple[str, Figure]] = []
     for kind in kinds:
         if kind == "alphas":

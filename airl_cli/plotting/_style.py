@@ -190,9 +190,12 @@ def _quartiles(values: Any) -> pd.DataFrame:
     ).sort_index()
 
 
-def _band(ax, stats: pd.DataFrame, colour: str, label: str, linestyle: str = "-", marker: str = "o", zorder: float = 2):
+def _band(ax, stats: pd.DataFrame, colour: str, label: str, linestyle: str = "-", marker: str = "o", zorder: float = 2,
+          band: bool = True):
+    """The median line; with ``band``, the interquartile range shaded behind it."""
     x = stats.index.to_numpy(dtype=float)
-    ax.fill_between(x, stats["q25"], stats["q75"], color=colour, alpha=0.18, linewidth=0)
+    if band:
+        ax.fill_between(x, stats["q25"], stats["q75"], color=colour, alpha=0.18, linewidth=0)
     (line,) = ax.plot(x, stats["median"], color=colour, linestyle=linestyle, marker=marker, markersize=4,
                       linewidth=2 if linestyle == "-" else 1.6, label=label, zorder=zorder)
     return line
@@ -231,6 +234,19 @@ def _grouped_bars(ax, table: pd.DataFrame, methods: Sequence[str], all_methods: 
         heights = table[method].to_numpy(dtype=float)
         ax.bar(positions - 0.4 + (i + 0.5) * width, np.nan_to_num(heights, nan=0.0), width=width,
                color=_colour(method, all_methods), label=_label(method), linewidth=0)
+
+
+def _zoomed_limits(values: np.ndarray, *, step: float = 0.05, floor: float = 0.5) -> tuple[float, float]:
+    """Score limits that start just under the lowest value (a multiple of ``step``), not at 0.
+
+    Per-run scores of the grid world lie between about 0.88 and 0.99; an axis from 0 shows bars of
+    equal height. Below ``floor`` the axis starts at 0 as usual.
+    """
+    finite = values[np.isfinite(values)]
+    if finite.size == 0:
+        return SCORE_LIMITS
+    low = math.floor((float(finite.min()) - step / 2) / step) * step
+    return (0.0 if low < floor else round(low, 10), SCORE_LIMITS[1])
 
 
 def _bar_width(n_runs: int, n_methods: int) -> float:

@@ -39,6 +39,7 @@ from airl_cli.plotting._style import (
     _title,
     _x_axis,
     _x_label,
+    _zoomed_limits,
 )
 
 # --------------------------------------------------------------------------------------------
@@ -127,6 +128,9 @@ def curves(df: pd.DataFrame, meta: Mapping[str, Any]) -> Figure:
     x_label = _x_label(meta, df)
     threshold = meta.get("threshold")
 
+    # five overlapping bands hide each other: shade the spread of this thesis's method (or of the
+    # only method) and of the demonstrator; the comparison methods get their median lines
+    banded = "airl" if "airl" in methods else (methods[0] if methods else None)
     fig, axes = _panels(len(dynamics), 3)
     for ax, dyn in zip(axes, dynamics):
         rows = df[df["dynamics"].astype(str) == dyn]
@@ -140,7 +144,8 @@ def curves(df: pd.DataFrame, meta: Mapping[str, Any]) -> Figure:
             learner = rows.loc[rows["method"].astype(str) == method].dropna(subset=["learner_score"])
             if learner.empty:
                 continue
-            _band(ax, _quartiles(learner.groupby("x")["learner_score"]), _colour(method, methods), _label(method))
+            _band(ax, _quartiles(learner.groupby("x")["learner_score"]), _colour(method, methods), _label(method),
+                  band=method == banded)
         if threshold is not None:
             ax.axhline(float(threshold), color=THRESHOLD_COLOUR, linewidth=1.0, linestyle=":")
         _x_axis(ax, rows["x"].to_numpy(dtype=float), log, x_label)
@@ -153,7 +158,8 @@ def curves(df: pd.DataFrame, meta: Mapping[str, Any]) -> Figure:
     handles = _method_handles(methods, methods) + [_demonstrator_handle()]
     if threshold is not None:
         handles.append(Line2D([], [], color=THRESHOLD_COLOUR, linestyle=":", label=f"threshold {float(threshold):g}"))
-    handles.append(Patch(facecolor="0.6", alpha=0.35, label="interquartile range over runs"))
+    spread = f"{_label(banded)} and demonstrator" if banded and len(methods) > 1 else ""
+    handles.append(Patch(facecolor="0.6", alpha=0.35, label=f"interquartile range over runs{' (' + spread + ')' if spread else ''}"))
     _legend(fig, handles)
     return fig
 
@@ -171,6 +177,9 @@ def run_bars(df: pd.DataFrame, meta: Mapping[str, Any]) -> Figure:
     threshold = _threshold(meta)
     runs = np.sort(df.loc[df["dynamics"].astype(str).isin(dynamics), "run"].dropna().unique())
 
+    shown = df[df["dynamics"].astype(str).isin(dynamics) & df["method"].astype(str).isin(methods)]
+    limits = _zoomed_limits(np.concatenate([shown["learner_score"].to_numpy(dtype=float),
+                                            shown["demonstrator_score"].to_numpy(dtype=float), [threshold]]))
     fig, axes = _panels(len(dynamics), 1, width=_bar_width(len(runs), len(methods)), sharey=True)
     for ax, dyn in zip(axes, dynamics):
         rows = df[df["dynamics"].astype(str) == dyn]
@@ -185,8 +194,8 @@ def run_bars(df: pd.DataFrame, meta: Mapping[str, Any]) -> Figure:
                   linestyles="--", linewidth=1.4)
         ax.axhline(threshold, color=THRESHOLD_COLOUR, linewidth=1.6)
         _run_ticks(ax, runs)
-        ax.set_ylim(*SCORE_LIMITS)
-        ax.set_ylabel(SCORE_LABEL)
+        ax.set_ylim(*limits)
+        ax.set_ylabel(SCORE_LABEL if limits[0] == 0 else f"{SCORE_LABEL} (axis from {limits[0]:g})")
         ax.set_title(_dynamics_label(dyn))
         ax.grid(axis="y", alpha=0.3)
     _title(fig, meta, "Performance per run")
