@@ -136,17 +136,18 @@ def test_a_cluster_launcher_composes():
     assert "submitit" in result.output and "partition: gpu" in result.output
 
 
-@pytest.mark.slow  # about 30 s: the same quick sweep through two launchers
-def test_the_cluster_code_path_gives_the_same_table_as_the_local_one(tmp_path):
+@pytest.mark.slow  # about 25 s each: the same quick sweep through a cluster launcher and in-process
+@pytest.mark.parametrize("launcher, plugin", [("submitit_local", "hydra_submitit_launcher"), ("ray", "hydra_ray_launcher")])
+def test_the_cluster_code_path_gives_the_same_table_as_the_local_one(tmp_path, launcher, plugin):
     """hydra/launcher=submitit_local runs each job as a submitit job, as SLURM would (same plugin,
-    same pickled job function), only on this machine."""
-    pytest.importorskip("hydra_plugins.hydra_submitit_launcher")
+    same pickled job function), only on this machine; hydra/launcher=ray starts a local Ray
+    instance (pip install ".[ray]")."""
+    pytest.importorskip(f"hydra_plugins.{plugin}")
     tables = {}
-    for launcher in ("submitit_local", "basic"):
-        folder = tmp_path / launcher
-        result = runner.invoke(app, ["sweep", "experiment=fig13", "profile=quick", f"hydra/launcher={launcher}", f"hydra.sweep.dir={folder}", "--no-plot"])
+    for name in (launcher, "basic"):
+        folder = tmp_path / name
+        result = runner.invoke(app, ["sweep", "experiment=fig13", "profile=quick", f"hydra/launcher={name}", f"hydra.sweep.dir={folder}", "--no-plot"])
         assert result.exit_code == 0, result.output
-        tables[launcher] = pd.read_csv(folder / "results.csv").drop(columns=["seconds"])
+        tables[name] = pd.read_csv(folder / "results.csv").drop(columns=["seconds"])
     assert len(tables["basic"]) == 12
-    pd.testing.assert_frame_equal(tables["submitit_local"], tables["basic"])
-    assert list((tmp_path / "submitit_local").glob("*/.submitit")) or list((tmp_path / "submitit_local").rglob("*_log.out"))
+    pd.testing.assert_frame_equal(tables[launcher], tables["basic"])
