@@ -8,6 +8,7 @@ import sys
 from pathlib import Path
 
 import typer
+import yaml
 from omegaconf import OmegaConf
 
 from airl_cli.paths import conf_dir
@@ -40,20 +41,40 @@ def check_group_choices(overrides: list[str]) -> None:
                 raise typer.Exit(2)
 
 
-def _compose_choices(overrides: list[str]):
-    """The config with only the group choices of these overrides (first value of a sweep)."""
-    from hydra import compose, initialize_config_dir
+def _yaml(path: Path) -> tuple[dict, bool]:
+    """A config file's mapping, and whether it is in the global package (``# @package _global_``)."""
+    text = path.read_text()
+    return (yaml.safe_load(text) or {}), "@package _global_" in text.split("\n", 1)[0]
 
+
+def _known_keys(overrides: list[str]) -> tuple[dict[str, tuple[str, list[str] | None]], list[str]]:
+    """Per config group, (its chosen option, its keys or None if unknown); and the top-level keys.
+
+    Read from the YAML files themselves (milliseconds), not by composing the config (0.2-0.4 s).
+    """
+    root = Path(conf_dir())
+    primary, _ = _yaml(root / "airl.yaml")
+    chosen: dict[str, str | None] = {}
+    for entry in primary.get("defaults", []):
+        if isinstance(entry, dict):
+            for key, value in entry.items():
+                if not key.startswith("override "):
+                    chosen[key] = value
     groups = config_groups()
-    choices = []
     for item in overrides:
         key, sep, value = item.partition("=")
-        if sep and key.lstrip("+~") in groups and not key.startswith("~"):
-            first = value.split(",")[0]
-            if not first.startswith(("choice(", "range(", "glob(")):
-                choices.append(f"{key}={first}")
-    with initialize_config_dir(config_dir=conf_dir(), version_base="1.3", job_name="check"):
-        return compose("airl", overrides=choices)
+        name = key.lstrip("+~")
+        if sep and name in groups:
+            chosen[name] = value.split(",")[0]
+    known: dict[str, tuple[str, list[str] | None]] = {}
+    for group, option in chosen.items():
+        path = root / group / f"{option}.yaml"
+        if option is None or group not in groups or not path.is_file():
+            continue
+        data, is_global = _yaml(path)
+        known[group] = (str(option), None if is_global else [str(k) for k in data if k != "defaults"])
+    top = [str(k) for k in primary if k != "defaults"] + list(groups)
+    return known, list(dict.fromkeys(top))
 
 
 def check_keys(overrides: list[str]) -> None:
@@ -61,6 +82,7 @@ def check_keys(overrides: list[str]) -> None:
 
     Hydra would advise ``+GROUP.KEY=VALUE``, which adds a key no code reads: the run goes ahead
     and silently ignores it. So ``+GROUP.KEY`` of a key airl does not know is refused too.
+    Keys of the experiment and profile groups, which set values across groups, are left to Hydra.
 
     Raises:
         typer.Exit: status 2, after the sentence (the key, the group's real keys, the closest).
@@ -74,31 +96,29 @@ def check_keys(overrides: list[str]) -> None:
             values.append((key, name))
     if not values:
         return
-    from omegaconf import DictConfig, OmegaConf
-
-    try:
-        cfg = _compose_choices(overrides)
-    except Exception:  # noqa: BLE001 (a bad choice is reported by Hydra itself)
-        return
+    known, top = _known_keys(overrides)
     for key, name in values:
-        parent, _, leaf = name.rpartition(".")
-        node = OmegaConf.select(cfg, parent) if parent else cfg
-        if isinstance(node, DictConfig) and leaf in node:
-            continue
-        if parent and not isinstance(node, DictConfig):
-            top = parent.split(".")[0]
-            known = [k for k in cfg.keys() if isinstance(cfg[k], DictConfig)]
-            close = difflib.get_close_matches(top, known, n=1)
-            hint = f"did you mean '{close[0]}'? " if close else ""
-            typer.echo(f"error: '{name}' names no setting: '{top}' is not a config group; {hint}the groups are: {', '.join(known)}", err=True)
-            raise typer.Exit(2)
-        keys = [str(k) for k in node.keys()]
-        close = difflib.get_close_matches(leaf, keys, n=1, cutoff=0.7)
-        hint = f"did you mean '{parent + '.' if parent else ''}{close[0]}'? " if close else ""
-        where = f"the config group '{parent}'" + (f" ({parent}={node.name})" if "name" in node and not isinstance(node.name, DictConfig) else "")
-        where = where if parent else "the top level of the config"
+        parts = name.split(".")
         adds = " (a leading + would add a key that airl never reads)" if key.startswith("+") else ""
-        typer.echo(f"error: '{name}' is not a key of {where}{adds}; {hint}its keys are: {', '.join(keys)}", err=True)
+        if len(parts) == 1:
+            if name in top:
+                continue
+            close = difflib.get_close_matches(name, top, n=1, cutoff=0.7)
+            hint = f"did you mean '{close[0]}'? " if close else ""
+            typer.echo(f"error: '{name}' is not a setting{adds}; {hint}the top-level keys are: {', '.join(top)}", err=True)
+            raise typer.Exit(2)
+        group, leaf = parts[0], parts[1]
+        if group not in known and group not in top:
+            close = difflib.get_close_matches(group, list(known), n=1)
+            hint = f"did you mean '{close[0]}'? " if close else ""
+            typer.echo(f"error: '{name}' names no setting: '{group}' is not a config group; {hint}the groups are: {', '.join(known)}", err=True)
+            raise typer.Exit(2)
+        option, keys = known.get(group, ("", None))
+        if keys is None or leaf in keys:
+            continue
+        close = difflib.get_close_matches(leaf, keys, n=1, cutoff=0.7)
+        hint = f"did you mean '{group}.{close[0]}'? " if close else ""
+        typer.echo(f"error: '{name}' is not a key of the config group '{group}' ({group}={option}){adds}; {hint}its keys are: {', '.join(keys)}", err=True)
         raise typer.Exit(2)
 
 
