@@ -330,16 +330,17 @@ def progress(sweep: SweepPlan, console: Console, interval: float = 0.5) -> Itera
         TextColumn("left"),
         TimeRemainingColumn(),
     )
-    reported = set(sweep.failed())
+    reported = set(sweep.failed())  # an earlier run's failures were reported then
     with Progress(*columns, console=console, transient=True) as bar:
         task = bar.add_task("jobs", total=len(sweep.jobs), completed=len(sweep.done()))
 
         def update() -> None:
-            for job, message in sweep.failed().items():
+            failed = sweep.failed()
+            for job, message in failed.items():
                 if job not in reported:
                     reported.add(job)
                     bar.console.print(f"[bold red]failed:[/] {job}: {message}", soft_wrap=True)
-            bar.update(task, completed=len(sweep.done()) + len(reported))
+            bar.update(task, completed=len(set(sweep.done()) | set(failed)))
 
         def watch() -> None:
             while not stop.wait(interval):
