@@ -50,7 +50,7 @@ def resolved_loss(settings: ProblemSettings) -> str:
 
 
 def build_problem(settings: ProblemSettings) -> Problem:
-    """The MDP, its dynamics tau_0..tau_D, features, true weights and loss (SPEC §3)."""
+    """The MDP, its dynamics tau_0..tau_D, features, true weights and loss (thesis §7.2-7.3)."""
     rng = streams(settings.seed)
     mdp, dyn = settings.mdp, settings.dynamics
     coords = None
@@ -127,7 +127,7 @@ def build_dataset(settings: ProblemSettings) -> tuple[Dataset, np.ndarray]:
 
 
 def expert_scores(dataset: Dataset, policy: np.ndarray) -> np.ndarray:
-    """The demonstrator's normalised performance (M,) under tau_0..tau_D (SPEC §6)."""
+    """The demonstrator's normalised performance (M,) under tau_0..tau_D (thesis §7.2)."""
     assert dataset.true_weights is not None
     R = dataset.features @ dataset.true_weights
     return np.array([performance(Pj, R, policy, dataset.initial) for Pj in dataset.transitions])

@@ -11,7 +11,7 @@ from __future__ import annotations
 import typer
 
 from airl_cli.errors import AirlError
-from airl_cli.launch import check_group_choices, config_groups, run_hydra
+from airl_cli.launch import check_group_choices, check_keys, config_groups, run_hydra
 
 PASS_THROUGH = {"allow_extra_args": True, "ignore_unknown_options": True}
 
@@ -113,6 +113,7 @@ def sweep(
     from airl_cli.sweeps import run
 
     check_group_choices(ctx.args)
+    check_keys(ctx.args)
     try:
         status = run(ctx.args, draw=plot, console=err_console, out=out_console)
     except AirlError as err:
@@ -129,10 +130,15 @@ def plot(folder: str = typer.Argument(..., help="A sweep folder (results/sweeps/
     from airl_cli.jobs.common import err_console, out_console
     from airl_cli.plotting import draw
 
+    from airl_cli.results import describe_os_error
+
     try:
         paths = draw(Path(folder))
     except (ValueError, FileNotFoundError) as err:
         err_console.print(f"[bold red]error:[/] {err}", soft_wrap=True)
+        raise typer.Exit(2) from None
+    except OSError as err:
+        err_console.print(f"[bold red]error:[/] cannot write the figures ({describe_os_error(err)})", soft_wrap=True)
         raise typer.Exit(2) from None
     for path in paths:
         out_console.print(f"figure {path}", soft_wrap=True)

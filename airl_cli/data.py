@@ -1,4 +1,4 @@
-"""The dataset file of SPEC §4: one ``.npz`` that ``airl generate`` writes and ``airl fit`` reads.
+"""The dataset file (README, 'Bring your own MDP and demonstrations'): one ``.npz`` that ``airl generate`` writes and ``airl fit`` reads.
 
 A user brings their own MDP and demonstrations by writing these keys with ``numpy.savez``:
 
@@ -93,7 +93,7 @@ class Dataset:
         return feature_sums(self.demo_states, self.features).mean(axis=1)
 
     def arrays(self) -> dict[str, np.ndarray]:
-        """The keys present, in SPEC order, as arrays."""
+        """The keys present, in the README's order, as arrays."""
         out = {}
         for f in fields(self):
             value = getattr(self, f.name)
@@ -138,7 +138,7 @@ def _probabilities(key: str, x: np.ndarray) -> None:
 
 
 def validate(raw: dict[str, np.ndarray]) -> Dataset:
-    """Check the arrays of a dataset file against SPEC §4 and build a ``Dataset``.
+    """Check the arrays of a dataset file against the schema of the README and build a ``Dataset``.
 
     Args:
         raw: key -> array, as loaded from the file.
@@ -256,6 +256,9 @@ def read_dataset(path: str | os.PathLike) -> Dataset:
         DatasetError: the file is missing, not an .npz, or any key fails ``validate``.
     """
     path = Path(path)
+    if path.is_dir():
+        inside = " (it holds dataset.npz: give that file)" if (path / "dataset.npz").is_file() else ""
+        raise DatasetError(f"'{path}' is a folder, not a dataset file{inside}")
     if not path.is_file():
         raise DatasetError(f"dataset file '{path}' does not exist")
     try:

@@ -6,7 +6,7 @@ class AirlError(Exception):
 
 
 class DatasetError(AirlError):
-    """The dataset file is missing, malformed, or inconsistent (SPEC §4)."""
+    """The dataset file is missing, malformed, or inconsistent (README, 'Bring your own MDP and demonstrations')."""
 
 
 class ConfigError(AirlError):

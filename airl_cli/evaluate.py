@@ -1,4 +1,4 @@
-"""Scores of a learned reward on a dataset (SPEC §6), one row per dynamics."""
+"""Scores of a learned reward on a dataset (thesis §7.2), one row per dynamics."""
 
 from __future__ import annotations
 

@@ -1,7 +1,8 @@
-"""Run folders and atomic writes: a results file is either whole or absent (SPEC §10)."""
+"""Run folders and atomic writes: a results file is either whole or absent, and every run gets a folder of its own."""
 
 from __future__ import annotations
 
+import errno
 import json
 import os
 import tempfile
@@ -52,3 +53,69 @@ def write_text(path: str | os.PathLike, text: str) -> Path:
 def write_json(path: str | os.PathLike, obj: Any) -> Path:
     """Atomically write JSON with sorted keys and a trailing newline (same data, same bytes)."""
     return write_text(path, json.dumps(obj, indent=2, sort_keys=True, allow_nan=False) + "\n")
+
+
+_claimed: dict[str, str] = {}
+
+
+def new_run_folder(path: str) -> str:
+    """Create the run folder ``path`` and return it; if it exists, ``path-2``, ``path-3``...
+
+    Run folders are named by the second they start in; two runs started in the same second (say
+    two seeds launched by one script) each get a folder of their own, because ``mkdir`` either
+    creates the folder or fails, atomically. The same ``path`` asked for again in one process (Hydra
+    resolves its output folder more than once) gives the same folder. If the folder cannot be
+    created the path is returned as it is, for the caller's own check to report.
+    """
+    if path in _claimed:
+        return _claimed[path]
+    base = Path(path)
+    try:
+        base.parent.mkdir(parents=True, exist_ok=True)
+        n = 1
+        while True:
+            candidate = base if n == 1 else base.with_name(f"{base.name}-{n}")
+            try:
+                candidate.mkdir()
+                break
+            except FileExistsError:
+                n += 1
+    except OSError:
+        return path
+    _claimed[path] = str(candidate)
+    return str(candidate)
+
+
+#: errno values that mean "this folder cannot be written here".
+UNWRITABLE = frozenset([errno.EACCES, errno.EPERM, errno.EROFS, errno.ENOSPC, errno.EDQUOT, errno.ENOTDIR, errno.EEXIST])
+
+
+def writable_problem(folder: str | os.PathLike) -> str | None:
+    """Why files cannot be written into ``folder`` (made if absent), or None if they can.
+
+    Tries for real: creates and removes a file in the folder, or in its nearest existing
+    ancestor when the folder does not exist yet (permissions alone do not tell, e.g. for root or
+    on a read-only mount).
+    """
+    target = Path(folder)
+    probe_dir = target
+    while not probe_dir.exists():
+        if probe_dir.parent == probe_dir:
+            break
+        probe_dir = probe_dir.parent
+    if not probe_dir.is_dir():
+        return f"{probe_dir} is a file, not a folder"
+    try:
+        fd, name = tempfile.mkstemp(prefix=".airl-probe-", dir=probe_dir)
+        os.close(fd)
+        os.unlink(name)
+    except OSError as err:
+        return f"{(err.strerror or type(err).__name__).lower()} in {probe_dir.resolve()}"
+    return None
+
+
+def describe_os_error(err: OSError, path: str | os.PathLike | None = None) -> str:
+    """``permission denied: PATH`` from an OSError, lower case, without errno numbers."""
+    reason = (err.strerror or type(err).__name__).lower()
+    where = err.filename if err.filename is not None else path
+    return f"{reason}: {where}" if where is not None else reason

@@ -10,13 +10,17 @@ interrupted sweep never leaves duplicated or partial rows.
 
 from __future__ import annotations
 
+import fcntl
 import hashlib
 import json
+import os
+import socket
 import threading
 from collections.abc import Iterator
 from contextlib import contextmanager
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import pandas as pd
 from hydra import compose, initialize_config_dir
@@ -26,7 +30,7 @@ from hydra.core.override_parser.overrides_parser import OverridesParser
 from hydra.errors import HydraException
 from omegaconf import DictConfig, OmegaConf
 from rich.console import Console
-from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 
 from airl_cli.config import fit_settings, plain, problem_settings
 from airl_cli.errors import ConfigError
@@ -38,12 +42,21 @@ ERROR = "error.txt"
 TABLE = "results.csv"
 META = "experiment.json"
 
-#: Columns of the results table of a fit experiment, in order (one row per job x dynamics).
+#: The first columns of the results table of a fit experiment, in order (one row per job x
+#: dynamics); every setting of the problem and learner groups follows (``jobs.sweep.setting_columns``).
 FIT_COLUMNS = (
     "experiment", "method", "seed", "run", "x", "x_name", "mdp", "dynamics_kind", "n_dynamics", "n_features",
     "n_demos", "demos", "sigma", "weight_sharing", "loss", "dynamics", "learner_score", "demonstrator_score",
     "cosine_similarity", "seconds", "optimizer", "objective", "relative_gap", "converged",
 )  # fmt: skip
+SETTINGS = "sweep.json"
+LOCK = ".lock"
+#: Keys of an experiment that only label it (titles, axes) or list what it sweeps (the swept values
+#: name the job folders): a resumed run need not agree on them.
+NOT_COMPARED = frozenset(
+    ["experiment.title", "experiment.thesis", "experiment.figures", "experiment.x_label", "experiment.x_log"]
+    + ["experiment.runs", "experiment.values", "experiment.methods"]
+)
 #: Quick profile: this many runs at most, the first and last swept value, the first two methods.
 QUICK_RUNS = 2
 QUICK_METHODS = 2
@@ -81,11 +94,16 @@ class SweepPlan:
         experiment: the experiment's settings (the ``experiment`` node, plain).
         folder: the sweep folder.
         jobs: the job folder names, in launch order.
+        settings: every setting the jobs share (dotted key -> value), the swept keys left out:
+            what a resumed run must agree with (see ``check_folder``).
+        swept: the keys the sweep varies (they name the job folders).
     """
 
     experiment: dict
     folder: Path
     jobs: tuple[str, ...]
+    settings: dict = field(default_factory=dict)
+    swept: tuple[str, ...] = ()
 
     def done(self) -> list[str]:
         return [j for j in self.jobs if (self.folder / j / ROWS).exists()]
@@ -144,7 +162,44 @@ def plan(overrides: list[str]) -> SweepPlan:
     if first_job.experiment.kind == "fit":
         problem_settings(first_job)
         fit_settings(first_job)
-    return SweepPlan(plain(cfg.experiment), _folder(cfg, overrides, parser), jobs)
+        from airl_cli.jobs.common import check_memory
+
+        check_memory(first_job, workers=_workers(first_job))
+    swept = tuple(sorted({_key(o) for o in jobs_overrides[0] if _is_task_override(o)}))
+    job_config = OmegaConf.to_container(first_job, resolve=False)
+    del job_config["hydra"]
+    settings = shared_settings(plain(OmegaConf.create(job_config)), swept)
+    return SweepPlan(plain(cfg.experiment), _folder(cfg, overrides, parser), jobs, settings, swept)
+
+
+def _workers(cfg: DictConfig) -> int:
+    """How many jobs the launcher runs at once on this machine (joblib's n_jobs; 1 otherwise)."""
+    n_jobs = OmegaConf.select(cfg, "hydra.launcher.n_jobs", default=None)
+    if not isinstance(n_jobs, int):
+        return 1
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+    return max(1, cores + 1 + n_jobs if n_jobs < 0 else min(n_jobs, cores))
+
+
+def _key(override: str) -> str:
+    return override.lstrip("+~").split("=", 1)[0]
+
+
+def _flatten(node: Any, prefix: str = "") -> dict[str, Any]:
+    if isinstance(node, dict):
+        out: dict[str, Any] = {}
+        for k, v in node.items():
+            out.update(_flatten(v, f"{prefix}{k}."))
+        return out
+    return {prefix[:-1]: node}
+
+
+def shared_settings(config: dict, swept: tuple[str, ...]) -> dict[str, Any]:
+    """Every leaf setting of a job's plain config (dotted key -> value) but the swept keys and the
+    experiment's labels, JSON-normalised (tuples become lists)."""
+    flat = _flatten(config)
+    keep = {k: v for k, v in sorted(flat.items()) if k not in swept and k not in NOT_COMPARED}
+    return json.loads(json.dumps(keep))
 
 
 def _folder(cfg: DictConfig, overrides: list[str], parser: OverridesParser) -> Path:
@@ -162,20 +217,134 @@ def _folder(cfg: DictConfig, overrides: list[str], parser: OverridesParser) -> P
     return Path(f"{cfg.hydra.sweep.dir}-{suffix}" if suffix else cfg.hydra.sweep.dir)
 
 
+# --------------------------------------------------------------------------- the folder: one owner, one configuration
+
+
+@contextmanager
+def claim(folder: Path) -> Iterator[None]:
+    """Hold the sweep folder for this process: a second ``airl sweep`` into it is refused.
+
+    An advisory ``flock`` on ``FOLDER/.lock``; the kernel drops it when the process ends, even on
+    SIGKILL, so a killed sweep never leaves a stale lock behind.
+
+    Raises:
+        ConfigError: another process holds the folder.
+    """
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        handle = open(folder / LOCK, "a+")  # noqa: SIM115 (held until the sweep ends)
+    except OSError as err:
+        raise ConfigError(unwritable(folder, err)) from None
+    try:
+        fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except BlockingIOError:
+        handle.seek(0)
+        owner = handle.read().strip() or "unknown"
+        handle.close()
+        raise ConfigError(
+            f"{folder} is in use by another airl sweep (process {owner}); wait for it to finish, or choose another folder with hydra.sweep.dir=PATH"
+        ) from None
+    try:
+        handle.seek(0)
+        handle.truncate()
+        handle.write(f"{os.getpid()} on {socket.gethostname()}\n")
+        handle.flush()
+        yield
+    finally:
+        fcntl.flock(handle, fcntl.LOCK_UN)
+        handle.close()
+
+
+def unwritable(folder: Path, err: OSError) -> str:
+    """One sentence for a folder that cannot be written."""
+    reason = (err.strerror or str(err)).lower()
+    return f"cannot write to {folder} ({reason}); choose a writable folder with hydra.sweep.dir=PATH"
+
+
+def _stored_settings(sweep: SweepPlan) -> tuple[dict, str] | None:
+    """The settings an earlier run into this folder used, and where they were read from."""
+    record = sweep.folder / SETTINGS
+    if record.exists():
+        return json.loads(record.read_text())["settings"], str(record)
+    # a folder from before sweep.json: any finished job's config tells
+    for job in sorted(p.parent for p in sweep.folder.glob(f"*/{ROWS}")):
+        if (job / "config.yaml").exists():
+            config = OmegaConf.to_container(OmegaConf.load(job / "config.yaml"), resolve=False)
+            return shared_settings(config, sweep.swept), str(job / "config.yaml")
+    return None
+
+
+def check_folder(sweep: SweepPlan) -> None:
+    """Refuse to resume into a folder whose finished jobs ran with other settings.
+
+    Job folders are named by the swept values only, so a folder of another experiment (or of the
+    same one with another setting) would otherwise pass its rows off as this sweep's.
+
+    Raises:
+        ConfigError: naming the first setting that differs.
+    """
+    stored = _stored_settings(sweep)
+    if stored is None:
+        return
+    before, source = stored
+    before = {k: v for k, v in before.items() if k not in NOT_COMPARED and k not in sweep.swept}
+    # a key on one side only was swept there (it names that run's job folders) or is new
+    differ = sorted(k for k in before.keys() & sweep.settings.keys() if before[k] != sweep.settings[k])
+    if not differ:
+        return
+    # the experiment's name first, then the settings of the problem and the learner
+    key = min(differ, key=lambda k: (k != "experiment.name", k.startswith("experiment."), k))
+    was, now = before[key], sweep.settings[key]
+    more = f" (and {len(differ) - 1} other setting{'s' if len(differ) > 2 else ''})" if len(differ) > 1 else ""
+    raise ConfigError(
+        f"{sweep.folder} holds a sweep run with {key}={_show(was)}{more} (see {source}), but this one has {key}={_show(now)}; "
+        "choose another folder with hydra.sweep.dir=PATH, or remove that one to start over"
+    )
+
+
+def _show(value: Any) -> str:
+    return json.dumps(value) if not isinstance(value, str) else value
+
+
+def record_settings(sweep: SweepPlan) -> None:
+    write_json(sweep.folder / SETTINGS, {"experiment": sweep.experiment["name"], "settings": sweep.settings, "swept": list(sweep.swept)})
+
+
 # --------------------------------------------------------------------------- progress and collection
 
 
 @contextmanager
 def progress(sweep: SweepPlan, console: Console, interval: float = 0.5) -> Iterator[None]:
-    """Show a progress bar of finished jobs while the multirun works (jobs run in other processes)."""
+    """Jobs done / total, the time left, and each failure as it happens, while the multirun works.
+
+    The jobs run in other processes; a thread watches their folders for ``rows.csv`` and
+    ``error.txt``.
+    """
     stop = threading.Event()
-    columns = (TextColumn(f"sweep {sweep.experiment['name']}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn())
+    columns = (
+        TextColumn(f"sweep {sweep.experiment['name']}"),
+        BarColumn(),
+        MofNCompleteColumn(),
+        TextColumn("jobs"),
+        TimeElapsedColumn(),
+        TextColumn("left"),
+        TimeRemainingColumn(),
+    )
+    reported = set(sweep.failed())  # an earlier run's failures were reported then
     with Progress(*columns, console=console, transient=True) as bar:
         task = bar.add_task("jobs", total=len(sweep.jobs), completed=len(sweep.done()))
 
+        def update() -> None:
+            failed = sweep.failed()
+            for job, message in failed.items():
+                if job not in reported:
+                    reported.add(job)
+                    bar.console.print(f"[bold red]failed:[/] {job}: {message}", soft_wrap=True)
+            bar.update(task, completed=len(set(sweep.done()) | set(failed)))
+
         def watch() -> None:
             while not stop.wait(interval):
-                bar.update(task, completed=len(sweep.done()))
+                update()
 
         thread = threading.Thread(target=watch, daemon=True)
         thread.start()
@@ -184,7 +353,7 @@ def progress(sweep: SweepPlan, console: Console, interval: float = 0.5) -> Itera
         finally:
             stop.set()
             thread.join()
-            bar.update(task, completed=len(sweep.done()))
+            update()
 
 
 def collect(sweep: SweepPlan) -> pd.DataFrame:
@@ -203,7 +372,8 @@ def collect(sweep: SweepPlan) -> pd.DataFrame:
     if sweep.experiment.get("kind") == "alphas" and finished:
         data = (sweep.folder / finished[0] / "alphas.npz").read_bytes()
         atomic_write(sweep.folder / "alphas.npz", lambda h: h.write(data))
-    write_json(sweep.folder / META, {**sweep.experiment, "jobs": len(sweep.jobs), "finished": int(len(frames))})
+    profile = sweep.settings.get("profile.name")
+    write_json(sweep.folder / META, {**sweep.experiment, "profile": profile, "jobs": len(sweep.jobs), "finished": int(len(frames))})
     return table
 
 
@@ -219,15 +389,38 @@ def read_meta(folder: Path) -> dict:
 # --------------------------------------------------------------------------- the command
 
 
+#: The environment variable that tells a sweep's jobs which process launched them ("host:pid").
+PARENT_ENV = "AIRL_SWEEP_PARENT"
+INTERRUPTED = "interrupted: run the same command again to resume"
+
+
 def run(overrides: list[str], *, draw: bool, console: Console, out: Console) -> int:
     """``airl sweep``: plan, run the jobs not yet done, collect the table, draw the figures.
 
     Returns:
-        The exit status: 0, or 1 if some jobs stopped on bad input.
+        The exit status: 0, 1 if some jobs stopped on bad input, 130 if interrupted.
+
+    Raises:
+        ConfigError: bad overrides, a folder in use by another sweep, or a folder that holds
+            another sweep's jobs.
     """
+    sweep = plan(overrides)
+    with claim(sweep.folder):
+        check_folder(sweep)
+        try:
+            record_settings(sweep)
+        except OSError as err:
+            raise ConfigError(unwritable(sweep.folder, err)) from None
+        try:
+            return _run(sweep, overrides, draw=draw, console=console, out=out)
+        except KeyboardInterrupt:
+            console.print(f"[bold yellow]{INTERRUPTED}[/]", soft_wrap=True)
+            return 130
+
+
+def _run(sweep: SweepPlan, overrides: list[str], *, draw: bool, console: Console, out: Console) -> int:
     from airl_cli.launch import run_hydra
 
-    sweep = plan(overrides)
     done = len(sweep.done())
     name = sweep.experiment["name"]
     out.print(f"sweep {name}: {len(sweep.jobs)} jobs, {done} finished earlier; folder {sweep.folder}", soft_wrap=True)
@@ -235,12 +428,15 @@ def run(overrides: list[str], *, draw: bool, console: Console, out: Console) -> 
         # an absolute folder: launcher workers may be reused processes with another working directory
         quoted = str(sweep.folder.resolve()).replace("\\", "\\\\").replace("'", "\\'")
         absolute = [*overrides, f"hydra.sweep.dir='{quoted}'"]  # quoted: folder names hold '=' and ','
-
+        # the jobs watch this process and stop when it dies (see jobs.sweep.watch_parent)
+        os.environ[PARENT_ENV] = f"{socket.gethostname()}:{os.getpid()}"
         with progress(sweep, console):
             run_hydra("sweep", absolute, multirun=True)
     table = collect(sweep)
     failed = sweep.failed()
     out.print(f"finished {len(sweep.done())} of {len(sweep.jobs)} jobs; table {sweep.folder / TABLE} ({len(table)} rows)", soft_wrap=True)
+    if not table.empty:
+        out.print(medians_text(sweep.experiment, table), end="", soft_wrap=True)
     if draw and not table.empty:
         from airl_cli.plotting import draw as draw_figures
 
@@ -251,3 +447,24 @@ def run(overrides: list[str], *, draw: bool, console: Console, out: Console) -> 
         console.print(f"[bold red]error:[/] {len(failed)} job(s) stopped on bad input, for example {job}: {message}", soft_wrap=True)
         return 1
     return 0
+
+
+def medians_text(experiment: dict, table: pd.DataFrame) -> str:
+    """A short table for the terminal: the median score per method and swept value, over runs
+    and the experiment's dynamics, the demonstrator's beside it, and the thesis's claim."""
+    if experiment.get("kind") == "alphas" or "learner_score" not in table:
+        return ""
+    rows = table[table["dynamics"].isin(experiment.get("dynamics") or table["dynamics"].unique())]
+    rows = rows.dropna(subset=["learner_score"])
+    if rows.empty:
+        return ""
+    learner = rows.pivot_table(index="x", columns="method", values="learner_score", aggfunc="median")
+    learner["demonstrator"] = rows.groupby("x")["demonstrator_score"].median()
+    x_name = experiment.get("x", "x")
+    head = f"{x_name:>12}" + "".join(f"{m:>13}" for m in learner.columns)
+    lines = ["", f"median normalised performance over runs and {', '.join(sorted(rows['dynamics'].unique()))}:", head]
+    for x, r in learner.iterrows():
+        lines.append(f"{x:>12g}" + "".join(f"{v:>13.4f}" for v in r))
+    if experiment.get("thesis"):
+        lines.append(f"thesis: {experiment['thesis']}")
+    return "\n".join(lines) + "\n\n"

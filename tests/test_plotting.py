@@ -117,7 +117,11 @@ def test_curves_one_panel_per_dynamics_with_median_and_band():
             assert plotting.METHOD_LABELS[method] in labels
         demo = [line for line in ax.get_lines() if line.get_label() == "demonstrator"]
         assert demo and demo[0].get_linestyle() == "--" and to_hex(demo[0].get_color()) == "#000000"
-        assert len(ax.collections) >= len(METHODS) + 1  # interquartile bands
+        # interquartile bands for this thesis's method and the demonstrator only: five overlapping
+        # bands (Fig. 5) hid each other
+        bands = [c for c in ax.collections if type(c).__name__ in ("PolyCollection", "FillBetweenPolyCollection")]
+        assert len(bands) == 2
+        assert {to_hex(b.get_facecolor()[0]) for b in bands} == {plotting.METHOD_COLOURS["airl"], "#000000"}
         assert ax.get_xscale() == "log"
         assert ax.get_ylim() == pytest.approx(plotting.SCORE_LIMITS)
         assert ax.get_xlabel() == "number of demonstrations N"
@@ -146,8 +150,30 @@ def test_run_bars_grouped_bars_threshold_and_demonstrator():
         assert orange and orange[0].get_ydata()[0] == pytest.approx(0.99)
         dashed = [c for c in ax.collections if c.get_linestyle()[0][1] is not None]
         assert dashed, "no dashed demonstrator segments"
-        assert ax.get_ylim() == pytest.approx(plotting.SCORE_LIMITS)
+        # scores of 0.85-1.0 on an axis from 0 are bars of equal height (Figs. 12, 13): start near the lowest
+        assert ax.get_ylim() == pytest.approx((0.8, plotting.SCORE_LIMITS[1]))
+        assert ax.get_ylabel() == "normalised performance (axis from 0.8)"
     assert fig.legends
+
+
+def test_run_bars_keep_a_zero_axis_when_a_score_is_low():
+    df = make_table("run")
+    df.loc[0, "learner_score"] = 0.2
+    df.loc[df.dynamics.isin(SHOWN).idxmax(), "learner_score"] = 0.2
+    fig = plotting.run_bars(df, make_meta(["run_bars"], "run"))
+    assert fig.axes[0].get_ylim() == pytest.approx(plotting.SCORE_LIMITS)
+
+
+@pytest.mark.parametrize(
+    "meta, expected",
+    [
+        ({"title": "Fig. 4: over 100 datasets", "runs": 100, "profile": "quick"}, "Fig. 4: over 4 datasets [quick profile: 4 runs per point]"),
+        ({"title": "Fig. 12: per run", "runs": 30, "profile": "full"}, "Fig. 12: per run [4 runs per point]"),
+        ({"title": "Fig. 12: per run", "runs": 4, "profile": "full"}, "Fig. 12: per run"),
+    ],
+)
+def test_a_smaller_sweep_than_the_thesiss_says_so_in_the_title(meta, expected):
+    assert plotting.sized_title(meta, make_table("run")) == expected
 
 
 def test_method_colours_are_the_same_across_figures():
@@ -323,14 +349,18 @@ def test_bc_rows_with_empty_cosine_survive_the_csv(tmp_path):
 
 
 def test_plotting_imports_only_pandas_numpy_matplotlib_the_standard_library_and_results():
-    path = Path(airl_cli.__file__).parent / "plotting.py"
+    files = sorted((Path(airl_cli.__file__).parent / "plotting").glob("*.py"))
+    assert files
     names = set()
-    for node in ast.walk(ast.parse(path.read_text())):
-        if isinstance(node, ast.Import):
-            names |= {alias.name for alias in node.names}
-        elif isinstance(node, ast.ImportFrom):
-            assert node.level == 0, "plotting.py uses a relative import"
-            names.add(node.module)
+    for path in files:
+        assert len(path.read_text().splitlines()) <= 400, f"{path.name}: split it by figure kind"
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.Import):
+                names |= {alias.name for alias in node.names}
+            elif isinstance(node, ast.ImportFrom):
+                assert node.level == 0, f"{path.name} uses a relative import"
+                names.add(node.module)
+    names = {n for n in names if not n.startswith("airl_cli.plotting")}
     assert not any(name.startswith("airl_cli.core") for name in names)
     assert {n for n in names if n.startswith("airl_cli")} <= {"airl_cli.results"}  # plotting -> results only
     assert "matplotlib.pyplot" not in names

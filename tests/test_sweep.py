@@ -63,7 +63,8 @@ def test_every_experiment_runs_small_in_process(tmp_path, name):
     table = pd.read_csv(folder / "results.csv")
     assert len(table) >= 1
     if name != "fig02_03":
-        assert list(table.columns) == list(FIT_COLUMNS)
+        assert list(table.columns[: len(FIT_COLUMNS)]) == list(FIT_COLUMNS)
+        assert {"mdp.name", "optim.lam", "optim.weight_sharing", "pbvi.iterations", "loss.kind"} <= set(table.columns)
         assert table["learner_score"].between(0, 1 + 1e-9).all()
         # the certificate holds at the end of every fit: converged to the default tolerance
         assert (table["optimizer"] == "exact").all()
@@ -136,3 +137,20 @@ def test_a_cluster_launcher_composes():
     result = runner.invoke(app, ["sweep", "experiment=fig05", "hydra/launcher=submitit_slurm", "hydra.launcher.partition=gpu", "--cfg", "hydra"])
     assert result.exit_code == 0, result.output
     assert "submitit" in result.output and "partition: gpu" in result.output
+
+
+@pytest.mark.slow  # about 25 s each: the same quick sweep through a cluster launcher and in-process
+@pytest.mark.parametrize("launcher, plugin", [("submitit_local", "hydra_submitit_launcher"), ("ray", "hydra_ray_launcher")])
+def test_the_cluster_code_path_gives_the_same_table_as_the_local_one(tmp_path, launcher, plugin):
+    """hydra/launcher=submitit_local runs each job as a submitit job, as SLURM would (same plugin,
+    same pickled job function), only on this machine; hydra/launcher=ray starts a local Ray
+    instance (pip install ".[ray]")."""
+    pytest.importorskip(f"hydra_plugins.{plugin}")
+    tables = {}
+    for name in (launcher, "basic"):
+        folder = tmp_path / name
+        result = runner.invoke(app, ["sweep", "experiment=fig13", "profile=quick", f"hydra/launcher={name}", f"hydra.sweep.dir={folder}", "--no-plot"])
+        assert result.exit_code == 0, result.output
+        tables[name] = pd.read_csv(folder / "results.csv").drop(columns=["seconds"])
+    assert len(tables["basic"]) == 12
+    pd.testing.assert_frame_equal(tables[launcher], tables["basic"])

@@ -1,4 +1,4 @@
-"""Finite-horizon tabular MDPs: shapes, validation and small helpers (thesis §2.1, SPEC §2).
+"""Finite-horizon tabular MDPs: shapes, validation and small helpers (thesis §2.1).
 
 Conventions used everywhere in ``airl_cli.core``:
 
@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
-#: Tolerance on row sums of probability arrays (SPEC §4).
+#: Tolerance on row sums of probability arrays (the dataset file's check).
 PROB_ATOL = 1e-8
 
 

@@ -27,7 +27,7 @@ def backward_induction(
         P: dynamics (S, A, S), ``P[s, a, s']``.
         R: per-time state rewards (T, S), or state rewards (S,) with ``horizon`` given.
         horizon: T, needed only when ``R`` is (S,).
-        maximize: True for the best policy, False for the worst (the r-bar of SPEC §6).
+        maximize: True for the best policy, False for the worst (the r-bar of the normalised performance, thesis §7.2).
 
     Returns:
         policy: (T-1, S) int, ``policy[t, s]`` the action at time t in state s; near-ties go to

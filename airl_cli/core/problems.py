@@ -1,4 +1,4 @@
-"""The thesis's two problems and their dynamics perturbations (thesis §7.2-7.3, SPEC §3).
+"""The thesis's two problems and their dynamics perturbations (thesis §7.2-7.3).
 
 Every function returns new arrays; randomness comes only from the ``numpy.random.Generator``
 passed in.
@@ -114,7 +114,7 @@ def grid_world(
     size: int = GRID_SIZE,
     start: Cell = GRID_START,
 ) -> np.ndarray:
-    """Dynamics of the grid world (thesis §7.3.1, SPEC §3).
+    """Dynamics of the grid world (thesis §7.3.1).
 
     The intended move happens with probability 1 - epsilon, each of the three other directions
     with epsilon/3; a move off the grid leaves the agent where it is. A *cross* cell sends the

@@ -1,4 +1,4 @@
-"""Scores of SPEC §6 (thesis §7.2): normalised performance and cosine similarity."""
+"""Scores of thesis §7.2: normalised performance and cosine similarity."""
 
 from __future__ import annotations
 

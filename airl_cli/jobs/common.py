@@ -2,16 +2,20 @@
 
 from __future__ import annotations
 
+import os
 import shutil
 from collections.abc import Callable
 from pathlib import Path
 
+import numpy as np
 from hydra.core.hydra_config import HydraConfig
 from omegaconf import DictConfig, OmegaConf
 from rich.console import Console
 
-from airl_cli.errors import AirlError
-from airl_cli.results import write_text
+from airl_cli.core.budget import Estimate, estimate_fit, refusal
+from airl_cli.errors import AirlError, ConfigError
+from airl_cli.results import UNWRITABLE, describe_os_error, write_text
+
 
 #: Progress and errors go to stderr; the final "where it went" line to stdout.
 err_console = Console(stderr=True, highlight=False)
@@ -31,12 +35,17 @@ def save_config(cfg: DictConfig, folder: Path) -> None:
 def run_job(main: Callable[[DictConfig], object], cfg: DictConfig) -> object:
     """Run ``main(cfg)``; on bad input print one sentence and exit with status 2.
 
-    Nothing half-written stays behind: a run folder that holds only Hydra's own records is
+    A results folder that cannot be written (read-only, full disk) is bad input too. Nothing
+    half-written stays behind: a run folder that holds only Hydra's own records is
     removed when the job fails on bad input.
     """
     try:
         return main(cfg)
-    except AirlError as err:
+    except (AirlError, OSError) as err:
+        if isinstance(err, OSError):
+            if err.errno not in UNWRITABLE:
+                raise
+            err = AirlError(f"cannot write the results ({describe_os_error(err)}); choose a writable folder with hydra.run.dir=PATH")
         err_console.print(f"[bold red]error:[/] {err}", soft_wrap=True)
         try:
             folder = output_dir()
@@ -45,3 +54,98 @@ def run_job(main: Callable[[DictConfig], object], cfg: DictConfig) -> object:
         except ValueError:  # no Hydra context (called directly)
             pass
         raise SystemExit(2) from None
+
+
+def available_memory() -> int:
+    """Bytes this process can still get: free memory, or the container's limit if lower."""
+    free = None
+    try:
+        with open("/proc/meminfo") as f:
+            for line in f:
+                if line.startswith("MemAvailable:"):
+                    free = int(line.split()[1]) * 1024
+    except OSError:
+        pass
+    try:
+        limit = Path("/sys/fs/cgroup/memory.max").read_text().strip()
+        used = int(Path("/sys/fs/cgroup/memory.current").read_text())
+        if limit != "max":
+            free = min(free if free is not None else 1 << 62, int(limit) - used)
+    except (OSError, ValueError):
+        pass
+    if free is None:  # not Linux: physical memory
+        try:
+            free = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+        except (OSError, ValueError):
+            free = 1 << 62
+    return free
+
+
+def fit_sizes(cfg: DictConfig) -> dict | None:
+    """S, A, T, D and N of the fit this config asks for, known without building or reading it all.
+
+    None when they cannot be known cheaply (a dataset file that will fail its own check).
+    """
+    from airl_cli.config import problem_settings
+
+    data = cfg.get("data")
+    if data is None:
+        problem = problem_settings(cfg)
+        mdp = problem.mdp
+        S, A = (mdp.n_states, mdp.n_actions) if mdp.name == "random" else (mdp.size**2, 4)
+        n = problem.demos.n if problem.demos.kind == "sampled" else 1
+        return {"n_states": S, "n_actions": A, "horizon": mdp.horizon, "n_dynamics": problem.dynamics.n_dynamics, "n_demos": n}
+    try:
+        with np.load(str(data), allow_pickle=False) as npz:
+            M, S, A, _ = npz["transitions"].shape
+            T = int(npz["horizon"])
+            n = npz["demo_states"].shape[1] if "demo_states" in npz.files else 0
+    except Exception:  # noqa: BLE001 (read_dataset names what is wrong)
+        return None
+    return {"n_states": S, "n_actions": A, "horizon": T, "n_dynamics": M - 1, "n_demos": n}
+
+
+def memory_estimate(cfg: DictConfig) -> tuple[Estimate, int | None] | None:
+    """The fit's memory estimate and its PBVI iterations (None if it does not run PBVI)."""
+    from airl_cli.config import fit_settings
+
+    sizes = fit_sizes(cfg)
+    if sizes is None:
+        return None
+    settings = fit_settings(cfg)
+    planner = settings.options.planner
+    estimate = estimate_fit(**sizes, method=settings.method, planner=planner.method, iterations=planner.iterations)
+    pbvi = settings.method == "airl" and planner.method == "pbvi"
+    return estimate, (planner.iterations if pbvi else None)
+
+
+def check_memory(cfg: DictConfig, *, workers: int = 1) -> Estimate | None:
+    """Refuse, before any work, a fit that will not fit in memory (one sentence: what to lower).
+
+    Raises:
+        ConfigError: the estimate (times ``workers`` fits at once) exceeds the free memory.
+    """
+    found = memory_estimate(cfg)
+    if found is None:
+        return None
+    estimate, iterations = found
+    sentence = refusal(estimate, available_memory(), iterations=iterations, workers=workers)
+    if sentence is not None:
+        raise ConfigError(sentence)
+    return estimate
+
+
+def size_note(cfg: DictConfig) -> str | None:
+    """A line to print before a fit whose steps will be long (a large belief set or over 1 GB)."""
+    found = memory_estimate(cfg)
+    if found is None or found[1] is None:
+        return None
+    estimate, iterations = found
+    if estimate.total < 2**30 and estimate.n_beliefs <= 1024:
+        return None
+    if refusal(estimate, available_memory(), iterations=iterations) is not None:
+        return None  # check_memory will refuse it
+    return (
+        f"note: pbvi.iterations={iterations} allows up to {estimate.n_beliefs:,} belief points and about "
+        f"{estimate.total / 2**30:,.1f} GB of memory; each gradient step may take minutes"
+    )

@@ -21,7 +21,7 @@ from airl_cli.core.problems import zero_one_loss
 from airl_cli.data import Dataset, read_dataset, write_dataset
 from airl_cli.errors import ConfigError
 from airl_cli.evaluate import score_rows
-from airl_cli.jobs.common import err_console, out_console, output_dir, run_job, save_config
+from airl_cli.jobs.common import check_memory, err_console, out_console, output_dir, run_job, save_config, size_note
 from airl_cli.learners import Learned, learn
 from airl_cli.paths import conf_dir
 from airl_cli.results import atomic_write, write_json, write_text
@@ -68,7 +68,7 @@ def summary_text(dataset: Dataset, settings: FitSettings, learned: Learned, rows
     lines = [
         f"airl fit: method={learned.method}",
         f"problem   S={dataset.n_states}, A={dataset.n_actions}, K={dataset.n_features}, T={dataset.horizon}, D={dataset.n_dynamics}{given}",
-        f"fit       {how}, {seconds:.2f} s",
+        f"fit       {how}",  # the time is in timing.json: the summary is the same bytes for the same config
     ]
     if learned.method == "airl":
         lines += _objective_lines(info)
@@ -128,6 +128,7 @@ class FitRun:
 def fit_and_write(cfg: DictConfig, folder: Path, on_step: Callable[[dict], None] | None = None) -> FitRun:
     """Learn as the config says and write every output file of a fit into ``folder``."""
     settings = fit_settings(cfg)
+    check_memory(cfg)  # before any work: refuse, in one sentence, what will not fit in memory
     dataset, seed, generated = load_dataset(cfg, settings)
     rng = streams(seed)["fit" if settings.method == "airl" else "method"]
     start = time.perf_counter()
@@ -162,6 +163,8 @@ def main(cfg: DictConfig) -> None:
         with err_console.status(f"fitting method={settings.method}"):
             run = fit_and_write(cfg, folder)
     else:
+        if note := size_note(cfg):
+            err_console.print(note, soft_wrap=True)
         with err_console.status("loading the planner (the first run after installing compiles it, about 10 s)"):
             warm_up()
         if settings.optimizer == "exact":
@@ -201,7 +204,7 @@ def main(cfg: DictConfig) -> None:
                 bar.console.print("after the gradient steps, the exact solve certifies the optimum for comparison (optim.certify)")
             run = fit_and_write(cfg, folder, on_step)
     out_console.print(run.text, end="", soft_wrap=True)
-    out_console.print(f"\nwrote {folder}")
+    out_console.print(f"\nwrote {folder} (fit in {run.seconds:.2f} s)", soft_wrap=True)
 
 
 @hydra.main(version_base="1.3", config_path=conf_dir(), config_name="airl")

@@ -39,7 +39,7 @@ def summary_text(settings: ProblemSettings, dataset: Dataset, scores: np.ndarray
     lines += [f"{label:<10}{text}" for label, text in describe(settings, dataset)]
     lines += ["file      dataset.npz", ""]
     lines += ["true weights w*: " + np.array2string(dataset.true_weights, precision=4, separator=", "), ""]
-    lines += ["demonstrator (optimal for w* under tau): normalised performance (SPEC §6)", ""]
+    lines += ["demonstrator (optimal for w* under tau): normalised performance (thesis §7.2)", ""]
     lines += [f"  {'dynamics':<10}{'score':>8}"]
     for j, score in enumerate(scores):
         lines.append(f"  {'tau' if j == 0 else f'tau_{j}':<10}{score:>8.4f}")
@@ -65,7 +65,7 @@ def main(cfg: DictConfig) -> None:
         save_config(cfg, folder)
         bar.update(task, advance=1)
     out_console.print(text, end="", soft_wrap=True)
-    out_console.print(f"\nwrote {folder / 'dataset.npz'}")
+    out_console.print(f"\nwrote {folder / 'dataset.npz'}", soft_wrap=True)
 
 
 @hydra.main(version_base="1.3", config_path=conf_dir(), config_name="airl")

@@ -9,6 +9,11 @@ Bad input stops the job with ``error.txt`` (one sentence) instead of rows.
 from __future__ import annotations
 
 import io
+import json
+import os
+import signal
+import socket
+import threading
 import time
 
 import hydra
@@ -28,7 +33,7 @@ from airl_cli.results import atomic_write, write_text
 
 
 def fit_rows(cfg: DictConfig, folder) -> list[dict]:
-    """Run the fit of this job; one row per dynamics in the schema ``sweeps.FIT_COLUMNS``."""
+    """Run the fit of this job; one row per dynamics: ``sweeps.FIT_COLUMNS``, then every setting."""
     run = fit_and_write(cfg, folder)
     c = plain(cfg)
     exp = c["experiment"]
@@ -58,6 +63,7 @@ def fit_rows(cfg: DictConfig, folder) -> list[dict]:
         "relative_gap": info["relative_gap"] if certified else np.nan,
         "converged": info["converged"] if certified else np.nan,
     }
+    settings = setting_columns(c)
     out = []
     for row in run.rows:
         out.append(
@@ -69,8 +75,26 @@ def fit_rows(cfg: DictConfig, folder) -> list[dict]:
                 "cosine_similarity": row["cosine_similarity"],
                 "seconds": run.seconds,
                 **fit_facts,
+                **settings,
             }
         )
+    return out
+
+
+#: The config groups whose every setting becomes a column of the results table.
+SETTING_GROUPS = ("mdp", "dynamics", "demos", "loss", "method", "pbvi", "game", "optim")
+
+
+def setting_columns(config: dict) -> dict[str, object]:
+    """Every setting of the problem and learner groups as a column (``optim.lam``, ``mdp.transition``...).
+
+    A variant's table (say ``mdp.transition=dirichlet``) thus says what it ran, row by row. Lists
+    (grid cells) are written as JSON text.
+    """
+    out: dict[str, object] = {}
+    for group in SETTING_GROUPS:
+        for key, value in sweeps.shared_settings({group: config.get(group) or {}}, ()).items():
+            out[key] = json.dumps(value) if isinstance(value, (list, dict)) else value
     return out
 
 
@@ -109,10 +133,69 @@ def alpha_rows(cfg: DictConfig, folder) -> list[dict]:
     ]
 
 
+_watching = False
+
+
+def watch_parent(poll: float = 0.5) -> None:
+    """Stop this process when the ``airl sweep`` that launched it dies, even by SIGKILL.
+
+    Launcher workers (joblib's loky processes, submitit's local jobs) would otherwise go on
+    computing for minutes with no one to collect their rows. ``sweeps.PARENT_ENV`` names the
+    launching process; a worker on the same host runs a daemon thread that checks every ``poll``
+    seconds whether that process is gone (or this one was re-parented) and then kills itself. In
+    the launching process itself (hydra/launcher=basic) and on other hosts (SLURM) it does nothing.
+    """
+    global _watching
+    parent = os.environ.get(sweeps.PARENT_ENV, "")
+    host, _, pid_text = parent.rpartition(":")
+    if _watching or not pid_text.isdigit() or host != socket.gethostname() or int(pid_text) == os.getpid():
+        return
+    pid, ppid = int(pid_text), os.getppid()
+
+    def alive() -> bool:
+        if ppid == pid and os.getppid() != pid:
+            return False  # re-parented: the sweep process has ended (maybe not yet reaped)
+        try:
+            os.kill(pid, 0)
+        except ProcessLookupError:
+            return False
+        except PermissionError:
+            return True
+        try:
+            with open(f"/proc/{pid}/stat") as f:
+                return f.read().rsplit(")", 1)[1].split()[0] != "Z"
+        except OSError:
+            return True
+
+    def watch() -> None:
+        while alive():
+            time.sleep(poll)
+        os.kill(os.getpid(), signal.SIGKILL)
+
+    threading.Thread(target=watch, name="airl-watch-parent", daemon=True).start()
+    _watching = True
+
+
+def finished_earlier(cfg: DictConfig, folder) -> bool:
+    """Whether this job's rows are there and were made with this very config.
+
+    A job folder is named by its swept values only; its ``config.yaml`` holds everything else.
+    Rows made with another config (another experiment's folder, a changed setting) are recomputed.
+    """
+    if not (folder / sweeps.ROWS).exists():
+        return False
+    saved = folder / "config.yaml"
+    if saved.exists() and saved.read_text() == OmegaConf.to_yaml(cfg, resolve=True):
+        return True
+    (folder / sweeps.ROWS).unlink()
+    return False
+
+
 def main(cfg: DictConfig) -> None:
+    watch_parent()
     folder = output_dir()
-    if (folder / sweeps.ROWS).exists():
-        return  # finished in an earlier run of the same sweep
+    if finished_earlier(cfg, folder):
+        return
     (folder / sweeps.ERROR).unlink(missing_ok=True)
     try:
         rows = alpha_rows(cfg, folder) if cfg.experiment.kind == "alphas" else fit_rows(cfg, folder)

@@ -1,0 +1,98 @@
+"""The Python API, for notebooks: the functions ``airl`` itself runs, without run folders.
+
+    from airl_cli import api
+
+    ds = api.load_dataset("results/generate/2026-01-01_12-00-00/dataset.npz")   # or api.make_dataset("mdp=grid")
+    learned = api.fit(ds, "method=mce")                      # any method; overrides as on the command line
+    api.score(ds, learned)                                    # a DataFrame, one row per dynamics
+    table = api.read_sweep("results/sweeps/fig05-quick")      # results.csv, with experiment.json as .attrs
+
+Configs are composed from the same packaged ``conf/`` as the CLI (Hydra's Compose API), so
+``api.fit(ds, "optim.lam=0.1")`` learns exactly what ``airl fit data=... optim.lam=0.1`` learns,
+with the same seed streams; nothing is written to disk.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+
+import pandas as pd
+from hydra import compose, initialize_config_dir
+from omegaconf import DictConfig
+
+from airl_cli.build import build_dataset, streams
+from airl_cli.config import fit_settings, loss_and_seed, problem_settings
+from airl_cli.core.problems import zero_one_loss
+from airl_cli.data import Dataset, read_dataset, write_dataset
+from airl_cli.errors import ConfigError
+from airl_cli.evaluate import score_rows
+from airl_cli.learners import Learned, learn
+from airl_cli.paths import conf_dir
+
+__all__ = ["config", "load_dataset", "save_dataset", "make_dataset", "fit", "score", "read_sweep", "Dataset", "Learned"]
+
+
+def config(*overrides: str) -> DictConfig:
+    """The composed config for these overrides (``"mdp=grid"``, ``"optim.lam=0.1"``...), as a job sees it."""
+    with initialize_config_dir(config_dir=conf_dir(), version_base="1.3", job_name="api"):
+        return compose("airl", overrides=list(overrides))
+
+
+def load_dataset(path: str | os.PathLike) -> Dataset:
+    """Read and check a dataset file (the schema of the README); raises ``DatasetError`` naming the key."""
+    return read_dataset(path)
+
+
+def save_dataset(path: str | os.PathLike, dataset: Dataset) -> Path:
+    """Write a dataset file atomically (checked first, as ``airl generate`` does)."""
+    return write_dataset(path, dataset)
+
+
+def make_dataset(*overrides: str) -> Dataset:
+    """Build the problem and demonstrations the overrides describe, as ``airl generate`` does."""
+    dataset, _ = build_dataset(problem_settings(config(*overrides)))
+    return dataset
+
+
+def fit(dataset: Dataset, *overrides: str, callback=None) -> Learned:
+    """Learn from ``dataset`` with the method and settings of the overrides (default: this thesis's method).
+
+    Args:
+        dataset: from ``load_dataset`` or ``make_dataset``.
+        overrides: as on the command line, e.g. ``"method=mce"``, ``"optim.weight_sharing=false"``,
+            ``"seed=3"``; the problem groups (mdp, dynamics, demos) are ignored, as with
+            ``airl fit data=PATH``.
+        callback: called with each history row of the learner (method=airl), as the progress bar is.
+
+    Returns:
+        The learner's ``Learned``: ``weights`` (D, K) or ``policy``, ``info`` and ``history``.
+    """
+    cfg = config(*overrides)
+    settings = fit_settings(cfg)
+    loss, seed = loss_and_seed(cfg)
+    if loss == "squared_euclidean":
+        raise ConfigError("'loss=squared_euclidean' needs grid coordinates; put the loss matrix in the dataset as 'loss'")
+    if loss == "zero_one" or dataset.loss is None:
+        dataset = Dataset(**{**dataset.__dict__, "loss": zero_one_loss(dataset.n_states)})
+    rng = streams(seed)["fit" if settings.method == "airl" else "method"]
+    return learn(dataset, settings, rng, callback=callback)
+
+
+def score(dataset: Dataset, learned: Learned) -> pd.DataFrame:
+    """Normalised performance (thesis §7.2) of the learner and the demonstrator, and cos(w, w*), per dynamics."""
+    policies = None if learned.policy is None else [learned.policy] * dataset.transitions.shape[0]
+    return pd.DataFrame(score_rows(dataset, learned.weights, policies))
+
+
+def read_sweep(folder: str | os.PathLike) -> pd.DataFrame:
+    """A sweep's ``results.csv``, with its ``experiment.json`` in ``table.attrs["experiment"]``."""
+    folder = Path(folder)
+    if not (folder / "results.csv").is_file():
+        raise FileNotFoundError(f"{folder} has no results.csv: run airl sweep into it first")
+    table = pd.read_csv(folder / "results.csv")
+    meta = folder / "experiment.json"
+    table.attrs["experiment"] = json.loads(meta.read_text()) if meta.is_file() else {}
+    return table
+

@@ -1,0 +1,136 @@
+"""How much memory a fit will need, known before any work: refuse what cannot fit.
+
+The adversary's best response (modified PBVI, thesis chapter 6) is the memory of a fit. Its
+belief set at most doubles per iteration (``multimodel.expand_beliefs``), so it holds at most
+``2^(iterations-1)`` points; the policy graph keeps, per time step, up to one node per (state,
+belief point), each with a successor for every next state (int64) and an alpha-vector over the
+M = D+1 models, so it takes about ``T * S^2 * nb * 8`` bytes. Everything else (the transitions,
+the demonstrations, the LP) is small beside it at the sizes where memory matters.
+
+Calibration: peak resident memory of one ``airl fit`` on the random MDP (A=5, D=3, 1-2 gradient
+steps, one core, ``/usr/bin/time -f %M``) against ``estimate_fit``:
+
+    S    T   iterations  beliefs  measured  estimate
+    20   10   8           65      235 MB    263 MB   (the interpreter, numpy, numba, scipy, HiGHS)
+    100  10   8           65      272 MB    322 MB
+    100  20   8           65      307 MB    374 MB
+    200  10   8           65      387 MB    502 MB
+    100  10  10          257      335 MB    489 MB
+    200  10  10          257      565 MB   1158 MB
+    300  30   8           65      1.35 GB   1.71 GB  (39 s for one step, N=1000)
+
+The estimate stays above every measurement, by at most about 2x.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+#: Resident memory of a fit before any problem-sized array (measured: 235-250 MB).
+BASE_BYTES = 260 * 2**20
+GB = 2**30
+
+
+@dataclass(frozen=True)
+class Estimate:
+    """The estimated peak memory of one fit.
+
+    Attributes:
+        total: bytes, the whole process.
+        parts: bytes per named part ("base", "problem", "demonstrations", "policy graph"...).
+        n_beliefs: the bound on the belief-set size (0 when the planner is not PBVI).
+    """
+
+    total: int
+    parts: dict[str, int]
+    n_beliefs: int
+
+
+def max_beliefs(iterations: int) -> int:
+    """The most belief points ``iterations`` PBVI iterations can make: 2^(iterations-1)."""
+    if iterations < 1:
+        raise ValueError(f"iterations must be >= 1, got {iterations}")
+    return 2 ** (iterations - 1)
+
+
+def estimate_fit(
+    *,
+    n_states: int,
+    n_actions: int,
+    horizon: int,
+    n_dynamics: int,
+    n_demos: int,
+    method: str = "airl",
+    planner: str = "pbvi",
+    iterations: int = 8,
+) -> Estimate:
+    """The peak memory of one fit of a problem of these sizes.
+
+    Args:
+        n_states, n_actions, horizon: S, A and T (states per trajectory).
+        n_dynamics: D, the demonstration dynamics (M = D+1 models with tau).
+        n_demos: N demonstrations per dynamics (0 for exact feature expectations).
+        method: "airl" or a comparison method ("mce", "projection", "mmp", "bc"), which never
+            run the multiple-model planner.
+        planner: the adversary's planner for method="airl": "pbvi", "exact" or "mean".
+        iterations: PBVI iterations.
+
+    Returns:
+        An ``Estimate``; its ``total`` is meant as an upper bound for the refusal.
+    """
+    S, A, T, M = n_states, n_actions, horizon, n_dynamics + 1
+    parts = {
+        "base": BASE_BYTES,
+        # P, its transposed copy and the inverse CDF used for sampling, float64
+        "problem": 3 * M * S * A * S * 8,
+        "demonstrations": 2 * n_dynamics * n_demos * T * 8,
+        # values, policies and marginals of the single-MDP planners: (T, S, A) per model, a few copies
+        "planning": 4 * M * T * S * A * 8,
+    }
+    nb = 0
+    if method == "airl":
+        if planner == "pbvi":
+            nb = max_beliefs(iterations)
+            # Nodes per (t, s): at most one per belief point; measured, the belief set reaches
+            # 2^(iterations-2)+1 points (65 at 8 iterations, 257 at 10) and de-duplication keeps
+            # 0.4-0.8 node per point. Half the bound, plus one, is above every measurement.
+            nodes = nb // 2 + 1
+            # successors (T, S*nodes, S) int64 and alpha-vectors (T, S*nodes, M) float64, plus
+            # one backup's scratch (S, nodes, S)
+            parts["policy graph"] = T * S * nodes * (S + M) * 8 + S * nodes * S * 8
+        else:
+            parts["policy graph"] = T * S * (S + M) * 8
+    return Estimate(total=sum(parts.values()), parts=parts, n_beliefs=nb)
+
+
+def refusal(estimate: Estimate, available: int, *, iterations: int | None = None, workers: int = 1) -> str | None:
+    """One sentence refusing a fit that will not fit in ``available`` bytes, or None if it fits.
+
+    Args:
+        estimate: from ``estimate_fit``.
+        available: bytes the machine can give (free memory, or the container's limit).
+        iterations: the PBVI iterations, to say how far to lower them; None if not PBVI.
+        workers: fits running at once (a sweep's parallel jobs), each needing ``estimate.total``.
+    """
+    need = estimate.total * workers
+    if need <= available:
+        return None
+    at_once = f" per job, {workers} jobs at once," if workers > 1 else ""
+    graph = estimate.parts.get("policy graph", 0)
+    what = "mdp.n_states, mdp.horizon"
+    if graph > estimate.total / 2 and iterations is not None and estimate.n_beliefs > 1:
+        fits = iterations
+        while fits > 1 and estimate.total - graph + graph * 2 ** (fits - iterations) > available / workers:
+            fits -= 1
+        what = f"pbvi.iterations (to {fits} or less), or " + what
+    if workers > 1:
+        what += ", or hydra.launcher.n_jobs"
+    return (
+        f"this fit needs about {_size(estimate.total)} of memory{at_once} "
+        f"(up to {estimate.n_beliefs} belief points in the planner's policy graph), but only {_size(available)} is free; "
+        f"lower {what}"
+    )
+
+
+def _size(n: int) -> str:
+    return f"{n / GB:,.1f} GB" if n >= GB / 10 else f"{n / 2**20:.0f} MB"

@@ -1,0 +1,184 @@
+"""Figures of the thesis from a sweep folder: one matplotlib ``Figure`` per thesis figure.
+
+A sweep folder holds ``experiment.json`` (what to draw) and either ``results.csv`` (a tidy table,
+one row per job x dynamics) or, for the alpha-vector figures 2 and 3, ``alphas.npz``.
+:func:`draw` reads them and writes ``figures/{name}_{kind}.png`` and ``.pdf``.
+
+The figure functions build ``matplotlib.figure.Figure`` objects directly (no pyplot, no global
+state) and are deterministic: the same inputs give the same PNG and PDF bytes. This module reads
+only tables and arrays; it never imports the solver (``airl_cli.core``).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+from matplotlib.figure import Figure
+
+from airl_cli.plotting._style import (  # noqa: F401 (the constants are part of the module's interface)
+    DEFAULT_THRESHOLD,
+    DEMONSTRATOR_COLOUR,
+    DPI,
+    KINDS,
+    METHOD_COLOURS,
+    METHOD_LABELS,
+    PDF_METADATA,
+    PNG_METADATA,
+    SCORE_LABEL,
+    SCORE_LIMITS,
+    THRESHOLD_COLOUR,
+    _require,
+)
+from airl_cli.plotting.alphas import _alpha_arrays, _upper_envelope, alpha_vectors  # noqa: F401 (tests check _upper_envelope)
+from airl_cli.plotting.scores import (
+    CURVES_COLUMNS,
+    HISTOGRAM_COLUMNS,
+    RUN_BARS_COLUMNS,
+    _cosine_columns,
+    cosine,
+    curves,
+    histogram,
+    run_bars,
+)
+from airl_cli.results import atomic_write
+
+__all__ = [
+    "METHOD_COLOURS",
+    "METHOD_LABELS",
+    "KINDS",
+    "histogram",
+    "curves",
+    "run_bars",
+    "cosine",
+    "alpha_vectors",
+    "draw",
+]
+# --------------------------------------------------------------------------------------------
+# the sweep folder
+
+
+_DRAWERS = {"histogram": histogram, "curves": curves, "run_bars": run_bars, "cosine": cosine}
+_NEEDS = {"histogram": HISTOGRAM_COLUMNS, "curves": CURVES_COLUMNS, "run_bars": RUN_BARS_COLUMNS}
+
+
+def _read_meta(folder: Path) -> dict[str, Any]:
+    path = folder / "experiment.json"
+    if not folder.is_dir():
+        raise ValueError(f"The sweep folder {folder} does not exist." if not folder.exists() else f"{folder} is a file, not a sweep folder.")
+    if not path.is_file():
+        raise ValueError(f"The sweep folder {folder} has no experiment.json.")
+    try:
+        meta = json.loads(path.read_text(encoding="utf-8"))
+    except json.JSONDecodeError as error:
+        raise ValueError(f"experiment.json in {folder} is not valid JSON ({error}).") from None
+    if not isinstance(meta, dict):
+        raise ValueError(f"experiment.json in {folder} must hold a JSON object.")
+    for key in ("name", "figures"):
+        if not meta.get(key):
+            raise ValueError(f"experiment.json in {folder} has no {key!r}.")
+    figures = meta["figures"]
+    if isinstance(figures, str) or not isinstance(figures, list):
+        raise ValueError("experiment.json's 'figures' must be a list of figure kinds.")
+    unknown = [str(k) for k in figures if k not in KINDS]
+    if unknown:
+        raise ValueError(
+            f"experiment.json lists unknown figure kind(s) {', '.join(unknown)}; known: {', '.join(KINDS)}."
+        )
+    return meta
+
+
+def _read_results(folder: Path) -> pd.DataFrame:
+    path = folder / "results.csv"
+    if not path.is_file():
+        raise ValueError(f"The sweep folder {folder} has no results.csv.")
+    df = pd.read_csv(path)
+    if df.empty:
+        raise ValueError(f"results.csv in {folder} has no rows.")
+    return df
+
+
+def _read_alphas(folder: Path) -> dict[str, Any]:
+    """The sweep folder's alphas.npz, or else the first (in name order) of its job folders'."""
+    path = folder / "alphas.npz"
+    if not path.is_file():
+        in_jobs = sorted(p for p in folder.glob("*/alphas.npz") if p.is_file())
+        if not in_jobs:
+            raise ValueError(f"The sweep folder {folder} has no alphas.npz (nor has any of its job folders).")
+        path = in_jobs[0]
+    with np.load(path, allow_pickle=False) as npz:
+        data = {key: npz[key] for key in npz.files}
+    _alpha_arrays(data)
+    return data
+
+
+
+
+def _save(fig: Figure, path: Path) -> Path:
+    """Save ``fig`` to ``path`` atomically (a temporary file in the same folder, then a rename)."""
+    fmt = path.suffix.lstrip(".")
+    metadata = PNG_METADATA if fmt == "png" else PDF_METADATA
+    return atomic_write(path, lambda handle: fig.savefig(handle, format=fmt, dpi=DPI, metadata=metadata))
+
+
+def sized_title(meta: dict[str, Any], df: pd.DataFrame) -> str:
+    """The experiment's title, told the truth about a smaller run than the thesis's.
+
+    A quick-profile sweep (or any sweep with fewer runs than the experiment lists) keeps the
+    figure's title but says how many runs each point has, and "over 100 datasets" becomes the
+    number actually drawn.
+    """
+    title = str(meta.get("title") or "")
+    if not title or "seed" not in df.columns:
+        return title
+    n = int(df["seed"].nunique())
+    full = meta.get("runs")
+    quick = meta.get("profile") == "quick"
+    if not quick and (full is None or n >= int(full)):
+        return title
+    title = re.sub(r"\bover \d+ (datasets|runs)\b", lambda m: f"over {n} {m.group(1)}", title)
+    return f"{title} [{'quick profile: ' if quick else ''}{n} run{'s' if n != 1 else ''} per point]"
+
+
+def draw(folder: str | os.PathLike) -> list[Path]:
+    """Draw every figure experiment.json lists; return the PNG and PDF paths written.
+
+    Files go to ``folder/figures/{name}_{kind}.png`` and ``.pdf`` (for "alphas":
+    ``{name}_exact`` and ``{name}_pbvi``). Inputs are checked before anything is drawn: a
+    missing file, key or column raises ``ValueError`` naming it.
+    """
+    folder = Path(folder)
+    meta = _read_meta(folder)
+    kinds = list(dict.fromkeys(meta["figures"]))
+    name = str(meta["name"])
+
+    df = _read_results(folder) if any(k != "alphas" for k in kinds) else None
+    alphas = _read_alphas(folder) if "alphas" in kinds else None
+    for kind in kinds:
+        if kind == "alphas":
+            continue
+        needs = _cosine_columns(df, meta) if kind == "cosine" else _NEEDS[kind]
+        _require(df, needs, kind)
+
+    if df is not None:
+        meta = {**meta, "title": sized_title(meta, df)}
+    figures: list[tuple[str, Figure]] = []
+    for kind in kinds:
+        if kind == "alphas":
+            exact, pbvi = alpha_vectors(alphas, meta)
+            figures += [(f"{name}_exact", exact), (f"{name}_pbvi", pbvi)]
+        else:
+            figures.append((f"{name}_{kind}", _DRAWERS[kind](df, meta)))
+
+    out = folder / "figures"
+    out.mkdir(parents=True, exist_ok=True)
+    written = []
+    for stem, fig in figures:
+        for suffix in (".png", ".pdf"):
+            written.append(_save(fig, out / f"{stem}{suffix}"))
+    return written

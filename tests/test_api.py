@@ -1,0 +1,58 @@
+"""The Python API learns what the CLI learns, from the same functions, and writes nothing."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pandas as pd
+import pytest
+from typer.testing import CliRunner
+
+from airl_cli import api
+from airl_cli.cli import app
+from airl_cli.errors import DatasetError
+
+SMALL = ["mdp.n_states=6", "mdp.n_actions=3", "mdp.horizon=5", "mdp.n_features=3", "demos.n=30"]
+FIT = ["optim.max_steps=3", "pbvi.iterations=4"]
+
+
+@pytest.fixture(autouse=True)
+def in_tmp(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+
+
+@pytest.mark.parametrize("method", ["airl", "mce"])
+def test_fit_from_a_file_gives_the_clis_weights(tmp_path, method):
+    runner = CliRunner()
+    assert runner.invoke(app, ["generate", f"hydra.run.dir={tmp_path / 'g'}", *SMALL, "seed=4"]).exit_code == 0
+    path = tmp_path / "g" / "dataset.npz"
+    result = runner.invoke(app, ["fit", f"data={path}", f"hydra.run.dir={tmp_path / 'f'}", f"method={method}", "seed=4", *FIT])
+    assert result.exit_code == 0, result.output
+
+    ds = api.load_dataset(path)
+    learned = api.fit(ds, f"method={method}", "seed=4", *FIT)
+    cli = json.loads((tmp_path / "f" / "weights.json").read_text())
+    np.testing.assert_array_equal(learned.weights, np.array(cli["weights"]))
+    scores = api.score(ds, learned)
+    metrics = json.loads((tmp_path / "f" / "metrics.json").read_text())
+    assert list(scores["dynamics"]) == [row["dynamics"] for row in metrics["dynamics"]]
+    np.testing.assert_allclose(scores["learner_score"], [row["learner_score"] for row in metrics["dynamics"]])
+
+
+def test_make_dataset_fit_bc_and_nothing_written(tmp_path):
+    ds = api.make_dataset(*SMALL, "mdp=random")
+    learned = api.fit(ds, "method=bc")
+    assert learned.policy is not None and learned.weights is None
+    table = api.score(ds, learned)
+    assert isinstance(table, pd.DataFrame) and table["learner_score"].between(0, 1 + 1e-9).all()
+    assert not any(tmp_path.iterdir())
+
+
+def test_read_sweep_and_bad_input():
+    folder = api.config("experiment=fig05").experiment.name  # the experiment configs compose
+    assert folder == "fig05"
+    with pytest.raises(FileNotFoundError, match="no results.csv"):
+        api.read_sweep("nowhere")
+    with pytest.raises(DatasetError, match="does not exist"):
+        api.load_dataset("missing.npz")

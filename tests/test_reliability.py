@@ -1,0 +1,401 @@
+"""No silent wrong results: run folders, resume, locks, orphan workers, and one sentence per error.
+
+Each test here failed on the code before issue 11: it shows the fix, not only the happy path.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import pytest
+from omegaconf import OmegaConf
+from typer.testing import CliRunner
+
+from airl_cli import sweeps
+from airl_cli.cli import app
+from airl_cli.core.budget import estimate_fit, refusal
+from airl_cli.jobs.sweep import finished_earlier
+from airl_cli.results import new_run_folder
+
+runner = CliRunner()
+SMALL = ["mdp.n_states=6", "mdp.n_actions=3", "mdp.horizon=5", "mdp.n_features=3", "demos.n=30", "optim.max_steps=4", "pbvi.iterations=4"]
+
+
+@pytest.fixture(autouse=True)
+def in_tmp(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+
+
+def one_sentence(output: str) -> bool:
+    text = output.strip()
+    return text.startswith("error:") and "\n" not in text and "Traceback" not in text
+
+
+def job_config(overrides: list[str]) -> str:
+    """The resolved config.yaml a sweep job of these overrides writes."""
+    cfg = sweeps._compose(overrides)
+    plain = OmegaConf.to_container(cfg, resolve=False)
+    del plain["hydra"]
+    return OmegaConf.to_yaml(OmegaConf.create(plain), resolve=True)
+
+
+def fake_finished_job(folder: Path, name: str, overrides: list[str]) -> None:
+    job = folder / name
+    job.mkdir(parents=True)
+    (job / "config.yaml").write_text(job_config(overrides))
+    (job / sweeps.ROWS).write_text("experiment,method\nfig05,airl\n")
+
+
+# ------------------------------------------------------------------ 1. resume checks more than names
+
+
+def test_resume_into_another_experiments_folder_refuses(tmp_path):
+    folder = tmp_path / "shared"
+    first = sweeps.plan(["experiment=fig05", "profile=quick", f"hydra.sweep.dir={folder}"])
+    folder.mkdir()
+    sweeps.record_settings(first)
+    result = runner.invoke(app, ["sweep", "experiment=fig06", "profile=quick", f"hydra.sweep.dir={folder}"])
+    assert result.exit_code == 2 and one_sentence(result.output), result.output
+    assert "experiment.name=fig05" in result.output and "experiment.name=fig06" in result.output
+    assert not list(folder.glob("*/rows.csv"))  # nothing ran
+
+
+def test_resume_into_a_folder_from_before_sweep_json_reads_a_jobs_config(tmp_path):
+    # the exact report of the issue: a fig05 folder (no sweep.json) resumed as fig06
+    folder = tmp_path / "old"
+    job = ["experiment=fig05", "profile=quick", "demos.n=1", "method=airl", "seed=0"]
+    fake_finished_job(folder, "demos.n=1,method=airl,seed=0", job)
+    result = runner.invoke(app, ["sweep", "experiment=fig06", "profile=quick", f"hydra.sweep.dir={folder}"])
+    assert result.exit_code == 2 and one_sentence(result.output), result.output
+    assert "config.yaml" in result.output and "fig06" in result.output
+
+
+def test_a_changed_setting_is_named_and_a_narrower_method_list_is_fine(tmp_path):
+    folder = tmp_path / "f"
+    folder.mkdir()
+    here = sweeps.plan(["experiment=fig05", "profile=quick", f"hydra.sweep.dir={folder}"])
+    sweeps.record_settings(here)
+    sweeps.check_folder(sweeps.plan(["experiment=fig05", "profile=quick", "method=airl", f"hydra.sweep.dir={folder}"]))
+    record = json.loads((folder / sweeps.SETTINGS).read_text())
+    record["settings"]["optim.lam"] = 0.5  # as if the earlier run had changed conf/optim/default.yaml
+    (folder / sweeps.SETTINGS).write_text(json.dumps(record))
+    with pytest.raises(sweeps.ConfigError, match=r"optim\.lam=0\.5 .* optim\.lam=0\.01"):
+        sweeps.check_folder(here)
+    # an override on the command line names the job folders: those jobs cannot be mixed up
+    sweeps.check_folder(sweeps.plan(["experiment=fig05", "profile=quick", "optim.lam=0.01", f"hydra.sweep.dir={folder}"]))
+
+
+def test_a_job_whose_rows_came_from_another_config_is_recomputed(tmp_path):
+    job = tmp_path / "demos.n=1,method=airl,seed=0"
+    fake_finished_job(tmp_path, job.name, ["experiment=fig05", "profile=quick", "demos.n=1", "method=airl", "seed=0"])
+    same = OmegaConf.create(job_config(["experiment=fig05", "profile=quick", "demos.n=1", "method=airl", "seed=0"]))
+    assert finished_earlier(same, job)
+    other = OmegaConf.create(job_config(["experiment=fig06", "profile=quick", "demos.n=1", "method=airl", "seed=0"]))
+    assert not finished_earlier(other, job) and not (job / sweeps.ROWS).exists()
+
+
+# ------------------------------------------------------------------ 2. a run folder per run
+
+
+def test_two_folders_claimed_in_the_same_second_differ(tmp_path):
+    stamp = str(tmp_path / "results" / "fit" / "2026-01-01_00-00-00")
+    first = new_run_folder(stamp)
+    sweeps_claimed = dict(__import__("airl_cli.results", fromlist=["_claimed"])._claimed)
+    __import__("airl_cli.results", fromlist=["_claimed"])._claimed.clear()  # as a second process would
+    second = new_run_folder(stamp)
+    assert first == stamp and second == stamp + "-2" and Path(second).is_dir()
+    assert sweeps_claimed[stamp] == first
+
+
+def test_two_fits_started_at_the_same_instant_get_two_folders(tmp_path):
+    cmd = [sys.executable, "-m", "airl_cli", "fit", *SMALL]
+    procs = [subprocess.Popen([*cmd, f"seed={s}"], cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True) for s in (1, 2)]
+    outs = [p.communicate(timeout=120)[0] for p in procs]
+    assert all(p.returncode == 0 for p in procs)
+    folders = sorted((tmp_path / "results" / "fit").iterdir())
+    assert len(folders) == 2
+    for folder in folders:
+        seed = OmegaConf.load(folder / "config.yaml").seed
+        assert f"seed={seed}" in (folder / ".hydra" / "overrides.yaml").read_text().replace("- ", "")
+        assert any(f"wrote {folder} (" in out for out in outs)
+
+
+# ------------------------------------------------------------------ 3. one sweep per folder
+
+
+def test_a_second_sweep_into_a_busy_folder_refuses_in_one_sentence(tmp_path):
+    folder = tmp_path / "results" / "sweeps" / "fig13-quick"
+    with sweeps.claim(folder):  # as a running sweep holds it
+        result = runner.invoke(app, ["sweep", "experiment=fig13", "profile=quick"])
+    assert result.exit_code == 2 and one_sentence(result.output), result.output
+    assert "in use by another airl sweep" in result.output and str(os.getpid()) in result.output
+    with sweeps.claim(folder):  # released when the holder is done
+        pass
+
+
+# ------------------------------------------------------------------ 5. a misspelt key
+
+
+@pytest.mark.parametrize(
+    "override, needles",
+    [
+        ("mdp.nstates=3", ["'mdp.nstates'", "did you mean 'mdp.n_states'", "n_actions, n_features"]),
+        ("+mdp.nstates=3", ["'mdp.nstates'", "never reads", "did you mean 'mdp.n_states'"]),
+        ("optim.lamda=0.1", ["'optim.lamda'", "did you mean 'optim.lam'", "weight_sharing"]),
+        ("mpd.n_states=3", ["'mpd' is not a config group", "did you mean 'mdp'"]),
+        ("sed=3", ["did you mean 'seed'"]),
+    ],
+)
+@pytest.mark.parametrize("command", ["fit", "generate", "sweep"])
+def test_a_misspelt_key_gets_one_sentence(command, override, needles):
+    extra = ["experiment=fig05"] if command == "sweep" else []
+    result = runner.invoke(app, [command, *extra, override])
+    assert result.exit_code == 2 and one_sentence(result.output), result.output
+    for needle in needles:
+        assert needle in result.output
+    assert not Path("results").exists()
+
+
+# ------------------------------------------------------------------ 6. unwritable folders, wrong paths
+
+
+def as_nobody(args: list[str], cwd: Path) -> subprocess.CompletedProcess:
+    """Run ``python -m airl_cli ARGS`` as a user who cannot write ``cwd``'s read-only folders."""
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(cwd / "numba-cache"), "HOME": str(cwd)}
+    cmd = [sys.executable, "-m", "airl_cli", *args]
+    if os.geteuid() == 0:  # root writes anywhere: drop to an ordinary user
+        if shutil.which("setpriv") is None:
+            pytest.skip("running as root without setpriv")
+        cmd = ["setpriv", "--reuid=65534", "--regid=65534", "--clear-groups", *cmd]
+    return subprocess.run(cmd, cwd=cwd, env=env, capture_output=True, text=True, timeout=120)
+
+
+@pytest.fixture
+def readonly():
+    base = Path(tempfile.mkdtemp(prefix="airl-ro-"))
+    base.chmod(0o755)
+    (base / "numba-cache").mkdir(mode=0o777)
+    (base / "numba-cache").chmod(0o777)
+    (base / "ro").mkdir()
+    (base / "ro").chmod(0o555)
+    yield base
+    (base / "ro").chmod(0o755)
+    shutil.rmtree(base, ignore_errors=True)
+
+
+@pytest.mark.parametrize(
+    "args",
+    [
+        ["fit", "hydra.run.dir=ro/run"],
+        ["generate"],  # the default results/ under a read-only working folder
+        ["sweep", "experiment=fig13", "profile=quick", "hydra.sweep.dir=ro/sweep"],
+    ],
+)
+def test_a_read_only_folder_gets_one_sentence_and_exit_2(readonly, args):
+    cwd = readonly / "ro" if args == ["generate"] else readonly
+    result = as_nobody(args, cwd)
+    assert result.returncode == 2, result.stderr
+    assert one_sentence(result.stderr), result.stderr
+    assert "permission denied" in result.stderr and "PATH" in result.stderr
+
+
+def test_the_writer_failing_mid_run_is_one_sentence(tmp_path, monkeypatch):
+    import airl_cli.jobs.fit as fit_job
+
+    def refuse(*_args, **_kwargs):
+        raise PermissionError(13, "Permission denied", str(tmp_path / "out" / "weights.json"))
+
+    monkeypatch.setattr(fit_job, "write_json", refuse)
+    result = runner.invoke(app, ["fit", f"hydra.run.dir={tmp_path / 'out'}", *SMALL])
+    assert result.exit_code == 2 and "error: cannot write the results (permission denied" in result.output
+    assert "Traceback" not in result.output
+
+
+def test_inspect_a_folder_and_plot_a_missing_folder(tmp_path):
+    (tmp_path / "job").mkdir()
+    (tmp_path / "job" / "dataset.npz").write_bytes(b"")
+    result = runner.invoke(app, ["inspect", str(tmp_path / "job")])
+    assert result.exit_code == 2 and "is a folder, not a dataset file" in result.output and "dataset.npz" in result.output
+    result = runner.invoke(app, ["plot", str(tmp_path / "nowhere")])
+    assert result.exit_code == 2 and "does not exist" in result.output
+
+
+# ------------------------------------------------------------------ 7. a sweep job's dataset, unquoted
+
+
+def test_a_sweep_jobs_dataset_path_is_taken_as_it_is(tmp_path):
+    job = tmp_path / "demos.n=30,method=airl,seed=0"
+    assert runner.invoke(app, ["generate", f"hydra.run.dir='{job}'", *SMALL[:5]]).exit_code == 0
+    result = runner.invoke(app, ["fit", f"data={job / 'dataset.npz'}", f"hydra.run.dir={tmp_path / 'fit'}", "optim.max_steps=2", "pbvi.iterations=3"])
+    assert result.exit_code == 0, result.output
+    assert OmegaConf.load(tmp_path / "fit" / "config.yaml").data == str(job / "dataset.npz")
+
+
+# ------------------------------------------------------------------ 3 and 4, for real: a busy folder, a killed parent
+
+
+def _stat(pid: int) -> tuple[str, int] | None:
+    """(state, parent pid) of a process, None if it is gone."""
+    try:
+        with open(f"/proc/{pid}/stat") as f:
+            fields = f.read().rsplit(")", 1)[1].split()
+    except OSError:
+        return None
+    return fields[0], int(fields[1])
+
+
+def descendants(root: int) -> set[int]:
+    children: dict[int, list[int]] = {}
+    for entry in os.listdir("/proc"):
+        if entry.isdigit() and (st := _stat(int(entry))) is not None:
+            children.setdefault(st[1], []).append(int(entry))
+    out, todo = set(), [root]
+    while todo:
+        for child in children.get(todo.pop(), []):
+            out.add(child)
+            todo.append(child)
+    return out
+
+
+def running(pid: int) -> bool:
+    st = _stat(pid)
+    return st is not None and st[0] != "Z"
+
+
+@pytest.mark.slow  # about 30 s: a real sweep on two workers, twice
+@pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="reads /proc")
+def test_a_busy_folder_refuses_and_no_worker_outlives_a_killed_sweep(tmp_path):
+    cmd = [sys.executable, "-m", "airl_cli", "sweep", "experiment=fig05", "profile=quick", "--no-plot", "hydra.launcher.n_jobs=2"]
+    folder = tmp_path / "results" / "sweeps" / "fig05-quick"
+    proc = subprocess.Popen(cmd, cwd=tmp_path, start_new_session=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    try:
+        deadline = time.time() + 120
+        workers: set[int] = set()
+        while time.time() < deadline and not (len(workers) >= 2 and list(folder.glob("*/.hydra"))):
+            time.sleep(0.2)
+            workers = {p for p in descendants(proc.pid) if "loky" in Path(f"/proc/{p}/cmdline").read_text(errors="replace")}
+        assert len(workers) >= 2, "the joblib workers never started"
+        second = subprocess.run(cmd, cwd=tmp_path, capture_output=True, text=True, timeout=120)
+        assert second.returncode == 2 and one_sentence(second.stderr), second.stderr
+        assert "in use by another airl sweep" in second.stderr
+        everything = descendants(proc.pid)
+        os.kill(proc.pid, signal.SIGKILL)  # the parent only, as a user's kill -9 would
+        proc.wait()
+        gone_by = time.time() + 5
+        while time.time() < gone_by and any(running(p) for p in everything):
+            time.sleep(0.1)
+        assert not [p for p in everything if running(p)], "workers outlived the sweep"
+    finally:
+        try:
+            os.killpg(proc.pid, signal.SIGKILL)
+        except ProcessLookupError:
+            pass
+    # the lock died with its holder: the same command resumes
+    resumed = subprocess.run(cmd, cwd=tmp_path, capture_output=True, text=True, timeout=300)
+    assert resumed.returncode == 0, resumed.stderr
+
+
+# ------------------------------------------------------------------ 8. too large: refused before any work
+
+
+def test_the_estimate_grows_with_the_problem_and_the_refusal_says_what_to_lower():
+    small = estimate_fit(n_states=20, n_actions=5, horizon=10, n_dynamics=3, n_demos=100, iterations=8)
+    assert small.n_beliefs == 2**7 and refusal(small, 4 * 2**30) is None
+    more_states = estimate_fit(n_states=200, n_actions=5, horizon=10, n_dynamics=3, n_demos=100, iterations=8)
+    more_iterations = estimate_fit(n_states=20, n_actions=5, horizon=10, n_dynamics=3, n_demos=100, iterations=12)
+    assert more_states.total > small.total and more_iterations.total > small.total
+    baseline = estimate_fit(n_states=200, n_actions=5, horizon=10, n_dynamics=3, n_demos=100, method="mce", iterations=20)
+    assert "policy graph" not in baseline.parts and baseline.total < more_states.total
+    big = estimate_fit(n_states=300, n_actions=5, horizon=30, n_dynamics=3, n_demos=1000, iterations=12)
+    sentence = refusal(big, 4 * 2**30, iterations=12)
+    assert sentence is not None and "\n" not in sentence
+    assert "lower pbvi.iterations (to 9 or less)" in sentence and "mdp.n_states" in sentence
+    lowered = estimate_fit(n_states=300, n_actions=5, horizon=30, n_dynamics=3, n_demos=1000, iterations=9)
+    assert refusal(lowered, 4 * 2**30) is None  # the advice is enough
+    assert "hydra.launcher.n_jobs" in refusal(lowered, 4 * 2**30, iterations=9, workers=4)
+
+
+@pytest.mark.parametrize(
+    "args",
+    [
+        ["fit", "mdp.n_states=2000", "mdp.horizon=50", "pbvi.iterations=20"],
+        ["sweep", "experiment=fig05", "mdp.n_states=2000", "mdp.horizon=50", "pbvi.iterations=20"],
+    ],
+)
+def test_a_too_large_problem_is_refused_before_any_work(tmp_path, args):
+    start = time.perf_counter()
+    result = runner.invoke(app, args)
+    assert result.exit_code == 2 and one_sentence(result.output), result.output
+    assert "of memory" in result.output and "lower pbvi.iterations" in result.output
+    assert time.perf_counter() - start < 20  # building S=2000 alone would take longer
+    assert not list(tmp_path.rglob("dataset.npz")) and not list(tmp_path.rglob("rows.csv"))
+
+
+@pytest.mark.slow  # about 20 s: three real fits, each measured
+@pytest.mark.parametrize("S, T, iterations", [(20, 10, 8), (100, 10, 10), (150, 15, 8)])
+def test_the_estimate_is_above_the_measured_peak(tmp_path, S, T, iterations):
+    import resource
+
+    code = (
+        "import resource, sys; from airl_cli.cli import main; sys.argv = sys.argv[1:]\n"
+        "try:\n    main()\nexcept SystemExit:\n    pass\n"
+        "print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss)"
+    )
+    args = ["airl", "fit", f"mdp.n_states={S}", f"mdp.horizon={T}", f"pbvi.iterations={iterations}", "optim.max_steps=2", f"hydra.run.dir={tmp_path / 'run'}"]
+    out = subprocess.run([sys.executable, "-c", code, *args], capture_output=True, text=True, timeout=300, cwd=tmp_path)
+    peak = int(out.stdout.strip().splitlines()[-1]) * 1024
+    estimate = estimate_fit(n_states=S, n_actions=5, horizon=T, n_dynamics=3, n_demos=100, iterations=iterations)
+    assert peak < estimate.total < 3 * peak, (peak, estimate.total)
+    del resource
+
+
+# ------------------------------------------------------------------ 9. a sweep that talks
+
+
+def test_progress_reports_each_failure_as_it_happens(tmp_path):
+    from rich.console import Console
+
+    sweep = sweeps.SweepPlan({"name": "figX"}, tmp_path, ("a", "b"))
+    console = Console(file=__import__("io").StringIO(), width=200, force_terminal=False)
+    with sweeps.progress(sweep, console, interval=0.05):
+        (tmp_path / "a").mkdir()
+        (tmp_path / "a" / sweeps.ERROR).write_text("'demo_actions' is missing\n")
+        time.sleep(0.3)
+        printed_while_running = console.file.getvalue()
+    assert "failed: a: 'demo_actions' is missing" in printed_while_running
+
+
+def test_the_end_of_a_sweep_prints_median_scores_beside_the_thesis():
+    import pandas as pd
+
+    rows = [
+        {"method": m, "x": x, "seed": s, "dynamics": d, "learner_score": score, "demonstrator_score": 0.5}
+        for m, base in (("airl", 0.9), ("mce", 0.7))
+        for x in (1, 10)
+        for s, score in ((0, base - 0.1), (1, base), (2, base + 0.05))
+        for d in ("tau", "tau_1")
+    ]
+    text = sweeps.medians_text({"x": "n_demos", "dynamics": ["tau_1"], "thesis": "the learner wins"}, pd.DataFrame(rows))
+    lines = text.strip().splitlines()
+    assert "over runs and tau_1" in lines[0] and lines[1].split() == ["n_demos", "airl", "mce", "demonstrator"]
+    assert lines[2].split() == ["1", "0.9000", "0.7000", "0.5000"] and lines[-1] == "thesis: the learner wins"
+
+
+def test_ctrl_c_says_how_to_resume(tmp_path, monkeypatch):
+    import airl_cli.launch
+
+    def interrupted(*_args, **_kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(airl_cli.launch, "run_hydra", interrupted)
+    result = runner.invoke(app, ["sweep", "experiment=fig13", "profile=quick", "--no-plot"])
+    assert result.exit_code == 130
+    assert "interrupted: run the same command again to resume" in result.output
