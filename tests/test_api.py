@@ -14,7 +14,7 @@ from airl_cli.cli import app
 from airl_cli.errors import DatasetError
 
 SMALL = ["mdp.n_states=6", "mdp.n_actions=3", "mdp.horizon=5", "mdp.n_features=3", "demos.n=30"]
-FIT = ["optim.max_steps=3", "pbvi.iterations=4"]
+FIT = ["pbvi.iterations=4"]
 
 
 @pytest.fixture(autouse=True)

@@ -26,7 +26,7 @@ from airl_cli.jobs.sweep import finished_earlier
 from airl_cli.results import new_run_folder
 
 runner = CliRunner()
-SMALL = ["mdp.n_states=6", "mdp.n_actions=3", "mdp.horizon=5", "mdp.n_features=3", "demos.n=30", "optim.max_steps=4", "pbvi.iterations=4"]
+SMALL = ["mdp.n_states=6", "mdp.n_actions=3", "mdp.horizon=5", "mdp.n_features=3", "demos.n=30", "pbvi.iterations=4"]
 
 
 @pytest.fixture(autouse=True)
@@ -234,7 +234,7 @@ def test_inspect_a_folder_and_plot_a_missing_folder(tmp_path):
 def test_a_sweep_jobs_dataset_path_is_taken_as_it_is(tmp_path):
     job = tmp_path / "demos.n=30,method=airl,seed=0"
     assert runner.invoke(app, ["generate", f"hydra.run.dir='{job}'", *SMALL[:5]]).exit_code == 0
-    result = runner.invoke(app, ["fit", f"data={job / 'dataset.npz'}", f"hydra.run.dir={tmp_path / 'fit'}", "optim.max_steps=2", "pbvi.iterations=3"])
+    result = runner.invoke(app, ["fit", f"data={job / 'dataset.npz'}", f"hydra.run.dir={tmp_path / 'fit'}", "pbvi.iterations=3"])
     assert result.exit_code == 0, result.output
     assert OmegaConf.load(tmp_path / "fit" / "config.yaml").data == str(job / "dataset.npz")
 
@@ -349,7 +349,7 @@ def test_the_estimate_is_above_the_measured_peak(tmp_path, S, T, iterations):
         "try:\n    main()\nexcept SystemExit:\n    pass\n"
         "print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss)"
     )
-    args = ["airl", "fit", f"mdp.n_states={S}", f"mdp.horizon={T}", f"pbvi.iterations={iterations}", "optim.max_steps=2", f"hydra.run.dir={tmp_path / 'run'}"]
+    args = ["airl", "fit", f"mdp.n_states={S}", f"mdp.horizon={T}", f"pbvi.iterations={iterations}", f"hydra.run.dir={tmp_path / 'run'}"]
     out = subprocess.run([sys.executable, "-c", code, *args], capture_output=True, text=True, timeout=300, cwd=tmp_path)
     peak = int(out.stdout.strip().splitlines()[-1]) * 1024
     estimate = estimate_fit(n_states=S, n_actions=5, horizon=T, n_dynamics=3, n_demos=100, iterations=iterations)
