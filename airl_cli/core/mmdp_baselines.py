@@ -34,13 +34,28 @@ choice depends only on the next state, so it runs on any model with the same sta
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from airl_cli.core import _kernels
 from airl_cli.core.mdp import argmax_lowest
-from airl_cli.core.multimodel import LayeredRewards, PolicyGraph, check_prior, layered_rewards, markov_values
+from airl_cli.core.multimodel import (
+    METHODS,
+    LayeredRewards,
+    PolicyGraph,
+    check_prior,
+    exact_graph,
+    expand_beliefs,
+    layered_rewards,
+    markov_graph,
+    markov_values,
+    mean_graph,
+    pbvi_graph,
+)
 
 MARKOV_METHODS = ("wsu", "mvp", "cadp")
+PLAN_METHODS = METHODS + MARKOV_METHODS
 
 
 def _weights(prior: np.ndarray | None, M: int) -> np.ndarray:
@@ -206,4 +221,79 @@ def graph_returns(graph: PolicyGraph, transitions: np.ndarray, rewards: LayeredR
     return total
 
 
-__all__ = ["MARKOV_METHODS", "cadp", "graph_returns", "markov_returns", "mvp", "state_weights", "wsu"]
+@dataclass(frozen=True)
+class Plan:
+    """What ``plan`` returns.
+
+    Attributes:
+        graph: the policy as a graph with T+1 layers (any method).
+        policy: (T, S) int the Markov policy of wsu/mvp/cadp/mean, None for pbvi/exact.
+        values: (M,) exact expected discounted return under each training model.
+        objective: sum_j lambda_j values[j] (lambda uniform when no prior is given).
+        n_beliefs: PBVI's belief points (0 for the others); sweeps: CADP's sweeps (0 otherwise).
+    """
+
+    graph: PolicyGraph
+    policy: np.ndarray | None
+    values: np.ndarray
+    objective: float
+    n_beliefs: int = 0
+    sweeps: int = 0
+
+
+def plan(
+    method: str,
+    transitions: np.ndarray,
+    rewards: np.ndarray,
+    initial: np.ndarray,
+    *,
+    horizon: int,
+    discount: float = 1.0,
+    prior: np.ndarray | None = None,
+    iterations: int = 8,
+    expansion: str = "sample",
+    rng: np.random.Generator | None = None,
+) -> Plan:
+    """Solve a multi-model MDP over ``horizon`` decisions with any method of ``PLAN_METHODS``.
+
+    Args:
+        method: pbvi | exact | mean (``multimodel.solve``) or wsu | mvp | cadp (Markov heuristics).
+        transitions: (M, S, A, S); rewards: stationary (M, S, A, S) r_j(s, a, s') or (M, S, A);
+        initial: (S,); horizon: T decisions; discount: gamma; prior: (M,) lambda or None (uniform);
+        iterations, expansion, rng: PBVI's options.
+    """
+    if method not in PLAN_METHODS:
+        raise ValueError(f"method must be one of {PLAN_METHODS}, got {method!r}")
+    P = np.asarray(transitions, dtype=np.float64)
+    M = P.shape[0]
+    w = _weights(prior, M)
+    L = layered_rewards(P, rewards, horizon=horizon, discount=discount)
+    p0 = np.asarray(initial, dtype=np.float64)
+    if method in METHODS:  # as multimodel.solve, without the state marginals
+        n_beliefs = 0
+        if method == "pbvi":
+            B = expand_beliefs(P, iterations=iterations, rng=rng, expansion=expansion, prior=w)
+            graph, n_beliefs = pbvi_graph(P, L, B, prior=w), len(B)
+        elif method == "exact":
+            graph = exact_graph(P, L, w)
+        else:
+            graph = mean_graph(P, L, w)
+        policy = np.stack(graph.action) if method == "mean" else None
+        values = graph.values(p0)
+        return Plan(graph, policy, values, float(w @ values), n_beliefs)
+    sweeps = 0
+    if method == "wsu":
+        policy = wsu(P, L, prior=w)
+    elif method == "mvp":
+        policy = mvp(P, rewards, horizon=horizon, discount=discount, prior=w)
+    else:
+        policy, sweeps = cadp(P, L, p0, prior=w)
+    graph = markov_graph(P, L, policy)
+    values = graph.values(p0)
+    return Plan(graph, policy, values, float(w @ values), 0, sweeps)
+
+
+__all__ = [
+    "PLAN_METHODS",
+    "Plan",
+    "plan","MARKOV_METHODS", "cadp", "graph_returns", "markov_returns", "mvp", "state_weights", "wsu"]

@@ -130,6 +130,42 @@ class PolicyGraph:
                 mu = _kernels.forward_step(P, mu, self.state[t], self.action[t], self.successor[t], self.state[t + 1].size)
         return out
 
+    def to_arrays(self) -> dict[str, np.ndarray]:
+        """The graph as flat arrays (for ``numpy.savez``); ``from_arrays`` rebuilds it exactly.
+
+        Returns:
+            ``layer`` (T+1,) where layer t's nodes are ``layer[t]..layer[t+1]-1`` in the flat
+            arrays; ``state`` (N,); ``action`` (N,) (-1 on the last layer); ``successor`` (N, S)
+            layer-local index at t+1 per next state (-1 on the last layer); ``alpha`` (N, M);
+            ``start`` (S,) the node at t = 0 per initial state.
+        """
+        S = self.start.size
+        T = self.horizon
+        last = self.state[T - 1].size
+        return {
+            "layer": np.r_[0, np.cumsum(self.n_nodes)].astype(np.int64),
+            "state": np.concatenate(self.state).astype(np.int64),
+            "action": np.concatenate(list(self.action) + [np.full(last, -1)]).astype(np.int64),
+            "successor": np.concatenate(list(self.successor) + [np.full((last, S), -1)]).astype(np.int64),
+            "alpha": np.concatenate(self.alpha),
+            "start": self.start.astype(np.int64),
+        }
+
+    @classmethod
+    def from_arrays(cls, arrays: dict[str, np.ndarray]) -> "PolicyGraph":
+        """Inverse of ``to_arrays``."""
+        layer, S = arrays["layer"], arrays["start"].size
+        cut = [slice(int(layer[t]), int(layer[t + 1])) for t in range(layer.size - 1)]
+        states = tuple(np.asarray(arrays["state"][c], dtype=np.int64) for c in cut)
+        return cls(
+            states,
+            tuple(np.asarray(arrays["action"][c], dtype=np.int64) for c in cut[:-1]),
+            tuple(np.asarray(arrays["successor"][c], dtype=np.int64) for c in cut[:-1]),
+            tuple(np.asarray(arrays["alpha"][c], dtype=np.float64) for c in cut),
+            tuple(np.searchsorted(st, np.arange(S + 1)) for st in states),
+            np.asarray(arrays["start"], dtype=np.int64),
+        )
+
     def sample(self, rng: np.random.Generator, transitions: np.ndarray, initial: np.ndarray, n: int) -> np.ndarray:
         """Sample ``n`` state sequences of the graph under each model.
 
