@@ -159,6 +159,13 @@ def test_plan_reads_an_npz_with_a_prior(tmp_path):
     assert result.exit_code == 2 and "key 'rewards' must have shape" in result.output
 
 
+def test_exact_on_a_long_horizon_is_refused_in_one_sentence(tmp_path):
+    folder = write_folder(tmp_path / "mmdp")
+    result = runner.invoke(app, ["plan", f"plan.input={folder}", "plan.method=exact", "plan.horizon=40", f"hydra.run.dir={tmp_path / 'r'}"])
+    assert result.exit_code == 2 and "histories" in result.output and "Traceback" not in result.output
+    assert not (tmp_path / "r").exists()
+
+
 def test_plan_config_is_packaged_and_printable():
     result = runner.invoke(app, ["plan", "--cfg", "job"])
     assert result.exit_code == 0 and "method: pbvi" in result.output and "horizon: 50" in result.output

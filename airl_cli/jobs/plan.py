@@ -19,6 +19,7 @@ from omegaconf import DictConfig
 from airl_cli.config import PlanSettings, plan_settings
 from airl_cli.core.mmdp_baselines import Plan, graph_returns, plan
 from airl_cli.core.multimodel import PolicyGraph, layered_rewards
+from airl_cli.errors import ConfigError
 from airl_cli.jobs.common import err_console, out_console, output_dir, run_job, save_config
 from airl_cli.mmdp_data import MMDPProblem, read_problem
 from airl_cli.paths import conf_dir
@@ -34,11 +35,14 @@ def run_plan(problem: MMDPProblem, settings: PlanSettings) -> tuple[Plan, float,
     """(the plan, its discount, the mean test return or None, seconds spent planning)."""
     discount = problem.discount if settings.discount is None else settings.discount
     start = time.perf_counter()
-    result = plan(
-        settings.method, problem.transitions, problem.rewards, problem.initial,
-        horizon=settings.horizon, discount=discount, prior=problem.prior,
-        iterations=settings.iterations, expansion=settings.expansion, rng=np.random.default_rng(settings.seed),
-    )
+    try:
+        result = plan(
+            settings.method, problem.transitions, problem.rewards, problem.initial,
+            horizon=settings.horizon, discount=discount, prior=problem.prior,
+            iterations=settings.iterations, expansion=settings.expansion, rng=np.random.default_rng(settings.seed),
+        )
+    except ValueError as err:  # the input was checked; what is left is a setting, e.g. exact on a large problem
+        raise ConfigError(f"plan.method={settings.method}: {err}") from None
     seconds = time.perf_counter() - start
     test = None
     if problem.test_transitions is not None:
