@@ -59,6 +59,7 @@ PLAN_METHODS = METHODS + MARKOV_METHODS
 
 
 def _weights(prior: np.ndarray | None, M: int) -> np.ndarray:
+    """(M,) the checked prior, or uniform weights when it is None."""
     w = check_prior(prior, M)
     return np.full(M, 1.0 / M) if w is None else w
 

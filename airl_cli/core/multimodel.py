@@ -214,27 +214,6 @@ class Solution:
 # --------------------------------------------------------------------------- checks
 
 
-def check_problem(transitions: np.ndarray, rewards: np.ndarray, initial: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Validate and convert a multiple-MDP problem; raise ``ValueError`` quoting shapes."""
-    P = np.asarray(transitions, dtype=np.float64)
-    R = np.asarray(rewards, dtype=np.float64)
-    p0 = np.asarray(initial, dtype=np.float64)
-    if P.ndim != 4 or P.shape[1] != P.shape[3]:
-        raise ValueError(f"transitions must have shape (M, S, A, S), got {P.shape}")
-    M, S, A, _ = P.shape
-    if M < 1 or S < 1 or A < 1:
-        raise ValueError(f"transitions needs at least one model, state and action, got {P.shape}")
-    if R.ndim != 3 or R.shape[0] != M or R.shape[2] != S or R.shape[1] < 2:
-        raise ValueError(f"rewards must have shape (M, T, S) = ({M}, T, {S}) with T >= 2, got {R.shape}")
-    if not np.all(np.isfinite(R)):
-        raise ValueError("rewards must be finite")
-    if p0.shape != (S,):
-        raise ValueError(f"initial must have shape (S,) = ({S},), got {p0.shape}")
-    check_probabilities(P, name="transitions")
-    check_probabilities(p0, name="initial")
-    return P, R, p0
-
-
 @dataclass(frozen=True)
 class LayeredRewards:
     """Every reward form reduced to what the backup needs.
