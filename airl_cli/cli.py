@@ -122,6 +122,22 @@ def sweep(
     raise typer.Exit(status)
 
 
+@app.command(name="plan", context_settings=PASS_THROUGH)
+def plan_command(
+    ctx: typer.Context,
+    cfg: str | None = CfgOption,
+    resolve: bool = ResolveOption,
+    multirun: bool = MultirunOption,
+) -> None:
+    """Solve a multi-model MDP (the chapter-6 planner on its own, or WSU, MVP, CADP); write the policy and its returns.
+
+    Takes plan.input=PATH (a folder of training.csv, initial.csv, [test.csv], [parameters.csv],
+    or an .npz) and overrides such as plan.method=cadp plan.horizon=50 plan.iterations=8.
+    The run folder is results/plan/<time>/ unless hydra.run.dir=PATH says otherwise.
+    """
+    run_hydra("plan", ctx.args, cfg=cfg, resolve=resolve, multirun=multirun)
+
+
 @app.command()
 def plot(folder: str = typer.Argument(..., help="A sweep folder (results/sweeps/NAME-PROFILE).")) -> None:
     """Draw the thesis's figure(s) of a finished sweep from its results table, as PNG and PDF."""

@@ -357,3 +357,42 @@ def fit_settings(cfg: DictConfig | Mapping) -> FitSettings:
         certified=certified,
         certify=certify,
     )
+
+
+# --------------------------------------------------------------------------- airl plan
+
+
+@dataclass(frozen=True)
+class PlanSettings:
+    """``airl plan``: the multiple-MDP planner on its own (config group ``plan``)."""
+
+    input: str
+    method: str
+    horizon: int
+    iterations: int
+    expansion: str
+    discount: float | None
+    seed: int
+
+
+def plan_settings(cfg: DictConfig | Mapping) -> PlanSettings:
+    """Read and check the ``plan`` group and the seed."""
+    from airl_cli.core.mmdp_baselines import PLAN_METHODS
+    from airl_cli.core.multimodel import EXPANSIONS
+
+    c = plain(cfg)
+    top = _Reader(c, "")
+    p = _Reader(top.raw("plan"), "plan")
+    path = p.raw("input", None)
+    if not isinstance(path, str) or not path:
+        raise ConfigError("'plan.input' must be a folder of CSV files or an .npz file, e.g. plan.input=data/riverswim")
+    discount = p.raw("discount", None)
+    return PlanSettings(
+        input=path,
+        method=p.choice("method", PLAN_METHODS),
+        horizon=p.int("horizon", lo=1),
+        iterations=p.int("iterations", lo=1, hi=20),
+        expansion=p.choice("expansion", EXPANSIONS),
+        discount=None if discount is None else p.float("discount", lo=0.0, hi=1.0, open_lo=True),
+        seed=top.int("seed", lo=0),
+    )

@@ -17,6 +17,15 @@ per-time state rewards::
     B = expand_beliefs(P, iterations=8, rng=np.random.default_rng(0))  # depends on P only
     sol2 = solve(P, R2, p0, beliefs=B)                                   # reuse it for new rewards
 
+The multi-model MDP literature's problems fit too: rewards (M, T, S, A) or (M, T, S, A, S) over T
+decisions (or stationary ones with ``horizon=T``), ``discount=gamma`` and ``prior=lambda`` (the
+belief starts there; ``value`` becomes sum_j lambda_j values[j])::
+
+    sol = solve(P, r_sas, p0, horizon=50, discount=0.9, prior=np.full(M, 1 / M))
+
+The published Markov heuristics (WSU, MVP, CADP) and exact evaluation of any policy on other
+models are in ``airl_cli.core.mmdp_baselines``; ``airl plan`` runs them all from the command line.
+
 Methods: ``"pbvi"`` (modified point-based value iteration, thesis Tables II-IV), ``"exact"``
 (enumerate every history; tiny problems) and ``"mean"`` (the optimal policy of the averaged MDP,
 the naive baseline). See ``airl_cli.core.multimodel`` for the details.

@@ -121,14 +121,16 @@ def test_pbvi_is_at_least_the_mean_value_baseline(seed):
 
 
 def reference_backup(P, R_t, B, alpha_next, offsets_next):
-    """Table III written out plainly: for every state and belief, every action and next state."""
+    """Table III written out plainly: for every state and belief, every action and next state.
+
+    R_t is (M, S, A): the rewards of taking a in s (state rewards repeat along a)."""
     M, S, A, _ = P.shape
     out = []
     for s in range(S):
         for b in B:
             q, plans = [], []
             for a in range(A):
-                value, kids = b @ R_t[:, s], []
+                value, kids = b @ R_t[:, s, a], []
                 for s2 in range(S):
                     cands = alpha_next[offsets_next[s2] : offsets_next[s2 + 1]]
                     scores = cands @ (b * P[:, s, a, s2])
@@ -138,7 +140,7 @@ def reference_backup(P, R_t, B, alpha_next, offsets_next):
                 q.append(value)
                 plans.append(kids)
             a = int(np.argmax(q))
-            alpha = R_t[:, s] + sum(P[:, s, a, s2] * alpha_next[plans[a][s2]] for s2 in range(S))
+            alpha = R_t[:, s, a] + sum(P[:, s, a, s2] * alpha_next[plans[a][s2]] for s2 in range(S))
             out.append((a, alpha))
     return out
 
@@ -152,7 +154,7 @@ def test_compiled_backup_equals_the_plain_reference(M):
     counts = rng.integers(1, 5, size=S)
     offsets = np.r_[0, np.cumsum(counts)]
     alpha_next = rng.normal(size=(offsets[-1], M))
-    R_t = rng.normal(size=(M, S))
+    R_t = rng.normal(size=(M, S, A))  # action rewards; the thesis's state rewards are constant along a
     action, succ, alpha = _kernels.backup_step(
         np.ascontiguousarray(P.transpose(1, 2, 3, 0)), R_t, np.ascontiguousarray(B.T), alpha_next, offsets
     )

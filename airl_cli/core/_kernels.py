@@ -106,9 +106,10 @@ def backup_step(PT, R_t, Bt, alpha_next, offsets_next):  # pragma: no cover - co
 
     For belief b, state s and action a, the successor for next state s' is the node k of s' at
     t+1 maximising sum_j b_j P_j(s'|s,a) alpha_next[k, j] (eq. 6.19-6.20); the action maximises
-    b . R_t(s) plus the sum of those maxima (ties within ``ACTION_RTOL`` go to the lowest action).
+    b . R_t(s, a) plus the sum of those maxima (ties within ``ACTION_RTOL`` go to the lowest action).
     The new node's alpha-vector is its exact value:
-    alpha_j = R_j(t, s) + sum_{s'} P_j(s'|s,a) alpha_next[k(s'), j].
+    alpha_j = R_j(t, s, a) + sum_{s'} P_j(s'|s,a) alpha_next[k(s'), j].
+    The thesis's state rewards R_j(t, s) are the case where R_t does not vary along a.
 
     Exact pruning: for each (s, a, b) an upper bound (every model's best next value, valid since
     beliefs and probabilities are non-negative) and a lower bound (the value of a concrete plan:
@@ -118,7 +119,8 @@ def backup_step(PT, R_t, Bt, alpha_next, offsets_next):  # pragma: no cover - co
 
     Args:
         PT: (S, A, S, M) dynamics, model axis last.
-        R_t: (M, S) rewards at this time step.
+        R_t: (M, S, A) rewards at this time step (state rewards plus expected action rewards,
+            already discounted).
         Bt: (M, nb) belief points.
         alpha_next: (n_next, M) alpha-vectors of the nodes at t+1, grouped by state.
         offsets_next: (S+1,) node ranges per state at t+1.
@@ -169,7 +171,7 @@ def backup_step(PT, R_t, Bt, alpha_next, offsets_next):  # pragma: no cover - co
         # bounds on each action's backed-up value at each belief
         for a in range(A):
             for j in range(M):
-                acc = R_t[j, s]
+                acc = R_t[j, s, a]
                 for s2 in range(S):
                     acc += PT[s, a, s2, j] * U[s2, j]
                 w[j] = acc
@@ -178,7 +180,7 @@ def backup_step(PT, R_t, Bt, alpha_next, offsets_next):  # pragma: no cover - co
                 lo = 0.0
                 for j in range(M):
                     up += Bt[j, b] * w[j]
-                    lo += Bt[j, b] * R_t[j, s]
+                    lo += Bt[j, b] * R_t[j, s, a]
                 for s2 in range(S):
                     k = k_own[s2, b]
                     for j in range(M):
@@ -199,8 +201,9 @@ def backup_step(PT, R_t, Bt, alpha_next, offsets_next):  # pragma: no cover - co
         # exact backup of the surviving (action, belief) pairs
         for i in range(n):
             acc = 0.0
+            a = pair_a[i]
             for j in range(M):
-                acc += Bt[j, pair_b[i]] * R_t[j, s]
+                acc += Bt[j, pair_b[i]] * R_t[j, s, a]
             total[i] = acc
         Xn = X_buf[: M * n].reshape((M, n))  # contiguous rows, so the scan vectorises
         for s2 in range(S):
@@ -230,7 +233,7 @@ def backup_step(PT, R_t, Bt, alpha_next, offsets_next):  # pragma: no cover - co
             a_star = pair_a[i]
             action[s, b] = a_star
             for j in range(M):
-                alpha[s, b, j] = R_t[j, s]
+                alpha[s, b, j] = R_t[j, s, a_star]
             for s2 in range(S):
                 k = keep_k[i, s2]
                 succ[s, b, s2] = k

@@ -1,0 +1,113 @@
+"""``airl plan``: solve a multi-model MDP with the chapter-6 planner or a published heuristic.
+
+Reads a CSV folder or an ``.npz`` (``airl_cli.mmdp_data``), plans over ``plan.horizon`` decisions,
+and writes to the run folder: ``plan.json`` (objective on the training models, mean return on the
+test models, time), ``policy.npz`` (the policy graph's arrays, and ``markov_policy`` (T, S) for
+Markov methods; ``airl_cli.jobs.plan.load_policy`` reads it back) and ``config.yaml``.
+"""
+
+from __future__ import annotations
+
+import io
+import time
+from pathlib import Path
+
+import hydra
+import numpy as np
+from omegaconf import DictConfig
+
+from airl_cli.config import PlanSettings, plan_settings
+from airl_cli.core.mmdp_baselines import Plan, graph_returns, plan
+from airl_cli.core.multimodel import PolicyGraph, layered_rewards
+from airl_cli.errors import ConfigError
+from airl_cli.jobs.common import err_console, out_console, output_dir, run_job, save_config
+from airl_cli.mmdp_data import MMDPProblem, read_problem
+from airl_cli.paths import conf_dir
+from airl_cli.results import atomic_write, write_json
+
+
+def warm_up() -> None:
+    """Load (or, on the first run after installing, compile) the planner's kernels."""
+    plan("pbvi", np.full((2, 1, 1, 1), 1.0), np.zeros((2, 1, 1, 1)), np.ones(1), horizon=2, iterations=2)
+
+
+def run_plan(problem: MMDPProblem, settings: PlanSettings) -> tuple[Plan, float, float | None, float]:
+    """(the plan, its discount, the mean test return or None, seconds spent planning)."""
+    discount = problem.discount if settings.discount is None else settings.discount
+    start = time.perf_counter()
+    try:
+        result = plan(
+            settings.method, problem.transitions, problem.rewards, problem.initial,
+            horizon=settings.horizon, discount=discount, prior=problem.prior,
+            iterations=settings.iterations, expansion=settings.expansion, rng=np.random.default_rng(settings.seed),
+        )
+    except ValueError as err:  # the input was checked; what is left is a setting, e.g. exact on a large problem
+        raise ConfigError(f"plan.method={settings.method}: {err}") from None
+    seconds = time.perf_counter() - start
+    test = None
+    if problem.test_transitions is not None:
+        L = layered_rewards(problem.test_transitions, problem.test_rewards, horizon=settings.horizon, discount=discount)
+        test = float(graph_returns(result.graph, problem.test_transitions, L, problem.initial).mean())
+    return result, discount, test, seconds
+
+
+def save_policy(path: Path, result: Plan) -> None:
+    """The policy graph's arrays (``PolicyGraph.to_arrays``) and, if Markov, ``markov_policy`` (T, S)."""
+    arrays = result.graph.to_arrays()
+    if result.policy is not None:
+        arrays["markov_policy"] = result.policy
+
+    def write(handle) -> None:
+        buf = io.BytesIO()
+        np.savez_compressed(buf, **arrays)
+        handle.write(buf.getvalue())
+
+    atomic_write(path, write)
+
+
+def load_policy(path: str | Path) -> PolicyGraph:
+    """The policy graph saved by ``airl plan`` (run it on any model with ``graph_returns``)."""
+    with np.load(path, allow_pickle=False) as npz:
+        return PolicyGraph.from_arrays({k: npz[k] for k in npz.files})
+
+
+def main(cfg: DictConfig) -> dict:
+    settings = plan_settings(cfg)
+    problem = read_problem(settings.input)
+    M, S, A = problem.shape
+    folder = output_dir()
+    with err_console.status(f"planning with {settings.method} (M={M}, S={S}, A={A}, T={settings.horizon})"):
+        warm_up()
+        result, discount, test, seconds = run_plan(problem, settings)
+    record = {
+        "input": str(Path(settings.input).resolve()),
+        "method": settings.method,
+        "horizon": settings.horizon,
+        "discount": discount,
+        "models": M, "states": S, "actions": A,
+        "test_models": None if problem.test_transitions is None else int(problem.test_transitions.shape[0]),
+        "objective": result.objective,
+        "test_return": test,
+        "seconds": seconds,
+        "pbvi_iterations": settings.iterations if settings.method == "pbvi" else None,
+        "beliefs": result.n_beliefs,
+        "nodes": int(result.graph.n_nodes.sum()),
+        "cadp_sweeps": result.sweeps if settings.method == "cadp" else None,
+    }
+    save_policy(folder / "policy.npz", result)
+    write_json(folder / "plan.json", record)
+    save_config(cfg, folder)
+    lines = [
+        f"{settings.method}: M={M} training models, S={S}, A={A}, T={settings.horizon}, discount={discount:g}",
+        f"  objective on the training models (prior-weighted mean return): {result.objective:.4f}",
+        f"  mean return on the {record['test_models']} test models: {test:.4f}" if test is not None else "  no test models",
+        f"  planning time: {seconds:.2f} s; policy graph: {record['nodes']:,} nodes",
+    ]
+    out_console.print("\n".join(lines), soft_wrap=True)
+    out_console.print(f"wrote {folder / 'plan.json'} and {folder / 'policy.npz'}", soft_wrap=True)
+    return record
+
+
+@hydra.main(version_base="1.3", config_path=conf_dir(), config_name="airl_plan")
+def hydra_main(cfg: DictConfig) -> None:
+    run_job(main, cfg)

@@ -1,0 +1,171 @@
+"""`airl plan` and its input: the benchmark's CSV folder (a hand-written one) and the .npz, bad inputs."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from airl_cli.cli import app
+from airl_cli.core.mmdp_baselines import graph_returns, plan
+from airl_cli.core.multimodel import layered_rewards
+from airl_cli.errors import DatasetError
+from airl_cli.jobs.plan import load_policy
+from airl_cli.mmdp_data import read_csv_folder, read_problem
+
+runner = CliRunner()
+
+# Two states, two actions, two models. Action 0 stays; action 1 moves to the other state with
+# probability 0.8 under model 0 and 0.4 under model 1. Reward 1 for arriving in state 1, and
+# model 1 pays 0.5 more for staying in state 1.
+TRAINING = """idstatefrom,idaction,idstateto,idoutcome,probability,reward
+0,0,0,0,1,0
+0,1,1,0,0.8,1
+0,1,0,0,0.2,0
+1,0,1,0,1,1
+1,1,0,0,0.8,0
+1,1,1,0,0.2,1
+0,0,0,1,1,0
+0,1,1,1,0.4,1
+0,1,0,1,0.6,0
+1,0,1,1,1,1.5
+1,1,0,1,0.4,0
+1,1,1,1,0.6,1
+"""
+INITIAL = "idstate,probability\n0,1\n"
+PARAMETERS = "parameter,value\ndiscount,0.9\n"
+
+
+def write_folder(folder, training=TRAINING, initial=INITIAL, parameters=PARAMETERS, test=None):
+    folder.mkdir(parents=True, exist_ok=True)
+    (folder / "training.csv").write_text(training)
+    if initial is not None:
+        (folder / "initial.csv").write_text(initial)
+    if parameters is not None:
+        (folder / "parameters.csv").write_text(parameters)
+    if test is not None:
+        (folder / "test.csv").write_text(test)
+    return folder
+
+
+@pytest.fixture(autouse=True)
+def in_tmp(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+
+
+def test_the_loader_on_a_hand_written_two_state_two_model_file(tmp_path):
+    problem = read_csv_folder(write_folder(tmp_path / "mmdp", test=TRAINING))
+    P, r = problem.transitions, problem.rewards
+    assert P.shape == r.shape == (2, 2, 2, 2)
+    assert np.array_equal(P[0, 0, 1], [0.2, 0.8]) and np.array_equal(P[1, 0, 1], [0.6, 0.4])
+    assert np.array_equal(P[:, 0, 0], [[1, 0], [1, 0]])
+    assert r[1, 1, 0, 1] == 1.5 and r[0, 1, 0, 1] == 1.0 and r[0, 0, 1, 1] == 1.0
+    assert np.array_equal(problem.initial, [1.0, 0.0]) and problem.discount == 0.9
+    assert np.array_equal(problem.test_transitions, P) and problem.prior is None
+
+
+def test_missing_optional_files_default(tmp_path):
+    problem = read_csv_folder(write_folder(tmp_path / "mmdp", parameters=None))
+    assert problem.discount == 1.0 and problem.test_transitions is None
+
+
+def renumber(line: str) -> str:
+    """Model 1 becomes model 2, leaving a gap in the model ids."""
+    cells = line.split(",")
+    if cells[3] == "1":
+        cells[3] = "2"
+    return ",".join(cells)
+
+
+BAD = [
+    ("training", TRAINING.replace("probability,", "prob,"), "has no column 'probability'"),
+    ("training", TRAINING.replace("0,1,1,0,0.8,1", "0,1,1,0,0.7,1"), "model 0, state 0, action 1 sum to 0.9"),
+    ("training", TRAINING.replace("1,1,1,1,0.6,1", "1,1,1,1,abc,1"), "not a finite number"),
+    ("training", TRAINING + "0,0,0,0,1,0\n", "twice"),
+    ("training", "\n".join(renumber(line) for line in TRAINING.splitlines()) + "\n", "no rows for model 1"),
+    ("training", "\n".join(line for line in TRAINING.splitlines() if not line.startswith("1,1,")) + "\n", "no transitions for model 0, state 1, action 1"),
+    ("training", TRAINING.replace("0,1,1,0,0.8,1", "0,1,1,0,-0.8,1"), "not in [0, 1]"),
+    ("initial", "idstate,probability\n0,0.5\n7,0.5\n", "unknown state 7"),
+    ("initial", "idstate,probability\n0,0.5\n", "sum to 0.5"),
+    ("initial", "state,probability\n0,1\n", "has no column 'idstate'"),
+    ("test", TRAINING.replace("1,0,1,1,1,1.5", "1,0,5,1,1,1.5"), "unknown state 5"),
+    ("test", TRAINING.replace("0,0,0,1,1,0", "0,2,0,1,1,0"), "unknown action 2"),
+    ("parameters", "parameter,value\ndiscount,1.5\n", "discount must be in (0, 1]"),
+    ("training", "", "not a readable CSV"),
+]
+
+
+@pytest.mark.parametrize("which, text, message", BAD)
+def test_bad_csv_one_sentence_exit_2_no_run_folder(tmp_path, which, text, message):
+    files = {"training": TRAINING, "initial": INITIAL, "parameters": PARAMETERS, "test": None, which: text}
+    folder = write_folder(tmp_path / "bad", **files)
+    with pytest.raises(DatasetError, match=message.replace("(", r"\(").replace(")", r"\)").replace("[", r"\[")):
+        read_problem(folder)
+    out = tmp_path / "run"
+    result = runner.invoke(app, ["plan", f"plan.input={folder}", f"hydra.run.dir={out}"])
+    assert result.exit_code == 2, result.output
+    assert "Traceback" not in result.output and len(result.output.strip().splitlines()) == 1
+    assert message in result.output
+    assert not out.exists()
+
+
+def test_a_missing_initial_file_and_a_missing_input(tmp_path):
+    folder = write_folder(tmp_path / "bad", initial=None)
+    result = runner.invoke(app, ["plan", f"plan.input={folder}", f"hydra.run.dir={tmp_path / 'r'}"])
+    assert result.exit_code == 2 and "initial.csv' does not exist" in result.output
+    result = runner.invoke(app, ["plan", f"hydra.run.dir={tmp_path / 'r'}"])
+    assert result.exit_code == 2 and "plan.input" in result.output and not (tmp_path / "r").exists()
+
+
+@pytest.mark.parametrize("method", ["pbvi", "exact", "mean", "wsu", "mvp", "cadp"])
+def test_plan_end_to_end_writes_objective_test_return_and_a_policy_that_runs_again(tmp_path, method):
+    folder = write_folder(tmp_path / "mmdp", test=TRAINING)
+    out = tmp_path / method
+    horizon = 3 if method == "exact" else 6
+    result = runner.invoke(app, ["plan", f"plan.input={folder}", f"plan.method={method}", f"plan.horizon={horizon}", f"hydra.run.dir={out}"])
+    assert result.exit_code == 0, result.output
+    assert {p.name for p in out.iterdir()} >= {"plan.json", "policy.npz", "config.yaml"}
+    record = json.loads((out / "plan.json").read_text())
+    assert record["method"] == method and record["discount"] == 0.9 and record["test_models"] == 2
+    # the test models are the training models here, so both numbers agree
+    assert record["test_return"] == pytest.approx(record["objective"], rel=1e-12)
+    problem = read_csv_folder(folder)
+    graph = load_policy(out / "policy.npz")
+    L = layered_rewards(problem.transitions, problem.rewards, horizon=horizon, discount=0.9)
+    assert graph_returns(graph, problem.transitions, L, problem.initial).mean() == pytest.approx(record["objective"], rel=1e-12)
+    with np.load(out / "policy.npz") as npz:
+        assert ("markov_policy" in npz.files) == (method in ("mean", "wsu", "mvp", "cadp"))
+        if "markov_policy" in npz.files:
+            assert npz["markov_policy"].shape == (horizon, 2)
+
+
+def test_plan_reads_an_npz_with_a_prior(tmp_path):
+    problem = read_csv_folder(write_folder(tmp_path / "mmdp"))
+    path = tmp_path / "problem.npz"
+    np.savez(path, transitions=problem.transitions, rewards=problem.rewards, initial=problem.initial, discount=0.9, prior=np.array([1.0, 0.0]))
+    out = tmp_path / "run"
+    result = runner.invoke(app, ["plan", f"plan.input={path}", "plan.horizon=5", f"hydra.run.dir={out}"])
+    assert result.exit_code == 0, result.output
+    record = json.loads((out / "plan.json").read_text())
+    assert record["test_return"] is None
+    # a point-mass prior on model 0 gives model 0's own optimum (one-model dynamic programming)
+    alone = plan("mvp", problem.transitions[:1], problem.rewards[:1], problem.initial, horizon=5, discount=0.9)
+    assert record["objective"] == pytest.approx(alone.objective, rel=1e-12)
+    bad = tmp_path / "bad.npz"
+    np.savez(bad, transitions=problem.transitions, rewards=problem.rewards[:, :, :, :1], initial=problem.initial)
+    result = runner.invoke(app, ["plan", f"plan.input={bad}", f"hydra.run.dir={tmp_path / 'r2'}"])
+    assert result.exit_code == 2 and "key 'rewards' must have shape" in result.output
+
+
+def test_exact_on_a_long_horizon_is_refused_in_one_sentence(tmp_path):
+    folder = write_folder(tmp_path / "mmdp")
+    result = runner.invoke(app, ["plan", f"plan.input={folder}", "plan.method=exact", "plan.horizon=40", f"hydra.run.dir={tmp_path / 'r'}"])
+    assert result.exit_code == 2 and "histories" in result.output and "Traceback" not in result.output
+    assert not (tmp_path / "r").exists()
+
+
+def test_plan_config_is_packaged_and_printable():
+    result = runner.invoke(app, ["plan", "--cfg", "job"])
+    assert result.exit_code == 0 and "method: pbvi" in result.output and "horizon: 50" in result.output
