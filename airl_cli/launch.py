@@ -47,13 +47,13 @@ def _yaml(path: Path) -> tuple[dict, bool]:
     return (yaml.safe_load(text) or {}), "@package _global_" in text.split("\n", 1)[0]
 
 
-def _known_keys(overrides: list[str]) -> tuple[dict[str, tuple[str, list[str] | None]], list[str]]:
+def _known_keys(overrides: list[str], primary_name: str = "airl") -> tuple[dict[str, tuple[str, list[str] | None]], list[str]]:
     """Per config group, (its chosen option, its keys or None if unknown); and the top-level keys.
 
     Read from the YAML files themselves (milliseconds), not by composing the config (0.2-0.4 s).
     """
     root = Path(conf_dir())
-    primary, _ = _yaml(root / "airl.yaml")
+    primary, _ = _yaml(root / f"{primary_name}.yaml")
     chosen: dict[str, str | None] = {}
     for entry in primary.get("defaults", []):
         if isinstance(entry, dict):
@@ -73,11 +73,12 @@ def _known_keys(overrides: list[str]) -> tuple[dict[str, tuple[str, list[str] | 
             continue
         data, is_global = _yaml(path)
         known[group] = (str(option), None if is_global else [str(k) for k in data if k != "defaults"])
-    top = [str(k) for k in primary if k != "defaults"] + list(groups)
+    used = [g for g in groups if g in chosen]
+    top = [str(k) for k in primary if k != "defaults"] + used
     return known, list(dict.fromkeys(top))
 
 
-def check_keys(overrides: list[str]) -> None:
+def check_keys(overrides: list[str], primary: str = "airl") -> None:
     """Refuse ``GROUP.KEY=VALUE`` for a KEY the group does not have, in one sentence.
 
     Hydra would advise ``+GROUP.KEY=VALUE``, which adds a key no code reads: the run goes ahead
@@ -96,7 +97,7 @@ def check_keys(overrides: list[str]) -> None:
             values.append((key, name))
     if not values:
         return
-    known, top = _known_keys(overrides)
+    known, top = _known_keys(overrides, primary)
     for key, name in values:
         parts = name.split(".")
         adds = " (a leading + would add a key that airl never reads)" if key.startswith("+") else ""
@@ -160,7 +161,7 @@ def quote_paths(overrides: list[str]) -> list[str]:
 def run_hydra(job: str, overrides: list[str], *, cfg: str | None = None, resolve: bool = False, multirun: bool = False) -> None:
     """Run the Hydra app of ``airl_cli.jobs.<job>`` with these overrides."""
     check_group_choices(overrides)
-    check_keys(overrides)
+    check_keys(overrides, "airl_plan" if job == "plan" else "airl")
     if cfg is None:
         check_output_folder(overrides, multirun=multirun)
     module = importlib.import_module(f"airl_cli.jobs.{job}")

@@ -63,6 +63,10 @@ SCREEN_FRACTION = 0.1
 #: A strategy out of the QP's solution (weight 0) for this many consecutive iterations is dropped:
 #: the QP stays small and far from degenerate. The bounds stay valid whatever the sets hold.
 PRUNE_AFTER = 20
+#: The full oracle is asked at least once in this many iterations, even while screening succeeds.
+REFRESH_AFTER = 10
+#: The planner is skipped while the learner's improvement exceeds this fraction of the gap.
+BALANCE = 0.5
 
 HISTORY_COLUMNS = (
     "iteration",
@@ -205,8 +209,8 @@ def minimize(
     """Minimise f (eq. 5.9) by column and constraint generation on the QP above.
 
     Each iteration solves the QP, asks the learner's oracle (cheap) for a better column and, unless
-    the learner's side is still further from its restricted optimum than the adversary's side was
-    at its last call, the adversary's oracle for a better row. A ``screen`` (a cheaper, weaker
+    the learner's improvement is still more than ``BALANCE`` of the current gap, the adversary's
+    oracle for a better row (which also refreshes the upper bound at the current w). A ``screen`` (a cheaper, weaker
     adversary oracle, e.g. PBVI on a few beliefs) is asked first: a strategy it finds is added
     without calling ``oracle`` if it raises the restricted value by more than ``SCREEN_FRACTION``
     of the current gap. Only ``oracle`` yields upper bounds, so the certificate is ``oracle``'s.
@@ -245,10 +249,10 @@ def minimize(
     sets.add_learner(state_marginals(P[0], policy, p0))
     sets.add_adversary(oracle(adversary_rewards(problem, sets.l_marg[0], np.zeros((D, K))))[1])
     planner_calls, screen_calls = 1, 0
+    last_full = 0  # the iteration of the last full oracle call
 
     best_upper, best_lower = np.inf, -np.inf
     best_w = np.zeros(C.size)
-    gap_a = np.inf  # the adversary's improvement at its last full call
     idle_l = np.zeros(0, dtype=np.int64)  # consecutive iterations each strategy has had weight 0
     idle_a = np.zeros(0, dtype=np.int64)
     rows: list[dict] = []
@@ -258,7 +262,8 @@ def minimize(
         t0 = time.perf_counter()
         w, v, p, q, qp_objective = qp.solve()
         qp_seconds = time.perf_counter() - t0
-        idle_l, idle_a = idle_counters(idle_l, p), idle_counters(idle_a, q)
+        # weights below 1e-8 count as 0: an interior-point fallback spreads tiny weight over ties
+        idle_l, idle_a = idle_counters(idle_l, np.where(p > 1e-8, p, 0.0)), idle_counters(idle_a, np.where(q > 1e-8, q, 0.0))
         if it % PRUNE_AFTER == 0 and (np.any(idle_l >= PRUNE_AFTER) or np.any(idle_a >= PRUNE_AFTER)):
             keep_l, keep_a = np.flatnonzero(idle_l < PRUNE_AFTER), np.flatnonzero(idle_a < PRUNE_AFTER)
             sets.keep(keep_l, keep_a)
@@ -276,9 +281,11 @@ def minimize(
         if added_l:
             sets.add_learner(br)
         added_a = False
-        if not added_l or gap_l <= gap_a:
+        # the adversary's side is asked unless the learner's side still accounts for most of the gap
+        if not added_l or gap_l <= BALANCE * (best_upper - best_lower):
             rewards = adversary_rewards(problem, np.tensordot(p, sets.l_marg[: p.size], axes=1), per_dynamics(w))
-            if screen is not None and np.isfinite(best_upper):
+            stale = it - last_full >= REFRESH_AFTER  # the upper bound is from an old w: refresh it
+            if screen is not None and np.isfinite(best_upper) and not stale:
                 value_s, marg_s = screen(rewards)
                 screen_calls += 1
                 if value_s - v > SCREEN_FRACTION * (best_upper - best_lower):
@@ -288,10 +295,10 @@ def minimize(
                 # the adversary's best response against (w, p): an upper bound on f(w)
                 value, marg = oracle(rewards)
                 planner_calls += 1
+                last_full = it
                 if max(value, v) + reg < best_upper:
                     best_upper, best_w = max(value, v) + reg, w.copy()
-                gap_a = value - v
-                added_a = gap_a > tiny
+                added_a = value - v > tiny
                 if added_a:
                     sets.add_adversary(marg)
         gap = best_upper - best_lower

@@ -41,7 +41,7 @@ HISTORY_COLUMNS = (
 
 @dataclass(frozen=True)
 class PlannerOptions:
-    """How the adversary's best response is computed (SPEC §5).
+    """How the adversary's best response is computed (thesis §5.3.1, chapter 6).
 
     method: "pbvi", "exact" (tiny problems) or "mean" (the naive baseline).
     iterations / expansion: PBVI's belief set (see ``airl_cli.core.multimodel.expand_beliefs``).
@@ -65,7 +65,7 @@ class PlannerOptions:
 
 @dataclass(frozen=True)
 class FitOptions:
-    """Gradient descent and double-oracle settings (Table I; SPEC §5).
+    """Gradient descent and double-oracle settings (thesis Table I, §5.3).
 
     ``normalize``: step along grad / |grad|, so that a step moves w by eta_t whatever the scale of
     the gradient (which grows with D, T and the features); the usual form of the subgradient

@@ -30,7 +30,7 @@ Internally every form becomes ``LayeredRewards``: ``step`` (M, T-1, S, A), the d
 expected reward of taking a in s at layer t (state reward included), and ``last`` (M, S), the
 reward of the final layer.
 
-Our choices (SPEC §5):
+Our choices where the thesis is silent:
 
 * The answer is a **policy graph** (a finite controller): at each time t and state s a few nodes,
   each with its action, its successor node for every next state, and its alpha-vector, the
