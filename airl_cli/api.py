@@ -56,7 +56,7 @@ def make_dataset(*overrides: str) -> Dataset:
     return dataset
 
 
-def fit(dataset: Dataset, *overrides: str, callback=None) -> Learned:
+def fit(dataset: Dataset, *overrides: str, callback=None, planner_progress=None) -> Learned:
     """Learn from ``dataset`` with the method and settings of the overrides (default: this thesis's method).
 
     Args:
@@ -65,6 +65,8 @@ def fit(dataset: Dataset, *overrides: str, callback=None) -> Learned:
             ``"seed=3"``; the problem groups (mdp, dynamics, demos) are ignored, as with
             ``airl fit data=PATH``.
         callback: called with each history row of the learner (method=airl), as the progress bar is.
+        planner_progress: called as ``planner_progress(done, total)`` after each time step inside
+            every planner call (method=airl): a long call's progress.
 
     Returns:
         The learner's ``Learned``: ``weights`` (D, K) or ``policy``, ``info`` and ``history``.
@@ -77,7 +79,7 @@ def fit(dataset: Dataset, *overrides: str, callback=None) -> Learned:
     if loss == "zero_one" or dataset.loss is None:
         dataset = Dataset(**{**dataset.__dict__, "loss": zero_one_loss(dataset.n_states)})
     rng = streams(seed)["fit" if settings.method == "airl" else "method"]
-    return learn(dataset, settings, rng, callback=callback)
+    return learn(dataset, settings, rng, callback=callback, planner_progress=planner_progress)
 
 
 def score(dataset: Dataset, learned: Learned) -> pd.DataFrame:

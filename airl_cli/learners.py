@@ -56,8 +56,11 @@ def learn(
     settings: FitSettings,
     rng: np.random.Generator,
     callback: Callable[[dict], None] | None = None,
+    planner_progress: Callable[[int, int], None] | None = None,
 ) -> Learned:
     """Learn from ``dataset`` with ``settings.method``; ``callback`` gets each step of method=airl.
+
+    ``planner_progress(done, total)`` follows the time steps inside each planner call (method=airl).
 
     Raises:
         ConfigError: if the method cannot use this dataset (behavioural cloning without actions).
@@ -66,7 +69,7 @@ def learn(
     targets = dataset.feature_targets()
     name, opts = settings.method, settings.method_options
     if name == "airl":
-        return _learn_airl(GameProblem(P, phi, p0, dataset.loss, T), targets, settings, rng, callback)
+        return _learn_airl(GameProblem(P, phi, p0, dataset.loss, T), targets, settings, rng, callback, planner_progress)
     if name == "bc":
         if dataset.demo_actions is None:
             raise ConfigError(
@@ -114,9 +117,10 @@ def _learn_airl(
     settings: FitSettings,
     rng: np.random.Generator,
     callback: Callable[[dict], None] | None,
+    planner_progress: Callable[[int, int], None] | None = None,
 ) -> Learned:
     """The thesis's method: the certified minimiser of eq. 5.9, or Table I's gradient steps."""
-    oracle, screen, n_beliefs = make_oracles(problem, settings.options.planner, rng)
+    oracle, screen, n_beliefs = make_oracles(problem, settings.options.planner, rng, planner_progress)
     if settings.optimizer == "exact":
         res = minimize(problem, targets, oracle, screen=screen, options=settings.certified, callback=callback)
         h = res.history

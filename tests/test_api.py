@@ -56,3 +56,14 @@ def test_read_sweep_and_bad_input():
         api.read_sweep("nowhere")
     with pytest.raises(DatasetError, match="does not exist"):
         api.load_dataset("missing.npz")
+
+
+def test_progress_inside_planner_calls_reaches_the_caller():
+    dataset = api.make_dataset(*SMALL, "seed=2")
+    steps, rows = [], []
+    learned = api.fit(dataset, *FIT, callback=rows.append, planner_progress=lambda d, n: steps.append((d, n)))
+    T = dataset.horizon
+    # every full planner call reports each of its T - 1 backed-up time steps, ending with (T-1, T-1)
+    assert steps and len(steps) == (T - 1) * learned.info["planner_calls"]
+    assert steps[: T - 1] == [(d, T - 1) for d in range(1, T)]
+    np.testing.assert_array_equal(learned.weights, api.fit(dataset, *FIT).weights)

@@ -278,3 +278,13 @@ def test_bad_options_and_probabilities():
         solve(bad, R, p0)
     with pytest.raises(ValueError, match="histories"):
         solve(*tiny_problem(0, S=10, A=4, T=8), method="exact")
+
+
+def test_progress_follows_every_time_step_and_changes_nothing():
+    P, R, p0 = tiny_problem(3, T=6)
+    calls = []
+    quiet = solve(P, R, p0, iterations=6, rng=np.random.default_rng(1))
+    loud = solve(P, R, p0, iterations=6, rng=np.random.default_rng(1), progress=lambda d, n: calls.append((d, n)))
+    assert calls == [(d, 5) for d in range(1, 6)]  # T - 1 backed-up time steps, in order
+    assert loud.value == quiet.value
+    np.testing.assert_array_equal(loud.marginals, quiet.marginals)

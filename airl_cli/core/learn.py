@@ -121,9 +121,14 @@ class FitResult:
 
 
 def make_oracles(
-    problem: GameProblem, options: PlannerOptions, rng: np.random.Generator
+    problem: GameProblem,
+    options: PlannerOptions,
+    rng: np.random.Generator,
+    progress: Callable[[int, int], None] | None = None,
 ) -> tuple[AdversaryOracle, AdversaryOracle | None, int]:
     """The adversary's best response as a function of its rewards, a cheaper screening one, and the belief-set size.
+
+    ``progress`` is passed to every full planner call (see ``multimodel.solve``), not to screens.
 
     The belief set depends only on the dynamics, so with ``reuse_beliefs`` it is built here once
     (from ``belief_seed`` if set). The screening oracle is PBVI at the first
@@ -140,7 +145,7 @@ def make_oracles(
         else:
             n_beliefs = len(expand_beliefs(P, iterations=options.iterations, rng=np.random.default_rng(0), expansion=options.expansion))
 
-    def oracle_at(B: np.ndarray | None) -> AdversaryOracle:
+    def oracle_at(B: np.ndarray | None, progress=None) -> AdversaryOracle:
         def oracle(R: np.ndarray) -> tuple[float, np.ndarray]:
             sol = solve(
                 P,
@@ -153,6 +158,7 @@ def make_oracles(
                 expansion=options.expansion,
                 expectations=options.expectations,
                 n_samples=options.n_samples,
+                progress=progress,
             )
             return sol.value, sol.marginals
 
@@ -161,7 +167,7 @@ def make_oracles(
     screen = None
     if beliefs is not None and 0 < options.screen_beliefs < n_beliefs:
         screen = oracle_at(beliefs[: options.screen_beliefs])
-    return oracle_at(beliefs), screen, n_beliefs
+    return oracle_at(beliefs, progress), screen, n_beliefs
 
 
 def make_oracle(problem: GameProblem, options: PlannerOptions, rng: np.random.Generator) -> tuple[AdversaryOracle, int]:

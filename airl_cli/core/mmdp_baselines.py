@@ -34,6 +34,7 @@ choice depends only on the next state, so it runs on any model with the same sta
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -254,6 +255,7 @@ def plan(
     iterations: int = 8,
     expansion: str = "sample",
     rng: np.random.Generator | None = None,
+    progress: Callable[[int, int], None] | None = None,
 ) -> Plan:
     """Solve a multi-model MDP over ``horizon`` decisions with any method of ``PLAN_METHODS``.
 
@@ -262,6 +264,7 @@ def plan(
         transitions: (M, S, A, S); rewards: stationary (M, S, A, S) r_j(s, a, s') or (M, S, A);
         initial: (S,); horizon: T decisions; discount: gamma; prior: (M,) lambda or None (uniform);
         iterations, expansion, rng: PBVI's options.
+        progress: PBVI only: called as ``progress(done, total)`` after each backed-up time step.
     """
     if method not in PLAN_METHODS:
         raise ValueError(f"method must be one of {PLAN_METHODS}, got {method!r}")
@@ -274,7 +277,7 @@ def plan(
         n_beliefs = 0
         if method == "pbvi":
             B = expand_beliefs(P, iterations=iterations, rng=rng, expansion=expansion, prior=w)
-            graph, n_beliefs = pbvi_graph(P, L, B, prior=w), len(B)
+            graph, n_beliefs = pbvi_graph(P, L, B, prior=w, progress=progress), len(B)
         elif method == "exact":
             graph = exact_graph(P, L, w)
         else:
@@ -297,4 +300,4 @@ def plan(
 __all__ = [
     "PLAN_METHODS",
     "Plan",
-    "plan","MARKOV_METHODS", "cadp", "graph_returns", "markov_returns", "mvp", "state_weights", "wsu"]
+    "plan", "MARKOV_METHODS", "cadp", "graph_returns", "markov_returns", "mvp", "state_weights", "wsu"]

@@ -47,6 +47,7 @@ prior (M,); beliefs (nb, M); marginals (M, T, S) with T the number of layers.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -364,7 +365,14 @@ def expand_beliefs(
 # --------------------------------------------------------------------------- PBVI
 
 
-def pbvi_graph(P: np.ndarray, R, beliefs: np.ndarray, *, prior: np.ndarray | None = None) -> PolicyGraph:
+def pbvi_graph(
+    P: np.ndarray,
+    R,
+    beliefs: np.ndarray,
+    *,
+    prior: np.ndarray | None = None,
+    progress: Callable[[int, int], None] | None = None,
+) -> PolicyGraph:
     """One backup pass of modified PBVI (Table III) at the given beliefs, as a policy graph.
 
     At t = T-1 each state has one node whose alpha-vector is R_j(T-1, s). Going backwards, each
@@ -376,6 +384,7 @@ def pbvi_graph(P: np.ndarray, R, beliefs: np.ndarray, *, prior: np.ndarray | Non
     Args:
         P: (M, S, A, S); R: (M, T, S) state rewards or ``LayeredRewards``; beliefs: (nb, M);
         prior: (M,) the initial belief, None for uniform.
+        progress: called as ``progress(done, T - 1)`` after each backed-up time step.
     """
     M, S, _, _ = P.shape
     L = _as_layered(P, R)
@@ -392,6 +401,8 @@ def pbvi_graph(P: np.ndarray, R, beliefs: np.ndarray, *, prior: np.ndarray | Non
         points = first if t == 0 else Bt
         action, succ, alpha = _kernels.backup_step(PT, R_t, points, alphas[t + 1], offsets[t + 1])
         states[t], actions[t], succs[t], alphas[t], offsets[t] = _kernels.unique_nodes(action, succ, alpha)
+        if progress is not None:
+            progress(T - 1 - t, T - 1)
     start = _best_start_nodes(alphas[0], offsets[0], prior)
     return PolicyGraph(tuple(states), tuple(actions), tuple(succs), tuple(alphas), tuple(offsets), start)
 
@@ -637,6 +648,7 @@ def solve(
     discount: float = 1.0,
     prior: np.ndarray | None = None,
     horizon: int | None = None,
+    progress: Callable[[int, int], None] | None = None,
 ) -> Solution:
     """Find one deterministic policy maximising the sum of expected returns over M MDPs.
 
@@ -661,6 +673,8 @@ def solve(
             sum_j prior_j * values[j]. None: uniform start, objective sum_j values[j].
         horizon: the number of layers (state rewards) or decisions (other forms) for stationary
             rewards; None when ``rewards`` has a time axis.
+        progress: for long solves, called as ``progress(done, total)`` after each time step
+            of PBVI's backup (total = T - 1).
 
     Returns:
         A ``Solution``: ``value`` (the exact objective of the returned policy), ``values`` (M,),
@@ -691,7 +705,7 @@ def solve(
             B = expand_beliefs(P, iterations=iterations, rng=rng, expansion=expansion, prior=w)
         else:
             B = _check_beliefs(beliefs, M)
-        graph = pbvi_graph(P, L, B, prior=w)
+        graph = pbvi_graph(P, L, B, prior=w, progress=progress)
     elif method == "mean":
         graph = mean_graph(P, L, w)
     else:

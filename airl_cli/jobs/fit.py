@@ -125,14 +125,23 @@ class FitRun:
     text: str
 
 
-def fit_and_write(cfg: DictConfig, folder: Path, on_step: Callable[[dict], None] | None = None) -> FitRun:
-    """Learn as the config says and write every output file of a fit into ``folder``."""
+def fit_and_write(
+    cfg: DictConfig,
+    folder: Path,
+    on_step: Callable[[dict], None] | None = None,
+    on_planner: Callable[[int, int], None] | None = None,
+) -> FitRun:
+    """Learn as the config says and write every output file of a fit into ``folder``.
+
+    ``on_step`` gets each iteration's history row, ``on_planner(done, total)`` each time step
+    inside a planner call (method=airl).
+    """
     settings = fit_settings(cfg)
     check_memory(cfg)  # before any work: refuse, in one sentence, what will not fit in memory
     dataset, seed, generated = load_dataset(cfg, settings)
     rng = streams(seed)["fit" if settings.method == "airl" else "method"]
     start = time.perf_counter()
-    learned = learn(dataset, settings, rng, callback=on_step)
+    learned = learn(dataset, settings, rng, callback=on_step, planner_progress=on_planner)
     seconds = time.perf_counter() - start
     policies = None if learned.policy is None else [learned.policy] * dataset.transitions.shape[0]
     rows = score_rows(dataset, learned.weights, policies)
@@ -156,6 +165,36 @@ def fit_and_write(cfg: DictConfig, folder: Path, on_step: Callable[[dict], None]
     return FitRun(dataset, settings, learned, rows, seconds, text)
 
 
+def fit_with_progress(cfg: DictConfig, folder: Path, settings: FitSettings) -> FitRun:
+    """``fit_and_write`` under a live display: the learner's iterations, and the current planner call's time steps."""
+    exact = settings.optimizer == "exact"
+    tol = settings.certified.tol
+    columns = (TextColumn("{task.description}"), BarColumn(bar_width=12), TextColumn("{task.fields[info]}"), TimeElapsedColumn())
+    with Progress(*columns, console=err_console, transient=True) as bar:
+        fit_task = bar.add_task(
+            "fit (exact)" if exact else "fit (gradient)", total=None if exact else settings.options.max_steps, info=""
+        )
+        # one planner call at S=300, T=30 takes tens of seconds: show which time step it has backed up
+        planner_task = bar.add_task("  planner", total=1, info="", visible=False)
+
+        def on_step(row: dict) -> None:
+            if exact:
+                info = (
+                    f"iteration {row['iteration']}  gap {row['relative_gap']:.2g} -> {tol:g}  "
+                    f"f in [{row['lower']:.6g}, {row['upper']:.6g}]"
+                )
+            else:
+                info = f"step {int(row['step']) + 1}/{settings.options.max_steps}  objective {row['objective']:.5g}  |grad| {row['grad_norm']:.3g}"
+            bar.update(fit_task, advance=1, info=info)
+
+        def on_planner(done: int, total: int) -> None:
+            bar.update(planner_task, completed=done, total=total, visible=done < total, info=f"time step {done}/{total}")
+
+        if settings.optimizer == "gradient" and settings.certify:
+            bar.console.print("after the gradient steps, the exact solve certifies the optimum for comparison (optim.certify)")
+        return fit_and_write(cfg, folder, on_step, on_planner)
+
+
 def main(cfg: DictConfig) -> None:
     folder = output_dir()
     settings = fit_settings(cfg)
@@ -167,42 +206,7 @@ def main(cfg: DictConfig) -> None:
             err_console.print(note, soft_wrap=True)
         with err_console.status("loading the planner (the first run after installing compiles it, about 10 s)"):
             warm_up()
-        if settings.optimizer == "exact":
-            columns = (
-                TextColumn("fit (exact)"),
-                TextColumn("iteration {task.completed}"),
-                TextColumn("upper {task.fields[upper]}  lower {task.fields[lower]}"),
-                TextColumn("relative gap {task.fields[gap]} -> {task.fields[tol]}"),
-                TimeElapsedColumn(),
-            )
-            total, fields = None, dict(upper="-", lower="-", gap="-", tol=f"{settings.certified.tol:g}")
-
-            def describe(row: dict) -> dict:
-                return dict(upper=f"{row['upper']:.6g}", lower=f"{row['lower']:.6g}", gap=f"{row['relative_gap']:.2g}")
-
-        else:
-            columns = (
-                TextColumn("fit (gradient)"),
-                BarColumn(),
-                TextColumn("step {task.completed}/{task.total}"),
-                TextColumn("objective {task.fields[objective]}"),
-                TextColumn("|grad| {task.fields[grad]}"),
-                TimeElapsedColumn(),
-            )
-            total, fields = settings.options.max_steps, dict(objective="-", grad="-")
-
-            def describe(row: dict) -> dict:
-                return dict(objective=f"{row['objective']:.5g}", grad=f"{row['grad_norm']:.3g}")
-
-        with Progress(*columns, console=err_console, transient=True) as bar:
-            task = bar.add_task("fit", total=total, **fields)
-
-            def on_step(row: dict) -> None:
-                bar.update(task, advance=1, **describe(row))
-
-            if settings.optimizer == "gradient" and settings.certify:
-                bar.console.print("after the gradient steps, the exact solve certifies the optimum for comparison (optim.certify)")
-            run = fit_and_write(cfg, folder, on_step)
+        run = fit_with_progress(cfg, folder, settings)
     out_console.print(run.text, end="", soft_wrap=True)
     out_console.print(f"\nwrote {folder} (fit in {run.seconds:.2f} s)", soft_wrap=True)
 

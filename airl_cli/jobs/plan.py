@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import io
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 import hydra
@@ -31,8 +32,10 @@ def warm_up() -> None:
     plan("pbvi", np.full((2, 1, 1, 1), 1.0), np.zeros((2, 1, 1, 1)), np.ones(1), horizon=2, iterations=2)
 
 
-def run_plan(problem: MMDPProblem, settings: PlanSettings) -> tuple[Plan, float, float | None, float]:
-    """(the plan, its discount, the mean test return or None, seconds spent planning)."""
+def run_plan(
+    problem: MMDPProblem, settings: PlanSettings, progress: Callable[[int, int], None] | None = None
+) -> tuple[Plan, float, float | None, float]:
+    """(the plan, its discount, the mean test return or None, seconds spent planning); ``progress`` as in ``plan``."""
     discount = problem.discount if settings.discount is None else settings.discount
     start = time.perf_counter()
     try:
@@ -40,6 +43,7 @@ def run_plan(problem: MMDPProblem, settings: PlanSettings) -> tuple[Plan, float,
             settings.method, problem.transitions, problem.rewards, problem.initial,
             horizon=settings.horizon, discount=discount, prior=problem.prior,
             iterations=settings.iterations, expansion=settings.expansion, rng=np.random.default_rng(settings.seed),
+            progress=progress,
         )
     except ValueError as err:  # the input was checked; what is left is a setting, e.g. exact on a large problem
         raise ConfigError(f"plan.method={settings.method}: {err}") from None
@@ -76,9 +80,14 @@ def main(cfg: DictConfig) -> dict:
     problem = read_problem(settings.input)
     M, S, A = problem.shape
     folder = output_dir()
-    with err_console.status(f"planning with {settings.method} (M={M}, S={S}, A={A}, T={settings.horizon})"):
+    what = f"planning with {settings.method} (M={M}, S={S}, A={A}, T={settings.horizon})"
+    with err_console.status(what) as status:
         warm_up()
-        result, discount, test, seconds = run_plan(problem, settings)
+
+        def progress(done: int, total: int) -> None:
+            status.update(f"{what}: time step {done}/{total} backed up")
+
+        result, discount, test, seconds = run_plan(problem, settings, progress)
     record = {
         "input": str(Path(settings.input).resolve()),
         "method": settings.method,
