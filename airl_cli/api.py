@@ -22,11 +22,9 @@ import pandas as pd
 from hydra import compose, initialize_config_dir
 from omegaconf import DictConfig
 
-from airl_cli.build import build_dataset, streams
+from airl_cli.build import build_dataset, streams, with_loss
 from airl_cli.config import fit_settings, loss_and_seed, problem_settings
-from airl_cli.core.problems import zero_one_loss
 from airl_cli.data import Dataset, read_dataset, write_dataset
-from airl_cli.errors import ConfigError
 from airl_cli.evaluate import score_rows
 from airl_cli.learners import Learned, learn
 from airl_cli.paths import conf_dir
@@ -74,10 +72,7 @@ def fit(dataset: Dataset, *overrides: str, callback=None, planner_progress=None)
     cfg = config(*overrides)
     settings = fit_settings(cfg)
     loss, seed = loss_and_seed(cfg)
-    if loss == "squared_euclidean":
-        raise ConfigError("'loss=squared_euclidean' needs grid coordinates; put the loss matrix in the dataset as 'loss'")
-    if loss == "zero_one" or dataset.loss is None:
-        dataset = Dataset(**{**dataset.__dict__, "loss": zero_one_loss(dataset.n_states)})
+    dataset = with_loss(dataset, loss)
     rng = streams(seed)["fit" if settings.method == "airl" else "method"]
     return learn(dataset, settings, rng, callback=callback, planner_progress=planner_progress)
 

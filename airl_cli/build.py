@@ -43,10 +43,36 @@ class Problem:
 
 
 def resolved_loss(settings: ProblemSettings) -> str:
-    """The loss that ``loss=auto`` stands for: squared Euclidean on the grid, zero-one otherwise."""
+    """The loss that ``loss=auto`` stands for: thesis §7.2 and §7.3 use the zero-one loss on the random
+    MDP and "the squared loss" on the grid, read as the squared distance between the states' features."""
     if settings.loss != "auto":
         return settings.loss
-    return "squared_euclidean" if isinstance(settings.mdp, GridMDPSettings) else "zero_one"
+    return "squared_features" if isinstance(settings.mdp, GridMDPSettings) else "zero_one"
+
+
+def loss_matrix(kind: str, phi: np.ndarray, coords: np.ndarray | None = None) -> np.ndarray:
+    """The (S, S) loss of a resolved kind: zero_one, squared_features (from phi (S, K)) or
+    squared_euclidean (from grid coordinates (S, 2); ConfigError without them)."""
+    if kind == "squared_features":
+        return problems.squared_feature_loss(phi)
+    if kind == "squared_euclidean":
+        if coords is None:
+            raise ConfigError(
+                "'loss=squared_euclidean' needs grid coordinates, which a dataset file does not carry; "
+                "use loss=squared_features, or put the loss matrix in the file as 'loss'"
+            )
+        return problems.squared_euclidean_loss(coords)
+    return problems.zero_one_loss(phi.shape[0])
+
+
+def with_loss(dataset: Dataset, kind: str) -> Dataset:
+    """``dataset`` with the loss ``loss=kind`` asks for: auto keeps the file's own loss (zero-one if
+    it has none); the others are computed from the file (squared_euclidean cannot be: ConfigError)."""
+    if kind == "auto":
+        if dataset.loss is not None:
+            return dataset
+        kind = "zero_one"
+    return Dataset(**{**dataset.__dict__, "loss": loss_matrix(kind, dataset.features)})
 
 
 def build_problem(settings: ProblemSettings) -> Problem:
@@ -68,6 +94,7 @@ def build_problem(settings: ProblemSettings) -> Problem:
             n_features=mdp.n_features,
             transition=mdp.transition,
             dirichlet_alpha=mdp.dirichlet_alpha,
+            n_next=mdp.n_next,
         )
     if dyn.kind == "gaussian":
         others = problems.gaussian_perturbations(rng["dynamics"], tau, sigma=dyn.sigma, n_dynamics=dyn.n_dynamics)
@@ -79,8 +106,7 @@ def build_problem(settings: ProblemSettings) -> Problem:
             [problems.grid_world(epsilon=mdp.epsilon, crosses=layout, size=mdp.size, start=mdp.start) for layout in dyn.layouts]
         )
     transitions = np.concatenate([tau[None], others], axis=0)
-    kind = resolved_loss(settings)
-    loss = problems.squared_euclidean_loss(coords) if kind == "squared_euclidean" else problems.zero_one_loss(tau.shape[0])
+    loss = loss_matrix(resolved_loss(settings), phi, coords)
     return Problem(transitions, phi, p0, mdp.horizon, w_star, loss, coords)
 
 

@@ -121,6 +121,7 @@ class RandomMDPSettings:
     horizon: int
     transition: str
     dirichlet_alpha: float
+    n_next: int = 3
     name: str = "random"
 
 
@@ -164,21 +165,27 @@ class ProblemSettings:
     mdp: RandomMDPSettings | GridMDPSettings
     dynamics: DynamicsSettings
     demos: DemoSettings
-    loss: str  # auto | zero_one | squared_euclidean
+    loss: str  # one of LOSSES
     seed: int
+
+
+LOSSES = ("auto", "zero_one", "squared_features", "squared_euclidean")
+TRANSITIONS = ("uniform", "dirichlet", "sparse")
 
 
 def _mdp(node: Any) -> RandomMDPSettings | GridMDPSettings:
     r = _Reader(node, "mdp")
     name = r.choice("name", ("random", "grid"))
     if name == "random":
+        n_states = r.int("n_states", lo=1)
         return RandomMDPSettings(
-            n_states=r.int("n_states", lo=1),
+            n_states=n_states,
             n_actions=r.int("n_actions", lo=1),
             n_features=r.int("n_features", lo=1),
             horizon=r.int("horizon", lo=2),
-            transition=r.choice("transition", ("uniform", "dirichlet"), default="uniform"),
+            transition=r.choice("transition", TRANSITIONS, default="uniform"),
             dirichlet_alpha=r.float("dirichlet_alpha", lo=0.0, open_lo=True, default=1.0),
+            n_next=r.int("n_next", lo=1, hi=n_states, default=3),  # next states per (s, a) of transition=sparse
         )
     size = r.int("size", lo=2)
     start = r.cell("start", r.raw("start"), size)
@@ -222,7 +229,7 @@ def _dynamics(node: Any, mdp: RandomMDPSettings | GridMDPSettings) -> DynamicsSe
 def loss_and_seed(cfg: DictConfig | Mapping) -> tuple[str, int]:
     """The loss kind and the seed: all that matters of the problem groups when data=PATH is given."""
     top = _Reader(plain(cfg), "")
-    return _Reader(top.raw("loss"), "loss").choice("kind", ("auto", "zero_one", "squared_euclidean")), top.int("seed", lo=0)
+    return _Reader(top.raw("loss"), "loss").choice("kind", LOSSES), top.int("seed", lo=0)
 
 
 def problem_settings(cfg: DictConfig | Mapping) -> ProblemSettings:
@@ -234,7 +241,7 @@ def problem_settings(cfg: DictConfig | Mapping) -> ProblemSettings:
     d = _Reader(top.raw("demos"), "demos")
     kind = d.choice("kind", ("sampled", "exact", "optimal_path"))
     demos = DemoSettings(kind, d.int("n", lo=1) if kind == "sampled" else 0)
-    loss = _Reader(top.raw("loss"), "loss").choice("kind", ("auto", "zero_one", "squared_euclidean"))
+    loss = _Reader(top.raw("loss"), "loss").choice("kind", LOSSES)
     if loss == "squared_euclidean" and mdp.name != "grid":
         raise ConfigError("'loss=squared_euclidean' measures distances between grid cells; use it with mdp=grid")
     seed = top.int("seed", lo=0)

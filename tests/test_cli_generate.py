@@ -74,8 +74,11 @@ def test_grid_dataset_contents(tmp_path):
     assert ds.transitions.shape == (3, 25, 4, 25) and ds.horizon == 7
     # the expert's path DDDDRR (or DDDDLL) has feature sum [1, 5, 0, 1] (thesis §7.3.3)
     assert np.allclose(ds.feature_targets(), [[1, 5, 0, 1], [1, 5, 0, 1]])
-    assert ds.loss[0, 24] == 32  # squared distance from (1,1) to (5,5)
-    # expert scores as SPEC §3 says: ~96-98% under the sub-optimal layouts
+    # loss=auto on the grid: squared distance between features; cells (1,1) and (5,5) are NORMAL and GOAL
+    assert ds.loss[0, 24] == 2 and ds.loss[0, 1] == 0
+    _, out2 = generate(tmp_path, "run2", "mdp=grid", "dynamics=grid_suboptimal", "demos=optimal_path", "loss=squared_euclidean")
+    assert read_dataset(out2 / "dataset.npz").loss[0, 24] == 32  # squared distance from (1,1) to (5,5)
+    # expert scores as the thesis's §7.3 says: ~96-98% under the sub-optimal layouts
     text = (out / "summary.txt").read_text()
     assert "tau_1" in text and "0.97" in text
 

@@ -17,6 +17,7 @@ from airl_cli.core.problems import (
     grid_world,
     random_mdp,
     squared_euclidean_loss,
+    squared_feature_loss,
     zero_one_loss,
     grid_coordinates,
 )
@@ -169,3 +170,40 @@ def test_losses():
     assert L.tolist() == [[0, 1, 1], [1, 0, 1], [1, 1, 0]]
     D = squared_euclidean_loss(grid_coordinates(5))
     assert D[idx(1, 1), idx(5, 5)] == 32 and D[idx(3, 3), idx(3, 4)] == 1 and np.all(np.diag(D) == 0)
+
+
+def test_squared_feature_loss_on_the_grid_by_hand():
+    """One-hot features: two cells of different kinds are sqrt(2) apart, two of the same kind 0."""
+    L = squared_feature_loss(grid_features())
+    start, normal, normal2, danger, goal, goal2 = idx(1, 3), idx(1, 1), idx(4, 4), idx(3, 2), idx(5, 1), idx(5, 5)
+    assert L[start, normal] == 2 and L[normal, start] == 2  # START vs NORMAL
+    assert L[normal, normal2] == 0  # two NORMAL cells, far apart on the grid
+    assert L[goal, goal2] == 0 and L[danger, idx(3, 4)] == 0  # the two goals, the two dangers
+    assert L[danger, goal] == 2 and L[start, goal] == 2
+    assert np.all(np.diag(L) == 0) and L.shape == (25, 25)
+    # on real-valued features: the squared distance between the rows, by hand
+    phi = np.array([[0.0, 1.0], [3.0, 5.0], [1.0, 1.0]])
+    assert squared_feature_loss(phi).tolist() == [[0, 25, 1], [25, 0, 20], [1, 20, 0]]
+
+
+@pytest.mark.parametrize("transition", ["uniform", "dirichlet", "sparse"])
+def test_every_tau_generator_gives_rows_with_the_promised_support(transition):
+    S, A = 30, 4
+    tau, *_ = random_mdp(np.random.default_rng(3), n_states=S, n_actions=A, transition=transition, dirichlet_alpha=0.1, n_next=3)
+    assert tau.shape == (S, A, S) and np.all(tau >= 0)
+    assert np.allclose(tau.sum(-1), 1.0, atol=1e-12)
+    support = (tau > 0).sum(-1)
+    if transition == "uniform":
+        assert np.all(support == S)
+    elif transition == "sparse":
+        assert np.all(support == 3)  # exactly n_next next states
+        # the chosen next states are spread over the whole state space, not always the same ones
+        assert len(np.unique(np.nonzero(tau)[2])) == S
+    else:  # Dirichlet(0.1): most of a row's mass on a few next states (uniform rows: about 3 * 2/S = 0.2)
+        top3 = np.sort(tau, axis=-1)[..., -3:].sum(-1)
+        assert np.median(top3) > 0.6
+
+
+def test_sparse_generator_bad_n_next():
+    with pytest.raises(ValueError, match="n_next"):
+        random_mdp(np.random.default_rng(0), n_states=4, transition="sparse", n_next=5)

@@ -14,6 +14,7 @@ import pytest
 from typer.testing import CliRunner
 
 from airl_cli.cli import app
+from airl_cli.errors import ConfigError
 from airl_cli.sweeps import FIT_COLUMNS, experiment_names, plan
 
 runner = CliRunner()
@@ -38,6 +39,26 @@ def test_every_experiment_composes_and_plans(name, profile):
     assert len(sweep.jobs) == len(set(sweep.jobs)) >= 1
     if profile == "quick":
         assert len(sweep.jobs) <= 8
+
+
+RANDOM_MDP = {"fig04", "fig05", "fig06", "fig07", "fig08", "fig09"}
+
+
+@pytest.mark.parametrize("name", EXPERIMENTS[1:])
+@pytest.mark.parametrize("loss", ["auto", "zero_one", "squared_features", "squared_euclidean"])
+def test_every_experiment_composes_with_every_loss_and_generator(name, loss):
+    """Every reading is one override away: each loss, and on the random MDP each tau generator."""
+    transitions = [["mdp.transition=uniform"], ["mdp.transition=dirichlet", "mdp.dirichlet_alpha=0.1"], ["mdp.transition=sparse", "mdp.n_next=3"]]
+    for extra in transitions if name in RANDOM_MDP else [[]]:
+        overrides = [f"experiment={name}", "profile=quick", f"loss={loss}", *extra]
+        if loss == "squared_euclidean" and name in RANDOM_MDP:
+            with pytest.raises(ConfigError, match="grid"):
+                plan(overrides)
+            continue
+        sweep = plan(overrides)
+        assert sweep.jobs and sweep.settings["loss.kind"] == loss
+        if extra:  # a variant: its own folder, named after the reading
+            assert extra[0] in sweep.folder.name
 
 
 def test_a_variant_gets_its_own_folder():

@@ -21,11 +21,16 @@ def random_mdp(
     n_features: int = 5,
     transition: str = "uniform",
     dirichlet_alpha: float = 1.0,
+    n_next: int = 3,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """The random MDP of thesis §7.2 (eq. 7.1-7.2).
 
-    tau: every row U(0,1) entries, normalised (``transition="uniform"``), or a Dirichlet(alpha)
-    draw (``transition="dirichlet"``); phi(s) ~ U(0,1)^K; w* ~ N(0, I_K); p0 uniform.
+    The thesis does not say how tau is drawn; three readings (``transition``):
+    "uniform": every row U(0,1) entries, normalised (all S next states, nearly equally likely);
+    "dirichlet": every row a Dirichlet(alpha) draw (alpha = 0.1: a few likely next states);
+    "sparse": every row has ``n_next`` distinct next states, chosen uniformly, with U(0,1)
+    weights normalised over them (the others have probability 0).
+    phi(s) ~ U(0,1)^K; w* ~ N(0, I_K); p0 uniform.
     Draw order is tau, phi, w*, so the same generator gives the same tau for every K.
 
     Returns:
@@ -40,8 +45,16 @@ def random_mdp(
         tau /= tau.sum(axis=-1, keepdims=True)
     elif transition == "dirichlet":
         tau = rng.dirichlet(np.full(S, float(dirichlet_alpha)), size=(S, A))
+    elif transition == "sparse":
+        if not 1 <= n_next <= S:
+            raise ValueError(f"n_next must be between 1 and the number of states {S}, got {n_next}")
+        # the n_next smallest of S uniform keys: a uniformly random subset per (s, a)
+        support = np.argsort(rng.random((S, A, S)), axis=-1)[..., :n_next]
+        weights = rng.random((S, A, n_next))
+        tau = np.zeros((S, A, S))
+        np.put_along_axis(tau, support, weights / weights.sum(axis=-1, keepdims=True), axis=-1)
     else:
-        raise ValueError(f"transition must be 'uniform' or 'dirichlet', got {transition!r}")
+        raise ValueError(f"transition must be 'uniform', 'dirichlet' or 'sparse', got {transition!r}")
     phi = rng.random((S, K))
     w_star = rng.standard_normal(K)
     p0 = np.full(S, 1.0 / S)
@@ -192,3 +205,12 @@ def squared_euclidean_loss(coords: np.ndarray) -> np.ndarray:
     """Squared Euclidean distance (S, S) between state coordinates ``coords`` (S, dim)."""
     diff = coords[:, None, :] - coords[None, :, :]
     return np.einsum("ijk,ijk->ij", diff, diff)
+
+
+def squared_feature_loss(phi: np.ndarray) -> np.ndarray:
+    """The squared loss between states' features (S, S): ``loss[s_hat, s_check] = |phi(s_hat) - phi(s_check)|^2``.
+
+    One reading of thesis §7.3's "squared loss": two states differ as much as what the reward can
+    see of them (on the grid: 2 between cells of different kinds, 0 within a kind). phi: (S, K).
+    """
+    return squared_euclidean_loss(np.asarray(phi, dtype=np.float64))

@@ -14,12 +14,10 @@ import pandas as pd
 from omegaconf import DictConfig
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
-from airl_cli.build import build_dataset, streams
+from airl_cli.build import build_dataset, streams, with_loss
 from airl_cli.config import FitSettings, fit_settings, loss_and_seed, problem_settings
 from airl_cli.core.multimodel import solve
-from airl_cli.core.problems import zero_one_loss
 from airl_cli.data import Dataset, read_dataset, write_dataset
-from airl_cli.errors import ConfigError
 from airl_cli.evaluate import score_rows
 from airl_cli.jobs.common import check_memory, err_console, out_console, output_dir, run_job, save_config, size_note
 from airl_cli.learners import Learned, learn
@@ -34,14 +32,7 @@ def load_dataset(cfg: DictConfig, settings: FitSettings) -> tuple[Dataset, int, 
         dataset, _ = build_dataset(problem)
         return dataset, problem.seed, True
     loss, seed = loss_and_seed(cfg)
-    dataset = read_dataset(settings.data)
-    if loss == "squared_euclidean":
-        raise ConfigError(
-            "'loss=squared_euclidean' needs grid coordinates, which a dataset file does not carry; put the loss matrix in the file as 'loss'"
-        )
-    if loss == "zero_one" or dataset.loss is None:
-        dataset = Dataset(**{**dataset.__dict__, "loss": zero_one_loss(dataset.n_states)})
-    return dataset, seed, False
+    return with_loss(read_dataset(settings.data), loss), seed, False
 
 
 def warm_up() -> None:
