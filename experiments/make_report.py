@@ -19,7 +19,11 @@ import pandas as pd
 
 from airl_cli.sweeps import experiment_names, plan
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from claims import claims_table, reading_of  # noqa: E402
+
 HERE = Path(__file__).resolve().parent
+START, END = "<!-- claims table: written by make_report.py -->", "<!-- end of the claims table -->"
 ORDER = ["airl", "mce", "projection", "mmp", "bc"]
 
 
@@ -49,6 +53,31 @@ def load_variants(sweeps: Path, experiments: dict) -> dict[str, tuple[dict, pd.D
         name, meta = by_study[study]
         out[f"{name} with {overrides}"] = ({**meta, "folder": str(folder), "slug": re.sub(r"[^A-Za-z0-9.]+", "_", overrides)}, pd.read_csv(folder / "results.csv"))
     return out
+
+
+def load_readings(sweeps: Path, experiments: dict) -> dict[str, dict[str, pd.DataFrame]]:
+    """experiment -> reading -> results table, from the variant folders that change one reading only
+    (``method=airl`` may be among the overrides: the readings concern the thesis's learner)."""
+    out: dict[str, dict[str, pd.DataFrame]] = {}
+    for name, (meta, _) in experiments.items():
+        for folder in sorted(sweeps.glob(f"{meta['study']}-full-*")):
+            overrides = folder.name.partition("-full-")[2]
+            rest = [o for o in overrides.split(",") if o != "method=airl"]
+            reading = reading_of(overrides)
+            if reading is None or len(rest) != 1 or not (folder / "results.csv").exists():
+                continue
+            out.setdefault(name, {})[reading] = pd.read_csv(folder / "results.csv")
+    return out
+
+
+def write_claims(table: str) -> None:
+    """Put the claims table into experiments/README.md between its two marker lines."""
+    readme = HERE / "README.md"
+    text = readme.read_text()
+    if START not in text or END not in text:
+        sys.exit(f"{readme} has no claims-table markers")
+    head, rest = text.split(START, 1)
+    readme.write_text(head + START + "\n" + table + "\n" + END + rest.split(END, 1)[1])
 
 
 def methods(table: pd.DataFrame) -> list[str]:
@@ -179,6 +208,7 @@ def main() -> None:
             shutil.copyfile(png, figures / target)
             parts += ["", f"![{target}](figures/{target})"]
     (HERE / "results.md").write_text("\n".join(parts) + "\n")
+    write_claims(claims_table(experiments, load_readings(sweeps, experiments)))
     print(f"wrote {HERE / 'results.md'} and {len(list(figures.glob('*.png')))} figures")
 
 
