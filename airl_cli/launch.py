@@ -158,13 +158,28 @@ def quote_paths(overrides: list[str]) -> list[str]:
     return out
 
 
+PRINT_ONLY = {"fit": "airl", "generate": "airl", "plan": "airl_plan"}  # job -> its primary config
+
+
+def _print_config_app(job: str):
+    """A Hydra app with the job's primary config that does nothing: Hydra prints --cfg before calling it."""
+    import hydra
+
+    @hydra.main(version_base="1.3", config_path=conf_dir(), config_name=PRINT_ONLY[job])
+    def print_only(_: object) -> None:
+        return None
+
+    return print_only
+
+
 def run_hydra(job: str, overrides: list[str], *, cfg: str | None = None, resolve: bool = False, multirun: bool = False) -> None:
     """Run the Hydra app of ``airl_cli.jobs.<job>`` with these overrides."""
     check_group_choices(overrides)
     check_keys(overrides, "airl_plan" if job == "plan" else "airl")
     if cfg is None:
         check_output_folder(overrides, multirun=multirun)
-    module = importlib.import_module(f"airl_cli.jobs.{job}")
+    # printing a config needs Hydra only: the job module (numpy, scipy, pandas, numba) is not loaded
+    main = _print_config_app(job) if cfg is not None and job in PRINT_ONLY else importlib.import_module(f"airl_cli.jobs.{job}").hydra_main
     argv = [f"airl {job}"]
     if multirun:
         argv.append("--multirun")
@@ -178,7 +193,7 @@ def run_hydra(job: str, overrides: list[str], *, cfg: str | None = None, resolve
     if claim:  # a folder of its own for this run, even if another started in the same second
         OmegaConf.register_new_resolver("airl.new_run_folder", new_run_folder, replace=True)
     try:
-        module.hydra_main()
+        main()
     finally:
         sys.argv = saved
         if claim:

@@ -145,11 +145,18 @@ def reference_backup(P, R_t, B, alpha_next, offsets_next):
     return out
 
 
+@pytest.mark.parametrize("sparse", [False, True])
 @pytest.mark.parametrize("M", [1, 2, 3, 4, 6])
-def test_compiled_backup_equals_the_plain_reference(M):
+def test_compiled_backup_equals_the_plain_reference(M, sparse):
     rng = np.random.default_rng(M)
     S, A, nb = 5, 3, 9
     P = np.stack([random_dynamics(rng, S, A, concentration=0.7) for _ in range(M)])
+    if sparse:  # most next states unreachable from a state (the kernel skips them): as on a grid
+        mask = rng.random((S, 1, S)) < 0.35
+        mask[np.arange(S), 0, rng.integers(0, S, size=S)] = True
+        P = P * mask[None]
+        P /= P.sum(-1, keepdims=True)
+        assert (P.sum(axis=(0, 2)) == 0).any()
     B = rng.dirichlet(np.ones(M), size=nb)
     counts = rng.integers(1, 5, size=S)
     offsets = np.r_[0, np.cumsum(counts)]
@@ -165,6 +172,9 @@ def test_compiled_backup_equals_the_plain_reference(M):
         assert np.allclose(alpha[s, b], al, rtol=1e-12, atol=1e-12)
         # the successors are real nodes of the right next state
         assert np.all((succ[s, b] >= offsets[:-1]) & (succ[s, b] < offsets[1:]))
+        if sparse:  # unreachable next states keep their first node, as the full scan would
+            unreachable = P[:, s].sum(axis=(0, 1)) == 0
+            assert np.all(succ[s, b][unreachable] == offsets[:-1][unreachable])
 
 
 def test_belief_set_properties_and_reuse():

@@ -110,6 +110,13 @@ def test_histogram_one_panel_per_method_with_bars_and_annotation():
 def test_curves_one_panel_per_dynamics_with_median_and_band():
     df = make_table("n_demos")
     fig = plotting.curves(df, make_meta(["curves"]))
+    d = df[df["dynamics"].isin(SHOWN)]
+    shown = [d[d.method == "airl"].groupby(["dynamics", "x"]).learner_score.quantile(0.25).min()]
+    shown += [d[d.method == m].groupby(["dynamics", "x"]).learner_score.median().min() for m in METHODS]
+    shown += [d.groupby(["dynamics", "x", "seed"]).demonstrator_score.mean().groupby(["dynamics", "x"]).quantile(0.25).min()]
+    lowest = min(shown + [0.99])
+    expected_low = np.floor((lowest - 0.025) / 0.05) * 0.05
+    expected_low = 0.0 if expected_low < 0.2 else expected_low
     assert len(fig.axes) == len(SHOWN)
     for ax in fig.axes:
         labels = [line.get_label() for line in ax.get_lines()]
@@ -123,9 +130,12 @@ def test_curves_one_panel_per_dynamics_with_median_and_band():
         assert len(bands) == 2
         assert {to_hex(b.get_facecolor()[0]) for b in bands} == {plotting.METHOD_COLOURS["airl"], "#000000"}
         assert ax.get_xscale() == "log"
-        assert ax.get_ylim() == pytest.approx(plotting.SCORE_LIMITS)
+        # the axis starts just under the lowest band edge or median shown, in steps of 0.05
+        low, high = ax.get_ylim()
+        assert high == pytest.approx(plotting.SCORE_LIMITS[1]) and low == pytest.approx(expected_low)
         assert ax.get_xlabel() == "number of demonstrations N"
-    assert fig.axes[0].get_ylabel() == "normalised performance"
+    label = "normalised performance" if expected_low == 0 else f"normalised performance (axis from {expected_low:g})"
+    assert fig.axes[0].get_ylabel() == label
     assert fig.legends, "no legend"
     assert fig.get_suptitle() == "A test figure"
 

@@ -167,6 +167,13 @@ def backup_step(PT, R_t, Bt, alpha_next, offsets_next):  # pragma: no cover - co
     best_total = np.empty(nb)
     best_pair = np.empty(nb, np.int64)
     w = np.empty(M)
+    reach = np.zeros((S, S), np.bool_)  # reach[s, s2]: some model and action go from s to s2
+    for s in range(S):
+        for a in range(A):
+            for s2 in range(S):
+                for j in range(M):
+                    if PT[s, a, s2, j] != 0.0:
+                        reach[s, s2] = True
     for s in range(S):
         # bounds on each action's backed-up value at each belief
         for a in range(A):
@@ -182,6 +189,8 @@ def backup_step(PT, R_t, Bt, alpha_next, offsets_next):  # pragma: no cover - co
                     up += Bt[j, b] * w[j]
                     lo += Bt[j, b] * R_t[j, s, a]
                 for s2 in range(S):
+                    if not reach[s, s2]:
+                        continue
                     k = k_own[s2, b]
                     for j in range(M):
                         lo += Bt[j, b] * PT[s, a, s2, j] * alpha_next[k, j]
@@ -208,6 +217,12 @@ def backup_step(PT, R_t, Bt, alpha_next, offsets_next):  # pragma: no cover - co
         Xn = X_buf[: M * n].reshape((M, n))  # contiguous rows, so the scan vectorises
         for s2 in range(S):
             k0, k1 = offsets_next[s2], offsets_next[s2 + 1]
+            if not reach[s, s2]:
+                # no model reaches s2 from s: every candidate scores 0 and the scan would keep
+                # the first node, so skip it (grids and sparse dynamics are mostly such pairs)
+                for i in range(n):
+                    keep_k[i, s2] = k0
+                continue
             for j in range(M):
                 for i in range(n):
                     Xn[j, i] = Bt[j, pair_b[i]] * PT[s, pair_a[i], s2, j]

@@ -132,28 +132,34 @@ def curves(df: pd.DataFrame, meta: Mapping[str, Any]) -> Figure:
     # only method) and of the demonstrator; the comparison methods get their median lines
     banded = "airl" if "airl" in methods else (methods[0] if methods else None)
     fig, axes = _panels(len(dynamics), 3)
+    shown: list[np.ndarray] = []  # every plotted median and band edge: the axis starts just under them
     for ax, dyn in zip(axes, dynamics):
         rows = df[df["dynamics"].astype(str) == dyn]
         # the demonstrator does not depend on the method: one score per (x, seed)
         demo = rows.groupby(["x", "seed"])["demonstrator_score"].mean().dropna()
         if len(demo):
             # on top: a method that copies the demonstrator (behavioural cloning) would hide it
-            _band(ax, _quartiles(demo.groupby(level="x")), DEMONSTRATOR_COLOUR, "demonstrator",
-                  linestyle="--", marker="", zorder=5)
+            stats = _quartiles(demo.groupby(level="x"))
+            _band(ax, stats, DEMONSTRATOR_COLOUR, "demonstrator", linestyle="--", marker="", zorder=5)
+            shown.append(stats[["q25", "median"]].to_numpy(dtype=float).ravel())
         for method in methods:
             learner = rows.loc[rows["method"].astype(str) == method].dropna(subset=["learner_score"])
             if learner.empty:
                 continue
-            _band(ax, _quartiles(learner.groupby("x")["learner_score"]), _colour(method, methods), _label(method),
-                  band=method == banded)
+            stats = _quartiles(learner.groupby("x")["learner_score"])
+            _band(ax, stats, _colour(method, methods), _label(method), band=method == banded)
+            shown.append(stats[["q25", "median"] if method == banded else ["median"]].to_numpy(dtype=float).ravel())
+    limits = _zoomed_limits(np.concatenate(shown + [np.array([float(threshold)] if threshold is not None else [])]), floor=0.2)
+    for ax, dyn in zip(axes, dynamics):
+        rows = df[df["dynamics"].astype(str) == dyn]
         if threshold is not None:
             ax.axhline(float(threshold), color=THRESHOLD_COLOUR, linewidth=1.0, linestyle=":")
         _x_axis(ax, rows["x"].to_numpy(dtype=float), log, x_label)
-        ax.set_ylim(*SCORE_LIMITS)
+        ax.set_ylim(*limits)
         ax.set_title(_dynamics_label(dyn))
         ax.grid(alpha=0.3)
         if ax.get_subplotspec().is_first_col():
-            ax.set_ylabel(SCORE_LABEL)
+            ax.set_ylabel(SCORE_LABEL if limits[0] == 0 else f"{SCORE_LABEL} (axis from {limits[0]:g})")
     _title(fig, meta, "Performance against the swept variable")
     handles = _method_handles(methods, methods) + [_demonstrator_handle()]
     if threshold is not None:
