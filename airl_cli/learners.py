@@ -157,7 +157,8 @@ def _learn_airl(
         # the same objective minimised exactly, with the same oracle: how far did the steps stop?
         best = minimize(problem, targets, oracle, screen=screen, options=settings.certified)
         f_last = objective_at(
-            problem, targets, result.weights, oracle, lam=settings.options.lam, shared=result.shared, normalize_loss=settings.options.normalize_loss
+            problem, targets, result.weights, oracle, lam=settings.options.lam, shared=result.shared,
+            normalize_loss=settings.options.normalize_loss, game=result.game,
         )
         info |= {
             "objective_at_weights": f_last,

@@ -167,3 +167,18 @@ def test_the_cap_is_recorded():
     problem, rng = tiny_game(2)
     result = double_oracle(RestrictedGame(problem), rng.normal(size=(2, 2)), exact_oracle(problem), threshold=0.0, max_iterations=2)
     assert result.capped and result.iterations == 2
+
+
+@pytest.mark.parametrize("threshold", [0.0, -1e-6])
+def test_double_oracle_never_adds_a_strategy_it_already_has(threshold):
+    """With a threshold at or below the LP's accuracy, every best response looks like an
+    improvement; one already in the game cannot be, and re-adding it looped to the cap."""
+    problem, rng = tiny_game(3, S=4, T=5)
+    w = rng.normal(size=(2, 2))
+    game = RestrictedGame(problem)
+    result = double_oracle(game, w, pbvi_oracle(problem), threshold=threshold, max_iterations=300)
+    assert not result.capped
+    flat = game.learner_marginals.reshape(game.sizes[0], -1)
+    assert len(np.unique(np.round(flat, 12), axis=0)) == game.sizes[0]
+    reference = double_oracle(RestrictedGame(problem), w, pbvi_oracle(problem), threshold=1e-10, max_iterations=300)
+    assert result.value == pytest.approx(reference.value, rel=1e-7, abs=1e-9)

@@ -354,6 +354,7 @@ def objective_at(
     shared: bool,
     normalize_loss: bool = True,
     threshold: float = 1e-9,
+    game: RestrictedGame | None = None,
 ) -> float:
     """f at given weights (eq. 5.9): the inner game's value by double oracle, minus w . c~, plus lambda/2 |w|^2.
 
@@ -361,9 +362,13 @@ def objective_at(
         weights: (D, K) one row per demonstration dynamics.
         shared: whether the rows are one shared w (then |w|^2 counts it once, as in eq. 5.4).
         threshold: double oracle's relative improvement threshold (tight by default).
+        game: a restricted game of the same problem (and loss scaling) to start from, e.g. the
+            gradient fit's last one: started from scratch, double oracle on peaked dynamics can
+            need thousands of planner calls to reach the tight threshold. Grown in place.
     """
-    problem = scaled_loss(problem, normalize_loss)
+    if game is None:
+        game = RestrictedGame(scaled_loss(problem, normalize_loss))
     W = np.asarray(weights, dtype=np.float64)
-    result = double_oracle(RestrictedGame(problem), W, oracle, threshold=threshold, max_iterations=10_000)
+    result = double_oracle(game, W, oracle, threshold=threshold, max_iterations=10_000)
     norm2 = float(W[0] @ W[0]) if shared else float(np.sum(W * W))
     return result.value - float(np.sum(W * np.asarray(targets))) + 0.5 * lam * norm2

@@ -319,6 +319,14 @@ class OracleResult:
         return last.adversary_value - last.learner_value
 
 
+def _known(strategies: np.ndarray, marginals: np.ndarray) -> bool:
+    """Whether ``marginals`` equals one of ``strategies`` (its first axis) to 1e-12, entry by entry."""
+    if len(strategies) == 0:
+        return False
+    flat = np.asarray(strategies).reshape(len(strategies), -1)
+    return bool(np.any(np.all(np.abs(flat - np.asarray(marginals).reshape(1, -1)) <= 1e-12, axis=1)))
+
+
 def double_oracle(
     game: RestrictedGame,
     w: np.ndarray,
@@ -367,7 +375,9 @@ def double_oracle(
         l_marg = learner_best_response(problem, (q @ game.adversary_tau).reshape(T, S))
         l_row = (l_marg @ problem.loss).reshape(-1) @ game.adversary_tau.T
         v_learner = float((l_row + game.feature_part()) @ q)
-        add_l = v - v_learner > tol
+        # a strategy already in the game cannot lower its value: a gap then is the LP's tolerance
+        # (with a tight threshold, re-adding it loops until the iteration cap)
+        add_l = v - v_learner > tol and not _known(game.learner_marginals, l_marg)
         v_adv, add_a = np.nan, False
         if add_l:
             game.add_learner(l_marg)
@@ -377,7 +387,9 @@ def double_oracle(
             v_best, a_marg = oracle(adversary_rewards(problem, l_tau, game.w))
             calls += 1
             v_adv = max(v_best, v)
-            add_a = v_best - v > tol
+            feats = (a_marg[1:].sum(axis=1) @ problem.features)[None]  # what the game sees of it
+            known = _known(game.adversary_tau, a_marg[0]) and _known(game.adversary_features, feats)
+            add_a = v_best - v > tol and not known
             if add_a:
                 game.add_adversary(a_marg)
         steps.append(OracleStep(v, v_learner, v_adv, bool(add_l), bool(add_a)))

@@ -109,6 +109,8 @@ class FitResult:
         mean_adversary_features: (D, K) their average over the second half of the steps. The
             objective is not smooth, so at its minimum the LP may return any of several equilibria
             and the last step's features need not equal c~_j; their running average does converge.
+        game: the restricted game at the end (its strategies, over the scaled loss), to warm-start
+            another double oracle at these weights (``certified.objective_at``).
     """
 
     weights: np.ndarray
@@ -118,6 +120,7 @@ class FitResult:
     n_beliefs: int
     adversary_features: np.ndarray
     mean_adversary_features: np.ndarray
+    game: RestrictedGame | None = None
 
 
 def make_oracles(
@@ -280,4 +283,4 @@ def fit(
     history = {c: np.array([r[c] for r in rows]) for c in HISTORY_COLUMNS}
     weights = np.broadcast_to(w, (D, K)).copy() if shared else w.copy()
     F_mean = np.mean(F_history[len(F_history) // 2 :], axis=0)
-    return FitResult(weights, shared, history, stopped, n_beliefs, F, F_mean)
+    return FitResult(weights, shared, history, stopped, n_beliefs, F, F_mean, game)
