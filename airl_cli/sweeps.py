@@ -194,6 +194,14 @@ def _flatten(node: Any, prefix: str = "") -> dict[str, Any]:
     return {prefix[:-1]: node}
 
 
+def same_job(saved: dict, config: dict) -> bool:
+    """Whether two jobs' plain configs make the same rows: equal but for the experiment's labels
+    (``NOT_COMPARED``) and its name, which two experiments of one study (fig14, fig15) share jobs under."""
+    ignore = NOT_COMPARED | {"experiment.name"}
+    a, b = _flatten(saved), _flatten(config)
+    return {k: v for k, v in a.items() if k not in ignore} == {k: v for k, v in b.items() if k not in ignore}
+
+
 def shared_settings(config: dict, swept: tuple[str, ...]) -> dict[str, Any]:
     """Every leaf setting of a job's plain config (dotted key -> value) but the swept keys and the
     experiment's labels, JSON-normalised (tuples become lists)."""
@@ -290,6 +298,8 @@ def check_folder(sweep: SweepPlan) -> None:
     before = {k: v for k, v in before.items() if k not in NOT_COMPARED and k not in sweep.swept}
     # a key on one side only was swept there (it names that run's job folders) or is new
     differ = sorted(k for k in before.keys() & sweep.settings.keys() if before[k] != sweep.settings[k])
+    if before.get("experiment.study") == sweep.settings.get("experiment.study"):
+        differ = [k for k in differ if k != "experiment.name"]  # one study, two figures (fig14 and fig15)
     if not differ:
         return
     # the experiment's name first, then the settings of the problem and the learner

@@ -56,13 +56,17 @@ def load_variants(sweeps: Path, experiments: dict) -> dict[str, tuple[dict, pd.D
 
 
 def load_readings(sweeps: Path, experiments: dict) -> dict[str, dict[str, pd.DataFrame]]:
-    """experiment -> reading -> results table, from the variant folders that change one reading only
-    (``method=airl`` may be among the overrides: the readings concern the thesis's learner)."""
+    """experiment -> reading -> results table, from the variant folders that change one reading only.
+
+    ``method=airl`` may be among the overrides (the readings concern the thesis's learner), and
+    ``optim.certify=false`` beside ``optim=gradient`` (it only skips the report of how far above
+    the optimum the steps stopped, not the steps).
+    """
     out: dict[str, dict[str, pd.DataFrame]] = {}
     for name, (meta, _) in experiments.items():
         for folder in sorted(sweeps.glob(f"{meta['study']}-full-*")):
             overrides = folder.name.partition("-full-")[2]
-            rest = [o for o in overrides.split(",") if o != "method=airl"]
+            rest = [o for o in overrides.split(",") if o not in ("method=airl", "optim.certify=false")]
             reading = reading_of(overrides)
             if reading is None or len(rest) != 1 or not (folder / "results.csv").exists():
                 continue

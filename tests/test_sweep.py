@@ -175,3 +175,19 @@ def test_the_cluster_code_path_gives_the_same_table_as_the_local_one(tmp_path, l
         tables[name] = pd.read_csv(folder / "results.csv").drop(columns=["seconds"])
     assert len(tables["basic"]) == 12
     pd.testing.assert_frame_equal(tables[launcher], tables["basic"])
+
+
+def test_the_two_figures_of_one_study_share_its_jobs(tmp_path):
+    """fig14 and fig15 are one sweep: the second command reuses every job and draws its own figure."""
+    args = ["sweep", "profile=quick", "hydra/launcher=basic", "method=airl"]
+    first = runner.invoke(app, [*args, "experiment=fig14"])
+    assert first.exit_code == 0, first.output
+    folder = tmp_path / "results" / "sweeps" / "fig14_15-quick-method=airl"
+    stamps = {p: p.stat().st_mtime_ns for p in folder.glob("*/rows.csv")}
+    second = runner.invoke(app, [*args, "experiment=fig15"])
+    assert second.exit_code == 0, second.output
+    assert stamps and {p: p.stat().st_mtime_ns for p in folder.glob("*/rows.csv")} == stamps  # nothing recomputed
+    assert (folder / "figures" / "fig14_curves.png").exists() and (folder / "figures" / "fig15_cosine.png").exists()
+    # another experiment's folder is still refused
+    third = runner.invoke(app, [*args, "experiment=fig13", f"hydra.sweep.dir='{folder}'"])
+    assert third.exit_code == 2 and "this one has experiment.name=fig13" in third.output

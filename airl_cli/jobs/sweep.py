@@ -180,13 +180,23 @@ def finished_earlier(cfg: DictConfig, folder) -> bool:
     """Whether this job's rows are there and were made with this very config.
 
     A job folder is named by its swept values only; its ``config.yaml`` holds everything else.
-    Rows made with another config (another experiment's folder, a changed setting) are recomputed.
+    Rows made with another config (another experiment's folder, a changed setting) are recomputed;
+    the other experiment of the same study (fig15 in fig14's folder) differs only in its labels
+    and reuses them.
     """
     if not (folder / sweeps.ROWS).exists():
         return False
     saved = folder / "config.yaml"
-    if saved.exists() and saved.read_text() == OmegaConf.to_yaml(cfg, resolve=True):
-        return True
+    if saved.exists():
+        text = saved.read_text()
+        if text == OmegaConf.to_yaml(cfg, resolve=True):
+            return True
+        try:
+            before = OmegaConf.to_container(OmegaConf.create(text))
+        except Exception:  # an unreadable config.yaml: recompute  # noqa: BLE001
+            before = None
+        if isinstance(before, dict) and sweeps.same_job(before, OmegaConf.to_container(cfg, resolve=True)):
+            return True
     (folder / sweeps.ROWS).unlink()
     return False
 
