@@ -60,3 +60,10 @@ def test_fig18_and_fig15_cosines():
 )
 def test_a_variant_folder_names_its_reading(overrides, reading):
     assert claims.reading_of(overrides) == reading
+
+
+def test_fig17_needs_both_halves():
+    runs = [0.995] * 4 + [0.93] * 16  # 4 of 20 optimal, all above the demonstrator's 0.9
+    assert claims.fig17(table(runs), {})[1] == claims.HOLDS
+    assert claims.fig17(table([0.93] * 20), {})[1] == claims.PARTLY  # none optimal
+    assert claims.fig17(table([0.995] * 4 + [0.5] * 16), {})[1] == claims.NO  # mostly below it
