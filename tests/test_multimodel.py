@@ -177,6 +177,36 @@ def test_compiled_backup_equals_the_plain_reference(M, sparse):
             assert np.all(succ[s, b][unreachable] == offsets[:-1][unreachable])
 
 
+def test_backup_is_the_same_on_one_thread_and_on_all():
+    """States are backed up in parallel: the arrays must not depend on the number of threads."""
+    import numba
+
+    rng = np.random.default_rng(7)
+    S, A, M, nb = 30, 4, 3, 40
+    P = np.stack([random_dynamics(rng, S, A, concentration=0.3) for _ in range(M)])
+    B = rng.dirichlet(np.ones(M), size=nb)
+    counts = rng.integers(1, 12, size=S)
+    offsets = np.r_[0, np.cumsum(counts)]
+    alpha_next = rng.normal(size=(offsets[-1], M))
+    R_t = rng.normal(size=(M, S, A))
+    args = (np.ascontiguousarray(P.transpose(1, 2, 3, 0)), R_t, np.ascontiguousarray(B.T), alpha_next, offsets)
+    before = numba.get_num_threads()
+    try:
+        numba.set_num_threads(1)
+        one = _kernels.backup_step(*args)
+        numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
+        many = _kernels.backup_step(*args)
+    finally:
+        numba.set_num_threads(before)
+    for x, y in zip(one, many):
+        assert np.array_equal(x, y)
+    ref = reference_backup(P, R_t, B, alpha_next, offsets)
+    for i, (a, al) in enumerate(ref):
+        s, b = divmod(i, nb)
+        assert one[0][s, b] == a
+        assert np.allclose(one[2][s, b], al, rtol=1e-10, atol=1e-10)
+
+
 def test_belief_set_properties_and_reuse():
     P, R, p0 = tiny_problem(5, S=4, A=2, T=6, M=3)
     for expansion in ("sample", "all"):

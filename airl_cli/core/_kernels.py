@@ -12,7 +12,7 @@ description and the public functions are in ``airl_cli.core.multimodel``. Layout
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
 #: Actions whose backed-up values differ by less than this (relative) are ties: lowest index wins.
 ACTION_RTOL = 1e-12
@@ -100,7 +100,7 @@ def _scan(X, G, n_k, val_a, idx_a, val_b, idx_b):  # pragma: no cover - compiled
     return src_v, src_k
 
 
-@njit(cache=True)
+@njit(cache=True, parallel=True)
 def backup_step(PT, R_t, Bt, alpha_next, offsets_next):  # pragma: no cover - compiled
     """One modified value backup (Table III) at every belief, for every state, at one time step.
 
@@ -113,9 +113,10 @@ def backup_step(PT, R_t, Bt, alpha_next, offsets_next):  # pragma: no cover - co
 
     Exact pruning: for each (s, a, b) an upper bound (every model's best next value, valid since
     beliefs and probabilities are non-negative) and a lower bound (the value of a concrete plan:
-    for each s' the node best at b itself) are cheap. An action whose upper bound is below the
-    best lower bound at b cannot win there and is not scanned; the result is the same as
-    without pruning.
+    for each s' the node best at b itself) are cheap: two matrix products for all (s, a, b) at
+    once (BLAS). An action whose upper bound is below the best lower bound at b cannot win there
+    and is not scanned; the result is the same as without pruning. States are backed up in
+    parallel (numba threads; one thread gives the same arrays).
 
     Args:
         PT: (S, A, S, M) dynamics, model axis last.
@@ -135,126 +136,116 @@ def backup_step(PT, R_t, Bt, alpha_next, offsets_next):  # pragma: no cover - co
     action = np.empty((S, nb), np.int64)
     succ = np.empty((S, nb, S), np.int64)
     alpha = np.empty((S, nb, M))
-    n_pairs = A * nb
-    # upper envelope per next state and model, and the node best at each belief itself
+    # upper envelope U[s', j] per next state and model; k_own[s', b] the node best at b itself
     U = np.empty((S, M))
     k_own = np.empty((S, nb), np.int64)
-    n_max = 0
-    for s2 in range(S):
+    for s2 in prange(S):
         k0, k1 = offsets_next[s2], offsets_next[s2 + 1]
-        n_max = max(n_max, k1 - k0)
         for j in range(M):
             top = -np.inf
             for k in range(k0, k1):
                 top = max(top, alpha_next[k, j])
             U[s2, j] = top
-    va = np.empty(n_pairs)
-    ia = np.empty(n_pairs)
-    vb = np.empty(n_pairs)
-    ib = np.empty(n_pairs)
-    for s2 in range(S):
-        k0, k1 = offsets_next[s2], offsets_next[s2 + 1]
+        va, ia, vb, ib = np.empty(nb), np.empty(nb), np.empty(nb), np.empty(nb)
         _, kbest = _scan(Bt, alpha_next[k0:k1], k1 - k0, va, ia, vb, ib)
         for b in range(nb):
             k_own[s2, b] = k0 + int(kbest[b])
-    upper = np.empty((A, nb))
-    lower = np.empty((A, nb))
+    # the bounds of every (s, a, b) as matrix products over the flattened (s', j) axis:
+    # lower = R_t^T Bt + P W with W[(s', j), b] = b_j alpha_own(s', b)_j,
+    # upper = (R_t^T + P E) Bt with E[(s', j), j] = U[s', j]
+    W = np.empty((S * M, nb))
+    E = np.zeros((S * M, M))
+    for s2 in range(S):
+        for j in range(M):
+            E[s2 * M + j, j] = U[s2, j]
+            for b in range(nb):
+                W[s2 * M + j, b] = Bt[j, b] * alpha_next[k_own[s2, b], j]
+    P2 = PT.reshape((S * A, S * M))
+    Rsa = np.ascontiguousarray(R_t.reshape((M, S * A)).T)
+    lower = np.dot(P2, W) + np.dot(Rsa, Bt)
+    upper = np.dot(np.dot(P2, E) + Rsa, Bt)
+    for s in prange(S):
+        _backup_state(s, PT, R_t, Bt, alpha_next, offsets_next, lower, upper, action, succ, alpha)
+    return action, succ, alpha
+
+
+@njit(cache=True)
+def _backup_state(s, PT, R_t, Bt, alpha_next, offsets_next, lower, upper, action, succ, alpha):  # pragma: no cover
+    """The backup of ``backup_step`` for one state s: writes action[s], succ[s] and alpha[s].
+
+    Args:
+        lower, upper: (S*A, nb) the bounds of each (s, a) row at each belief.
+        The others as in ``backup_step``.
+    """
+    S, A, _, M = PT.shape
+    nb = Bt.shape[1]
+    n_pairs = A * nb
+    va, ia, vb, ib = np.empty(n_pairs), np.empty(n_pairs), np.empty(n_pairs), np.empty(n_pairs)
     pair_a = np.empty(n_pairs, np.int64)
     pair_b = np.empty(n_pairs, np.int64)
-    X_buf = np.empty(M * n_pairs)
-    total = np.empty(n_pairs)
-    keep_k = np.empty((n_pairs, S), np.int64)
-    best_total = np.empty(nb)
-    best_pair = np.empty(nb, np.int64)
-    w = np.empty(M)
-    reach = np.zeros((S, S), np.bool_)  # reach[s, s2]: some model and action go from s to s2
-    for s in range(S):
+    n = 0
+    for b in range(nb):
+        top = lower[s * A, b]
+        for a in range(1, A):
+            top = max(top, lower[s * A + a, b])
+        cut = top - PRUNE_RTOL * (1.0 + abs(top))
         for a in range(A):
-            for s2 in range(S):
-                for j in range(M):
-                    if PT[s, a, s2, j] != 0.0:
-                        reach[s, s2] = True
-    for s in range(S):
-        # bounds on each action's backed-up value at each belief
+            if upper[s * A + a, b] >= cut:
+                pair_a[n] = a
+                pair_b[n] = b
+                n += 1
+    # exact backup of the surviving (action, belief) pairs
+    total = np.empty(n)
+    keep_k = np.empty((n, S), np.int64)
+    for i in range(n):
+        acc = 0.0
+        a = pair_a[i]
+        for j in range(M):
+            acc += Bt[j, pair_b[i]] * R_t[j, s, a]
+        total[i] = acc
+    Xn = np.empty((M, n))  # contiguous rows, so the scan vectorises
+    for s2 in range(S):
+        k0, k1 = offsets_next[s2], offsets_next[s2 + 1]
+        reached = False
         for a in range(A):
             for j in range(M):
-                acc = R_t[j, s, a]
-                for s2 in range(S):
-                    acc += PT[s, a, s2, j] * U[s2, j]
-                w[j] = acc
-            for b in range(nb):
-                up = 0.0
-                lo = 0.0
-                for j in range(M):
-                    up += Bt[j, b] * w[j]
-                    lo += Bt[j, b] * R_t[j, s, a]
-                for s2 in range(S):
-                    if not reach[s, s2]:
-                        continue
-                    k = k_own[s2, b]
-                    for j in range(M):
-                        lo += Bt[j, b] * PT[s, a, s2, j] * alpha_next[k, j]
-                upper[a, b] = up
-                lower[a, b] = lo
-        n = 0
-        for b in range(nb):
-            top = lower[0, b]
-            for a in range(1, A):
-                top = max(top, lower[a, b])
-            cut = top - PRUNE_RTOL * (1.0 + abs(top))
-            for a in range(A):
-                if upper[a, b] >= cut:
-                    pair_a[n] = a
-                    pair_b[n] = b
-                    n += 1
-        # exact backup of the surviving (action, belief) pairs
-        for i in range(n):
-            acc = 0.0
-            a = pair_a[i]
-            for j in range(M):
-                acc += Bt[j, pair_b[i]] * R_t[j, s, a]
-            total[i] = acc
-        Xn = X_buf[: M * n].reshape((M, n))  # contiguous rows, so the scan vectorises
-        for s2 in range(S):
-            k0, k1 = offsets_next[s2], offsets_next[s2 + 1]
-            if not reach[s, s2]:
-                # no model reaches s2 from s: every candidate scores 0 and the scan would keep
-                # the first node, so skip it (grids and sparse dynamics are mostly such pairs)
-                for i in range(n):
-                    keep_k[i, s2] = k0
-                continue
-            for j in range(M):
-                for i in range(n):
-                    Xn[j, i] = Bt[j, pair_b[i]] * PT[s, pair_a[i], s2, j]
-            vbest, kbest = _scan(Xn, alpha_next[k0:k1], k1 - k0, va, ia, vb, ib)
+                if PT[s, a, s2, j] != 0.0:
+                    reached = True
+        if not reached:
+            # no model and action go from s to s2: every candidate scores 0 and the scan would
+            # keep the first node, so skip it (grids and sparse dynamics are mostly such pairs)
             for i in range(n):
-                total[i] += vbest[i]
-                keep_k[i, s2] = k0 + int(kbest[i])
-        # the winning action per belief: highest total, near-ties to the lowest action
-        for b in range(nb):
-            best_total[b] = -np.inf
+                keep_k[i, s2] = k0
+            continue
+        for j in range(M):
+            for i in range(n):
+                Xn[j, i] = Bt[j, pair_b[i]] * PT[s, pair_a[i], s2, j]
+        vbest, kbest = _scan(Xn, alpha_next[k0:k1], k1 - k0, va, ia, vb, ib)
         for i in range(n):
-            b = pair_b[i]
-            best_total[b] = max(best_total[b], total[i])
-        for b in range(nb):
-            best_pair[b] = -1
-        for i in range(n):
-            b = pair_b[i]
-            top = best_total[b]
-            if best_pair[b] < 0 and total[i] >= top - ACTION_RTOL * (1.0 + abs(top)):
-                best_pair[b] = i  # pairs are in increasing action order per belief
-        for b in range(nb):
-            i = best_pair[b]
-            a_star = pair_a[i]
-            action[s, b] = a_star
+            total[i] += vbest[i]
+            keep_k[i, s2] = k0 + int(kbest[i])
+    # the winning action per belief: highest total, near-ties to the lowest action
+    best_total = np.full(nb, -np.inf)
+    for i in range(n):
+        b = pair_b[i]
+        best_total[b] = max(best_total[b], total[i])
+    best_pair = np.full(nb, -1, np.int64)
+    for i in range(n):
+        b = pair_b[i]
+        top = best_total[b]
+        if best_pair[b] < 0 and total[i] >= top - ACTION_RTOL * (1.0 + abs(top)):
+            best_pair[b] = i  # pairs are in increasing action order per belief
+    for b in range(nb):
+        i = best_pair[b]
+        a_star = pair_a[i]
+        action[s, b] = a_star
+        for j in range(M):
+            alpha[s, b, j] = R_t[j, s, a_star]
+        for s2 in range(S):
+            k = keep_k[i, s2]
+            succ[s, b, s2] = k
             for j in range(M):
-                alpha[s, b, j] = R_t[j, s, a_star]
-            for s2 in range(S):
-                k = keep_k[i, s2]
-                succ[s, b, s2] = k
-                for j in range(M):
-                    alpha[s, b, j] += PT[s, a_star, s2, j] * alpha_next[k, j]
-    return action, succ, alpha
+                alpha[s, b, j] += PT[s, a_star, s2, j] * alpha_next[k, j]
 
 
 @njit(cache=True)
