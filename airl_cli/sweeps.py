@@ -104,6 +104,7 @@ class SweepPlan:
     jobs: tuple[str, ...]
     settings: dict = field(default_factory=dict)
     swept: tuple[str, ...] = ()
+    workers: int = 1
 
     def done(self) -> list[str]:
         return [j for j in self.jobs if (self.folder / j / ROWS).exists()]
@@ -169,7 +170,7 @@ def plan(overrides: list[str]) -> SweepPlan:
     job_config = OmegaConf.to_container(first_job, resolve=False)
     del job_config["hydra"]
     settings = shared_settings(plain(OmegaConf.create(job_config)), swept)
-    return SweepPlan(plain(cfg.experiment), _folder(cfg, overrides, parser), jobs, settings, swept)
+    return SweepPlan(plain(cfg.experiment), _folder(cfg, overrides, parser), jobs, settings, swept, _workers(first_job))
 
 
 def _workers(cfg: DictConfig) -> int:
@@ -177,8 +178,13 @@ def _workers(cfg: DictConfig) -> int:
     n_jobs = OmegaConf.select(cfg, "hydra.launcher.n_jobs", default=None)
     if not isinstance(n_jobs, int):
         return 1
-    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+    cores = _cores()
     return max(1, cores + 1 + n_jobs if n_jobs < 0 else min(n_jobs, cores))
+
+
+def _cores() -> int:
+    """The cores this process may run on."""
+    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
 
 
 def _key(override: str) -> str:
@@ -401,6 +407,9 @@ def read_meta(folder: Path) -> dict:
 
 #: The environment variable that tells a sweep's jobs which process launched them ("host:pid").
 PARENT_ENV = "AIRL_SWEEP_PARENT"
+#: The environment variable that tells a sweep's jobs how many threads each may use (the cores
+#: divided among the launcher's workers), so that parallel jobs do not oversubscribe the cores.
+THREADS_ENV = "AIRL_SWEEP_THREADS"
 INTERRUPTED = "interrupted: run the same command again to resume"
 
 
@@ -440,6 +449,7 @@ def _run(sweep: SweepPlan, overrides: list[str], *, draw: bool, console: Console
         absolute = [*overrides, f"hydra.sweep.dir='{quoted}'"]  # quoted: folder names hold '=' and ','
         # the jobs watch this process and stop when it dies (see jobs.sweep.watch_parent)
         os.environ[PARENT_ENV] = f"{socket.gethostname()}:{os.getpid()}"
+        os.environ[THREADS_ENV] = str(max(1, _cores() // sweep.workers))
         with progress(sweep, console):
             run_hydra("sweep", absolute, multirun=True)
     table = collect(sweep)

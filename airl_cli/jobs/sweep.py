@@ -201,8 +201,19 @@ def finished_earlier(cfg: DictConfig, folder) -> bool:
     return False
 
 
+def share_cores() -> None:
+    """Use at most the threads the sweep gave this job (``sweeps.THREADS_ENV``) in the planner's
+    parallel backup: with two launcher workers on two cores, one thread each."""
+    threads = os.environ.get(sweeps.THREADS_ENV, "")
+    if threads.isdigit():
+        import numba
+
+        numba.set_num_threads(max(1, min(int(threads), numba.config.NUMBA_NUM_THREADS)))
+
+
 def main(cfg: DictConfig) -> None:
     watch_parent()
+    share_cores()
     folder = output_dir()
     if finished_earlier(cfg, folder):
         return
