@@ -1,8 +1,10 @@
 """Benchmarks of airl: `python benchmarks/bench.py [SECTION ...]` prints a table per section.
 
-Sections: sampling, planner, fit, certified, mmdp (the multi-model MDP benchmark of Su & Petrik 2023;
-data from $AIRL_MMDP_DATA, default ../shared/data/mmdp beside the checkout). Each measurement is the median of several repeats on one core
-(set OMP_NUM_THREADS=1 etc. for strict single-core numbers; the script sets them itself).
+Sections: sampling, planner, backup, fit, certified, mmdp (the multi-model MDP benchmark of Su & Petrik
+2023; data from $AIRL_MMDP_DATA, default ../shared/data/mmdp beside the checkout). Each measurement is the
+median of several repeats on one core: the script sets OMP_NUM_THREADS=1 etc. and NUMBA_NUM_THREADS=1
+unless they are set already. The backup section compares one and all cores itself; run it with
+NUMBA_NUM_THREADS set to the number of cores.
 """
 
 from __future__ import annotations
@@ -59,6 +61,108 @@ def bench_sampling() -> None:
         rng = np.random.default_rng(0)
         t = median_seconds(lambda: sample_trajectories(rng, P[1:], policy, p0, N))
         table.add_row(str(S), str(T), str(N), f"{1e3 * t:.2f}")
+    console.print(table)
+
+
+def numpy_backup(P, R_t, B, alpha_next, offsets_next):
+    """The yardstick: one PBVI backup (Table III) as plain vectorised numpy, no pruning.
+
+    P (M, S, A, S); R_t (M, S, A); B (nb, M); alpha_next (n_next, M) grouped by state with
+    ``offsets_next`` (S+1,). Returns action (S, nb), succ (S, nb, S), alpha (S, nb, M) as
+    ``_kernels.backup_step`` does."""
+    _, S, A, _ = P.shape
+    nb = len(B)
+    total = np.einsum("jsa,bj->sab", R_t, B)
+    best = np.empty((S, A, nb, S), np.int64)
+    for s2 in range(S):
+        G = alpha_next[offsets_next[s2] : offsets_next[s2 + 1]]
+        scores = (P[:, :, :, s2].transpose(1, 2, 0)[:, :, None, :] * B[None, None]) @ G.T  # (S, A, nb, k)
+        k = scores.argmax(-1)
+        total += np.take_along_axis(scores, k[..., None], -1)[..., 0]
+        best[..., s2] = offsets_next[s2] + k
+    action = total.argmax(1)
+    si, bi = np.meshgrid(np.arange(S), np.arange(nb), indexing="ij")
+    succ = best[si, action, bi]
+    alpha = R_t[:, si, action].transpose(1, 2, 0) + np.einsum("jsbt,sbtj->sbj", P[:, si, action], alpha_next[succ])
+    return action, succ, alpha
+
+
+def _backup_times(S, A, T, M, iterations, threads):
+    """Seconds of all backups t = 1..T-2 at one belief set: numpy yardstick, then the compiled
+    backup on each thread count; checks that every path gives the same arrays."""
+    import numba
+
+    from airl_cli.core import _kernels
+
+    P, R, p0 = adversary_problem(S=S, A=A, D=M - 1, T=T)
+    B = expand_beliefs(P, iterations=iterations, rng=np.random.default_rng(1))
+    graph = solve(P, R, p0, beliefs=B).graph
+    PT, Bt = np.ascontiguousarray(P.transpose(1, 2, 3, 0)), np.ascontiguousarray(B.T)
+    steps = [(np.ascontiguousarray(np.repeat(R[:, t, :, None], A, axis=2)), graph.alpha[t + 1], graph.offsets[t + 1]) for t in range(1, T - 1)]
+    times = [0.0] * (1 + len(threads))
+    before = numba.get_num_threads()
+    for R_t, alpha_next, offsets_next in steps:
+        ref = numpy_backup(P, R_t, B, alpha_next, offsets_next)
+        times[0] += median_seconds(lambda R_t=R_t, a=alpha_next, o=offsets_next: numpy_backup(P, R_t, B, a, o), repeats=3)
+        for i, n in enumerate(threads):
+            numba.set_num_threads(n)
+            out = _kernels.backup_step(PT, R_t, Bt, alpha_next, offsets_next)
+            assert np.array_equal(out[0], ref[0]) and np.allclose(out[2], ref[2], rtol=1e-10, atol=1e-10)
+            times[1 + i] += median_seconds(lambda R_t=R_t, a=alpha_next, o=offsets_next: _kernels.backup_step(PT, R_t, Bt, a, o), repeats=5)
+    numba.set_num_threads(before)
+    return len(B), times
+
+
+def _solve_row(S, A, T, M, iterations, threads):  # runs in a fresh process: its own peak memory
+    import resource
+
+    import numba
+
+    numba.set_num_threads(threads)
+    solve(*adversary_problem(S=5, A=A, D=M - 1, T=3), iterations=2)  # load the kernels
+    P, R, p0 = adversary_problem(S=S, A=A, D=M - 1, T=T)
+    base = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    start = time.perf_counter()
+    B = expand_beliefs(P, iterations=iterations, rng=np.random.default_rng(1))
+    expand = time.perf_counter() - start
+    start = time.perf_counter()
+    sol = solve(P, R, p0, beliefs=B)
+    seconds = time.perf_counter() - start
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    return len(B), int(sol.graph.n_nodes.sum()), expand, seconds, (peak - base) / 1024, peak / 1024
+
+
+def bench_backup() -> None:
+    """The planner's backup against the numpy yardstick, and how a solve grows (time, memory)."""
+    import multiprocessing
+
+    import numba
+
+    cores = numba.config.NUMBA_NUM_THREADS
+    threads = (1, cores) if cores > 1 else (1,)
+    table = Table(title="PBVI backup at one belief set, all time steps (A=5, T=10): plain numpy vs compiled")
+    for col in ("S", "M", "iters", "beliefs", "numpy ms", *(f"compiled, {n} thread{'s' * (n > 1)} ms" for n in threads), *(f"speed-up {n}t" for n in threads)):
+        table.add_column(col, justify="right")
+    for S, M, iterations in [(20, 4, 8), (20, 4, 7), (20, 2, 8), (50, 4, 8)]:
+        nb, times = _backup_times(S, 5, 10, M, iterations, threads)
+        table.add_row(str(S), str(M), str(iterations), str(nb), *(f"{1e3 * t:.1f}" for t in times), *(f"{times[0] / t:.1f}x" for t in times[1:]))
+    console.print(table)
+
+    table = Table(title="one solve at a given belief set (backups + exact marginals), growth; memory = peak RSS of a fresh process")
+    for col in ("S", "A", "T", "M", "iters", "beliefs", "graph nodes", "expand s", *(f"solve s, {n}t" for n in threads), "extra MB", "peak MB"):
+        table.add_column(col, justify="right")
+    rows = [(S, 5, 10, 4, 8) for S in (20, 50, 100, 200, 300)]
+    rows += [(20, 5, T, 4, 8) for T in (20, 30, 50)] + [(300, 5, 30, 4, 8)]
+    rows += [(20, 5, 10, M, 8) for M in (2, 6, 8)]
+    rows += [(S, 5, 10, 4, i) for S in (20, 100) for i in (6, 10, 12)]
+    ctx = multiprocessing.get_context("spawn")
+    for row in rows:
+        results = []
+        for n in threads:
+            with ctx.Pool(1) as pool:
+                results.append(pool.apply(_solve_row, (*row, n)))
+        nb, nodes, expand, _, extra, peak = results[0]
+        table.add_row(*map(str, row), str(nb), f"{nodes:,}", f"{expand:.2f}", *(f"{r[3]:.2f}" for r in results), f"{extra:.0f}", f"{peak:.0f}")
     console.print(table)
 
 
@@ -282,7 +386,7 @@ def bench_mmdp() -> None:
     console.print(table)
 
 
-SECTIONS = {"sampling": bench_sampling, "planner": bench_planner, "fit": bench_fit, "certified": bench_certified, "mmdp": bench_mmdp}
+SECTIONS = {"sampling": bench_sampling, "planner": bench_planner, "backup": bench_backup, "fit": bench_fit, "certified": bench_certified, "mmdp": bench_mmdp}
 
 
 def main() -> None:
