@@ -191,3 +191,19 @@ def test_the_two_figures_of_one_study_share_its_jobs(tmp_path):
     # another experiment's folder is still refused
     third = runner.invoke(app, [*args, "experiment=fig13", f"hydra.sweep.dir='{folder}'"])
     assert third.exit_code == 2 and "this one has experiment.name=fig13" in third.output
+
+
+def test_hydra_does_not_compose_every_job_twice_and_the_check_is_restored():
+    """airl sweep skips Hydra's up-front composition of every job (it composes them again to run
+    them); the original check is back afterwards, and untouched outside a sweep."""
+    from hydra.plugins.sweeper import Sweeper
+
+    from airl_cli.launch import _jobs_composed_once
+
+    original = Sweeper.validate_batch_is_legal
+    with _jobs_composed_once(True):
+        assert Sweeper.validate_batch_is_legal is not original
+        assert Sweeper.validate_batch_is_legal(object(), [["no_such_key=1"]]) is None
+    assert Sweeper.validate_batch_is_legal is original
+    with _jobs_composed_once(False):
+        assert Sweeper.validate_batch_is_legal is original
