@@ -10,7 +10,6 @@ interrupted sweep never leaves duplicated or partial rows.
 
 from __future__ import annotations
 
-import fcntl
 import hashlib
 import json
 import os
@@ -20,7 +19,6 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
 
 import pandas as pd
 from hydra import compose, initialize_config_dir
@@ -36,8 +34,8 @@ from airl_cli.config import fit_settings, plain, problem_settings
 from airl_cli.errors import ConfigError
 from airl_cli.paths import conf_dir
 from airl_cli.results import atomic_write, write_json, write_text
+from airl_cli.sweep_folder import ROWS, check_folder, claim, record_settings, shared_settings, unwritable
 
-ROWS = "rows.csv"
 ERROR = "error.txt"
 TABLE = "results.csv"
 META = "experiment.json"
@@ -49,14 +47,6 @@ FIT_COLUMNS = (
     "n_demos", "demos", "sigma", "weight_sharing", "loss", "dynamics", "learner_score", "demonstrator_score",
     "cosine_similarity", "seconds", "optimizer", "objective", "relative_gap", "converged",
 )  # fmt: skip
-SETTINGS = "sweep.json"
-LOCK = ".lock"
-#: Keys of an experiment that only label it (titles, axes) or list what it sweeps (the swept values
-#: name the job folders): a resumed run need not agree on them.
-NOT_COMPARED = frozenset(
-    ["experiment.title", "experiment.thesis", "experiment.figures", "experiment.x_label", "experiment.x_log"]
-    + ["experiment.runs", "experiment.values", "experiment.methods"]
-)
 #: Quick profile: this many runs at most, the first and last swept value, the first two methods.
 QUICK_RUNS = 2
 QUICK_METHODS = 2
@@ -97,6 +87,7 @@ class SweepPlan:
         settings: every setting the jobs share (dotted key -> value), the swept keys left out:
             what a resumed run must agree with (see ``check_folder``).
         swept: the keys the sweep varies (they name the job folders).
+        workers: how many jobs the launcher runs at once on this machine.
     """
 
     experiment: dict
@@ -160,17 +151,18 @@ def plan(overrides: list[str]) -> SweepPlan:
         first_job = _compose([o for o in overrides if not _is_task_override(o)] + jobs_overrides[0])
     except HydraException as err:
         raise ConfigError(str(err).splitlines()[0]) from None
+    workers = _workers(first_job)
     if first_job.experiment.kind == "fit":
         problem_settings(first_job)
         fit_settings(first_job)
         from airl_cli.jobs.common import check_memory
 
-        check_memory(first_job, workers=_workers(first_job))
+        check_memory(first_job, workers=workers)
     swept = tuple(sorted({_key(o) for o in jobs_overrides[0] if _is_task_override(o)}))
     job_config = OmegaConf.to_container(first_job, resolve=False)
     del job_config["hydra"]
     settings = shared_settings(plain(OmegaConf.create(job_config)), swept)
-    return SweepPlan(plain(cfg.experiment), _folder(cfg, overrides, parser), jobs, settings, swept, _workers(first_job))
+    return SweepPlan(plain(cfg.experiment), _folder(cfg, overrides, parser), jobs, settings, swept, workers)
 
 
 def _workers(cfg: DictConfig) -> int:
@@ -191,30 +183,6 @@ def _key(override: str) -> str:
     return override.lstrip("+~").split("=", 1)[0]
 
 
-def _flatten(node: Any, prefix: str = "") -> dict[str, Any]:
-    if isinstance(node, dict):
-        out: dict[str, Any] = {}
-        for k, v in node.items():
-            out.update(_flatten(v, f"{prefix}{k}."))
-        return out
-    return {prefix[:-1]: node}
-
-
-def same_job(saved: dict, config: dict) -> bool:
-    """Whether two jobs' plain configs make the same rows: equal but for the experiment's labels
-    (``NOT_COMPARED``) and its name, which two experiments of one study (fig14, fig15) share jobs under."""
-    ignore = NOT_COMPARED | {"experiment.name"}
-    a, b = _flatten(saved), _flatten(config)
-    return {k: v for k, v in a.items() if k not in ignore} == {k: v for k, v in b.items() if k not in ignore}
-
-
-def shared_settings(config: dict, swept: tuple[str, ...]) -> dict[str, Any]:
-    """Every leaf setting of a job's plain config (dotted key -> value) but the swept keys and the
-    experiment's labels, JSON-normalised (tuples become lists)."""
-    flat = _flatten(config)
-    keep = {k: v for k, v in sorted(flat.items()) if k not in swept and k not in NOT_COMPARED}
-    return json.loads(json.dumps(keep))
-
 
 def _folder(cfg: DictConfig, overrides: list[str], parser: OverridesParser) -> Path:
     """The sweep folder: results/sweeps/<study>-<profile>, plus the command's other overrides.
@@ -230,100 +198,6 @@ def _folder(cfg: DictConfig, overrides: list[str], parser: OverridesParser) -> P
         suffix = hashlib.sha1(suffix.encode()).hexdigest()[:12]
     return Path(f"{cfg.hydra.sweep.dir}-{suffix}" if suffix else cfg.hydra.sweep.dir)
 
-
-# --------------------------------------------------------------------------- the folder: one owner, one configuration
-
-
-@contextmanager
-def claim(folder: Path) -> Iterator[None]:
-    """Hold the sweep folder for this process: a second ``airl sweep`` into it is refused.
-
-    An advisory ``flock`` on ``FOLDER/.lock``; the kernel drops it when the process ends, even on
-    SIGKILL, so a killed sweep never leaves a stale lock behind.
-
-    Raises:
-        ConfigError: another process holds the folder.
-    """
-    try:
-        folder.mkdir(parents=True, exist_ok=True)
-        handle = open(folder / LOCK, "a+")  # noqa: SIM115 (held until the sweep ends)
-    except OSError as err:
-        raise ConfigError(unwritable(folder, err)) from None
-    try:
-        fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
-    except BlockingIOError:
-        handle.seek(0)
-        owner = handle.read().strip() or "unknown"
-        handle.close()
-        raise ConfigError(
-            f"{folder} is in use by another airl sweep (process {owner}); wait for it to finish, or choose another folder with hydra.sweep.dir=PATH"
-        ) from None
-    try:
-        handle.seek(0)
-        handle.truncate()
-        handle.write(f"{os.getpid()} on {socket.gethostname()}\n")
-        handle.flush()
-        yield
-    finally:
-        fcntl.flock(handle, fcntl.LOCK_UN)
-        handle.close()
-
-
-def unwritable(folder: Path, err: OSError) -> str:
-    """One sentence for a folder that cannot be written."""
-    reason = (err.strerror or str(err)).lower()
-    return f"cannot write to {folder} ({reason}); choose a writable folder with hydra.sweep.dir=PATH"
-
-
-def _stored_settings(sweep: SweepPlan) -> tuple[dict, str] | None:
-    """The settings an earlier run into this folder used, and where they were read from."""
-    record = sweep.folder / SETTINGS
-    if record.exists():
-        return json.loads(record.read_text())["settings"], str(record)
-    # a folder from before sweep.json: any finished job's config tells
-    for job in sorted(p.parent for p in sweep.folder.glob(f"*/{ROWS}")):
-        if (job / "config.yaml").exists():
-            config = OmegaConf.to_container(OmegaConf.load(job / "config.yaml"), resolve=False)
-            return shared_settings(config, sweep.swept), str(job / "config.yaml")
-    return None
-
-
-def check_folder(sweep: SweepPlan) -> None:
-    """Refuse to resume into a folder whose finished jobs ran with other settings.
-
-    Job folders are named by the swept values only, so a folder of another experiment (or of the
-    same one with another setting) would otherwise pass its rows off as this sweep's.
-
-    Raises:
-        ConfigError: naming the first setting that differs.
-    """
-    stored = _stored_settings(sweep)
-    if stored is None:
-        return
-    before, source = stored
-    before = {k: v for k, v in before.items() if k not in NOT_COMPARED and k not in sweep.swept}
-    # a key on one side only was swept there (it names that run's job folders) or is new
-    differ = sorted(k for k in before.keys() & sweep.settings.keys() if before[k] != sweep.settings[k])
-    if before.get("experiment.study") == sweep.settings.get("experiment.study"):
-        differ = [k for k in differ if k != "experiment.name"]  # one study, two figures (fig14 and fig15)
-    if not differ:
-        return
-    # the experiment's name first, then the settings of the problem and the learner
-    key = min(differ, key=lambda k: (k != "experiment.name", k.startswith("experiment."), k))
-    was, now = before[key], sweep.settings[key]
-    more = f" (and {len(differ) - 1} other setting{'s' if len(differ) > 2 else ''})" if len(differ) > 1 else ""
-    raise ConfigError(
-        f"{sweep.folder} holds a sweep run with {key}={_show(was)}{more} (see {source}), but this one has {key}={_show(now)}; "
-        "choose another folder with hydra.sweep.dir=PATH, or remove that one to start over"
-    )
-
-
-def _show(value: Any) -> str:
-    return json.dumps(value) if not isinstance(value, str) else value
-
-
-def record_settings(sweep: SweepPlan) -> None:
-    write_json(sweep.folder / SETTINGS, {"experiment": sweep.experiment["name"], "settings": sweep.settings, "swept": list(sweep.swept)})
 
 
 # --------------------------------------------------------------------------- progress and collection

@@ -19,7 +19,7 @@ import pytest
 from omegaconf import OmegaConf
 from typer.testing import CliRunner
 
-from airl_cli import sweeps
+from airl_cli import sweep_folder, sweeps
 from airl_cli.cli import app
 from airl_cli.core.budget import estimate_fit, refusal
 from airl_cli.jobs.sweep import finished_earlier
@@ -84,9 +84,9 @@ def test_a_changed_setting_is_named_and_a_narrower_method_list_is_fine(tmp_path)
     here = sweeps.plan(["experiment=fig05", "profile=quick", f"hydra.sweep.dir={folder}"])
     sweeps.record_settings(here)
     sweeps.check_folder(sweeps.plan(["experiment=fig05", "profile=quick", "method=airl", f"hydra.sweep.dir={folder}"]))
-    record = json.loads((folder / sweeps.SETTINGS).read_text())
+    record = json.loads((folder / sweep_folder.SETTINGS).read_text())
     record["settings"]["optim.lam"] = 0.5  # as if the earlier run had changed conf/optim/default.yaml
-    (folder / sweeps.SETTINGS).write_text(json.dumps(record))
+    (folder / sweep_folder.SETTINGS).write_text(json.dumps(record))
     with pytest.raises(sweeps.ConfigError, match=r"optim\.lam=0\.5 .* optim\.lam=0\.01"):
         sweeps.check_folder(here)
     # an override on the command line names the job folders: those jobs cannot be mixed up

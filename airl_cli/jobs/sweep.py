@@ -21,7 +21,7 @@ import numpy as np
 import pandas as pd
 from omegaconf import DictConfig, OmegaConf
 
-from airl_cli import sweeps
+from airl_cli import sweep_folder, sweeps
 from airl_cli.build import resolved_loss, streams
 from airl_cli.config import plain, problem_settings
 from airl_cli.core.multimodel import exact_alpha_vectors, expand_beliefs, pbvi_graph, upper_envelope_1d
@@ -93,7 +93,7 @@ def setting_columns(config: dict) -> dict[str, object]:
     """
     out: dict[str, object] = {}
     for group in SETTING_GROUPS:
-        for key, value in sweeps.shared_settings({group: config.get(group) or {}}, ()).items():
+        for key, value in sweep_folder.shared_settings({group: config.get(group) or {}}, ()).items():
             out[key] = json.dumps(value) if isinstance(value, (list, dict)) else value
     return out
 
@@ -195,7 +195,7 @@ def finished_earlier(cfg: DictConfig, folder) -> bool:
             before = OmegaConf.to_container(OmegaConf.create(text))
         except Exception:  # an unreadable config.yaml: recompute  # noqa: BLE001
             before = None
-        if isinstance(before, dict) and sweeps.same_job(before, OmegaConf.to_container(cfg, resolve=True)):
+        if isinstance(before, dict) and sweep_folder.same_job(before, OmegaConf.to_container(cfg, resolve=True)):
             return True
     (folder / sweeps.ROWS).unlink()
     return False
