@@ -189,6 +189,8 @@ def run_hydra(job: str, overrides: list[str], *, cfg: str | None = None, resolve
         argv += ["--cfg", cfg]
     if resolve:
         argv.append("--resolve")
+    if multirun:
+        launcher_discoverable()
     saved = sys.argv
     sys.argv = argv + quote_paths(list(overrides))
     claim = not multirun and cfg is None
@@ -203,6 +205,24 @@ def run_hydra(job: str, overrides: list[str], *, cfg: str | None = None, resolve
             OmegaConf.register_new_resolver("airl.new_run_folder", lambda path: path, replace=True)
 
 
+def launcher_discoverable() -> None:
+    """Let Hydra's plugin scan find ``hydra_plugins.airl_launcher`` (hydra/launcher=airl).
+
+    An installed airl puts it in site-packages/hydra_plugins, where the scan looks; an editable
+    install (``pip install -e .``) only maps its import, so its folder is added to the scanned path.
+    """
+    import hydra_plugins
+    import hydra_plugins.airl_launcher as ours
+
+    folder = str(Path(ours.__file__).parent.parent)
+    if folder not in list(hydra_plugins.__path__):
+        hydra_plugins.__path__.append(folder)
+        from hydra.core.plugins import Plugins
+        from hydra.core.singleton import Singleton
+
+        Singleton._instances.pop(Plugins, None)  # a registry scanned before is scanned again
+
+
 @contextmanager
 def _jobs_composed_once(active: bool) -> Iterator[None]:
     """Skip Hydra's up-front composition of every job's config in the launching process.
@@ -211,16 +231,22 @@ def _jobs_composed_once(active: bool) -> Iterator[None]:
     and the launcher composes it again to run it: at 0.2 s a composition, fig12's 90 jobs waited
     17 s before the first one started. ``airl sweep`` has already checked the overrides' keys and
     group choices and composed the first job (``sweeps.plan``); a job whose values are bad still
-    stops with one sentence in its ``error.txt``.
+    stops with one sentence in its ``error.txt``. The jobs that run in this process
+    (hydra/launcher=basic) compose through ``compose_memo``, as launcher workers do from their
+    second job on (``jobs.sweep.main``).
     """
     if not active:
         yield
         return
     from hydra.plugins.sweeper import Sweeper
 
+    from airl_cli import compose_memo
+
     saved = Sweeper.validate_batch_is_legal
     Sweeper.validate_batch_is_legal = lambda self, batch: None  # type: ignore[method-assign]
+    compose_memo.install()
     try:
         yield
     finally:
         Sweeper.validate_batch_is_legal = saved  # type: ignore[method-assign]
+        compose_memo.uninstall()

@@ -12,8 +12,6 @@ from __future__ import annotations
 
 import hashlib
 import json
-import os
-import socket
 import threading
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -32,7 +30,9 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 
 from airl_cli.config import fit_settings, plain, problem_settings
 from airl_cli.errors import ConfigError
+from airl_cli.launch import launcher_discoverable
 from airl_cli.paths import conf_dir
+from airl_cli.pool import environment, prestart, shutdown, workers
 from airl_cli.results import atomic_write, write_json, write_text
 from airl_cli.sweep_folder import ROWS, check_folder, claim, record_settings, shared_settings, unwritable
 
@@ -88,6 +88,7 @@ class SweepPlan:
             what a resumed run must agree with (see ``check_folder``).
         swept: the keys the sweep varies (they name the job folders).
         workers: how many jobs the launcher runs at once on this machine.
+        job_overrides: each job's overrides (the swept values), in the order of ``jobs``.
     """
 
     experiment: dict
@@ -96,6 +97,7 @@ class SweepPlan:
     settings: dict = field(default_factory=dict)
     swept: tuple[str, ...] = ()
     workers: int = 1
+    job_overrides: tuple[tuple[str, ...], ...] = ()
 
     def done(self) -> list[str]:
         return [j for j in self.jobs if (self.folder / j / ROWS).exists()]
@@ -126,6 +128,7 @@ def plan(overrides: list[str]) -> SweepPlan:
     Raises:
         ConfigError: no experiment named, an unknown override, or a bad value in the first job.
     """
+    launcher_discoverable()  # before Hydra's plugin registry is first built
     parser = OverridesParser.create()
     try:
         parsed = parser.parse_overrides(overrides)
@@ -162,21 +165,14 @@ def plan(overrides: list[str]) -> SweepPlan:
     job_config = OmegaConf.to_container(first_job, resolve=False)
     del job_config["hydra"]
     settings = shared_settings(plain(OmegaConf.create(job_config)), swept)
-    return SweepPlan(plain(cfg.experiment), _folder(cfg, overrides, parser), jobs, settings, swept, workers)
+    job_overrides = tuple(tuple(job) for job in jobs_overrides)
+    return SweepPlan(plain(cfg.experiment), _folder(cfg, overrides, parser), jobs, settings, swept, workers, job_overrides)
 
 
 def _workers(cfg: DictConfig) -> int:
-    """How many jobs the launcher runs at once on this machine (joblib's n_jobs; 1 otherwise)."""
+    """How many jobs the launcher runs at once on this machine (hydra.launcher.n_jobs; 1 without it)."""
     n_jobs = OmegaConf.select(cfg, "hydra.launcher.n_jobs", default=None)
-    if not isinstance(n_jobs, int):
-        return 1
-    cores = _cores()
-    return max(1, cores + 1 + n_jobs if n_jobs < 0 else min(n_jobs, cores))
-
-
-def _cores() -> int:
-    """The cores this process may run on."""
-    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+    return workers(n_jobs) if isinstance(n_jobs, int) else 1
 
 
 def _key(override: str) -> str:
@@ -279,11 +275,6 @@ def read_meta(folder: Path) -> dict:
 # --------------------------------------------------------------------------- the command
 
 
-#: The environment variable that tells a sweep's jobs which process launched them ("host:pid").
-PARENT_ENV = "AIRL_SWEEP_PARENT"
-#: The environment variable that tells a sweep's jobs how many threads each may use (the cores
-#: divided among the launcher's workers), so that parallel jobs do not oversubscribe the cores.
-THREADS_ENV = "AIRL_SWEEP_THREADS"
 INTERRUPTED = "interrupted: run the same command again to resume"
 
 
@@ -297,7 +288,30 @@ def run(overrides: list[str], *, draw: bool, console: Console, out: Console) -> 
         ConfigError: bad overrides, a folder in use by another sweep, or a folder that holds
             another sweep's jobs.
     """
-    sweep = plan(overrides)
+    prestart(_expected_workers(overrides))  # their imports overlap the planning below
+    try:
+        sweep = plan(overrides)
+        return _claim_and_run(sweep, overrides, draw=draw, console=console, out=out)
+    finally:
+        shutdown()
+
+
+def _expected_workers(overrides: list[str]) -> int:
+    """The workers airl's launcher will start, read off the command line (1: another launcher)."""
+    n_jobs = -1
+    for item in overrides:
+        key, _, value = item.partition("=")
+        if key.lstrip("+") == "hydra/launcher" and value != "airl":
+            return 1
+        if key.lstrip("+") == "hydra.launcher.n_jobs":
+            try:
+                n_jobs = int(value)
+            except ValueError:
+                return 1
+    return workers(n_jobs)
+
+
+def _claim_and_run(sweep: SweepPlan, overrides: list[str], *, draw: bool, console: Console, out: Console) -> int:
     with claim(sweep.folder):
         check_folder(sweep)
         try:
@@ -322,9 +336,7 @@ def _run(sweep: SweepPlan, overrides: list[str], *, draw: bool, console: Console
         quoted = str(sweep.folder.resolve()).replace("\\", "\\\\").replace("'", "\\'")
         absolute = [*overrides, f"hydra.sweep.dir='{quoted}'"]  # quoted: folder names hold '=' and ','
         # the jobs watch this process and stop when it dies (see jobs.sweep.watch_parent)
-        os.environ[PARENT_ENV] = f"{socket.gethostname()}:{os.getpid()}"
-        os.environ[THREADS_ENV] = str(max(1, _cores() // sweep.workers))
-        with progress(sweep, console):
+        with environment(sweep.workers), progress(sweep, console):
             run_hydra("sweep", absolute, multirun=True)
     table = collect(sweep)
     failed = sweep.failed()

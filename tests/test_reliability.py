@@ -281,8 +281,8 @@ def test_a_busy_folder_refuses_and_no_worker_outlives_a_killed_sweep(tmp_path):
         workers: set[int] = set()
         while time.time() < deadline and not (len(workers) >= 2 and list(folder.glob("*/.hydra"))):
             time.sleep(0.2)
-            workers = {p for p in descendants(proc.pid) if "loky" in Path(f"/proc/{p}/cmdline").read_text(errors="replace")}
-        assert len(workers) >= 2, "the joblib workers never started"
+            workers = {p for p in descendants(proc.pid) if "spawn_main" in Path(f"/proc/{p}/cmdline").read_text(errors="replace")}
+        assert len(workers) >= 2, "the launcher's workers never started"
         second = subprocess.run(cmd, cwd=tmp_path, capture_output=True, text=True, timeout=120)
         assert second.returncode == 2 and one_sentence(second.stderr), second.stderr
         assert "in use by another airl sweep" in second.stderr

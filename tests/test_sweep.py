@@ -95,7 +95,7 @@ def test_every_experiment_runs_small_in_process(tmp_path, name):
 
 @pytest.mark.parametrize("name", ["fig04", "fig12"])
 def test_quick_sweep_end_to_end_on_every_core(tmp_path, name):
-    """The real launcher (joblib, every core): sweep, table, figures; then airl plot draws them again."""
+    """The default launcher (airl's warm workers, every core): sweep, table, figures; then airl plot draws them again."""
     result = runner.invoke(app, ["sweep", f"experiment={name}", "profile=quick"])
     assert result.exit_code == 0, result.output
     folder = tmp_path / "results" / "sweeps" / f"{name}-quick"

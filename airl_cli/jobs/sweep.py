@@ -21,7 +21,7 @@ import numpy as np
 import pandas as pd
 from omegaconf import DictConfig, OmegaConf
 
-from airl_cli import sweep_folder, sweeps
+from airl_cli import compose_memo, pool, sweep_folder, sweeps
 from airl_cli.build import resolved_loss, streams
 from airl_cli.config import plain, problem_settings
 from airl_cli.core.multimodel import exact_alpha_vectors, expand_beliefs, pbvi_graph, upper_envelope_1d
@@ -140,13 +140,13 @@ def watch_parent(poll: float = 0.5) -> None:
     """Stop this process when the ``airl sweep`` that launched it dies, even by SIGKILL.
 
     Launcher workers (joblib's loky processes, submitit's local jobs) would otherwise go on
-    computing for minutes with no one to collect their rows. ``sweeps.PARENT_ENV`` names the
+    computing for minutes with no one to collect their rows. ``pool.PARENT_ENV`` names the
     launching process; a worker on the same host runs a daemon thread that checks every ``poll``
     seconds whether that process is gone (or this one was re-parented) and then kills itself. In
     the launching process itself (hydra/launcher=basic) and on other hosts (SLURM) it does nothing.
     """
     global _watching
-    parent = os.environ.get(sweeps.PARENT_ENV, "")
+    parent = os.environ.get(pool.PARENT_ENV, "")
     host, _, pid_text = parent.rpartition(":")
     if _watching or not pid_text.isdigit() or host != socket.gethostname() or int(pid_text) == os.getpid():
         return
@@ -202,9 +202,9 @@ def finished_earlier(cfg: DictConfig, folder) -> bool:
 
 
 def share_cores() -> None:
-    """Use at most the threads the sweep gave this job (``sweeps.THREADS_ENV``) in the planner's
+    """Use at most the threads the sweep gave this job (``pool.THREADS_ENV``) in the planner's
     parallel backup: with two launcher workers on two cores, one thread each."""
-    threads = os.environ.get(sweeps.THREADS_ENV, "")
+    threads = os.environ.get(pool.THREADS_ENV, "")
     if threads.isdigit():
         import numba
 
@@ -214,6 +214,7 @@ def share_cores() -> None:
 def main(cfg: DictConfig) -> None:
     watch_parent()
     share_cores()
+    compose_memo.install()  # this worker's next jobs compose from what this one loaded
     folder = output_dir()
     if finished_earlier(cfg, folder):
         return

@@ -1,0 +1,193 @@
+"""The ``airl`` sweep launcher: warm worker processes that each run many jobs.
+
+Hydra's joblib launcher ships the whole Hydra state with every job and rebuilds it in the
+worker (plugin registry, config repository, master config): on fig12's 90 grid jobs, whose fits
+take 0.06 s, that cost more than the fits. Here a worker rebuilds that state once, at its first
+job of a sweep, and then composes each job's config itself (through ``compose_memo``, exact) and
+runs it with Hydra's own ``run_job``, so a job's folder, ``.hydra/`` files and return value are
+what any Hydra launcher gives.
+
+Workers are started with ``spawn`` (a clean interpreter: no inherited threads or locks). ``airl
+sweep`` starts them before it plans (``prestart``), so that their imports overlap its own work;
+with one job at a time (``n_jobs=1``, or one core) the jobs run in the sweep's own process, like
+``hydra/launcher=basic``.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import multiprocessing
+import os
+import socket
+from collections.abc import Iterator, Sequence
+from concurrent.futures import Future, ProcessPoolExecutor
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Any
+
+#: The environment variable that tells a sweep's jobs which process launched them ("host:pid").
+PARENT_ENV = "AIRL_SWEEP_PARENT"
+#: The environment variable that tells a sweep's jobs how many threads each may use (the cores
+#: divided among the launcher's workers), so that parallel jobs do not oversubscribe the cores.
+THREADS_ENV = "AIRL_SWEEP_THREADS"
+#: The BLAS thread counts a new worker process reads: two workers on two cores with two BLAS
+#: threads each made fig12's jobs 1.4x slower (busy-waiting threads); left alone if already set.
+BLAS_THREADS = ("OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "OMP_NUM_THREADS")
+
+#: In a worker: the Hydra state of the sweep it serves (see ``_serve``).
+_worker: dict[str, Any] = {}
+#: In the sweep process: the warm pool and its size, if one was started.
+_pool: dict[str, Any] = {}
+
+
+def cores() -> int:
+    """The cores this process may run on."""
+    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+
+
+def workers(n_jobs: int, n_tasks: int | None = None) -> int:
+    """Jobs at once for ``hydra.launcher.n_jobs`` (joblib's convention: -1 every core, -2 all but one)."""
+    n = cores() + 1 + n_jobs if n_jobs < 0 else n_jobs
+    return max(1, min(n, cores(), n_tasks if n_tasks is not None else n))
+
+
+@contextmanager
+def environment(n: int) -> Iterator[None]:
+    """What the processes started meanwhile read from the environment, for ``n`` workers: this
+    process (``PARENT_ENV``) and their share of the cores (``THREADS_ENV``, ``BLAS_THREADS``).
+    Restored afterwards."""
+    threads = str(max(1, cores() // max(1, n)))
+    values = {PARENT_ENV: f"{socket.gethostname()}:{os.getpid()}", THREADS_ENV: threads}
+    values.update({name: threads for name in BLAS_THREADS if name not in os.environ})
+    saved = {name: os.environ.get(name) for name in values}
+    os.environ.update(values)
+    try:
+        yield
+    finally:
+        for name, value in saved.items():
+            if value is None:
+                os.environ.pop(name, None)
+            else:
+                os.environ[name] = value
+
+
+def _warm() -> None:
+    """A new worker imports the job's code (numpy, scipy, pandas, the compiled kernels) at once,
+    and stops when the sweep process dies, even before its first job (``jobs.sweep.watch_parent``)."""
+    from airl_cli.jobs.sweep import watch_parent
+
+    watch_parent()
+
+
+def prestart(n: int) -> bool:
+    """Start ``n`` warm workers now, for the next ``launch`` (a no-op below two).
+
+    Returns whether they are there: a system that refuses the pool's semaphores or processes
+    (seen for a user who may not start multiprocessing's resource tracker) gets none, and
+    ``launch`` then runs the jobs in this process.
+    """
+    if n < 2 or _pool.get("n") == n:
+        return n < 2 or bool(_pool)
+    shutdown()
+    pool = None
+    try:
+        pool = ProcessPoolExecutor(max_workers=n, mp_context=multiprocessing.get_context("spawn"))
+        with environment(n):  # each submit starts a worker, which copies the environment
+            warming = [pool.submit(_warm) for _ in range(n)]
+    except OSError:
+        if pool is not None:
+            pool.shutdown(wait=False, cancel_futures=True)
+        return False
+    _pool.update(pool=pool, n=n, warming=warming)
+    return True
+
+
+def shutdown() -> None:
+    """Stop the warm workers, if any."""
+    pool = _pool.pop("pool", None)
+    _pool.clear()
+    if pool is not None:
+        pool.shutdown(wait=True, cancel_futures=True)
+
+
+def _start(state: bytes | tuple) -> None:
+    """Hydra's state in this process (context, master config, task function, singletons).
+
+    ``state`` comes cloudpickled from the sweep process (Hydra's resolvers and the function that
+    ``hydra.main`` wrapped cannot be pickled by name).
+    """
+    import cloudpickle
+    from hydra.core.singleton import Singleton
+    from hydra.core.utils import setup_globals
+
+    from airl_cli import compose_memo
+
+    hydra_context, config, task_function, singleton_state = cloudpickle.loads(state) if isinstance(state, bytes) else state
+    setup_globals()
+    Singleton.set_state(singleton_state)
+    compose_memo.install()
+    _worker.update(hydra_context=hydra_context, config=config, task_function=task_function)
+
+
+def _run(idx: int, overrides: Sequence[str]) -> Any:
+    """One job, in the process that holds the sweep's state (``_start``); Hydra's ``JobReturn``."""
+    from hydra.core.hydra_config import HydraConfig
+    from hydra.core.utils import run_job
+    from omegaconf import open_dict
+
+    hydra_context, config = _worker["hydra_context"], _worker["config"]
+    sweep_config = hydra_context.config_loader.load_sweep_config(config, list(overrides))
+    with open_dict(sweep_config):
+        sweep_config.hydra.job.id = f"{sweep_config.hydra.job.name}_{idx}"
+        sweep_config.hydra.job.num = idx
+    HydraConfig.instance().set_config(sweep_config)
+    return run_job(
+        hydra_context=hydra_context,
+        config=sweep_config,
+        task_function=_worker["task_function"],
+        job_dir_key="hydra.sweep.dir",
+        job_subdir_key="hydra.sweep.subdir",
+    )
+
+
+def _serve(token: str, state: bytes, idx: int, overrides: Sequence[str]) -> bytes:
+    """A job in a worker: the sweep's state is rebuilt only when ``token`` (its digest) changes;
+    the ``JobReturn`` goes back cloudpickled (it holds Hydra's structured-config nodes)."""
+    import cloudpickle
+
+    if _worker.get("token") != token:
+        _worker.clear()
+        _start(state)
+        _worker["token"] = token
+    return cloudpickle.dumps(_run(idx, overrides))
+
+
+def launch(launcher: Any, job_overrides: Sequence[Sequence[str]], initial_job_idx: int) -> list[Any]:
+    """Run the jobs; their ``JobReturn`` in the order given (``Launcher.launch``)."""
+    import cloudpickle
+    from hydra.core.singleton import Singleton
+    from hydra.core.utils import configure_log, setup_globals
+
+    setup_globals()
+    configure_log(launcher.config.hydra.hydra_logging, launcher.config.hydra.verbose)
+    Path(str(launcher.config.hydra.sweep.dir)).mkdir(parents=True, exist_ok=True)
+    state = (launcher.hydra_context, launcher.config, launcher.task_function, Singleton.get_state())
+    jobs = [(initial_job_idx + i, list(o)) for i, o in enumerate(job_overrides)]
+    n = workers(int(launcher.n_jobs), len(jobs))
+    if n == 1 or not prestart(n):
+        saved = dict(_worker)
+        _start(state)
+        try:
+            return [_run(idx, o) for idx, o in jobs]
+        finally:
+            _worker.clear()
+            _worker.update(saved)
+    shipped = cloudpickle.dumps(state)
+    token = hashlib.sha1(shipped).hexdigest()
+    futures: list[Future] = [_pool["pool"].submit(_serve, token, shipped, idx, o) for idx, o in jobs]
+    try:
+        return [cloudpickle.loads(f.result()) for f in futures]
+    except BaseException:
+        for f in futures:
+            f.cancel()
+        raise

@@ -1,0 +1,115 @@
+"""airl's sweep launcher (hydra/launcher=airl): remembered compositions equal Hydra's own, warm
+workers get their share of the cores, and a sweep on two workers gives the in-process table."""
+
+from __future__ import annotations
+
+import os
+
+import pandas as pd
+import pytest
+from hydra import compose, initialize_config_dir
+from omegaconf import OmegaConf
+from typer.testing import CliRunner
+
+from airl_cli import compose_memo, pool
+from airl_cli.cli import app
+from airl_cli.paths import conf_dir
+from airl_cli.sweeps import _expected_workers, experiment_names, plan
+
+runner = CliRunner()
+
+
+@pytest.fixture(autouse=True)
+def in_tmp(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+
+
+def _jobs(name: str, *extra: str) -> list[list[str]]:
+    """Every job of an experiment at the quick size: its overrides (the swept values, then the command's)."""
+    return [list(job) for job in plan([f"experiment={name}", "profile=quick", *extra]).job_overrides]
+
+
+def _composed(overrides: list[str]) -> tuple[str, str]:
+    """The job's whole config as text (the hydra node included, unresolved), and its task part resolved."""
+    with initialize_config_dir(config_dir=conf_dir(), version_base="1.3", job_name="sweep"):
+        cfg = compose("airl", overrides=overrides, return_hydra_config=True)
+    task = OmegaConf.to_container(cfg, resolve=False)
+    del task["hydra"]
+    return OmegaConf.to_yaml(cfg), OmegaConf.to_yaml(OmegaConf.create(task), resolve=True)
+
+
+VARIANTS = [
+    (experiment_names(), ()),
+    (["fig05", "fig09"], ("mdp.transition=sparse", "loss=zero_one", "method=mce")),
+]
+
+
+@pytest.mark.parametrize("names, extra", VARIANTS, ids=["every experiment", "a variant"])
+def test_a_remembered_composition_equals_hydras_for_every_job(names, extra):
+    """Quick jobs of every experiment (the first two and the last), and of a variant with group and
+    value overrides: the same config, hydra node included, whether Hydra composes it afresh or from
+    memory."""
+    jobs = [job for name in names for found in [_jobs(name, *extra)] for job in found[: min(2, len(found) - 1)] + found[-1:]]
+    assert len(jobs) >= 6
+    fresh = [_composed(job) for job in jobs]
+    compose_memo.install()
+    try:
+        remembered = [_composed(job) for job in jobs]
+        assert len(compose_memo._config_memo) < len(jobs)  # it did remember
+    finally:
+        compose_memo.uninstall()
+    for job, a, b in zip(jobs, fresh, remembered, strict=True):
+        assert a == b, job
+    # the seeds differ between jobs: a memory that ignored value overrides would fail above
+    assert len({text for _, text in fresh}) == len(jobs)
+
+
+def test_the_memory_is_gone_after_uninstall():
+    from hydra._internal import config_loader_impl
+
+    original = config_loader_impl.create_defaults_list
+    compose_memo.install()
+    compose_memo.install()  # idempotent
+    assert config_loader_impl.create_defaults_list is not original
+    compose_memo.uninstall()
+    assert config_loader_impl.create_defaults_list is original and not compose_memo._defaults_memo
+
+
+def test_the_workers_a_command_line_asks_for():
+    assert _expected_workers(["experiment=fig12"]) == pool.workers(-1)
+    assert _expected_workers(["experiment=fig12", "hydra.launcher.n_jobs=1"]) == 1
+    assert _expected_workers(["experiment=fig12", "hydra/launcher=basic"]) == 1
+    assert _expected_workers(["experiment=fig12", "hydra/launcher=joblib"]) == 1
+    assert pool.workers(-1) == pool.cores() and pool.workers(-1, n_tasks=1) == 1 and pool.workers(5) == pool.cores()
+
+
+def _in_worker() -> tuple[int, str, str]:
+    return os.getpid(), os.environ.get(pool.THREADS_ENV, ""), os.environ.get("OPENBLAS_NUM_THREADS", "")
+
+
+@pytest.mark.skipif(pool.cores() < 2, reason="two workers need two cores")
+def test_warm_workers_are_other_processes_with_their_share_of_the_cores(monkeypatch):
+    monkeypatch.delenv("OPENBLAS_NUM_THREADS", raising=False)
+    pool.prestart(2)
+    try:
+        seen = [pool._pool["pool"].submit(_in_worker).result(timeout=120) for _ in range(4)]
+    finally:
+        pool.shutdown()
+    threads = str(pool.cores() // 2)
+    assert all(pid != os.getpid() for pid, _, _ in seen)
+    assert {(t, b) for _, t, b in seen} == {(threads, threads)}
+    assert pool.THREADS_ENV not in os.environ and "OPENBLAS_NUM_THREADS" not in os.environ  # restored
+    assert not pool._pool
+
+
+@pytest.mark.skipif(pool.cores() < 2, reason="two workers need two cores")
+def test_two_workers_give_the_in_process_table(tmp_path):
+    tables = {}
+    for name, launcher in (("airl", ["hydra/launcher=airl", "hydra.launcher.n_jobs=2"]), ("basic", ["hydra/launcher=basic"])):
+        folder = tmp_path / name
+        result = runner.invoke(app, ["sweep", "experiment=fig13", "profile=quick", *launcher, f"hydra.sweep.dir={folder}", "--no-plot"])
+        assert result.exit_code == 0, result.output
+        tables[name] = pd.read_csv(folder / "results.csv").drop(columns=["seconds"])
+        assert all((folder / job / ".hydra" / "config.yaml").exists() for job in plan(["experiment=fig13", "profile=quick"]).jobs)
+    assert len(tables["basic"]) == 12
+    pd.testing.assert_frame_equal(tables["airl"], tables["basic"])
