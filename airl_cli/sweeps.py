@@ -172,7 +172,11 @@ def plan(overrides: list[str]) -> SweepPlan:
 def _workers(cfg: DictConfig) -> int:
     """How many jobs the launcher runs at once on this machine (hydra.launcher.n_jobs; 1 without it)."""
     n_jobs = OmegaConf.select(cfg, "hydra.launcher.n_jobs", default=None)
-    return workers(n_jobs) if isinstance(n_jobs, int) else 1
+    if n_jobs is None:
+        return 1
+    if not isinstance(n_jobs, int) or isinstance(n_jobs, bool) or n_jobs == 0:
+        raise ConfigError(f"hydra.launcher.n_jobs must be a whole number of jobs at once (-1 for every core), not {n_jobs!r}")
+    return workers(n_jobs)
 
 
 def _key(override: str) -> str:

@@ -145,6 +145,8 @@ def test_a_job_that_fails_on_bad_input_is_reported(tmp_path):
         (["sweep"], "experiment=NAME"),
         (["sweep", "experiment=fig99"], "fig99"),
         (["sweep", "experiment=fig05", "optim.lam=-1"], "optim.lam"),
+        (["sweep", "experiment=fig12", "hydra.launcher.n_jobs=abc"], "hydra.launcher.n_jobs"),
+        (["sweep", "experiment=fig12", "hydra.launcher.n_jobs=0"], "hydra.launcher.n_jobs"),
         (["plot", "nowhere"], "nowhere"),
     ],
 )
