@@ -11,8 +11,9 @@ import airl_cli
 PACKAGE = Path(airl_cli.__file__).parent
 # numba compiles the planner's kernels and highspy is the HiGHS LP solver (scipy bundles the same
 # solver without the warm-start interface), clarabel the interior-point QP solver the certified
-# learner falls back on: compute libraries, not layers above core.
-CORE_ALLOWED = {"numpy", "scipy", "numba", "highspy", "clarabel"}
+# learner falls back on, threadpoolctl to hold BLAS to one thread in the dense QP solver: compute
+# libraries, not layers above core.
+CORE_ALLOWED = {"numpy", "scipy", "numba", "highspy", "clarabel", "threadpoolctl"}
 
 
 def imports_of(path: Path) -> set[str]:

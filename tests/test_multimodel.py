@@ -328,3 +328,26 @@ def test_progress_follows_every_time_step_and_changes_nothing():
     assert calls == [(d, 5) for d in range(1, 6)]  # T - 1 backed-up time steps, in order
     assert loud.value == quiet.value
     np.testing.assert_array_equal(loud.marginals, quiet.marginals)
+
+
+def test_blas_runs_on_one_thread_inside_the_planner_and_is_restored_after(monkeypatch):
+    """The planner's numba threads and BLAS's own threads would share the cores (core.threads)."""
+    from threadpoolctl import threadpool_info
+
+    from airl_cli.core import _kernels, threads
+
+    def blas_threads() -> set[int]:
+        return {lib["num_threads"] for lib in threadpool_info() if lib["user_api"] == "blas"}
+
+    before = blas_threads()
+    with threads.one_blas_thread():
+        assert blas_threads() == {1}
+    assert blas_threads() == before
+    seen = []
+    real = _kernels.backup_step
+    monkeypatch.setattr(_kernels, "backup_step", lambda *a: (seen.append(blas_threads()), real(*a))[1])
+    rng = np.random.default_rng(0)
+    P = rng.dirichlet(np.ones(4), size=(2, 4, 2))
+    pbvi_graph(P, rng.random((2, 3, 4)), expand_beliefs(P, iterations=3, rng=rng))
+    assert seen and all(s == {1} for s in seen)
+    assert blas_threads() == before

@@ -56,6 +56,7 @@ from airl_cli.core import _kernels
 from airl_cli.core.demos import _inverse_cdf
 from airl_cli.core.mdp import argmax_lowest, check_probabilities
 from airl_cli.core.planning import backward_induction, policy_values
+from airl_cli.core.threads import blas_on_one_thread
 
 #: Two beliefs closer than this in L1 distance are the same point.
 BELIEF_TOL = 1e-12
@@ -309,6 +310,7 @@ def _check_beliefs(beliefs: np.ndarray, M: int) -> np.ndarray:
 # --------------------------------------------------------------------------- belief expansion
 
 
+@blas_on_one_thread
 def expand_beliefs(
     transitions: np.ndarray,
     *,
@@ -365,6 +367,7 @@ def expand_beliefs(
 # --------------------------------------------------------------------------- PBVI
 
 
+@blas_on_one_thread  # numba's threads back up the states; BLAS's would only spin meanwhile
 def pbvi_graph(
     P: np.ndarray,
     R,
