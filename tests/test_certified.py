@@ -13,7 +13,7 @@ from airl_cli.core.demos import expected_feature_sums
 from airl_cli.core.game import GameProblem
 from airl_cli.core.learn import FitOptions, PlannerOptions, fit, make_oracle
 from airl_cli.core.planning import backward_induction, state_marginals
-from airl_cli.core.qp import MasterQP, solve_clarabel
+from airl_cli.core.qp import MasterQP, solve_clarabel, solve_dense
 from tiny import random_dynamics
 
 T = 3  # the brute force below enumerates histories (s0, s1) of a 3-step horizon
@@ -202,6 +202,55 @@ def test_master_qp_equals_clarabel_on_random_restricted_games():
         assert q.sum() == pytest.approx(1.0) and np.all(q >= 0)
         # q is the adversary's mixture: stationarity in w gives lam w = C - Phi^T q
         assert np.allclose(0.1 * w, C - Phi.T @ q, atol=1e-5)
+
+
+def _f_at(w, C, lam, L, Phi):
+    """f at w for the restricted game, by an LP (scipy's HiGHS): min_p max_k (L^T p)_k + Phi_k . w."""
+    from scipy.optimize import linprog
+
+    n, m = L.shape
+    A = np.hstack([L.T, -np.ones((m, 1))])
+    res = linprog(np.r_[np.zeros(n), 1.0], A_ub=A, b_ub=-(Phi @ w), A_eq=np.r_[np.ones(n), 0.0][None], b_eq=[1.0], bounds=[(0, None)] * n + [(None, None)], method="highs")
+    return res.fun - w @ C + lam / 2 * w @ w
+
+
+def test_the_dense_qp_solver_equals_clarabel_on_random_and_degenerate_restricted_games():
+    """solve_dense against Clarabel, an independent interior-point code, and against an LP that
+    evaluates f at the w it returns: the same optimum (the objective is unique; w is unique but
+    flat when lam is small, q may not be unique), q a distribution that makes w stationary."""
+    rng = np.random.default_rng(3)
+    for trial in range(60):
+        n, m, d = rng.integers(1, 70), rng.integers(1, 70), rng.integers(1, 12)
+        L, Phi, C, lam = rng.random((n, m)), rng.normal(size=(m, d)), rng.normal(size=d), 10 ** rng.uniform(-2, 1)
+        if trial % 2:  # ties everywhere, as between the deterministic policies of a grid
+            L, Phi = np.round(3 * L) / 3, np.round(Phi)
+        answer = solve_dense(C, lam, L, Phi)
+        assert answer is not None, trial
+        w, v, p, q, obj = answer
+        w2, _, _, _, obj2 = solve_clarabel(C, lam, L, Phi)
+        assert obj == pytest.approx(obj2, rel=1e-8, abs=1e-8)
+        assert _f_at(w, C, lam, L, Phi) <= _f_at(w2, C, lam, L, Phi) + 1e-8 * (1 + abs(obj2))
+        assert q.sum() == pytest.approx(1.0) and np.all(q >= 0) and p.sum() == pytest.approx(1.0)
+        assert np.allclose(lam * w, C - Phi.T @ q, atol=1e-6)
+        assert v >= np.max(Phi @ w + L.T @ p) - 1e-7  # v bounds every adversary row
+
+
+def test_after_highs_fails_the_master_qp_goes_to_the_dense_solver(monkeypatch):
+    rng = np.random.default_rng(4)
+    n, m, d = 30, 25, 5
+    L, Phi, C = rng.random((n, m)), rng.normal(size=(m, d)), rng.normal(size=d)
+    qp = MasterQP(C, 0.1)
+    qp.add_learner(np.empty(0))
+    for k in range(m):
+        qp.add_adversary(L[:1, k], Phi[k])
+    for i in range(1, n):
+        qp.add_learner(L[i])
+    monkeypatch.setattr(MasterQP, "_solve_highs", lambda self: None)  # as when HiGHS stops with an error
+    w, v, p, q, obj = qp.solve()
+    assert qp.backend == "dense" and qp.fallbacks == 1
+    assert obj == pytest.approx(solve_clarabel(C, 0.1, L, Phi)[4], rel=1e-8)
+    qp.solve()
+    assert qp.fallbacks == 2  # every later solve of the fit, too
 
 
 def test_bad_options():

@@ -34,7 +34,8 @@ size, no random start: the answer depends only on the data and the oracles. The 
 exact when the adversary's oracle is exact (pbvi.method=exact); with PBVI it holds against the
 best responses PBVI finds at its belief set.
 
-The QP is kept in one HiGHS model for the whole fit (``airl_cli.core.qp``).
+The QP is kept in one HiGHS model for the whole fit, with a dense interior-point method for the
+solves after HiGHS fails (``airl_cli.core.qp``).
 """
 
 from __future__ import annotations
@@ -117,7 +118,7 @@ class CertifiedResult:
         history: column -> (iterations,) array, columns ``HISTORY_COLUMNS``.
         adversary_features: (D, K) the adversary mixture's expected feature sums F_j(q) at the end.
         learner_mix: (n,) p; adversary_mix: (m,) q, over the final strategy sets.
-        qp_fallbacks: QP solves that HiGHS did not finish and Clarabel did.
+        qp_fallbacks: QP solves done without HiGHS, after its first failure in the fit (``core.qp``).
     """
 
     weights: np.ndarray
