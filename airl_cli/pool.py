@@ -21,6 +21,7 @@ import os
 import socket
 from collections.abc import Iterator, Sequence
 from concurrent.futures import Future, ProcessPoolExecutor
+from concurrent.futures.process import BrokenProcessPool
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
@@ -33,6 +34,17 @@ THREADS_ENV = "AIRL_SWEEP_THREADS"
 #: The BLAS thread counts a new worker process reads: two workers on two cores with two BLAS
 #: threads each made fig12's jobs 1.4x slower (busy-waiting threads); left alone if already set.
 BLAS_THREADS = ("OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "OMP_NUM_THREADS")
+
+#: What ``airl sweep`` says when a worker process dies mid-job (killed by the system, out of memory).
+WORKER_DIED = (
+    "a sweep worker process died (killed by the system, perhaps for lack of memory); the finished jobs "
+    "are kept: run the same command again to resume, with a lower hydra.launcher.n_jobs if memory is short"
+)
+
+
+class WorkerDied(BaseException):
+    """A worker process died mid-sweep. A BaseException, like KeyboardInterrupt, so that it passes
+    Hydra's error report (a traceback) and reaches ``airl sweep``, which says it in one sentence."""
 
 #: In a worker: the Hydra state of the sweep it serves (see ``_serve``).
 _worker: dict[str, Any] = {}
@@ -102,12 +114,12 @@ def prestart(n: int) -> bool:
     return True
 
 
-def shutdown() -> None:
-    """Stop the warm workers, if any."""
+def shutdown(wait: bool = True) -> None:
+    """Stop the warm workers, if any; ``wait=False`` lets them exit while this process goes on."""
     pool = _pool.pop("pool", None)
     _pool.clear()
     if pool is not None:
-        pool.shutdown(wait=True, cancel_futures=True)
+        pool.shutdown(wait=wait, cancel_futures=True)
 
 
 def _start(state: bytes | tuple) -> None:
@@ -184,10 +196,16 @@ def launch(launcher: Any, job_overrides: Sequence[Sequence[str]], initial_job_id
             _worker.update(saved)
     shipped = cloudpickle.dumps(state)
     token = hashlib.sha1(shipped).hexdigest()
-    futures: list[Future] = [_pool["pool"].submit(_serve, token, shipped, idx, o) for idx, o in jobs]
+    futures: list[Future] = []
     try:
+        futures += [_pool["pool"].submit(_serve, token, shipped, idx, o) for idx, o in jobs]
         return [cloudpickle.loads(f.result()) for f in futures]
+    except BrokenProcessPool:
+        shutdown(wait=False)
+        raise WorkerDied(WORKER_DIED) from None
     except BaseException:
         for f in futures:
             f.cancel()
         raise
+    finally:
+        shutdown(wait=False)  # the workers exit while the sweep collects its table

@@ -32,7 +32,7 @@ from airl_cli.config import fit_settings, plain, problem_settings
 from airl_cli.errors import ConfigError
 from airl_cli.launch import launcher_discoverable
 from airl_cli.paths import conf_dir
-from airl_cli.pool import environment, prestart, shutdown, workers
+from airl_cli.pool import WorkerDied, environment, prestart, shutdown, workers
 from airl_cli.results import atomic_write, write_json, write_text
 from airl_cli.sweep_folder import ROWS, check_folder, claim, record_settings, shared_settings, unwritable
 
@@ -286,7 +286,8 @@ def run(overrides: list[str], *, draw: bool, console: Console, out: Console) -> 
     """``airl sweep``: plan, run the jobs not yet done, collect the table, draw the figures.
 
     Returns:
-        The exit status: 0, 1 if some jobs stopped on bad input, 130 if interrupted.
+        The exit status: 0, 1 if some jobs stopped on bad input or a worker process died, 130 if
+        interrupted.
 
     Raises:
         ConfigError: bad overrides, a folder in use by another sweep, or a folder that holds
@@ -327,6 +328,9 @@ def _claim_and_run(sweep: SweepPlan, overrides: list[str], *, draw: bool, consol
         except KeyboardInterrupt:
             console.print(f"[bold yellow]{INTERRUPTED}[/]", soft_wrap=True)
             return 130
+        except WorkerDied as died:
+            console.print(f"[bold red]error:[/] {died}", soft_wrap=True)
+            return 1
 
 
 def _run(sweep: SweepPlan, overrides: list[str], *, draw: bool, console: Console, out: Console) -> int:

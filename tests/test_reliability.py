@@ -303,6 +303,34 @@ def test_a_busy_folder_refuses_and_no_worker_outlives_a_killed_sweep(tmp_path):
     assert resumed.returncode == 0, resumed.stderr
 
 
+@pytest.mark.skipif(not Path("/proc/self/stat").exists() or (os.cpu_count() or 1) < 2, reason="reads /proc; two workers")
+def test_a_worker_killed_mid_sweep_is_one_sentence_and_exit_1(tmp_path):
+    """A worker killed by the system (the OOM killer, say): one sentence, exit 1, no worker left."""
+    cmd = [sys.executable, "-m", "airl_cli", "sweep", "experiment=fig05", "profile=quick", "--no-plot", "hydra.launcher.n_jobs=2"]
+    folder = tmp_path / "results" / "sweeps" / "fig05-quick"
+    proc = subprocess.Popen(cmd, cwd=tmp_path, start_new_session=True, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        deadline, workers = time.time() + 120, []
+        while time.time() < deadline and not (workers and list(folder.glob("*/.hydra"))):
+            time.sleep(0.1)
+            workers = [p for p in descendants(proc.pid) if "spawn_main" in Path(f"/proc/{p}/cmdline").read_text(errors="replace")]
+        assert workers, "the launcher's workers never started"
+        everything = descendants(proc.pid)
+        os.kill(workers[0], signal.SIGKILL)
+        _, err = proc.communicate(timeout=120)
+    finally:
+        try:
+            os.killpg(proc.pid, signal.SIGKILL)
+        except ProcessLookupError:
+            pass
+    assert proc.returncode == 1, err
+    assert one_sentence(err) and "worker process died" in err and "Traceback" not in err, err
+    gone_by = time.time() + 5
+    while time.time() < gone_by and any(running(p) for p in everything):
+        time.sleep(0.1)
+    assert not [p for p in everything if running(p)], "workers outlived the sweep"
+
+
 # ------------------------------------------------------------------ 8. too large: refused before any work
 
 
