@@ -1,0 +1,66 @@
+"""How fast a whole `airl sweep` runs on each launcher: `python benchmarks/sweep_speed.py [EXPERIMENT]`.
+
+Runs the experiment's full sweep (default fig12) into fresh temporary folders with
+hydra/launcher=airl, joblib and basic, interleaved, `--repeats` times each, and prints per run the
+wall time of the command, its job phase (from the first job's start, its `.hydra/` folder, to the
+last job's `rows.csv`) and the rest (imports, planning, table and figures), with the ratio to
+the median of `basic`. The sweeps run as separate processes with this shell's environment,
+minus the one-thread settings of `bench.py`.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import statistics
+import subprocess
+import tempfile
+import time
+from pathlib import Path
+
+from rich.console import Console
+from rich.table import Table
+
+LAUNCHERS = ("airl", "joblib", "basic")
+ONE_THREAD = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMBA_NUM_THREADS")
+
+
+def run_once(experiment: str, launcher: str, extra: list[str]) -> tuple[float, float]:
+    """(wall seconds, job-phase seconds) of one full sweep in a fresh folder."""
+    env = {k: v for k, v in os.environ.items() if k not in ONE_THREAD}
+    with tempfile.TemporaryDirectory(prefix="airl-sweep-speed-") as tmp:
+        folder = Path(tmp) / "sweep"
+        cmd = ["airl", "sweep", f"experiment={experiment}", f"hydra/launcher={launcher}", f"hydra.sweep.dir={folder}", *extra]
+        start = time.time()
+        done = subprocess.run(cmd, env=env, capture_output=True, text=True, check=False)
+        wall = time.time() - start
+        if done.returncode != 0:
+            raise SystemExit(f"{' '.join(cmd)} failed: {done.stderr.strip().splitlines()[-1:]}")
+        first = min(p.stat().st_mtime for p in folder.glob("*/.hydra"))
+        last = max(p.stat().st_mtime for p in folder.glob("*/rows.csv"))
+        return wall, last - first
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("experiment", nargs="?", default="fig12")
+    parser.add_argument("--repeats", type=int, default=2)
+    parser.add_argument("overrides", nargs="*", help="more overrides for every sweep (say profile=quick)")
+    args = parser.parse_args()
+    runs: dict[str, list[tuple[float, float]]] = {name: [] for name in LAUNCHERS}
+    for _ in range(args.repeats):
+        for name in LAUNCHERS:
+            runs[name].append(run_once(args.experiment, name, args.overrides))
+    basic = statistics.median(wall for wall, _ in runs["basic"])
+    basic_jobs = statistics.median(jobs for _, jobs in runs["basic"])
+    table = Table(title=f"airl sweep experiment={args.experiment} {' '.join(args.overrides)}: {os.cpu_count()} cores")
+    for col in ("launcher", "run", "wall s", "jobs s", "rest s", "basic / this, wall", "basic / this, jobs"):
+        table.add_column(col, justify="right")
+    for name in LAUNCHERS:
+        for i, (wall, jobs) in enumerate(runs[name], 1):
+            table.add_row(name, str(i), f"{wall:.1f}", f"{jobs:.1f}", f"{wall - jobs:.1f}", f"{basic / wall:.2f}x", f"{basic_jobs / jobs:.2f}x")
+    Console().print(table)
+
+
+if __name__ == "__main__":
+    main()
