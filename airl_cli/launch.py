@@ -211,9 +211,11 @@ def launcher_discoverable() -> None:
     An installed airl puts it in site-packages/hydra_plugins, where the scan looks; an editable
     install (``pip install -e .``) only maps its import, so its folder is added to the scanned path.
     """
-    import hydra_plugins
-    import hydra_plugins.airl_launcher as ours
-
+    try:
+        import hydra_plugins
+        import hydra_plugins.airl_launcher as ours
+    except ImportError:  # not installed with airl: Hydra will name the launchers it has
+        return
     folder = str(Path(ours.__file__).parent.parent)
     if folder not in list(hydra_plugins.__path__):
         hydra_plugins.__path__.append(folder)
