@@ -105,6 +105,8 @@ def sweep(
     Takes experiment=NAME and any overrides, e.g. airl sweep experiment=fig05 profile=quick.
     Jobs that finished in an earlier run of the same command are skipped. The folder is
     results/sweeps/<experiment>-<profile>/ unless hydra.sweep.dir=PATH says otherwise.
+    The jobs run on one warm worker per core (hydra.launcher.n_jobs=N for fewer);
+    hydra/launcher=basic runs them one by one, hydra/launcher=submitit_slurm on a cluster.
     """
     if cfg is not None:  # print the config (Hydra takes --cfg without --multirun)
         run_hydra("sweep", ctx.args, cfg=cfg, resolve=resolve)
