@@ -39,7 +39,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from airl_cli.core import _kernels
+from airl_cli.core import _walk_kernels
 from airl_cli.core.mdp import argmax_lowest
 from airl_cli.core.multimodel import (
     METHODS,
@@ -218,7 +218,7 @@ def graph_returns(graph: PolicyGraph, transitions: np.ndarray, rewards: LayeredR
     j = np.arange(M)[:, None]
     for t in range(T - 1):
         total += np.sum(mu * rewards.step[j, t, graph.state[t][None, :], graph.action[t][None, :]], axis=1)
-        mu = _kernels.forward_step(P, mu, graph.state[t], graph.action[t], graph.successor[t], graph.state[t + 1].size)
+        mu = _walk_kernels.forward_step(P, mu, graph.state[t], graph.action[t], graph.successor[t], graph.state[t + 1].size)
     total += np.sum(mu * rewards.last[j, graph.state[T - 1][None, :]], axis=1)
     return total
 

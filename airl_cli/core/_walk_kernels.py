@@ -1,0 +1,116 @@
+"""Compiled kernels that walk the models forward (numba, cached on disk after the first call):
+modified belief expansion (thesis Table IV) and the policy graph's forward pass (the exact state
+marginals). The readable description is in ``airl_cli.core.multimodel``; layouts as in
+``_kernels`` (``PT`` (S, A, S, M), beliefs ``B`` (nb, M), nodes grouped by state).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+
+@njit(cache=True)
+def expand_once(PT, CT, B, n_old, u, sample, tol):  # pragma: no cover - compiled
+    """One modified belief expansion (Table IV) of the first ``n_old`` rows of ``B``.
+
+    For every belief b of the old set, every state s and action a, the candidate next beliefs
+    are b (.) P(s'|s,a), normalised (eq. 6.5): with ``sample`` one s'_j drawn from each model's
+    P_j(.|s,a) (the thesis's rule, using the uniforms ``u``), otherwise every s' that some model
+    can reach. The candidate farthest (L1) from the old set is added unless it is already in the
+    set (within ``tol``).
+
+    Args:
+        PT: (S, A, S, M) dynamics; CT: (S, A, M, S) cumulative sums of P_j(.|s,a) over s'.
+        B: (capacity, M) belief rows; rows 0..n_old-1 are the current set; new rows are appended.
+        n_old: size of the current set.
+        u: (n_old, S, A, M) uniforms for sampling.
+        sample: True for the thesis's sampling, False to consider every reachable s'.
+        tol: L1 distance under which two beliefs are the same.
+
+    Returns:
+        The new size of the set (rows n_old..returned-1 of ``B`` were written).
+    """
+    S, A, _, M = PT.shape
+    n = n_old
+    cand = np.empty(M)
+    best = np.empty(M)
+    for i in range(n_old):
+        best_d = -1.0
+        for s in range(S):
+            for a in range(A):
+                n_draws = M if sample else S
+                for r in range(n_draws):
+                    if sample:
+                        # inverse-CDF draw of s' from model r's P_r(.|s,a)
+                        s2 = 0
+                        while s2 < S - 1 and CT[s, a, r, s2] <= u[i, s, a, r]:
+                            s2 += 1
+                    else:
+                        s2 = r
+                    z = 0.0
+                    for j in range(M):
+                        cand[j] = B[i, j] * PT[s, a, s2, j]
+                        z += cand[j]
+                    if z <= 0.0:
+                        continue
+                    for j in range(M):
+                        cand[j] /= z
+                    d_min = np.inf
+                    for q in range(n_old):
+                        d = 0.0
+                        for j in range(M):
+                            d += abs(cand[j] - B[q, j])
+                        if d < d_min:
+                            d_min = d
+                            if d_min <= best_d:
+                                break
+                    if d_min > best_d:
+                        best_d = d_min
+                        for j in range(M):
+                            best[j] = cand[j]
+        if best_d <= tol:
+            continue
+        present = False
+        for q in range(n):
+            d = 0.0
+            for j in range(M):
+                d += abs(best[j] - B[q, j])
+            if d <= tol:
+                present = True
+                break
+        if not present:
+            for j in range(M):
+                B[n, j] = best[j]
+            n += 1
+    return n
+
+
+@njit(cache=True)
+def forward_step(P, mu, node_state, node_action, node_succ, n_next):  # pragma: no cover - compiled
+    """Push the node distribution of one time step to the next, for every model.
+
+    Args:
+        P: (M, S, A, S) dynamics.
+        mu: (M, n_t) probability of being at each node at time t under each model.
+        node_state, node_action: (n_t,) of the nodes at time t.
+        node_succ: (n_t, S) successor node at t+1 per next state.
+        n_next: number of nodes at t+1.
+
+    Returns:
+        (M, n_next) the node distribution at t+1.
+    """
+    M, S = P.shape[0], P.shape[1]
+    out = np.zeros((M, n_next))
+    for k in range(node_state.size):
+        s = node_state[k]
+        a = node_action[k]
+        for j in range(M):
+            m = mu[j, k]
+            if m == 0.0:
+                continue
+            for s2 in range(S):
+                p = P[j, s, a, s2]
+                if p != 0.0:
+                    out[j, node_succ[k, s2]] += m * p
+    return out
