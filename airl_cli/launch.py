@@ -189,8 +189,6 @@ def run_hydra(job: str, overrides: list[str], *, cfg: str | None = None, resolve
         argv += ["--cfg", cfg]
     if resolve:
         argv.append("--resolve")
-    if multirun:
-        launcher_discoverable()
     saved = sys.argv
     sys.argv = argv + quote_paths(list(overrides))
     claim = not multirun and cfg is None

@@ -201,7 +201,6 @@ def launch(launcher: Any, job_overrides: Sequence[Sequence[str]], initial_job_id
         futures += [_pool["pool"].submit(_serve, token, shipped, idx, o) for idx, o in jobs]
         return [cloudpickle.loads(f.result()) for f in futures]
     except BrokenProcessPool:
-        shutdown(wait=False)
         raise WorkerDied(WORKER_DIED) from None
     except BaseException:
         for f in futures:

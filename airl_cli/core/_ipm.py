@@ -78,25 +78,18 @@ def _direction(Gm, d, Lc, Ha, aHa, W, s, z, r1, r2, r3, r4):  # noqa: ANN001, AN
 
 
 @njit(cache=True)
-def _refined(Gm, d, qdiag, Lc, Ha, aHa, W, s, z, r1, r2, r3, r4, refinements):  # noqa: ANN001, ANN202
+def _refined(Gm, d, qdiag, a, Lc, Ha, aHa, W, s, z, r1, r2, r3, r4, refinements):  # noqa: ANN001, ANN202
     """``_direction``, then corrected against the unreduced system's residual: the factor of the
     reduced matrix loses accuracy as z / s spreads, the products with G and Q do not."""
     dx, dy, ds, dz = _direction(Gm, d, Lc, Ha, aHa, W, s, z, r1, r2, r3, r4)
     for _ in range(refinements):
-        e1 = qdiag * dx + _GT(Gm, dz, d) + dy * _a(dx.size, d) + r1
+        e1 = qdiag * dx + _GT(Gm, dz, d) + dy * a + r1
         e2 = np.sum(dx[d + 1 :]) + r2
         e3 = _G(Gm, dx, d) + ds + r3
         e4 = z * ds + s * dz + r4
         cx, cy, cs, cz = _direction(Gm, d, Lc, Ha, aHa, W, s, z, e1, e2, e3, e4)
         dx, dy, ds, dz = dx + cx, dy + cy, ds + cs, dz + cz
     return dx, dy, ds, dz
-
-
-@njit(cache=True)
-def _a(N: int, d: int) -> np.ndarray:
-    a = np.zeros(N)
-    a[d + 1 :] = 1.0
-    return a
 
 
 @njit(cache=True)
@@ -162,7 +155,7 @@ def mehrotra(C: np.ndarray, lam: float, L: np.ndarray, Phi: np.ndarray, tol: flo
         # predictor (rsz = s z), then corrector (rsz = s z + ds dz - sigma mu)
         rsz = s * z
         for corrector in range(2):
-            dx, dy, ds, dz = _refined(Gm, d, qdiag, Lc, Ha, aHa, W, s, z, rd, rp, rs, rsz, REFINEMENTS)
+            dx, dy, ds, dz = _refined(Gm, d, qdiag, a, Lc, Ha, aHa, W, s, z, rd, rp, rs, rsz, REFINEMENTS)
             step = _longest(s, z, ds, dz)
             if corrector == 0:
                 sigma = (((s + step * ds) @ (z + step * dz)) / gap) ** 3
