@@ -15,8 +15,7 @@ from typing import Any
 
 from omegaconf import DictConfig, OmegaConf
 
-from airl_cli.core.certified import CertifiedOptions
-from airl_cli.core.learn import SCHEDULES, FitOptions, PlannerOptions
+from airl_cli.core.options import SCHEDULES, CertifiedOptions, FitOptions, PlannerOptions
 from airl_cli.errors import ConfigError
 
 Cell = tuple[int, int]

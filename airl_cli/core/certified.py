@@ -56,6 +56,7 @@ from airl_cli.core.game import (
     learner_best_response,
 )
 from airl_cli.core.planning import backward_induction, state_marginals
+from airl_cli.core.options import CertifiedOptions
 from airl_cli.core.qp import MasterQP
 
 #: A screening best response is added without asking the full oracle if it raises the restricted
@@ -83,24 +84,6 @@ HISTORY_COLUMNS = (
     "qp_seconds",
     "seconds",
 )
-
-
-@dataclass(frozen=True)
-class CertifiedOptions:
-    """Settings of the certified solve.
-
-    weight_sharing: one w (eq. 5.4) or one w_j per dynamics (eq. 5.3).
-    lam: lambda > 0, the L2 regularisation (it makes f strongly convex and the lower bound finite).
-    tol: stop when the relative gap (upper - lower) / max(1, |upper|) <= tol.
-    max_iterations: the cap on QP solves (reaching it is reported, never silent).
-    normalize_loss: divide the loss by its largest entry (as the gradient learner does).
-    """
-
-    weight_sharing: bool = True
-    lam: float = 1e-2
-    tol: float = 1e-4
-    max_iterations: int = 500
-    normalize_loss: bool = True
 
 
 @dataclass(frozen=True)

@@ -15,14 +15,14 @@ from __future__ import annotations
 import dataclasses
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
 from airl_cli.core.game import AdversaryOracle, GameProblem, RestrictedGame, double_oracle, idle_counters
 from airl_cli.core.multimodel import expand_beliefs, solve
+from airl_cli.core.options import SCHEDULES, FitOptions, PlannerOptions  # noqa: F401 (re-exported)
 
-SCHEDULES = ("inverse_sqrt", "inverse", "constant")
 HISTORY_COLUMNS = (
     "step",
     "objective",
@@ -37,62 +37,6 @@ HISTORY_COLUMNS = (
     "adversary_strategies",
     "seconds",
 )
-
-
-@dataclass(frozen=True)
-class PlannerOptions:
-    """How the adversary's best response is computed (thesis §5.3.1, chapter 6).
-
-    method: "pbvi", "exact" (tiny problems) or "mean" (the naive baseline).
-    iterations / expansion: PBVI's belief set (see ``airl_cli.core.multimodel.expand_beliefs``).
-    expectations: "exact" (forward pass over the policy graph) or "monte_carlo" with n_samples.
-    reuse_beliefs: build the belief set once per fit (ours) or anew for every call (the thesis).
-    belief_seed: seeds the belief sampling of a reused belief set, so that the learned weights are
-        a function of the data alone; None draws it from the fit's generator instead.
-    screen_beliefs: the certified learner first asks PBVI restricted to the first this many
-        beliefs (a cheap, weaker best response; 0 turns screening off).
-    """
-
-    method: str = "pbvi"
-    iterations: int = 8
-    expansion: str = "sample"
-    expectations: str = "exact"
-    n_samples: int = 50_000
-    reuse_beliefs: bool = True
-    belief_seed: int | None = 0
-    screen_beliefs: int = 8
-
-
-@dataclass(frozen=True)
-class FitOptions:
-    """Gradient descent and double-oracle settings (thesis Table I, §5.3).
-
-    ``normalize``: step along grad / |grad|, so that a step moves w by eta_t whatever the scale of
-    the gradient (which grows with D, T and the features); the usual form of the subgradient
-    method for a non-smooth objective. False takes plain steps eta_t * grad as Table I writes.
-
-    ``normalize_loss``: divide the loss matrix by its largest entry. Scaling the loss by c scales
-    the game's optimal w by c when lambda = 0 and leaves its direction, hence the learner's
-    policies, unchanged; with a loss of scale 1 the same step sizes and lambda suit every problem
-    (the grid's squared distances reach 32, the zero-one loss 1).
-
-    ``prune_after``: a strategy that has had zero weight in the equilibrium for this many
-    consecutive gradient steps is dropped from the sets (0 keeps everything); the sets stay near
-    the equilibrium supports, so the restricted LPs stay small.
-    """
-
-    weight_sharing: bool = True
-    lam: float = 1e-2
-    eta0: float = 0.3
-    schedule: str = "inverse_sqrt"
-    normalize: bool = True
-    tol: float = 1e-3
-    max_steps: int = 60
-    threshold: float = 1e-3
-    max_oracle_iterations: int = 50
-    prune_after: int = 10
-    normalize_loss: bool = True
-    planner: PlannerOptions = field(default_factory=PlannerOptions)
 
 
 @dataclass(frozen=True)

@@ -1,0 +1,88 @@
+"""The learners' settings: plain frozen dataclasses, importable without the solvers.
+
+``PlannerOptions`` and ``FitOptions`` configure the gradient learner (``airl_cli.core.learn``,
+thesis Table I and §5.3); ``CertifiedOptions`` the exact solve (``airl_cli.core.certified``,
+eq. 5.9). The config layer builds and checks them before any job starts, so they live apart from
+the numba and scipy code that uses them.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+#: The step-size schedules eta_t of ``FitOptions.schedule`` (thesis Table I).
+SCHEDULES = ("inverse_sqrt", "inverse", "constant")
+
+
+@dataclass(frozen=True)
+class PlannerOptions:
+    """How the adversary's best response is computed (thesis §5.3.1, chapter 6).
+
+    method: "pbvi", "exact" (tiny problems) or "mean" (the naive baseline).
+    iterations / expansion: PBVI's belief set (see ``airl_cli.core.multimodel.expand_beliefs``).
+    expectations: "exact" (forward pass over the policy graph) or "monte_carlo" with n_samples.
+    reuse_beliefs: build the belief set once per fit (ours) or anew for every call (the thesis).
+    belief_seed: seeds the belief sampling of a reused belief set, so that the learned weights are
+        a function of the data alone; None draws it from the fit's generator instead.
+    screen_beliefs: the certified learner first asks PBVI restricted to the first this many
+        beliefs (a cheap, weaker best response; 0 turns screening off).
+    """
+
+    method: str = "pbvi"
+    iterations: int = 8
+    expansion: str = "sample"
+    expectations: str = "exact"
+    n_samples: int = 50_000
+    reuse_beliefs: bool = True
+    belief_seed: int | None = 0
+    screen_beliefs: int = 8
+
+
+@dataclass(frozen=True)
+class FitOptions:
+    """Gradient descent and double-oracle settings (thesis Table I, §5.3).
+
+    ``normalize``: step along grad / |grad|, so that a step moves w by eta_t whatever the scale of
+    the gradient (which grows with D, T and the features); the usual form of the subgradient
+    method for a non-smooth objective. False takes plain steps eta_t * grad as Table I writes.
+
+    ``normalize_loss``: divide the loss matrix by its largest entry. Scaling the loss by c scales
+    the game's optimal w by c when lambda = 0 and leaves its direction, hence the learner's
+    policies, unchanged; with a loss of scale 1 the same step sizes and lambda suit every problem
+    (the grid's squared distances reach 32, the zero-one loss 1).
+
+    ``prune_after``: a strategy that has had zero weight in the equilibrium for this many
+    consecutive gradient steps is dropped from the sets (0 keeps everything); the sets stay near
+    the equilibrium supports, so the restricted LPs stay small.
+    """
+
+    weight_sharing: bool = True
+    lam: float = 1e-2
+    eta0: float = 0.3
+    schedule: str = "inverse_sqrt"
+    normalize: bool = True
+    tol: float = 1e-3
+    max_steps: int = 60
+    threshold: float = 1e-3
+    max_oracle_iterations: int = 50
+    prune_after: int = 10
+    normalize_loss: bool = True
+    planner: PlannerOptions = field(default_factory=PlannerOptions)
+
+
+@dataclass(frozen=True)
+class CertifiedOptions:
+    """Settings of the certified solve.
+
+    weight_sharing: one w (eq. 5.4) or one w_j per dynamics (eq. 5.3).
+    lam: lambda > 0, the L2 regularisation (it makes f strongly convex and the lower bound finite).
+    tol: stop when the relative gap (upper - lower) / max(1, |upper|) <= tol.
+    max_iterations: the cap on QP solves (reaching it is reported, never silent).
+    normalize_loss: divide the loss by its largest entry (as the gradient learner does).
+    """
+
+    weight_sharing: bool = True
+    lam: float = 1e-2
+    tol: float = 1e-4
+    max_iterations: int = 500
+    normalize_loss: bool = True
