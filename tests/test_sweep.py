@@ -209,3 +209,31 @@ def test_hydra_does_not_compose_every_job_twice_and_the_check_is_restored():
     assert Sweeper.validate_batch_is_legal is original
     with _jobs_composed_once(False):
         assert Sweeper.validate_batch_is_legal is original
+
+
+def test_the_rows_of_many_jobs_read_at_once_equal_a_read_per_file(tmp_path):
+    """Jobs with two headers, interleaved; a file without its last newline; a quoted comma; an
+    empty cell: the same rows, columns and types as pandas reading file by file. A job that wrote
+    its header alone adds no row (and, unlike a per-file read, leaves the numbers numeric)."""
+    from airl_cli.sweeps import read_rows
+
+    texts = [
+        'method,seed,score,layout\nairl,0,0.5,"[1, 2]"\nairl,0,0.25,"[3, 4]"\n',
+        "method,seed,score,objective\nmce,0,0.75,1.5\n",
+        'method,seed,score,layout\nairl,1,1.0,"[5, 6]"',  # no newline at the end
+        "method,seed,score,objective\nmce,1,0.125,\n",  # an empty cell
+        'method,seed,score,layout\nairl,2,0.0,"[7, 8]"\n',
+    ]
+    paths = []
+    for i, text in enumerate(texts):
+        paths.append(tmp_path / f"job{i}.csv")
+        paths[-1].write_text(text)
+    keys = ["method", "seed", "score"]
+    ours = read_rows(paths).sort_values(keys).reset_index(drop=True)
+    theirs = pd.concat([pd.read_csv(p) for p in paths], ignore_index=True).sort_values(keys).reset_index(drop=True)
+    assert sorted(ours.columns) == sorted(theirs.columns) and len(ours) == 6
+    pd.testing.assert_frame_equal(ours, theirs[list(ours.columns)])
+    (tmp_path / "header.csv").write_text("method,seed,score,objective\n")
+    with_header = read_rows([*paths, tmp_path / "header.csv"]).sort_values(keys).reset_index(drop=True)
+    pd.testing.assert_frame_equal(with_header, ours)
+    assert read_rows([]).empty
