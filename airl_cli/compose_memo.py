@@ -9,7 +9,10 @@ the merged config, by Hydra itself. So this module remembers
 
 - ``create_defaults_list`` per (search path, config name, group overrides, flags): the same
   defaults list, with the job's own value overrides put back in;
-- the merged config per (search path, defaults list): a deep copy of it (6 ms instead of 40 ms).
+- the merged config per (search path, defaults list): a deep copy of it (6 ms instead of 40 ms);
+- each override string's parse (Hydra's ANTLR grammar, 2-3 ms each; a job's config is composed
+  from the sweep's command line and the job's own overrides): a shallow copy of the parsed
+  ``Override``. Strings with a grammar function call (``shuffle(...)``) are parsed every time.
 
 Everything after that (value overrides, the ``hydra`` node's runtime fields, the job's output
 folder) is Hydra's own code, unchanged, so a remembered composition equals a fresh one
@@ -27,6 +30,7 @@ from typing import Any
 _installed: tuple | None = None  # Hydra's own two functions while ours stand in for them
 _defaults_memo: dict[tuple, Any] = {}
 _config_memo: dict[tuple, Any] = {}
+_parse_memo: dict[str, Any] = {}
 
 
 def _sources(repo: Any) -> tuple:
@@ -46,9 +50,11 @@ def install() -> None:
         return
     from hydra._internal import config_loader_impl
     from hydra._internal.config_loader_impl import ConfigLoaderImpl
+    from hydra.core.override_parser.overrides_parser import OverridesParser
 
     create_defaults_list = config_loader_impl.create_defaults_list
     compose = ConfigLoaderImpl._compose_config_from_defaults_list
+    parse_rule = OverridesParser.parse_rule
 
     def remembered_defaults_list(repo, config_name, overrides_list, prepend_hydra, skip_missing):
         groups = [o for o in overrides_list if not o.is_sweep_override() and _is_group(repo, o)]
@@ -70,9 +76,17 @@ def install() -> None:
             _config_memo[key] = compose(self, defaults=defaults, repo=repo)
         return copy.deepcopy(_config_memo[key])
 
+    def remembered_parse_rule(self, s, rule_name):
+        if rule_name != "override" or "(" in s:
+            return parse_rule(self, s, rule_name)
+        if s not in _parse_memo:
+            _parse_memo[s] = parse_rule(self, s, rule_name)
+        return copy.copy(_parse_memo[s])  # the caller sets its config_loader on the copy
+
     config_loader_impl.create_defaults_list = remembered_defaults_list
     ConfigLoaderImpl._compose_config_from_defaults_list = remembered_compose
-    _installed = (create_defaults_list, compose)
+    OverridesParser.parse_rule = remembered_parse_rule
+    _installed = (create_defaults_list, compose, parse_rule)
 
 
 def uninstall() -> None:
@@ -82,8 +96,13 @@ def uninstall() -> None:
         return
     from hydra._internal import config_loader_impl
     from hydra._internal.config_loader_impl import ConfigLoaderImpl
+    from hydra.core.override_parser.overrides_parser import OverridesParser
 
-    config_loader_impl.create_defaults_list, ConfigLoaderImpl._compose_config_from_defaults_list = _installed
+    create_defaults_list, compose, parse_rule = _installed
+    config_loader_impl.create_defaults_list = create_defaults_list
+    ConfigLoaderImpl._compose_config_from_defaults_list = compose
+    OverridesParser.parse_rule = parse_rule
     _defaults_memo.clear()
     _config_memo.clear()
+    _parse_memo.clear()
     _installed = None

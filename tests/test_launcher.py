@@ -8,6 +8,7 @@ import os
 import pandas as pd
 import pytest
 from hydra import compose, initialize_config_dir
+from hydra.core.override_parser.overrides_parser import OverridesParser
 from omegaconf import OmegaConf
 from typer.testing import CliRunner
 
@@ -56,6 +57,7 @@ def test_a_remembered_composition_equals_hydras_for_every_job(names, extra):
     try:
         remembered = [_composed(job) for job in jobs]
         assert len(compose_memo._config_memo) < len(jobs)  # it did remember
+        assert len(compose_memo._parse_memo) < sum(len(job) for job in jobs)
     finally:
         compose_memo.uninstall()
     for job, a, b in zip(jobs, fresh, remembered, strict=True):
@@ -66,13 +68,30 @@ def test_a_remembered_composition_equals_hydras_for_every_job(names, extra):
 
 def test_the_memory_is_gone_after_uninstall():
     from hydra._internal import config_loader_impl
+    from hydra.core.override_parser.overrides_parser import OverridesParser
 
-    original = config_loader_impl.create_defaults_list
+    original = config_loader_impl.create_defaults_list, OverridesParser.parse_rule
     compose_memo.install()
     compose_memo.install()  # idempotent
-    assert config_loader_impl.create_defaults_list is not original
+    assert config_loader_impl.create_defaults_list is not original[0]
+    assert OverridesParser.parse_rule is not original[1]
+    OverridesParser.create().parse_overrides(["seed=3"])
+    assert compose_memo._parse_memo
     compose_memo.uninstall()
-    assert config_loader_impl.create_defaults_list is original and not compose_memo._defaults_memo
+    assert (config_loader_impl.create_defaults_list, OverridesParser.parse_rule) == original
+    assert not compose_memo._defaults_memo and not compose_memo._parse_memo
+
+
+def test_a_remembered_parse_is_a_copy_and_function_calls_are_parsed_afresh():
+    parser = OverridesParser.create()
+    compose_memo.install()
+    try:
+        first, second = parser.parse_overrides(["seed=3", "seed=3"])
+        assert first is not second and first == second and first.input_line == "seed=3"
+        parser.parse_overrides(["seed=shuffle(1,2,3)"])
+        assert "seed=shuffle(1,2,3)" not in compose_memo._parse_memo
+    finally:
+        compose_memo.uninstall()
 
 
 def test_the_workers_a_command_line_asks_for():
