@@ -44,3 +44,17 @@ def test_plotting_never_imports_core():
     assert files
     for path in files:
         assert not any(n.startswith("airl_cli.core") for n in imports_of(path)), path.name
+
+
+def test_a_sweep_process_imports_no_solver_nor_table_code_before_its_jobs():
+    """`airl sweep` plans and hands jobs to warm workers: the modules it needs up to then (the
+    command line, the plan, the launcher, the job's Hydra entry point) import neither the solvers
+    (numba, scipy.optimize) nor pandas and matplotlib, which the workers and the table import."""
+    import subprocess
+
+    code = (
+        "import sys, airl_cli.cli, airl_cli.sweeps, airl_cli.pool, airl_cli.jobs.sweep, airl_cli.config;"
+        "print(' '.join(m for m in ('numba', 'scipy.optimize', 'pandas', 'matplotlib') if m in sys.modules))"
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert done.stdout.strip() == ""
