@@ -11,13 +11,12 @@ interrupted sweep never leaves duplicated or partial rows.
 from __future__ import annotations
 
 import hashlib
-import json
+import importlib
 import threading
 from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 from hydra import compose, initialize_config_dir
 from hydra._internal.config_loader_impl import get_overrides_dirname
@@ -32,19 +31,14 @@ from airl_cli.config import fit_settings, plain, problem_settings
 from airl_cli.errors import ConfigError
 from airl_cli.launch import launcher_discoverable
 from airl_cli.paths import conf_dir
-from airl_cli.pool import WorkerDied, environment, prestart, shutdown, workers
-from airl_cli.results import atomic_write, write_json, write_text
+from airl_cli.pool import WorkerDied, environment, kept, prestart, shutdown, workers
 from airl_cli.sweep_folder import ROWS, check_folder, claim, record_settings, shared_settings, unwritable
-
-if TYPE_CHECKING:  # pandas is imported when the table is collected: a sweep's start-up stays light
-    import pandas as pd
+from airl_cli.sweep_table import TABLE, collect, draw_figures, medians_text
 
 ERROR = "error.txt"
-TABLE = "results.csv"
-META = "experiment.json"
 
 #: The first columns of the results table of a fit experiment, in order (one row per job x
-#: dynamics); every setting of the problem and learner groups follows (``jobs.sweep.setting_columns``).
+#: dynamics); every setting of the problem and learner groups follows (``jobs.sweep_rows.setting_columns``).
 FIT_COLUMNS = (
     "experiment", "method", "seed", "run", "x", "x_name", "mdp", "dynamics_kind", "n_dynamics", "n_features",
     "n_demos", "demos", "sigma", "weight_sharing", "loss", "dynamics", "learner_score", "demonstrator_score",
@@ -203,7 +197,7 @@ def _folder(cfg: DictConfig, overrides: list[str], parser: OverridesParser) -> P
 
 
 
-# --------------------------------------------------------------------------- progress and collection
+# --------------------------------------------------------------------------- progress
 
 
 @contextmanager
@@ -236,8 +230,12 @@ def progress(sweep: SweepPlan, console: Console, interval: float = 0.5) -> Itera
             bar.update(task, completed=len(set(sweep.done()) | set(failed)))
 
         def watch() -> None:
+            warm = sweep.workers < 2  # jobs in this process import pandas themselves
             while not stop.wait(interval):
                 update()
+                if not warm and sweep.done():  # the launcher waits: the table's pandas meanwhile
+                    importlib.import_module("pandas")
+                    warm = True
 
         thread = threading.Thread(target=watch, daemon=True)
         thread.start()
@@ -249,52 +247,9 @@ def progress(sweep: SweepPlan, console: Console, interval: float = 0.5) -> Itera
             update()
 
 
-def collect(sweep: SweepPlan) -> pd.DataFrame:
-    """Concatenate the rows of every finished job of this sweep into the results table.
-
-    Writes ``results.csv`` (sorted, one row per job x dynamics) and ``experiment.json`` into the
-    sweep folder, atomically; returns the table.
-    """
-    finished = sweep.done()
-    table = read_rows([sweep.folder / j / ROWS for j in finished])
-    if not table.empty:
-        keys = [c for c in ("method", "x", "seed", "dynamics") if c in table]
-        table = table.sort_values(keys, kind="stable").reset_index(drop=True)
-    write_text(sweep.folder / TABLE, table.to_csv(index=False))
-    if sweep.experiment.get("kind") == "alphas" and finished:
-        data = (sweep.folder / finished[0] / "alphas.npz").read_bytes()
-        atomic_write(sweep.folder / "alphas.npz", lambda h: h.write(data))
-    profile = sweep.settings.get("profile.name")
-    write_json(sweep.folder / META, {**sweep.experiment, "profile": profile, "jobs": len(sweep.jobs), "finished": len(finished)})
-    return table
-
-
-def read_rows(paths: list[Path]) -> pd.DataFrame:
-    """The jobs' ``rows.csv`` files as one data frame (columns: the union of theirs).
-
-    Files with the same header (a sweep has one per method) are parsed together, which is 30x
-    faster than a parse per file; the rows come grouped by header, in ``paths`` order within a
-    group, so callers sort them.
-    """
-    import io
-
-    import pandas as pd
-
-    bodies: dict[str, list[str]] = {}
-    for path in paths:
-        header, _, body = path.read_text().partition("\n")
-        bodies.setdefault(header, []).append(body if body.endswith("\n") or not body else body + "\n")
-    frames = [pd.read_csv(io.StringIO(header + "\n" + "".join(group))) for header, group in bodies.items()]
-    return pd.concat(frames, ignore_index=True) if frames else pd.DataFrame()
-
-
 def experiment_names() -> list[str]:
     """Every experiment config shipped in conf/experiment/."""
     return sorted(p.stem for p in (Path(conf_dir()) / "experiment").glob("*.yaml") if not p.name.startswith("_"))
-
-
-def read_meta(folder: Path) -> dict:
-    return json.loads((folder / META).read_text())
 
 
 # --------------------------------------------------------------------------- the command
@@ -365,7 +320,8 @@ def _run(sweep: SweepPlan, overrides: list[str], *, draw: bool, console: Console
         quoted = str(sweep.folder.resolve()).replace("\\", "\\\\").replace("'", "\\'")
         absolute = [*overrides, f"hydra.sweep.dir='{quoted}'"]  # quoted: folder names hold '=' and ','
         # the jobs watch this process and stop when it dies (see jobs.sweep.watch_parent)
-        with environment(sweep.workers), progress(sweep, console):
+        # with figures to draw, the warm workers stay for them and import the plotting code
+        with environment(sweep.workers), progress(sweep, console), kept(["airl_cli.plotting"] if draw else []):
             run_hydra("sweep", absolute, multirun=True)
     table = collect(sweep)
     failed = sweep.failed()
@@ -373,8 +329,6 @@ def _run(sweep: SweepPlan, overrides: list[str], *, draw: bool, console: Console
     if not table.empty:
         out.print(medians_text(sweep.experiment, table), end="", soft_wrap=True)
     if draw and not table.empty:
-        from airl_cli.plotting import draw as draw_figures
-
         for path in draw_figures(sweep.folder):
             out.print(f"figure {path}", soft_wrap=True)
     if failed:
@@ -382,24 +336,3 @@ def _run(sweep: SweepPlan, overrides: list[str], *, draw: bool, console: Console
         console.print(f"[bold red]error:[/] {len(failed)} job(s) stopped on bad input, for example {job}: {message}", soft_wrap=True)
         return 1
     return 0
-
-
-def medians_text(experiment: dict, table: pd.DataFrame) -> str:
-    """A short table for the terminal: the median score per method and swept value, over runs
-    and the experiment's dynamics, the demonstrator's beside it, and the thesis's claim."""
-    if experiment.get("kind") == "alphas" or "learner_score" not in table:
-        return ""
-    rows = table[table["dynamics"].isin(experiment.get("dynamics") or table["dynamics"].unique())]
-    rows = rows.dropna(subset=["learner_score"])
-    if rows.empty:
-        return ""
-    learner = rows.pivot_table(index="x", columns="method", values="learner_score", aggfunc="median")
-    learner["demonstrator"] = rows.groupby("x")["demonstrator_score"].median()
-    x_name = experiment.get("x", "x")
-    head = f"{x_name:>12}" + "".join(f"{m:>13}" for m in learner.columns)
-    lines = ["", f"median normalised performance over runs and {', '.join(sorted(rows['dynamics'].unique()))}:", head]
-    for x, r in learner.iterrows():
-        lines.append(f"{x:>12g}" + "".join(f"{v:>13.4f}" for v in r))
-    if experiment.get("thesis"):
-        lines.append(f"thesis: {experiment['thesis']}")
-    return "\n".join(lines) + "\n\n"

@@ -122,13 +122,46 @@ def test_warm_workers_are_other_processes_with_their_share_of_the_cores(monkeypa
 
 
 @pytest.mark.skipif(pool.cores() < 2, reason="two workers need two cores")
-def test_two_workers_give_the_in_process_table(tmp_path):
+def test_two_workers_give_the_in_process_table_and_figures(tmp_path, monkeypatch):
+    """The table equals basic's; the figures, drawn on the two warm workers (PNG on one, PDF on
+    the other), are byte for byte what this process draws from the same folder."""
+    import airl_cli.sweep_table as sweep_table
+    from airl_cli.plotting import draw
+
+    on_workers = []
+    monkeypatch.setattr(sweep_table, "call", lambda targets: on_workers.append(pool.call(targets)) or on_workers[-1])
     tables = {}
     for name, launcher in (("airl", ["hydra/launcher=airl", "hydra.launcher.n_jobs=2"]), ("basic", ["hydra/launcher=basic"])):
         folder = tmp_path / name
-        result = runner.invoke(app, ["sweep", "experiment=fig13", "profile=quick", *launcher, f"hydra.sweep.dir={folder}", "--no-plot"])
+        result = runner.invoke(app, ["sweep", "experiment=fig13", "profile=quick", *launcher, f"hydra.sweep.dir={folder}"])
         assert result.exit_code == 0, result.output
         tables[name] = pd.read_csv(folder / "results.csv").drop(columns=["seconds"])
         assert all((folder / job / ".hydra" / "config.yaml").exists() for job in plan(["experiment=fig13", "profile=quick"]).jobs)
     assert len(tables["basic"]) == 12
     pd.testing.assert_frame_equal(tables["airl"], tables["basic"])
+    assert on_workers[0] is not None and on_workers[1:] == [None]  # airl's on its workers, basic's here
+    folder = tmp_path / "airl" / "figures"
+    drawn = {p.name: p.read_bytes() for p in sorted(folder.iterdir())}
+    assert [p.name for p in draw(tmp_path / "airl")] == ["fig13_run_bars.png", "fig13_run_bars.pdf"]
+    assert drawn == {p.name: p.read_bytes() for p in sorted(folder.iterdir())}
+    assert not pool._pool  # the workers are gone
+
+
+def _boom(message: str) -> None:
+    raise ValueError(message)
+
+
+@pytest.mark.skipif(pool.cores() < 2, reason="two workers need two cores")
+def test_work_on_kept_workers_returns_in_order_or_raises_and_none_without_workers():
+    assert pool.call([("os:getpid", ())]) is None  # no warm workers
+    pool.prestart(2)
+    try:
+        pids = pool.call([("os:getpid", ()), ("os:getpid", ())])
+        assert len(pids) == 2 and os.getpid() not in pids
+        assert pool.call([("os.path:join", ("a", "b")), ("os.path:join", ("c",))]) == [os.path.join("a", "b"), "c"]
+        assert pool.call([("os:getpid", ())] * 3) is None  # more than the workers
+        with pytest.raises(ValueError, match="bad figure"):
+            pool.call([("tests.test_launcher:_boom", ("bad figure",))])
+    finally:
+        pool.shutdown()
+    assert not pool._pool

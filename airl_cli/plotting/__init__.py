@@ -145,12 +145,14 @@ def sized_title(meta: dict[str, Any], df: pd.DataFrame) -> str:
     return f"{title} [{'quick profile: ' if quick else ''}{n} run{'s' if n != 1 else ''} per point]"
 
 
-def draw(folder: str | os.PathLike) -> list[Path]:
-    """Draw every figure experiment.json lists; return the PNG and PDF paths written.
+def draw(folder: str | os.PathLike, formats: tuple[str, ...] = ("png", "pdf")) -> list[Path]:
+    """Draw every figure experiment.json lists; return the paths written, each figure's in
+    ``formats`` order.
 
     Files go to ``folder/figures/{name}_{kind}.png`` and ``.pdf`` (for "alphas":
     ``{name}_exact`` and ``{name}_pbvi``). Inputs are checked before anything is drawn: a
-    missing file, key or column raises ``ValueError`` naming it.
+    missing file, key or column raises ``ValueError`` naming it. Two processes may draw the
+    formats apart (``airl sweep`` does, on its warm workers): the files are the same.
     """
     folder = Path(folder)
     meta = _read_meta(folder)
@@ -167,18 +169,20 @@ def draw(folder: str | os.PathLike) -> list[Path]:
 
     if df is not None:
         meta = {**meta, "title": sized_title(meta, df)}
-    figures: list[tuple[str, Figure]] = []
-    for kind in kinds:
-        if kind == "alphas":
-            exact, pbvi = alpha_vectors(alphas, meta)
-            figures += [(f"{name}_exact", exact), (f"{name}_pbvi", pbvi)]
-        else:
-            figures.append((f"{name}_{kind}", _DRAWERS[kind](df, meta)))
+
+    def figures() -> list[tuple[str, Figure]]:
+        made: list[tuple[str, Figure]] = []
+        for kind in kinds:
+            if kind == "alphas":
+                exact, pbvi = alpha_vectors(alphas, meta)
+                made += [(f"{name}_exact", exact), (f"{name}_pbvi", pbvi)]
+            else:
+                made.append((f"{name}_{kind}", _DRAWERS[kind](df, meta)))
+        return made
 
     out = folder / "figures"
     out.mkdir(parents=True, exist_ok=True)
-    written = []
-    for stem, fig in figures:
-        for suffix in (".png", ".pdf"):
-            written.append(_save(fig, out / f"{stem}{suffix}"))
-    return written
+    # a new figure per format: a layout left by one format's renderer would shift the next's
+    # (by a fraction of a point), so each file is the same whichever process draws which format
+    written = {fmt: [_save(fig, out / f"{stem}.{fmt}") for stem, fig in figures()] for fmt in formats}
+    return [path for paths in zip(*written.values(), strict=True) for path in paths]
