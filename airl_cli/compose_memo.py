@@ -25,6 +25,8 @@ from __future__ import annotations
 
 import copy
 import dataclasses
+from collections.abc import Iterator
+from contextlib import contextmanager
 from typing import Any
 
 _installed: tuple | None = None  # Hydra's own two functions while ours stand in for them
@@ -106,3 +108,15 @@ def uninstall() -> None:
     _config_memo.clear()
     _parse_memo.clear()
     _installed = None
+
+
+@contextmanager
+def active() -> Iterator[None]:
+    """Remember compositions within the block; put Hydra's own back after it if it was there."""
+    installed_here = _installed is None
+    install()
+    try:
+        yield
+    finally:
+        if installed_here:
+            uninstall()

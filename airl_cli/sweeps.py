@@ -27,6 +27,7 @@ from omegaconf import DictConfig, OmegaConf
 from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 
+from airl_cli import compose_memo
 from airl_cli.config import fit_settings, plain, problem_settings
 from airl_cli.errors import ConfigError
 from airl_cli.launch import launcher_discoverable
@@ -125,6 +126,11 @@ def plan(overrides: list[str]) -> SweepPlan:
     Raises:
         ConfigError: no experiment named, an unknown override, or a bad value in the first job.
     """
+    with compose_memo.active():  # the first job's composition reuses the sweep's
+        return _plan(overrides)
+
+
+def _plan(overrides: list[str]) -> SweepPlan:
     launcher_discoverable()  # before Hydra's plugin registry is first built
     parser = OverridesParser.create()
     try:
@@ -146,7 +152,8 @@ def plan(overrides: list[str]) -> SweepPlan:
     task_args = [o for o in overrides if _is_task_override(o)]
     jobs_overrides = BasicSweeper.split_arguments(parser.parse_overrides(params + task_args), None)[0]
     exclude = list(cfg.hydra.job.config.override_dirname.exclude_keys)
-    jobs = tuple(get_overrides_dirname(parser.parse_overrides(job), exclude, ",", "=") for job in jobs_overrides)
+    parsed_once = {o: parser.parse_override(o) for o in {o for job in jobs_overrides for o in job}}  # 2 ms each
+    jobs = tuple(get_overrides_dirname([parsed_once[o] for o in job], exclude, ",", "=") for job in jobs_overrides)
     try:
         first_job = _compose([o for o in overrides if not _is_task_override(o)] + jobs_overrides[0])
     except HydraException as err:
