@@ -162,8 +162,12 @@ def call(targets: Sequence[tuple[str, tuple]]) -> list[Any] | None:
         return None
     try:
         futures = [pool.submit(_call, target, *args) for target, args in targets]
+    except RuntimeError:  # the pool is broken (BrokenProcessPool is one) or shut down
+        shutdown(wait=False)
+        return None
+    try:
         return [f.result() for f in futures]
-    except (BrokenProcessPool, RuntimeError):  # RuntimeError: the pool was shut down meanwhile
+    except BrokenProcessPool:
         shutdown(wait=False)
         return None
 

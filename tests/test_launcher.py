@@ -148,7 +148,7 @@ def test_two_workers_give_the_in_process_table_and_figures(tmp_path, monkeypatch
 
 
 def _boom(message: str) -> None:
-    raise ValueError(message)
+    raise (RuntimeError if "runtime" in message else ValueError)(message)
 
 
 @pytest.mark.skipif(pool.cores() < 2, reason="two workers need two cores")
@@ -162,6 +162,9 @@ def test_work_on_kept_workers_returns_in_order_or_raises_and_none_without_worker
         assert pool.call([("os:getpid", ())] * 3) is None  # more than the workers
         with pytest.raises(ValueError, match="bad figure"):
             pool.call([("tests.test_launcher:_boom", ("bad figure",))])
+        with pytest.raises(RuntimeError, match="a runtime error"):  # raised, not taken for a broken pool
+            pool.call([("tests.test_launcher:_boom", ("a runtime error",))])
+        assert pool.call([("os:getpid", ())]) is not None  # and the workers are still there
     finally:
         pool.shutdown()
     assert not pool._pool
