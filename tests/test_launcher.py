@@ -4,6 +4,7 @@ workers get their share of the cores, and a sweep on two workers gives the in-pr
 from __future__ import annotations
 
 import os
+from pathlib import Path
 
 import pandas as pd
 import pytest
@@ -152,8 +153,9 @@ def _boom(message: str) -> None:
 
 
 @pytest.mark.skipif(pool.cores() < 2, reason="two workers need two cores")
-def test_work_on_kept_workers_returns_in_order_or_raises_and_none_without_workers():
+def test_work_on_kept_workers_returns_in_order_or_raises_and_none_without_workers(monkeypatch):
     assert pool.call([("os:getpid", ())]) is None  # no warm workers
+    monkeypatch.syspath_prepend(str(Path(__file__).resolve().parents[1]))  # workers import tests.test_launcher
     pool.prestart(2)
     try:
         pids = pool.call([("os:getpid", ()), ("os:getpid", ())])
