@@ -8,104 +8,15 @@ never read the raw config again.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
-from omegaconf import DictConfig, OmegaConf
+from omegaconf import DictConfig
 
+from airl_cli.config_reader import Cell, Reader, plain
 from airl_cli.core.options import SCHEDULES, CertifiedOptions, FitOptions, PlannerOptions
 from airl_cli.errors import ConfigError
-
-Cell = tuple[int, int]
-
-
-class _Reader:
-    """Reads typed values from one config group, naming ``group.key`` in every error."""
-
-    def __init__(self, node: Any, group: str):
-        if not isinstance(node, Mapping):
-            raise ConfigError(f"'{group}' must be a config group (a mapping of keys), got {node!r}")
-        self.node, self.group = node, group
-
-    def _name(self, key: str) -> str:
-        return f"{self.group}.{key}" if self.group else key
-
-    def raw(self, key: str, default: Any = ...) -> Any:
-        if key not in self.node or self.node[key] is None:
-            if default is ...:
-                raise ConfigError(f"'{self._name(key)}' is missing")
-            return default
-        return self.node[key]
-
-    def int(self, key: str, *, lo: int | None = None, hi: int | None = None, default: Any = ...) -> int:
-        value = self.raw(key, default)
-        if isinstance(value, bool) or not isinstance(value, int):
-            raise ConfigError(f"'{self._name(key)}' must be a whole number, got {value!r}")
-        if (lo is not None and value < lo) or (hi is not None and value > hi):
-            raise ConfigError(f"'{self._name(key)}' must be {_range(lo, hi)}, got {value}")
-        return value
-
-    def float(self, key: str, *, lo: float | None = None, hi: float | None = None, default: Any = ..., open_lo: bool = False) -> float:
-        value = self.raw(key, default)
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-            raise ConfigError(f"'{self._name(key)}' must be a finite number, got {value!r}")
-        value = float(value)
-        too_low = lo is not None and (value <= lo if open_lo else value < lo)
-        if too_low or (hi is not None and value > hi):
-            raise ConfigError(f"'{self._name(key)}' must be {_range(lo, hi, open_lo)}, got {value:g}")
-        return value
-
-    def choice(self, key: str, options: tuple[str, ...], default: Any = ...) -> str:
-        value = self.raw(key, default)
-        if value not in options:
-            raise ConfigError(f"'{self._name(key)}' must be one of {', '.join(options)}; got {value!r}")
-        return value
-
-    def floats(self, key: str, *, length: int | None = None) -> tuple[float, ...]:
-        value = self.raw(key)
-        if not isinstance(value, (list, tuple)) or not all(
-            isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in value
-        ):
-            raise ConfigError(f"'{self._name(key)}' must be a list of numbers, got {value!r}")
-        if length is not None and len(value) != length:
-            raise ConfigError(f"'{self._name(key)}' must have {length} numbers, got {len(value)}")
-        return tuple(float(v) for v in value)
-
-    def cell(self, key: str, value: Any, size: int) -> Cell:
-        ok = (
-            isinstance(value, (list, tuple))
-            and len(value) == 2
-            and all(isinstance(v, int) and not isinstance(v, bool) for v in value)
-        )
-        if not ok:
-            raise ConfigError(f"'{self._name(key)}' must hold cells [row, col], got {value!r}")
-        if not all(1 <= v <= size for v in value):
-            raise ConfigError(f"'{self._name(key)}' has the cell {list(value)} outside the {size}x{size} grid (rows and columns count from 1)")
-        return (int(value[0]), int(value[1]))
-
-    def cells(self, key: str, size: int, value: Any = ...) -> tuple[Cell, ...]:
-        value = self.raw(key) if value is ... else value
-        if not isinstance(value, (list, tuple)):
-            raise ConfigError(f"'{self._name(key)}' must be a list of cells [row, col], got {value!r}")
-        return tuple(self.cell(key, v, size) for v in value)
-
-
-def _range(lo: Any, hi: Any, open_lo: bool = False) -> str:
-    if lo is not None and hi is not None:
-        return f"between {lo} and {hi}"
-    if lo is not None:
-        return f"> {lo}" if open_lo else f">= {lo}"
-    return f"<= {hi}"
-
-
-def plain(cfg: DictConfig | Mapping) -> dict:
-    """The config as plain Python containers, interpolations resolved."""
-    if isinstance(cfg, DictConfig):
-        return OmegaConf.to_container(cfg, resolve=True)  # type: ignore[return-value]
-    return dict(cfg)
-
 
 # --------------------------------------------------------------------------- problem
 
@@ -173,7 +84,7 @@ TRANSITIONS = ("uniform", "dirichlet", "sparse")
 
 
 def _mdp(node: Any) -> RandomMDPSettings | GridMDPSettings:
-    r = _Reader(node, "mdp")
+    r = Reader(node, "mdp")
     name = r.choice("name", ("random", "grid"))
     if name == "random":
         n_states = r.int("n_states", lo=1)
@@ -204,7 +115,7 @@ def _mdp(node: Any) -> RandomMDPSettings | GridMDPSettings:
 
 
 def _dynamics(node: Any, mdp: RandomMDPSettings | GridMDPSettings) -> DynamicsSettings:
-    r = _Reader(node, "dynamics")
+    r = Reader(node, "dynamics")
     kind = r.choice("kind", ("gaussian", "same", "grid_layouts"))
     name = str(r.raw("name", kind))
     if kind == "gaussian":
@@ -227,20 +138,20 @@ def _dynamics(node: Any, mdp: RandomMDPSettings | GridMDPSettings) -> DynamicsSe
 
 def loss_and_seed(cfg: DictConfig | Mapping) -> tuple[str, int]:
     """The loss kind and the seed: all that matters of the problem groups when data=PATH is given."""
-    top = _Reader(plain(cfg), "")
-    return _Reader(top.raw("loss"), "loss").choice("kind", LOSSES), top.int("seed", lo=0)
+    top = Reader(plain(cfg), "")
+    return Reader(top.raw("loss"), "loss").choice("kind", LOSSES), top.int("seed", lo=0)
 
 
 def problem_settings(cfg: DictConfig | Mapping) -> ProblemSettings:
     """Read and check the problem part of a composed config (groups mdp, dynamics, demos, loss; seed)."""
     c = plain(cfg)
-    top = _Reader(c, "")
+    top = Reader(c, "")
     mdp = _mdp(top.raw("mdp"))
     dynamics = _dynamics(top.raw("dynamics"), mdp)
-    d = _Reader(top.raw("demos"), "demos")
+    d = Reader(top.raw("demos"), "demos")
     kind = d.choice("kind", ("sampled", "exact", "optimal_path"))
     demos = DemoSettings(kind, d.int("n", lo=1) if kind == "sampled" else 0)
-    loss = _Reader(top.raw("loss"), "loss").choice("kind", LOSSES)
+    loss = Reader(top.raw("loss"), "loss").choice("kind", LOSSES)
     if loss == "squared_euclidean" and mdp.name != "grid":
         raise ConfigError("'loss=squared_euclidean' measures distances between grid cells; use it with mdp=grid")
     seed = top.int("seed", lo=0)
@@ -274,7 +185,7 @@ class FitSettings:
     certify: bool = False
 
 
-def _method_options(r: _Reader, name: str) -> dict:
+def _method_options(r: Reader, name: str) -> dict:
     if name == "mce":
         return {"lam": r.float("lam", lo=0.0), "max_iterations": r.int("max_iterations", lo=1)}
     if name == "projection":
@@ -289,7 +200,7 @@ def _method_options(r: _Reader, name: str) -> dict:
 
 
 def _planner(node: Any) -> PlannerOptions:
-    r = _Reader(node, "pbvi")
+    r = Reader(node, "pbvi")
     return PlannerOptions(
         method=r.choice("method", ("pbvi", "exact", "mean")),
         iterations=r.int("iterations", lo=1, hi=20),
@@ -302,7 +213,7 @@ def _planner(node: Any) -> PlannerOptions:
     )
 
 
-def _bool(r: _Reader, key: str) -> bool:
+def _bool(r: Reader, key: str) -> bool:
     value = r.raw(key)
     if not isinstance(value, bool):
         raise ConfigError(f"'{r._name(key)}' must be true or false, got {value!r}")
@@ -312,11 +223,11 @@ def _bool(r: _Reader, key: str) -> bool:
 def fit_settings(cfg: DictConfig | Mapping) -> FitSettings:
     """Read and check the learning part of a composed config (groups method, pbvi, game, optim; data)."""
     c = plain(cfg)
-    top = _Reader(c, "")
-    m = _Reader(top.raw("method"), "method")
+    top = Reader(c, "")
+    m = Reader(top.raw("method"), "method")
     method = m.choice("name", METHODS)
-    g = _Reader(top.raw("game"), "game")
-    o = _Reader(top.raw("optim"), "optim")
+    g = Reader(top.raw("game"), "game")
+    o = Reader(top.raw("optim"), "optim")
     optimizer = o.choice("name", OPTIMIZERS)
     planner = _planner(top.raw("pbvi"))
     sharing, normalize_loss = _bool(o, "weight_sharing"), _bool(g, "normalize_loss")
@@ -387,8 +298,8 @@ def plan_settings(cfg: DictConfig | Mapping) -> PlanSettings:
     from airl_cli.core.multimodel import EXPANSIONS
 
     c = plain(cfg)
-    top = _Reader(c, "")
-    p = _Reader(top.raw("plan"), "plan")
+    top = Reader(c, "")
+    p = Reader(top.raw("plan"), "plan")
     path = p.raw("input", None)
     if not isinstance(path, str) or not path:
         raise ConfigError("'plan.input' must be a folder of CSV files or an .npz file, e.g. plan.input=data/riverswim")
