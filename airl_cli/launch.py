@@ -244,9 +244,8 @@ def _jobs_composed_once(active: bool) -> Iterator[None]:
 
     saved = Sweeper.validate_batch_is_legal
     Sweeper.validate_batch_is_legal = lambda self, batch: None  # type: ignore[method-assign]
-    compose_memo.install()
     try:
-        yield
+        with compose_memo.active():
+            yield
     finally:
         Sweeper.validate_batch_is_legal = saved  # type: ignore[method-assign]
-        compose_memo.uninstall()

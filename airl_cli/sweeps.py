@@ -281,7 +281,7 @@ def run(overrides: list[str], *, draw: bool, console: Console, out: Console) -> 
         sweep = plan(overrides)
         return _claim_and_run(sweep, overrides, draw=draw, console=console, out=out)
     finally:
-        shutdown()
+        shutdown(idle=True)  # workers left here run no job: warming up (bad input) or done (figures)
 
 
 def _expected_workers(overrides: list[str]) -> int:

@@ -4,6 +4,7 @@ workers get their share of the cores, and a sweep on two workers gives the in-pr
 from __future__ import annotations
 
 import os
+import signal
 from pathlib import Path
 
 import pandas as pd
@@ -170,3 +171,14 @@ def test_work_on_kept_workers_returns_in_order_or_raises_and_none_without_worker
     finally:
         pool.shutdown()
     assert not pool._pool
+
+
+@pytest.mark.skipif(pool.cores() < 2, reason="two workers need two cores")
+def test_workers_that_run_no_job_are_stopped_at_once():
+    """A sweep stopped by a bad value does not wait for its warm workers' imports to finish."""
+    pool.prestart(2)
+    processes = list(pool._pool["pool"]._processes.values())
+    assert len(processes) == 2
+    pool.shutdown(idle=True)  # at once: a worker's imports take about a second
+    assert not any(p.is_alive() for p in processes) and not pool._pool
+    assert all(p.exitcode == -signal.SIGTERM for p in processes)  # stopped, not left to finish their imports
