@@ -11,9 +11,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from airl_cli.config import GridMDPSettings, ProblemSettings
+from airl_cli.config import GridMDPSettings, MDPSettings, ObjectworldSettings, ProblemSettings
 from airl_cli.core import demos as core_demos
-from airl_cli.core import problems
+from airl_cli.core import objectworld, problems
 from airl_cli.core.planning import backward_induction
 from airl_cli.core.scores import performance
 from airl_cli.data import Dataset
@@ -44,10 +44,11 @@ class Problem:
 
 def resolved_loss(settings: ProblemSettings) -> str:
     """The loss that ``loss=auto`` stands for: thesis §7.2 and §7.3 use the zero-one loss on the random
-    MDP and "the squared loss" on the grid, read as the squared distance between the states' features."""
+    MDP and "the squared loss" on the grid, read as the squared distance between the states' features;
+    the objectworld, a grid too, takes the grid's."""
     if settings.loss != "auto":
         return settings.loss
-    return "squared_features" if isinstance(settings.mdp, GridMDPSettings) else "zero_one"
+    return "zero_one" if settings.mdp.name == "random" else "squared_features"
 
 
 def loss_matrix(kind: str, phi: np.ndarray, coords: np.ndarray | None = None) -> np.ndarray:
@@ -75,31 +76,52 @@ def with_loss(dataset: Dataset, kind: str) -> Dataset:
     return Dataset(**{**dataset.__dict__, "loss": loss_matrix(kind, dataset.features)})
 
 
+def base_problem(mdp: MDPSettings, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray | None]:
+    """tau (S, A, S), phi (S, K), w* (K,), p0 (S,) and the grid coordinates (S, 2) or None, of the
+    mdp group; randomness from ``rng`` (the "mdp" stream)."""
+    if isinstance(mdp, GridMDPSettings):
+        tau = problems.grid_world(epsilon=mdp.epsilon, size=mdp.size, start=mdp.start)
+        phi = problems.grid_features(size=mdp.size, start=mdp.start, goals=mdp.goals, dangers=mdp.dangers)
+        p0 = problems.grid_initial(size=mdp.size, start=mdp.start)
+        return tau, phi, np.array(mdp.true_weights), p0, problems.grid_coordinates(mdp.size)
+    if isinstance(mdp, ObjectworldSettings):
+        world = objectworld.objectworld(
+            rng,
+            size=mdp.size,
+            n_objects=mdp.n_objects,
+            n_colours=mdp.n_colours,
+            features=mdp.features,
+            near_distance=mdp.near_distance,
+            max_distance=mdp.max_distance,
+        )
+        # w* is drawn whatever mdp.true_weights says, so the stream stays the same
+        w_star = world.true_weights if mdp.true_weights is None else np.array(mdp.true_weights)
+        tau = objectworld.slip_dynamics(mdp.size, mdp.slip)
+        return tau, world.features, w_star, objectworld.uniform_initial(mdp.size), problems.grid_coordinates(mdp.size)
+    tau, phi, w_star, p0 = problems.random_mdp(
+        rng,
+        n_states=mdp.n_states,
+        n_actions=mdp.n_actions,
+        n_features=mdp.n_features,
+        transition=mdp.transition,
+        dirichlet_alpha=mdp.dirichlet_alpha,
+        n_next=mdp.n_next,
+    )
+    return tau, phi, w_star, p0, None
+
+
 def build_problem(settings: ProblemSettings) -> Problem:
     """The MDP, its dynamics tau_0..tau_D, features, true weights and loss (thesis §7.2-7.3)."""
     rng = streams(settings.seed)
     mdp, dyn = settings.mdp, settings.dynamics
-    coords = None
-    if isinstance(mdp, GridMDPSettings):
-        tau = problems.grid_world(epsilon=mdp.epsilon, size=mdp.size, start=mdp.start)
-        phi = problems.grid_features(size=mdp.size, start=mdp.start, goals=mdp.goals, dangers=mdp.dangers)
-        w_star = np.array(mdp.true_weights)
-        p0 = problems.grid_initial(size=mdp.size, start=mdp.start)
-        coords = problems.grid_coordinates(mdp.size)
-    else:
-        tau, phi, w_star, p0 = problems.random_mdp(
-            rng["mdp"],
-            n_states=mdp.n_states,
-            n_actions=mdp.n_actions,
-            n_features=mdp.n_features,
-            transition=mdp.transition,
-            dirichlet_alpha=mdp.dirichlet_alpha,
-            n_next=mdp.n_next,
-        )
+    tau, phi, w_star, p0, coords = base_problem(mdp, rng["mdp"])
     if dyn.kind == "gaussian":
         others = problems.gaussian_perturbations(rng["dynamics"], tau, sigma=dyn.sigma, n_dynamics=dyn.n_dynamics)
     elif dyn.kind == "same":
         others = np.broadcast_to(tau, (dyn.n_dynamics,) + tau.shape)
+    elif dyn.kind == "slip":
+        assert isinstance(mdp, ObjectworldSettings)
+        others = np.stack([objectworld.slip_dynamics(mdp.size, slip) for slip in dyn.slips])
     else:
         assert isinstance(mdp, GridMDPSettings)
         others = np.stack(

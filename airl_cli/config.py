@@ -1,9 +1,9 @@
 """Typed settings read from a composed Hydra config, with one clear sentence per bad value.
 
 Hydra composes the YAML of ``conf/``; this module turns the plain values into frozen dataclasses
-and checks ranges and cross-group consistency (``dynamics=gaussian`` needs ``mdp=random``...),
-raising ``ConfigError`` that names the key. Jobs call ``problem_settings(cfg)`` and friends and
-never read the raw config again.
+and checks ranges and cross-group consistency (``dynamics=gaussian`` needs ``mdp=random``,
+``dynamics=slip`` needs ``mdp=objectworld``...), raising ``ConfigError`` that names the key. Jobs
+call ``problem_settings(cfg)`` and friends and never read the raw config again.
 """
 
 from __future__ import annotations
@@ -50,14 +50,38 @@ class GridMDPSettings:
 
 
 @dataclass(frozen=True)
+class ObjectworldSettings:
+    """``mdp=objectworld``: Levine, Popović & Koltun (2011), ``airl_cli.core.objectworld``.
+
+    ``n_objects`` and ``max_distance`` are resolved (never None); ``true_weights`` None means w* is
+    drawn from the "mdp" stream after the objects.
+    """
+
+    size: int
+    n_objects: int
+    n_colours: int
+    features: str  # one of objectworld.FEATURE_SETS
+    near_distance: float
+    max_distance: int
+    slip: float
+    horizon: int
+    true_weights: tuple[float, ...] | None
+    name: str = "objectworld"
+
+
+MDPSettings = RandomMDPSettings | GridMDPSettings | ObjectworldSettings
+
+
+@dataclass(frozen=True)
 class DynamicsSettings:
     """``dynamics=...``: how tau_1..tau_D are made from tau."""
 
     name: str
-    kind: str  # gaussian | same | grid_layouts
+    kind: str  # gaussian | same | grid_layouts | slip
     n_dynamics: int
     sigma: float = 0.0
     layouts: tuple[tuple[Cell, ...], ...] = ()
+    slips: tuple[float, ...] = ()  # kind=slip: the objectworld's slip of each tau_j
 
 
 @dataclass(frozen=True)
@@ -72,7 +96,7 @@ class DemoSettings:
 class ProblemSettings:
     """Everything ``airl generate`` needs."""
 
-    mdp: RandomMDPSettings | GridMDPSettings
+    mdp: MDPSettings
     dynamics: DynamicsSettings
     demos: DemoSettings
     loss: str  # one of LOSSES
@@ -83,9 +107,11 @@ LOSSES = ("auto", "zero_one", "squared_features", "squared_euclidean")
 TRANSITIONS = ("uniform", "dirichlet", "sparse")
 
 
-def _mdp(node: Any) -> RandomMDPSettings | GridMDPSettings:
+def _mdp(node: Any) -> MDPSettings:
     r = Reader(node, "mdp")
-    name = r.choice("name", ("random", "grid"))
+    name = r.choice("name", ("random", "grid", "objectworld"))
+    if name == "objectworld":
+        return _objectworld(r)
     if name == "random":
         n_states = r.int("n_states", lo=1)
         return RandomMDPSettings(
@@ -114,16 +140,55 @@ def _mdp(node: Any) -> RandomMDPSettings | GridMDPSettings:
     )
 
 
-def _dynamics(node: Any, mdp: RandomMDPSettings | GridMDPSettings) -> DynamicsSettings:
+def _objectworld(r: Reader) -> ObjectworldSettings:
+    from airl_cli.core.objectworld import FEATURE_SETS, n_features
+
+    size = r.int("size", lo=2)
+    S = size * size
+    n_colours = r.int("n_colours", lo=1, hi=S)
+    n_objects = r.int("n_objects", lo=1, hi=S, default=min(max(S // 8, n_colours), S))
+    features = r.choice("features", FEATURE_SETS)
+    max_distance = r.int("max_distance", lo=1, default=size)
+    K = n_features(features, n_colours=n_colours, max_distance=max_distance)
+    weights = None
+    if r.raw("true_weights", None) is not None:
+        weights = r.floats("true_weights")
+        if len(weights) != K:
+            raise ConfigError(
+                f"'mdp.true_weights' must have {K} numbers, one per feature (features={features} with "
+                f"n_colours={n_colours}{f', max_distance={max_distance}' if features == 'thresholded' else ''}), got {len(weights)}"
+            )
+    return ObjectworldSettings(
+        size=size,
+        n_objects=n_objects,
+        n_colours=n_colours,
+        features=features,
+        near_distance=r.float("near_distance", lo=0.0),
+        max_distance=max_distance,
+        slip=r.float("slip", lo=0.0, hi=1.0),
+        horizon=r.int("horizon", lo=2),
+        true_weights=weights,
+    )
+
+
+def _dynamics(node: Any, mdp: MDPSettings) -> DynamicsSettings:
     r = Reader(node, "dynamics")
-    kind = r.choice("kind", ("gaussian", "same", "grid_layouts"))
+    kind = r.choice("kind", ("gaussian", "same", "grid_layouts", "slip"))
     name = str(r.raw("name", kind))
     if kind == "gaussian":
         if mdp.name != "random":
-            raise ConfigError(f"'dynamics={name}' perturbs a random MDP; use it with mdp=random (or use dynamics=same)")
+            instead = "dynamics=same or dynamics=slip" if mdp.name == "objectworld" else "dynamics=same"
+            raise ConfigError(f"'dynamics={name}' perturbs a random MDP; use it with mdp=random (or use {instead})")
         return DynamicsSettings(name, kind, r.int("n_dynamics", lo=1), sigma=r.float("sigma", lo=0.0))
     if kind == "same":
         return DynamicsSettings(name, kind, r.int("n_dynamics", lo=1))
+    if kind == "slip":
+        if mdp.name != "objectworld":
+            raise ConfigError(f"'dynamics={name}' changes the objectworld's slip; use it with mdp=objectworld")
+        slips = r.floats("slips")
+        if not slips or not all(0.0 <= v <= 1.0 for v in slips):
+            raise ConfigError(f"'dynamics.slips' must be a non-empty list of numbers between 0 and 1, got {list(slips)}")
+        return DynamicsSettings(name, kind, len(slips), slips=slips)
     if mdp.name != "grid":
         raise ConfigError(f"'dynamics={name}' places cross cells on the grid; use it with mdp=grid")
     raw_layouts = r.raw("layouts")
@@ -152,8 +217,8 @@ def problem_settings(cfg: DictConfig | Mapping) -> ProblemSettings:
     kind = d.choice("kind", ("sampled", "exact", "optimal_path"))
     demos = DemoSettings(kind, d.int("n", lo=1) if kind == "sampled" else 0)
     loss = Reader(top.raw("loss"), "loss").choice("kind", LOSSES)
-    if loss == "squared_euclidean" and mdp.name != "grid":
-        raise ConfigError("'loss=squared_euclidean' measures distances between grid cells; use it with mdp=grid")
+    if loss == "squared_euclidean" and mdp.name == "random":
+        raise ConfigError("'loss=squared_euclidean' measures distances between grid cells; use it with mdp=grid or mdp=objectworld")
     seed = top.int("seed", lo=0)
     return ProblemSettings(mdp=mdp, dynamics=dynamics, demos=demos, loss=loss, seed=seed)
 

@@ -92,7 +92,13 @@ def fit_sizes(cfg: DictConfig) -> dict | None:
     if data is None:
         problem = problem_settings(cfg)
         mdp = problem.mdp
-        S, A = (mdp.n_states, mdp.n_actions) if mdp.name == "random" else (mdp.size**2, 4)
+        if mdp.name == "random":
+            S, A = mdp.n_states, mdp.n_actions
+        else:  # the grid world and the objectworld: size x size cells
+            from airl_cli.core.objectworld import OBJECTWORLD_ACTIONS
+            from airl_cli.core.problems import GRID_ACTIONS
+
+            S, A = mdp.size**2, len(OBJECTWORLD_ACTIONS if mdp.name == "objectworld" else GRID_ACTIONS)
         n = problem.demos.n if problem.demos.kind == "sampled" else 1
         return {"n_states": S, "n_actions": A, "horizon": mdp.horizon, "n_dynamics": problem.dynamics.n_dynamics, "n_demos": n}
     try:
@@ -119,6 +125,13 @@ def memory_estimate(cfg: DictConfig) -> tuple[Estimate, int | None] | None:
     return estimate, (planner.iterations if pbvi else None)
 
 
+def _shrink(cfg: DictConfig) -> str:
+    """The settings that size the problem, for the refusal to name: the grids have mdp.size."""
+    if cfg.get("data") is None and OmegaConf.select(cfg, "mdp.name") in ("grid", "objectworld"):
+        return "mdp.size, mdp.horizon"
+    return "mdp.n_states, mdp.horizon"
+
+
 def check_memory(cfg: DictConfig, *, workers: int = 1) -> Estimate | None:
     """Refuse, before any work, a fit that will not fit in memory (one sentence: what to lower).
 
@@ -129,7 +142,7 @@ def check_memory(cfg: DictConfig, *, workers: int = 1) -> Estimate | None:
     if found is None:
         return None
     estimate, iterations = found
-    sentence = refusal(estimate, available_memory(), iterations=iterations, workers=workers)
+    sentence = refusal(estimate, available_memory(), iterations=iterations, workers=workers, shrink=_shrink(cfg))
     if sentence is not None:
         raise ConfigError(sentence)
     return estimate

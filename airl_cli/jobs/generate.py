@@ -19,8 +19,18 @@ def describe(settings: ProblemSettings, dataset: Dataset) -> list[tuple[str, str
     """(label, text) lines that say what the problem is."""
     mdp, dyn, demos = settings.mdp, settings.dynamics, settings.demos
     sizes = f"S={dataset.n_states}, A={dataset.n_actions}, K={dataset.n_features}, T={dataset.horizon}"
-    problem = f"random MDP ({sizes})" if mdp.name == "random" else f"grid world {mdp.size}x{mdp.size}, epsilon={mdp.epsilon:g} ({sizes})"
+    if mdp.name == "random":
+        problem = f"random MDP ({sizes})"
+    elif mdp.name == "grid":
+        problem = f"grid world {mdp.size}x{mdp.size}, epsilon={mdp.epsilon:g} ({sizes})"
+    else:
+        problem = (
+            f"objectworld {mdp.size}x{mdp.size}, {mdp.n_objects} objects of {mdp.n_colours} colours, "
+            f"features={mdp.features}, slip={mdp.slip:g} ({sizes})"
+        )
     dynamics = f"{dyn.name}, D={dataset.n_dynamics}" + (f", sigma={dyn.sigma:g}" if dyn.kind == "gaussian" else "")
+    if dyn.kind == "slip":
+        dynamics += "; slips " + ", ".join(f"tau_{j + 1}: {slip:g}" for j, slip in enumerate(dyn.slips))
     if dyn.kind == "grid_layouts":
         dynamics += "; crosses " + "; ".join(
             f"tau_{j + 1}: " + (" ".join(f"({r},{c})" for r, c in layout) or "none") for j, layout in enumerate(dyn.layouts)
