@@ -27,6 +27,7 @@ from rich.table import Table  # noqa: E402
 from airl_cli.core.demos import sample_trajectories  # noqa: E402
 from airl_cli.core.planning import backward_induction  # noqa: E402
 from airl_cli.core.problems import gaussian_perturbations, random_mdp  # noqa: E402
+from airl_cli.core.sparse import sparse_dynamics  # noqa: E402
 from airl_cli.multimodel import expand_beliefs, solve  # noqa: E402
 
 console = Console(width=150)
@@ -68,8 +69,9 @@ def numpy_backup(P, R_t, B, alpha_next, offsets_next):
     """The yardstick: one PBVI backup (Table III) as plain vectorised numpy, no pruning.
 
     P (M, S, A, S); R_t (M, S, A); B (nb, M); alpha_next (n_next, M) grouped by state with
-    ``offsets_next`` (S+1,). Returns action (S, nb), succ (S, nb, S), alpha (S, nb, M) as
-    ``_kernels.backup_step`` does."""
+    ``offsets_next`` (S+1,). Returns action (S, nb), succ (S, nb, S), alpha (S, nb, M); the
+    compiled ``_kernels.backup_step`` returns the same actions and alpha-vectors (its successors
+    are kept only for the next states each state reaches)."""
     _, S, A, _ = P.shape
     nb = len(B)
     total = np.einsum("jsa,bj->sab", R_t, B)
@@ -97,7 +99,8 @@ def _backup_times(S, A, T, M, iterations, threads):
     P, R, p0 = adversary_problem(S=S, A=A, D=M - 1, T=T)
     B = expand_beliefs(P, iterations=iterations, rng=np.random.default_rng(1))
     graph = solve(P, R, p0, beliefs=B).graph
-    PT, Bt = np.ascontiguousarray(P.transpose(1, 2, 3, 0)), np.ascontiguousarray(B.T)
+    dyn = sparse_dynamics(P)
+    PR, nxt, cnt, Bt = dyn.model_axis_last(), dyn.next_states, dyn.count, np.ascontiguousarray(B.T)
     steps = [(np.ascontiguousarray(np.repeat(R[:, t, :, None], A, axis=2)), graph.alpha[t + 1], graph.offsets[t + 1]) for t in range(1, T - 1)]
     times = [0.0] * (1 + len(threads))
     before = numba.get_num_threads()
@@ -106,9 +109,9 @@ def _backup_times(S, A, T, M, iterations, threads):
         times[0] += median_seconds(lambda R_t=R_t, a=alpha_next, o=offsets_next: numpy_backup(P, R_t, B, a, o), repeats=3)
         for i, n in enumerate(threads):
             numba.set_num_threads(n)
-            out = _kernels.backup_step(PT, R_t, Bt, alpha_next, offsets_next)
+            out = _kernels.backup_step(PR, nxt, cnt, R_t, Bt, alpha_next, offsets_next)
             assert np.array_equal(out[0], ref[0]) and np.allclose(out[2], ref[2], rtol=1e-10, atol=1e-10)
-            times[1 + i] += median_seconds(lambda R_t=R_t, a=alpha_next, o=offsets_next: _kernels.backup_step(PT, R_t, Bt, a, o), repeats=5)
+            times[1 + i] += median_seconds(lambda R_t=R_t, a=alpha_next, o=offsets_next: _kernels.backup_step(PR, nxt, cnt, R_t, Bt, a, o), repeats=5)
     numba.set_num_threads(before)
     return len(B), times
 

@@ -10,6 +10,7 @@ import pytest
 from airl_cli.core import _kernels
 from airl_cli.core.multimodel import exact_alpha_vectors, pbvi_graph, upper_envelope_1d
 from airl_cli.core.planning import backward_induction
+from airl_cli.core.sparse import sparse_dynamics
 from airl_cli.multimodel import expand_beliefs, solve
 from tiny import random_dynamics
 
@@ -162,19 +163,22 @@ def test_compiled_backup_equals_the_plain_reference(M, sparse):
     offsets = np.r_[0, np.cumsum(counts)]
     alpha_next = rng.normal(size=(offsets[-1], M))
     R_t = rng.normal(size=(M, S, A))  # action rewards; the thesis's state rewards are constant along a
-    action, succ, alpha = _kernels.backup_step(
-        np.ascontiguousarray(P.transpose(1, 2, 3, 0)), R_t, np.ascontiguousarray(B.T), alpha_next, offsets
-    )
+    dyn = sparse_dynamics(P)
+    nxt, cnt = dyn.next_states, dyn.count
+    action, succ, alpha = _kernels.backup_step(dyn.model_axis_last(), nxt, cnt, R_t, np.ascontiguousarray(B.T), alpha_next, offsets)
     ref = reference_backup(P, R_t, B, alpha_next, offsets)
     for i, (a, al) in enumerate(ref):
         s, b = divmod(i, nb)
         assert action[s, b] == a
         assert np.allclose(alpha[s, b], al, rtol=1e-12, atol=1e-12)
-        # the successors are real nodes of the right next state
-        assert np.all((succ[s, b] >= offsets[:-1]) & (succ[s, b] < offsets[1:]))
-        if sparse:  # unreachable next states keep their first node, as the full scan would
-            unreachable = P[:, s].sum(axis=(0, 1)) == 0
-            assert np.all(succ[s, b][unreachable] == offsets[:-1][unreachable])
+        # the successors are real nodes of the right next state, for exactly the reachable ones
+        reached = np.flatnonzero(P[:, s].sum(axis=(0, 1)) > 0)
+        assert np.array_equal(nxt[s, : cnt[s]], reached)
+        k = succ[s, b, : cnt[s]]
+        assert np.all((k >= offsets[reached]) & (k < offsets[reached + 1]))
+        assert np.all(succ[s, b, cnt[s] :] == -1)
+    if sparse:
+        assert nxt.shape[1] < S  # the successor table is narrower than S
 
 
 def test_backup_is_the_same_on_one_thread_and_on_all():
@@ -189,7 +193,8 @@ def test_backup_is_the_same_on_one_thread_and_on_all():
     offsets = np.r_[0, np.cumsum(counts)]
     alpha_next = rng.normal(size=(offsets[-1], M))
     R_t = rng.normal(size=(M, S, A))
-    args = (np.ascontiguousarray(P.transpose(1, 2, 3, 0)), R_t, np.ascontiguousarray(B.T), alpha_next, offsets)
+    dyn = sparse_dynamics(P)
+    args = (dyn.model_axis_last(), dyn.next_states, dyn.count, R_t, np.ascontiguousarray(B.T), alpha_next, offsets)
     before = numba.get_num_threads()
     try:
         numba.set_num_threads(1)
@@ -241,13 +246,15 @@ def test_graph_structure():
         for s in range(S):
             al = g.alpha[t][g.offsets[t][s] : g.offsets[t][s + 1]]
             assert len(np.unique(al, axis=0)) == len(al)
+    nxt = g.next_states
     for t in range(4):
-        # successor of node k for next state s' is a node of state s'
-        assert np.array_equal(g.state[t + 1][g.successor[t]], np.broadcast_to(np.arange(S), g.successor[t].shape))
-        # each alpha-vector is the exact one-step backup of its successors
         for k in range(g.n_nodes[t]):
             s, a = g.state[t][k], g.action[t][k]
-            expect = R[:, t, s] + sum(P[:, s, a, s2] * g.alpha[t + 1][g.successor[t][k, s2]] for s2 in range(S))
+            targets = nxt[s][nxt[s] >= 0]
+            # successor of node k for next state s' is a node of state s'
+            assert np.array_equal(g.state[t + 1][g.successor[t][k, : targets.size]], targets)
+            # each alpha-vector is the exact one-step backup of its successors
+            expect = R[:, t, s] + sum(P[:, s, a, s2] * g.alpha[t + 1][g.successor[t][k, r]] for r, s2 in enumerate(targets))
             assert np.allclose(g.alpha[t][k], expect)
     assert g.nodes_per_state().shape == (5, S)
 

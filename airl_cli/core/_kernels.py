@@ -102,7 +102,7 @@ def _scan(X, G, n_k, val_a, idx_a, val_b, idx_b):  # pragma: no cover - compiled
 
 
 @njit(cache=True, parallel=True)
-def backup_step(PT, R_t, Bt, alpha_next, offsets_next):  # pragma: no cover - compiled
+def backup_step(PR, nxt, cnt, R_t, Bt, alpha_next, offsets_next):  # pragma: no cover - compiled
     """One modified value backup (Table III) at every belief, for every state, at one time step.
 
     For belief b, state s and action a, the successor for next state s' is the node k of s' at
@@ -112,15 +112,20 @@ def backup_step(PT, R_t, Bt, alpha_next, offsets_next):  # pragma: no cover - co
     alpha_j = R_j(t, s, a) + sum_{s'} P_j(s'|s,a) alpha_next[k(s'), j].
     The thesis's state rewards R_j(t, s) are the case where R_t does not vary along a.
 
+    Only the next states s reaches (``nxt[s, :cnt[s]]``, see ``airl_cli.core.sparse``) are
+    visited: a next state no action and model reach adds nothing to any value. The work per
+    state is O(A * nb * R * M * nodes) for R reachable next states, not O(S).
+
     Exact pruning: for each (s, a, b) an upper bound (every model's best next value, valid since
     beliefs and probabilities are non-negative) and a lower bound (the value of a concrete plan:
-    for each s' the node best at b itself) are cheap: two matrix products for all (s, a, b) at
-    once (BLAS). An action whose upper bound is below the best lower bound at b cannot win there
-    and is not scanned; the result is the same as without pruning. States are backed up in
-    parallel (numba threads; one thread gives the same arrays).
+    for each s' the node best at b itself) are cheap. An action whose upper bound is below the
+    best lower bound at b cannot win there and is not scanned; the result is the same as without
+    pruning. States are backed up in parallel (numba threads; one thread gives the same arrays).
 
     Args:
-        PT: (S, A, S, M) dynamics, model axis last.
+        PR: (S, A, R, M) ``PR[s, a, r, j]`` = P_j(nxt[s, r] | s, a), 0 on the padding.
+        nxt: (S, R) the next states reachable from each state, increasing, -1 padded.
+        cnt: (S,) how many of them.
         R_t: (M, S, A) rewards at this time step (state rewards plus expected action rewards,
             already discounted).
         Bt: (M, nb) belief points.
@@ -129,13 +134,14 @@ def backup_step(PT, R_t, Bt, alpha_next, offsets_next):  # pragma: no cover - co
 
     Returns:
         action: (S, nb) the chosen action per state and belief.
-        succ: (S, nb, S) global index at t+1 of the successor node for each next state.
+        succ: (S, nb, R) global index at t+1 of the successor node for each reachable next
+            state ``nxt[s, r]`` (-1 on the padding).
         alpha: (S, nb, M) the new alpha-vectors.
     """
-    S, A, _, M = PT.shape
+    S, A, Rm, M = PR.shape
     nb = Bt.shape[1]
     action = np.empty((S, nb), np.int64)
-    succ = np.empty((S, nb, S), np.int64)
+    succ = np.full((S, nb, Rm), -1, np.int64)
     alpha = np.empty((S, nb, M))
     # upper envelope U[s', j] per next state and model; k_own[s', b] the node best at b itself
     U = np.empty((S, M))
@@ -151,53 +157,74 @@ def backup_step(PT, R_t, Bt, alpha_next, offsets_next):  # pragma: no cover - co
         _, kbest = _scan(Bt, alpha_next[k0:k1], k1 - k0, va, ia, vb, ib)
         for b in range(nb):
             k_own[s2, b] = k0 + int(kbest[b])
-    # the bounds of every (s, a, b) as matrix products over the flattened (s', j) axis:
-    # lower = R_t^T Bt + P W with W[(s', j), b] = b_j alpha_own(s', b)_j,
-    # upper = (R_t^T + P E) Bt with E[(s', j), j] = U[s', j]
-    W = np.empty((S * M, nb))
-    E = np.zeros((S * M, M))
-    for s2 in range(S):
-        for j in range(M):
-            E[s2 * M + j, j] = U[s2, j]
-            for b in range(nb):
-                W[s2 * M + j, b] = Bt[j, b] * alpha_next[k_own[s2, b], j]
-    P2 = PT.reshape((S * A, S * M))
-    Rsa = np.ascontiguousarray(R_t.reshape((M, S * A)).T)
-    lower = np.dot(P2, W) + np.dot(Rsa, Bt)
-    upper = np.dot(np.dot(P2, E) + Rsa, Bt)
     for s in prange(S):
-        _backup_state(s, PT, R_t, Bt, alpha_next, offsets_next, lower, upper, action, succ, alpha)
+        _backup_state(s, PR, nxt, cnt, R_t, Bt, alpha_next, offsets_next, U, k_own, action, succ, alpha)
     return action, succ, alpha
 
 
 @njit(cache=True)
-def _backup_state(s, PT, R_t, Bt, alpha_next, offsets_next, lower, upper, action, succ, alpha):  # pragma: no cover
+def _bounds(s, PR, nxt, cnt, R_t, Bt, alpha_next, U, k_own):  # pragma: no cover - compiled
+    """(A, nb) lower and upper bounds on the backed-up value of each (a, b) at state s.
+
+    lower[a, b] = b . R_t(s, a) + sum_{s'} sum_j b_j P_j(s'|s,a) alpha_own(s', b)_j (a concrete plan);
+    upper[a, b] = b . (R_t(s, a) + sum_{s'} P(s'|s,a) U[s']) (every model's best next value).
+    """
+    A, M = PR.shape[1], PR.shape[3]
+    nb = Bt.shape[1]
+    lower = np.empty((A, nb))
+    upper = np.empty((A, nb))
+    top = np.empty(M)
+    for a in range(A):
+        for j in range(M):
+            acc = R_t[j, s, a]
+            for r in range(cnt[s]):
+                acc += PR[s, a, r, j] * U[nxt[s, r], j]
+            top[j] = acc
+        for b in range(nb):
+            lo = 0.0
+            up = 0.0
+            for j in range(M):
+                lo += Bt[j, b] * R_t[j, s, a]
+                up += Bt[j, b] * top[j]
+            for r in range(cnt[s]):
+                k = k_own[nxt[s, r], b]
+                for j in range(M):
+                    lo += Bt[j, b] * PR[s, a, r, j] * alpha_next[k, j]
+            lower[a, b] = lo
+            upper[a, b] = up
+    return lower, upper
+
+
+@njit(cache=True)
+def _backup_state(s, PR, nxt, cnt, R_t, Bt, alpha_next, offsets_next, U, k_own, action, succ, alpha):  # pragma: no cover
     """The backup of ``backup_step`` for one state s: writes action[s], succ[s] and alpha[s].
 
     Args:
-        lower, upper: (S*A, nb) the bounds of each (s, a) row at each belief.
+        U, k_own: (S, M) and (S, nb), the upper envelope and each belief's own best node per state.
         The others as in ``backup_step``.
     """
-    S, A, _, M = PT.shape
+    A, M = PR.shape[1], PR.shape[3]
     nb = Bt.shape[1]
+    lower, upper = _bounds(s, PR, nxt, cnt, R_t, Bt, alpha_next, U, k_own)
     n_pairs = A * nb
     va, ia, vb, ib = np.empty(n_pairs), np.empty(n_pairs), np.empty(n_pairs), np.empty(n_pairs)
     pair_a = np.empty(n_pairs, np.int64)
     pair_b = np.empty(n_pairs, np.int64)
     n = 0
     for b in range(nb):
-        top = lower[s * A, b]
+        top = lower[0, b]
         for a in range(1, A):
-            top = max(top, lower[s * A + a, b])
+            top = max(top, lower[a, b])
         cut = top - PRUNE_RTOL * (1.0 + abs(top))
         for a in range(A):
-            if upper[s * A + a, b] >= cut:
+            if upper[a, b] >= cut:
                 pair_a[n] = a
                 pair_b[n] = b
                 n += 1
     # exact backup of the surviving (action, belief) pairs
+    n_r = cnt[s]
     total = np.empty(n)
-    keep_k = np.empty((n, S), np.int64)
+    keep_k = np.empty((n, n_r), np.int64)
     for i in range(n):
         acc = 0.0
         a = pair_a[i]
@@ -205,26 +232,16 @@ def _backup_state(s, PT, R_t, Bt, alpha_next, offsets_next, lower, upper, action
             acc += Bt[j, pair_b[i]] * R_t[j, s, a]
         total[i] = acc
     Xn = np.empty((M, n))  # contiguous rows, so the scan vectorises
-    for s2 in range(S):
+    for r in range(n_r):
+        s2 = nxt[s, r]
         k0, k1 = offsets_next[s2], offsets_next[s2 + 1]
-        reached = False
-        for a in range(A):
-            for j in range(M):
-                if PT[s, a, s2, j] != 0.0:
-                    reached = True
-        if not reached:
-            # no model and action go from s to s2: every candidate scores 0 and the scan would
-            # keep the first node, so skip it (grids and sparse dynamics are mostly such pairs)
-            for i in range(n):
-                keep_k[i, s2] = k0
-            continue
         for j in range(M):
             for i in range(n):
-                Xn[j, i] = Bt[j, pair_b[i]] * PT[s, pair_a[i], s2, j]
+                Xn[j, i] = Bt[j, pair_b[i]] * PR[s, pair_a[i], r, j]
         vbest, kbest = _scan(Xn, alpha_next[k0:k1], k1 - k0, va, ia, vb, ib)
         for i in range(n):
             total[i] += vbest[i]
-            keep_k[i, s2] = k0 + int(kbest[i])
+            keep_k[i, r] = k0 + int(kbest[i])
     # the winning action per belief: highest total, near-ties to the lowest action
     best_total = np.full(nb, -np.inf)
     for i in range(n):
@@ -242,11 +259,11 @@ def _backup_state(s, PT, R_t, Bt, alpha_next, offsets_next, lower, upper, action
         action[s, b] = a_star
         for j in range(M):
             alpha[s, b, j] = R_t[j, s, a_star]
-        for s2 in range(S):
-            k = keep_k[i, s2]
-            succ[s, b, s2] = k
+        for r in range(n_r):
+            k = keep_k[i, r]
+            succ[s, b, r] = k
             for j in range(M):
-                alpha[s, b, j] += PT[s, a_star, s2, j] * alpha_next[k, j]
+                alpha[s, b, j] += PR[s, a_star, r, j] * alpha_next[k, j]
 
 
 @njit(cache=True)
@@ -257,12 +274,13 @@ def unique_nodes(action, succ, alpha):  # pragma: no cover - compiled
     occurrence (lowest belief index) is kept, so the node order is deterministic.
 
     Args:
-        action: (S, nb); succ: (S, nb, S); alpha: (S, nb, M) as returned by ``backup_step``.
+        action: (S, nb); succ: (S, nb, R); alpha: (S, nb, M) as returned by ``backup_step``.
 
     Returns:
-        node_state (n,), node_action (n,), node_succ (n, S), node_alpha (n, M), offsets (S+1,).
+        node_state (n,), node_action (n,), node_succ (n, R), node_alpha (n, M), offsets (S+1,).
     """
     S, nb, M = alpha.shape
+    Rm = succ.shape[2]
     keep = np.empty(S * nb, np.int64)
     offsets = np.empty(S + 1, np.int64)
     n = 0
@@ -286,15 +304,15 @@ def unique_nodes(action, succ, alpha):  # pragma: no cover - compiled
     offsets[S] = n
     node_state = np.empty(n, np.int64)
     node_action = np.empty(n, np.int64)
-    node_succ = np.empty((n, S), np.int64)
+    node_succ = np.empty((n, Rm), np.int64)
     node_alpha = np.empty((n, M))
     for u in range(n):
         s = keep[u] // nb
         b = keep[u] - s * nb
         node_state[u] = s
         node_action[u] = action[s, b]
-        for s2 in range(S):
-            node_succ[u, s2] = succ[s, b, s2]
+        for r in range(Rm):
+            node_succ[u, r] = succ[s, b, r]
         for j in range(M):
             node_alpha[u, j] = alpha[s, b, j]
     return node_state, node_action, node_succ, node_alpha, offsets

@@ -1,7 +1,8 @@
 """Compiled kernels that walk the models forward (numba, cached on disk after the first call):
 modified belief expansion (thesis Table IV) and the policy graph's forward pass (the exact state
 marginals). The readable description is in ``airl_cli.core.multimodel``; layouts as in
-``_kernels`` (``PT`` (S, A, S, M), beliefs ``B`` (nb, M), nodes grouped by state).
+``_kernels`` (sparse dynamics ``PR`` (S, A, R, M) over the next states ``nxt`` (S, R) each
+state reaches, ``cnt`` (S,) of them; beliefs ``B`` (nb, M); nodes grouped by state).
 """
 
 from __future__ import annotations
@@ -11,7 +12,7 @@ from numba import njit
 
 
 @njit(cache=True)
-def expand_once(PT, CT, B, n_old, u, sample, tol):  # pragma: no cover - compiled
+def expand_once(PR, CR, nxt, cnt, B, n_old, u, sample, tol):  # pragma: no cover - compiled
     """One modified belief expansion (Table IV) of the first ``n_old`` rows of ``B``.
 
     For every belief b of the old set, every state s and action a, the candidate next beliefs
@@ -21,7 +22,9 @@ def expand_once(PT, CT, B, n_old, u, sample, tol):  # pragma: no cover - compile
     set (within ``tol``).
 
     Args:
-        PT: (S, A, S, M) dynamics; CT: (S, A, M, S) cumulative sums of P_j(.|s,a) over s'.
+        PR: (S, A, R, M) dynamics over the reachable next states ``nxt`` (S, R), ``cnt`` (S,) of
+            them per state; CR: (S, A, M, R) cumulative sums of P_j(.|s,a) over them
+            (``demos._inverse_cdf``: the same draws as over all S next states).
         B: (capacity, M) belief rows; rows 0..n_old-1 are the current set; new rows are appended.
         n_old: size of the current set.
         u: (n_old, S, A, M) uniforms for sampling.
@@ -31,7 +34,7 @@ def expand_once(PT, CT, B, n_old, u, sample, tol):  # pragma: no cover - compile
     Returns:
         The new size of the set (rows n_old..returned-1 of ``B`` were written).
     """
-    S, A, _, M = PT.shape
+    S, A, _, M = PR.shape
     n = n_old
     cand = np.empty(M)
     best = np.empty(M)
@@ -39,18 +42,18 @@ def expand_once(PT, CT, B, n_old, u, sample, tol):  # pragma: no cover - compile
         best_d = -1.0
         for s in range(S):
             for a in range(A):
-                n_draws = M if sample else S
-                for r in range(n_draws):
+                n_draws = M if sample else cnt[s]
+                for m in range(n_draws):
                     if sample:
-                        # inverse-CDF draw of s' from model r's P_r(.|s,a)
-                        s2 = 0
-                        while s2 < S - 1 and CT[s, a, r, s2] <= u[i, s, a, r]:
-                            s2 += 1
+                        # inverse-CDF draw of s' from model m's P_m(.|s,a)
+                        r = 0
+                        while r < cnt[s] - 1 and CR[s, a, m, r] <= u[i, s, a, m]:
+                            r += 1
                     else:
-                        s2 = r
+                        r = m
                     z = 0.0
                     for j in range(M):
-                        cand[j] = B[i, j] * PT[s, a, s2, j]
+                        cand[j] = B[i, j] * PR[s, a, r, j]
                         z += cand[j]
                     if z <= 0.0:
                         continue
@@ -87,30 +90,29 @@ def expand_once(PT, CT, B, n_old, u, sample, tol):  # pragma: no cover - compile
 
 
 @njit(cache=True)
-def forward_step(P, mu, node_state, node_action, node_succ, n_next):  # pragma: no cover - compiled
+def forward_step(PR, nxt, cnt, mu, node_state, node_action, node_succ, n_next):  # pragma: no cover - compiled
     """Push the node distribution of one time step to the next, for every model.
 
     Args:
-        P: (M, S, A, S) dynamics.
+        PR: (S, A, R, M) dynamics over the reachable next states ``nxt`` (S, R), ``cnt`` (S,).
         mu: (M, n_t) probability of being at each node at time t under each model.
         node_state, node_action: (n_t,) of the nodes at time t.
-        node_succ: (n_t, S) successor node at t+1 per next state.
+        node_succ: (n_t, R) successor node at t+1 per reachable next state ``nxt[s, r]``.
         n_next: number of nodes at t+1.
 
     Returns:
         (M, n_next) the node distribution at t+1.
     """
-    M, S = P.shape[0], P.shape[1]
+    M = PR.shape[3]
     out = np.zeros((M, n_next))
     for k in range(node_state.size):
         s = node_state[k]
         a = node_action[k]
-        for j in range(M):
-            m = mu[j, k]
-            if m == 0.0:
-                continue
-            for s2 in range(S):
-                p = P[j, s, a, s2]
+        for r in range(cnt[s]):
+            for j in range(M):
+                p = PR[s, a, r, j]
                 if p != 0.0:
-                    out[j, node_succ[k, s2]] += m * p
+                    m = mu[j, k]
+                    if m != 0.0:
+                        out[j, node_succ[k, r]] += m * p
     return out

@@ -3,8 +3,9 @@
 The adversary's best response (modified PBVI, thesis chapter 6) is the memory of a fit. Its
 belief set at most doubles per iteration (``multimodel.expand_beliefs``), so it holds at most
 ``2^(iterations-1)`` points; the policy graph keeps, per time step, up to one node per (state,
-belief point), each with a successor for every next state (int64) and an alpha-vector over the
-M = D+1 models, so it takes about ``T * S^2 * nb * 8`` bytes. Everything else (the transitions,
+belief point), each with a successor for every next state its state reaches (R of them, int64;
+R = S on a dense MDP, at most 5 on a grid) and an alpha-vector over the M = D+1 models, so it
+takes about ``T * S * R * nb * 8`` bytes. Everything else (the transitions,
 the demonstrations, the LP) is small beside it at the sizes where memory matters.
 
 Calibration: peak resident memory of one ``airl fit`` on the random MDP (A=5, D=3, 1-2 gradient
@@ -64,6 +65,7 @@ def estimate_fit(
     method: str = "airl",
     planner: str = "pbvi",
     iterations: int = 8,
+    n_next: int | None = None,
 ) -> Estimate:
     """The peak memory of one fit of a problem of these sizes.
 
@@ -75,11 +77,14 @@ def estimate_fit(
             run the multiple-model planner.
         planner: the adversary's planner for method="airl": "pbvi", "exact" or "mean".
         iterations: PBVI iterations.
+        n_next: R, the most next states any state reaches (``core.sparse.reachable``); None
+            means S (a dense MDP).
 
     Returns:
         An ``Estimate``; its ``total`` is meant as an upper bound for the refusal.
     """
     S, A, T, M = n_states, n_actions, horizon, n_dynamics + 1
+    R = S if n_next is None else min(n_next, S)
     parts = {
         "base": BASE_BYTES,
         # P, its transposed copy and the inverse CDF used for sampling, float64
@@ -96,15 +101,22 @@ def estimate_fit(
             # 2^(iterations-2)+1 points (65 at 8 iterations, 257 at 10) and de-duplication keeps
             # 0.4-0.8 node per point. Half the bound, plus one, is above every measurement.
             nodes = nb // 2 + 1
-            # successors (T, S*nodes, S) int64 and alpha-vectors (T, S*nodes, M) float64, plus
-            # one backup's scratch (S, nodes, S)
-            parts["policy graph"] = T * S * nodes * (S + M) * 8 + S * nodes * S * 8
+            # successors (T, S*nodes, R) int64 and alpha-vectors (T, S*nodes, M) float64, plus
+            # one backup's scratch (S, nodes, R)
+            parts["policy graph"] = T * S * nodes * (R + M) * 8 + S * nodes * R * 8
         else:
-            parts["policy graph"] = T * S * (S + M) * 8
+            parts["policy graph"] = T * S * (R + M) * 8
     return Estimate(total=sum(parts.values()), parts=parts, n_beliefs=nb)
 
 
-def refusal(estimate: Estimate, available: int, *, iterations: int | None = None, workers: int = 1) -> str | None:
+def refusal(
+    estimate: Estimate,
+    available: int,
+    *,
+    iterations: int | None = None,
+    workers: int = 1,
+    shrink: str = "mdp.n_states, mdp.horizon",
+) -> str | None:
     """One sentence refusing a fit that will not fit in ``available`` bytes, or None if it fits.
 
     Args:
@@ -112,13 +124,15 @@ def refusal(estimate: Estimate, available: int, *, iterations: int | None = None
         available: bytes the machine can give (free memory, or the container's limit).
         iterations: the PBVI iterations, to say how far to lower them; None if not PBVI.
         workers: fits running at once (a sweep's parallel jobs), each needing ``estimate.total``.
+        shrink: the settings that size the problem, named in the advice ("mdp.size, mdp.horizon"
+            on a grid).
     """
     need = estimate.total * workers
     if need <= available:
         return None
     at_once = f" per job, {workers} jobs at once," if workers > 1 else ""
     graph = estimate.parts.get("policy graph", 0)
-    what = "mdp.n_states, mdp.horizon"
+    what = shrink
     if graph > estimate.total / 2 and iterations is not None and estimate.n_beliefs > 1:
         fits = iterations
         while fits > 1 and estimate.total - graph + graph * 2 ** (fits - iterations) > available / workers:

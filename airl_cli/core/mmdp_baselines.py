@@ -207,18 +207,20 @@ def graph_returns(graph: PolicyGraph, transitions: np.ndarray, rewards: LayeredR
         graph: a policy with T layers; transitions: (M, S, A, S);
         rewards: ``LayeredRewards`` with T layers; initial: (S,).
     """
-    P = np.ascontiguousarray(transitions, dtype=np.float64)
-    M, S = P.shape[0], P.shape[1]
+    M, S = transitions.shape[0], transitions.shape[1]
     T = graph.horizon
     if rewards.horizon != T or graph.start.shape != (S,):
         raise ValueError(f"the graph has {T} layers over {graph.start.size} states; the problem has {rewards.horizon} layers over {S}")
+    walk, PR = graph.aligned(transitions)
+    nxt = walk.next_states
+    cnt = np.sum(nxt >= 0, axis=1).astype(np.int64)
     mu = np.zeros((M, graph.state[0].size))
     np.add.at(mu, (slice(None), graph.start), np.asarray(initial, dtype=np.float64)[None, :])
     total = np.zeros(M)
     j = np.arange(M)[:, None]
     for t in range(T - 1):
         total += np.sum(mu * rewards.step[j, t, graph.state[t][None, :], graph.action[t][None, :]], axis=1)
-        mu = _walk_kernels.forward_step(P, mu, graph.state[t], graph.action[t], graph.successor[t], graph.state[t + 1].size)
+        mu = _walk_kernels.forward_step(PR, nxt, cnt, mu, graph.state[t], graph.action[t], walk.successor[t], graph.state[t + 1].size)
     total += np.sum(mu * rewards.last[j, graph.state[T - 1][None, :]], axis=1)
     return total
 

@@ -11,6 +11,7 @@ import numpy as np
 
 from airl_cli.core.mdp import argmax_lowest
 from airl_cli.core.policy_graph import PolicyGraph, _as_layered
+from airl_cli.core.sparse import reachable
 
 
 # --------------------------------------------------------------------------- baselines and exact
@@ -42,16 +43,18 @@ def markov_graph(P: np.ndarray, R, policy: np.ndarray) -> PolicyGraph:
     """A Markov policy (T-1, S) as a policy graph: one node per (t, s), successor = next state.
 
     Its alpha-vectors are its exact values under each model, so its value is exact too.
+    Successors are kept for the next states the dynamics reach (``core.sparse.reachable``).
     """
     M, S, _, _ = P.shape
     V = markov_values(P, R, policy)  # (M, T, S)
     T = V.shape[1]
+    reach = reachable(P)
     states = tuple(np.arange(S) for _ in range(T))
     actions = tuple(np.asarray(policy[t], dtype=np.int64) for t in range(T - 1))
-    succs = tuple(np.broadcast_to(np.arange(S), (S, S)).copy() for _ in range(T - 1))
+    succs = tuple(reach.copy() for _ in range(T - 1))  # node index = state index at every layer
     alphas = tuple(np.ascontiguousarray(V[:, t, :].T) for t in range(T))
     offsets = tuple(np.arange(S + 1) for _ in range(T))
-    return PolicyGraph(states, actions, succs, alphas, offsets, np.arange(S))
+    return PolicyGraph(states, actions, succs, alphas, offsets, np.arange(S), reach)
 
 
 def mean_graph(P: np.ndarray, R, prior: np.ndarray | None = None) -> PolicyGraph:

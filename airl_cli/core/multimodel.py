@@ -56,6 +56,7 @@ from airl_cli.core.demos import _inverse_cdf
 from airl_cli.core.mdp import argmax_lowest, check_probabilities
 from airl_cli.core.mmdp_exact import exact_alpha_vectors, exact_graph, markov_graph, markov_values, mean_graph, upper_envelope_1d
 from airl_cli.core.policy_graph import LayeredRewards, PolicyGraph, Solution, _as_layered, check_beliefs, check_prior, layered_rewards
+from airl_cli.core.sparse import SparseDynamics, sparse_dynamics
 from airl_cli.core.threads import blas_on_one_thread
 
 #: Two beliefs closer than this in L1 distance are the same point.
@@ -70,7 +71,7 @@ EXPECTATIONS = ("exact", "monte_carlo")
 
 @blas_on_one_thread
 def expand_beliefs(
-    transitions: np.ndarray,
+    transitions: np.ndarray | SparseDynamics,
     *,
     iterations: int = 8,
     rng: np.random.Generator | None = None,
@@ -98,28 +99,33 @@ def expand_beliefs(
     Returns:
         (nb, M) beliefs, each row a distribution over the models; row 0 is the initial belief.
     """
-    P = np.asarray(transitions, dtype=np.float64)
-    if P.ndim != 4:
-        raise ValueError(f"transitions must have shape (M, S, A, S), got {P.shape}")
+    dyn = sparse_dynamics(transitions if isinstance(transitions, SparseDynamics) else _four_dims(transitions))
     if iterations < 1:
         raise ValueError(f"iterations must be >= 1, got {iterations}")
     if expansion not in EXPANSIONS:
         raise ValueError(f"expansion must be one of {EXPANSIONS}, got {expansion!r}")
     rng = np.random.default_rng(0) if rng is None else rng
-    M, S, A, _ = P.shape
-    PT = np.ascontiguousarray(P.transpose(1, 2, 3, 0))
-    CT = np.ascontiguousarray(_inverse_cdf(P).transpose(1, 2, 0, 3))
+    M, S, A, _ = dyn.shape
+    PR, nxt, cnt = dyn.model_axis_last(), dyn.next_states, dyn.count
+    CR = np.ascontiguousarray(_inverse_cdf(dyn.probs).transpose(1, 2, 0, 3))
     prior = check_prior(prior, M)
     B = np.empty((2 ** (iterations - 1), M))
     B[0] = 1.0 / M if prior is None else prior
     n = 1
     for _ in range(iterations - 1):
         u = rng.random((n, S, A, M)) if expansion == "sample" else np.empty((n, S, A, M))
-        n_new = _walk_kernels.expand_once(PT, CT, B, n, u, expansion == "sample", BELIEF_TOL)
+        n_new = _walk_kernels.expand_once(PR, CR, nxt, cnt, B, n, u, expansion == "sample", BELIEF_TOL)
         if n_new == n:
             break
         n = n_new
     return B[:n].copy()
+
+
+def _four_dims(transitions: np.ndarray) -> np.ndarray:
+    P = np.asarray(transitions, dtype=np.float64)
+    if P.ndim != 4:
+        raise ValueError(f"transitions must have shape (M, S, A, S), got {P.shape}")
+    return P
 
 
 # --------------------------------------------------------------------------- PBVI
@@ -127,7 +133,7 @@ def expand_beliefs(
 
 @blas_on_one_thread  # numba's threads back up the states; BLAS's would only spin meanwhile
 def pbvi_graph(
-    P: np.ndarray,
+    P: np.ndarray | SparseDynamics,
     R,
     beliefs: np.ndarray,
     *,
@@ -143,14 +149,15 @@ def pbvi_graph(
     belief's node.
 
     Args:
-        P: (M, S, A, S); R: (M, T, S) state rewards or ``LayeredRewards``; beliefs: (nb, M);
+        P: (M, S, A, S), dense or sparse; R: (M, T, S) state rewards or ``LayeredRewards``; beliefs: (nb, M);
         prior: (M,) the initial belief, None for uniform.
         progress: called as ``progress(done, T - 1)`` after each backed-up time step.
     """
-    M, S, _, _ = P.shape
+    dyn = sparse_dynamics(P)
+    M, S, _, _ = dyn.shape
     L = _as_layered(P, R)
     T = L.horizon
-    PT = np.ascontiguousarray(P.transpose(1, 2, 3, 0))
+    PR, nxt, cnt = dyn.model_axis_last(), dyn.next_states, dyn.count
     Bt = np.ascontiguousarray(beliefs.T)
     first = np.full((M, 1), 1.0 / M) if prior is None else np.ascontiguousarray(prior[:, None], dtype=np.float64)
     states, actions, succs, alphas, offsets = [None] * T, [None] * (T - 1), [None] * (T - 1), [None] * T, [None] * T
@@ -160,12 +167,12 @@ def pbvi_graph(
     for t in range(T - 2, -1, -1):
         R_t = np.ascontiguousarray(L.step[:, t])
         points = first if t == 0 else Bt
-        action, succ, alpha = _kernels.backup_step(PT, R_t, points, alphas[t + 1], offsets[t + 1])
+        action, succ, alpha = _kernels.backup_step(PR, nxt, cnt, R_t, points, alphas[t + 1], offsets[t + 1])
         states[t], actions[t], succs[t], alphas[t], offsets[t] = _kernels.unique_nodes(action, succ, alpha)
         if progress is not None:
             progress(T - 1 - t, T - 1)
     start = _best_start_nodes(alphas[0], offsets[0], prior)
-    return PolicyGraph(tuple(states), tuple(actions), tuple(succs), tuple(alphas), tuple(offsets), start)
+    return PolicyGraph(tuple(states), tuple(actions), tuple(succs), tuple(alphas), tuple(offsets), start, nxt)
 
 
 def _best_start_nodes(alpha0: np.ndarray, offsets0: np.ndarray, prior: np.ndarray | None = None) -> np.ndarray:
@@ -202,7 +209,8 @@ def solve(
     """Find one deterministic policy maximising the sum of expected returns over M MDPs.
 
     Args:
-        transitions: (M, S, A, S), ``transitions[j, s, a, s']`` = P_j(s' | s, a).
+        transitions: (M, S, A, S), ``transitions[j, s, a, s']`` = P_j(s' | s, a), dense or as
+            ``SparseDynamics`` (only the reachable next states; the planner never builds a dense array).
         rewards: (M, T, S), ``rewards[j, t, s]`` = R_j(t, s), earned in state s at step t
             (t = 0..T-1; both the first and the last state count). Also accepted (see
             ``layered_rewards``): (M, T, S, A) or (M, T, S, A, S) over T decisions, and the
@@ -232,14 +240,20 @@ def solve(
     Raises:
         ValueError: on bad shapes or options.
     """
-    P = np.asarray(transitions, dtype=np.float64)
+    if isinstance(transitions, SparseDynamics):
+        dyn = transitions
+        check_probabilities(dyn.probs, name="transitions")
+        P = dyn if method == "pbvi" else dyn.dense()  # the other methods are for small problems
+    else:
+        P = np.asarray(transitions, dtype=np.float64)
+        if P.ndim != 4 or P.shape[1] != P.shape[3] or min(P.shape) < 1:
+            raise ValueError(f"transitions must have shape (M, S, A, S), got {P.shape}")
+        check_probabilities(P, name="transitions")
+        dyn = sparse_dynamics(P)
     p0 = np.asarray(initial, dtype=np.float64)
-    if P.ndim != 4 or P.shape[1] != P.shape[3] or min(P.shape) < 1:
-        raise ValueError(f"transitions must have shape (M, S, A, S), got {P.shape}")
-    M, S = P.shape[0], P.shape[1]
+    M, S = dyn.shape[0], dyn.shape[1]
     if p0.shape != (S,):
         raise ValueError(f"initial must have shape (S,) = ({S},), got {p0.shape}")
-    check_probabilities(P, name="transitions")
     check_probabilities(p0, name="initial")
     L = layered_rewards(P, rewards, horizon=horizon, discount=discount)
     w = check_prior(prior, M)
@@ -251,21 +265,21 @@ def solve(
     B = None
     if method == "pbvi":
         if beliefs is None:
-            B = expand_beliefs(P, iterations=iterations, rng=rng, expansion=expansion, prior=w)
+            B = expand_beliefs(dyn, iterations=iterations, rng=rng, expansion=expansion, prior=w)
         else:
             B = check_beliefs(beliefs, M)
-        graph = pbvi_graph(P, L, B, prior=w, progress=progress)
+        graph = pbvi_graph(dyn, L, B, prior=w, progress=progress)
     elif method == "mean":
         graph = mean_graph(P, L, w)
     else:
         graph = exact_graph(P, L, w)
     values = graph.values(p0)
     if expectations == "exact":
-        marginals = graph.marginals(P, p0)
+        marginals = graph.marginals(dyn, p0)
     else:
         if n_samples < 1:
             raise ValueError(f"n_samples must be >= 1, got {n_samples}")
-        states = graph.sample(rng, P, p0, n_samples)
+        states = graph.sample(rng, dyn, p0, n_samples)
         marginals = np.stack(
             [np.stack([np.bincount(states[j, :, t], minlength=S) for t in range(graph.horizon)]) for j in range(M)]
         ) / n_samples

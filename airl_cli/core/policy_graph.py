@@ -19,6 +19,7 @@ import numpy as np
 from airl_cli.core import _walk_kernels
 from airl_cli.core.demos import _inverse_cdf
 from airl_cli.core.mdp import check_probabilities
+from airl_cli.core.sparse import SparseDynamics, full_reach, sparse_dynamics
 
 
 # --------------------------------------------------------------------------- policy graphs
@@ -29,16 +30,21 @@ class PolicyGraph:
     """A deterministic history-dependent policy as a layered finite controller.
 
     Nodes are stored per time step t = 0..T-1, flat and grouped by state: the nodes of state s at
-    time t are ``offsets[t][s] .. offsets[t][s+1]-1``.
+    time t are ``offsets[t][s] .. offsets[t][s+1]-1``. Successors are stored only for the next
+    states a node's state can reach (``reach``, see ``airl_cli.core.sparse``): on a grid five
+    per node instead of S.
 
     Attributes:
         state: per t, (n_t,) the state of each node.
         action: per t < T-1, (n_t,) the action the node takes.
-        successor: per t < T-1, (n_t, S) the node at t+1 to move to for each next state s'.
+        successor: per t < T-1, (n_t, R) the node at t+1 to move to for each next state
+            ``reach[s, r]`` of the node's state s (-1 on the padding).
         alpha: per t, (n_t, M) the node's exact value under each model: alpha[t][k, j] =
             E_j[sum_{u >= t} R_j(u, s_u) | at node k at time t].
         offsets: per t, (S+1,) node ranges per state.
         start: (S,) the node at t = 0 for each initial state.
+        reach: (S, R) the next states of each state that successors are kept for, increasing,
+            -1 padded; None stands for every state (R = S).
     """
 
     state: tuple[np.ndarray, ...]
@@ -47,6 +53,12 @@ class PolicyGraph:
     alpha: tuple[np.ndarray, ...]
     offsets: tuple[np.ndarray, ...]
     start: np.ndarray
+    reach: np.ndarray | None = None
+
+    @property
+    def next_states(self) -> np.ndarray:
+        """(S, R) ``reach``, or every state for every state when it is None."""
+        return full_reach(self.start.size) if self.reach is None else self.reach
 
     @property
     def horizon(self) -> int:
@@ -65,18 +77,20 @@ class PolicyGraph:
         """(M,) the exact expected return under each model, from the start nodes' alpha-vectors."""
         return initial @ self.alpha[0][self.start]
 
-    def marginals(self, transitions: np.ndarray, initial: np.ndarray) -> np.ndarray:
+    def marginals(self, transitions: np.ndarray | SparseDynamics, initial: np.ndarray) -> np.ndarray:
         """Exact state distribution of the graph under each model, by a forward pass over nodes.
 
         Args:
-            transitions: (M, S, A, S).
+            transitions: (M, S, A, S), dense or ``SparseDynamics``.
             initial: (S,).
 
         Returns:
             (M, T, S): Pr_j(s_{t+1} = s); each (j, t) row sums to 1.
         """
-        P = np.ascontiguousarray(transitions, dtype=np.float64)
-        M, S = P.shape[0], P.shape[1]
+        graph, PR = self.aligned(transitions)
+        nxt = graph.next_states
+        cnt = np.sum(nxt >= 0, axis=1).astype(np.int64)
+        M, S = PR.shape[3], PR.shape[0]
         T = self.horizon
         out = np.zeros((M, T, S))
         mu = np.zeros((M, self.state[0].size))
@@ -85,36 +99,96 @@ class PolicyGraph:
             for j in range(M):
                 out[j, t] = np.bincount(self.state[t], weights=mu[j], minlength=S)
             if t < T - 1:
-                mu = _walk_kernels.forward_step(P, mu, self.state[t], self.action[t], self.successor[t], self.state[t + 1].size)
+                mu = _walk_kernels.forward_step(PR, nxt, cnt, mu, self.state[t], self.action[t], graph.successor[t], self.state[t + 1].size)
         return out
+
+    def aligned(self, transitions: np.ndarray | SparseDynamics) -> tuple["PolicyGraph", np.ndarray]:
+        """This graph and the dynamics over the same next states, for a forward pass.
+
+        Where the dynamics reach a next state the graph keeps no successor for (a graph planned
+        under other models), the graph is widened: such a state's successor is its first node.
+
+        Returns:
+            (graph, PR): the graph (``self`` unless widened) and (S, A, R, M) the probabilities
+            ``PR[s, a, r, j]`` = P_j(graph.next_states[s, r] | s, a).
+        """
+        dyn = sparse_dynamics(transitions)
+        graph = self
+        if self.reach is None or not np.array_equal(self.reach, dyn.next_states):
+            graph = self.widened(dyn.next_states)
+        nxt = graph.next_states
+        if np.array_equal(nxt, dyn.next_states):
+            return graph, dyn.model_axis_last()
+        S = nxt.shape[0]
+        src = dyn.next_states
+        keys = (np.arange(S)[:, None] * S + src)[src >= 0]  # increasing
+        want = np.arange(S)[:, None] * S + nxt
+        pos = np.minimum(np.searchsorted(keys, want), keys.size - 1)
+        found = (nxt >= 0) & (keys[pos] == want)
+        rows, cols = np.nonzero(src >= 0)
+        flat = dyn.probs[:, rows, :, cols]  # (nnz, M, A)
+        PR = np.where(found[:, :, None, None], flat[pos].transpose(0, 1, 3, 2), 0.0)  # (S, R, A, M)
+        return graph, np.ascontiguousarray(PR.transpose(0, 2, 1, 3))
+
+    def widened(self, reach: np.ndarray) -> "PolicyGraph":
+        """The same policy with successors kept for the union of its next states and ``reach`` (S, R').
+
+        A next state the graph had no successor for goes to its first node at t+1.
+        """
+        old = self.next_states
+        S = old.shape[0]
+        union = [np.union1d(old[s][old[s] >= 0], reach[s][reach[s] >= 0]) for s in range(S)]
+        if self.reach is not None and all(u.size == np.sum(old[s] >= 0) for s, u in enumerate(union)):
+            return self
+        R = max(max(u.size for u in union), 1)
+        new = np.full((S, R), -1, dtype=np.int64)
+        for s, u in enumerate(union):
+            new[s, : u.size] = u
+        succs = []
+        for t in range(self.horizon - 1):
+            node_state = self.state[t]
+            targets = new[node_state]  # (n_t, R) next states per node
+            first = self.offsets[t + 1][np.maximum(targets, 0)]
+            # where the old reach holds the target, keep the old successor
+            col = np.full(targets.shape, -1, dtype=np.int64)
+            for s in np.unique(node_state):
+                o = old[s][old[s] >= 0]
+                col[node_state == s] = np.where(np.isin(new[s], o), np.searchsorted(o, new[s]), -1)
+            kept = np.take_along_axis(self.successor[t], np.maximum(col, 0), axis=1)
+            succ = np.where(col >= 0, kept, first)
+            succs.append(np.where(targets >= 0, succ, -1))
+        return PolicyGraph(self.state, self.action, tuple(succs), self.alpha, self.offsets, self.start, new)
 
     def to_arrays(self) -> dict[str, np.ndarray]:
         """The graph as flat arrays (for ``numpy.savez``); ``from_arrays`` rebuilds it exactly.
 
         Returns:
             ``layer`` (T+1,) where layer t's nodes are ``layer[t]..layer[t+1]-1`` in the flat
-            arrays; ``state`` (N,); ``action`` (N,) (-1 on the last layer); ``successor`` (N, S)
-            layer-local index at t+1 per next state (-1 on the last layer); ``alpha`` (N, M);
-            ``start`` (S,) the node at t = 0 per initial state.
+            arrays; ``state`` (N,); ``action`` (N,) (-1 on the last layer); ``reach`` (S, R) the
+            next states of each state that successors are kept for (-1 padded); ``successor``
+            (N, R) layer-local index at t+1 per next state ``reach[state, r]`` (-1 on the padding
+            and the last layer); ``alpha`` (N, M); ``start`` (S,) the node at t = 0 per initial state.
         """
-        S = self.start.size
         T = self.horizon
+        nxt = self.next_states
         last = self.state[T - 1].size
         return {
             "layer": np.r_[0, np.cumsum(self.n_nodes)].astype(np.int64),
             "state": np.concatenate(self.state).astype(np.int64),
             "action": np.concatenate(list(self.action) + [np.full(last, -1)]).astype(np.int64),
-            "successor": np.concatenate(list(self.successor) + [np.full((last, S), -1)]).astype(np.int64),
+            "reach": nxt.astype(np.int64),
+            "successor": np.concatenate(list(self.successor) + [np.full((last, nxt.shape[1]), -1)]).astype(np.int64),
             "alpha": np.concatenate(self.alpha),
             "start": self.start.astype(np.int64),
         }
 
     @classmethod
     def from_arrays(cls, arrays: dict[str, np.ndarray]) -> "PolicyGraph":
-        """Inverse of ``to_arrays``."""
+        """Inverse of ``to_arrays`` (a file without ``reach`` has a successor for every next state)."""
         layer, S = arrays["layer"], arrays["start"].size
         cut = [slice(int(layer[t]), int(layer[t + 1])) for t in range(layer.size - 1)]
         states = tuple(np.asarray(arrays["state"][c], dtype=np.int64) for c in cut)
+        reach = arrays.get("reach")
         return cls(
             states,
             tuple(np.asarray(arrays["action"][c], dtype=np.int64) for c in cut[:-1]),
@@ -122,19 +196,22 @@ class PolicyGraph:
             tuple(np.asarray(arrays["alpha"][c], dtype=np.float64) for c in cut),
             tuple(np.searchsorted(st, np.arange(S + 1)) for st in states),
             np.asarray(arrays["start"], dtype=np.int64),
+            None if reach is None else np.asarray(reach, dtype=np.int64),
         )
 
-    def sample(self, rng: np.random.Generator, transitions: np.ndarray, initial: np.ndarray, n: int) -> np.ndarray:
+    def sample(self, rng: np.random.Generator, transitions: np.ndarray | SparseDynamics, initial: np.ndarray, n: int) -> np.ndarray:
         """Sample ``n`` state sequences of the graph under each model.
 
         Returns:
             (M, n, T) int states.
         """
-        M = transitions.shape[0]
+        graph, PR = self.aligned(transitions)
+        nxt = graph.next_states
+        M = PR.shape[3]
         T = self.horizon
         u = rng.random((M, n, T))
         C0 = _inverse_cdf(np.asarray(initial, dtype=np.float64))
-        CP = _inverse_cdf(np.asarray(transitions, dtype=np.float64))
+        CP = _inverse_cdf(np.ascontiguousarray(PR.transpose(3, 0, 1, 2)))  # (M, S, A, R)
         states = np.empty((M, n, T), dtype=np.int64)
         s = np.sum(C0 <= u[:, :, 0, None], axis=-1)
         node = self.start[s]
@@ -142,8 +219,9 @@ class PolicyGraph:
         j_idx = np.arange(M)[:, None]
         for t in range(T - 1):
             a = self.action[t][node]
-            s = np.sum(CP[j_idx, s, a] <= u[:, :, t + 1, None], axis=-1)
-            node = self.successor[t][node, s]
+            r = np.sum(CP[j_idx, s, a] <= u[:, :, t + 1, None], axis=-1)
+            node = graph.successor[t][node, r]
+            s = nxt[s, r]
             states[:, :, t + 1] = s
         return states
 
@@ -209,9 +287,10 @@ def layered_rewards(
     Raises:
         ValueError: quoting the shape when it fits none of the forms.
     """
-    P = np.asarray(transitions, dtype=np.float64)
     R = np.asarray(rewards, dtype=np.float64)
-    M, S, A, _ = P.shape
+    M, S, A, _ = transitions.shape if isinstance(transitions, SparseDynamics) else np.shape(transitions)
+    if R.ndim == 5 or (horizon is not None and R.ndim == 4):  # transition rewards: expectations over s'
+        P = transitions.dense() if isinstance(transitions, SparseDynamics) else np.asarray(transitions, dtype=np.float64)
     if not (0.0 < discount <= 1.0):
         raise ValueError(f"discount must be in (0, 1], got {discount}")
     if not np.all(np.isfinite(R)):

@@ -1,9 +1,9 @@
 """BLAS on one thread around the code that runs its own threads or small dense factorisations.
 
-The planner's backup (``_kernels.backup_step``) computes its pruning bounds with BLAS and then
-backs up the states on numba's threads. With OpenBLAS's own threads left on (two on a 2-core
-machine), they keep spinning while numba's threads work: a certified fit at S=200 took 19.7 s
-instead of 6.1 s with one BLAS thread. The dense QP solver (``core.qp.solve_dense``) factorises
+The planner backs up the states on numba's threads, and numpy's BLAS calls around it (the
+learner's products, the QP) must not start threads of their own meanwhile: with OpenBLAS's own
+threads left on (two on a 2-core machine), they kept spinning while numba's threads worked, and
+a certified fit at S=200 took 19.7 s instead of 6.1 s with one BLAS thread. The dense QP solver (``core.qp.solve_dense``) factorises
 166 x 166 matrices, which two OpenBLAS threads made 70 times slower. ``one_blas_thread`` holds
 every loaded BLAS (numpy's, scipy's) to one thread for the duration and restores it afterwards.
 """

@@ -1,0 +1,141 @@
+"""Sparse dynamics and policy graphs kept over the reachable next states only."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from airl_cli.core.mmdp_baselines import graph_returns
+from airl_cli.core.multimodel import expand_beliefs, pbvi_graph, solve
+from airl_cli.core.policy_graph import PolicyGraph, layered_rewards
+from airl_cli.core.sparse import SparseDynamics, full_reach, reachable, sparse_dynamics
+
+
+def sparse_problem(seed: int, S: int = 7, A: int = 3, M: int = 3, n_next: int = 2):
+    """M dynamics in which every (s, a) reaches ``n_next`` of the S states (a different set per model)."""
+    rng = np.random.default_rng(seed)
+    P = np.zeros((M, S, A, S))
+    for j in range(M):
+        for s in range(S):
+            for a in range(A):
+                nxt = rng.choice(S, size=n_next, replace=False)
+                P[j, s, a, nxt] = rng.dirichlet(np.ones(n_next))
+    return P
+
+
+def dense_walk(graph: PolicyGraph, P: np.ndarray, p0: np.ndarray) -> np.ndarray:
+    """(M, T, S) the graph's state marginals with dense successors: a next state the graph keeps
+    no successor for goes to its first node (the reference for ``PolicyGraph.marginals``)."""
+    M, S = P.shape[0], P.shape[1]
+    nxt = graph.next_states
+    T = graph.horizon
+    out = np.zeros((M, T, S))
+    for j in range(M):
+        mu = np.zeros(graph.state[0].size)
+        for s in range(S):
+            mu[graph.start[s]] += p0[s]
+        for t in range(T):
+            out[j, t] = np.bincount(graph.state[t], weights=mu, minlength=S)
+            if t == T - 1:
+                break
+            new = np.zeros(graph.state[t + 1].size)
+            for k, m in enumerate(mu):
+                s, a = graph.state[t][k], graph.action[t][k]
+                for s2 in range(S):
+                    hit = np.flatnonzero(nxt[s] == s2)
+                    node = graph.successor[t][k, hit[0]] if hit.size else graph.offsets[t + 1][s2]
+                    new[node] += m * P[j, s, a, s2]
+            mu = new
+    return out
+
+
+def test_reachable_and_the_round_trip():
+    P = sparse_problem(0)
+    nxt = reachable(P)
+    for s in range(P.shape[1]):
+        hit = np.flatnonzero(P[:, s].sum(axis=(0, 1)) > 0)
+        assert np.array_equal(nxt[s][nxt[s] >= 0], hit)
+        assert np.all(nxt[s][hit.size :] == -1)
+    dyn = sparse_dynamics(P)
+    assert dyn.shape == P.shape and np.array_equal(dyn.dense(), P)
+    assert np.allclose(dyn.probs.sum(axis=-1), 1.0)
+    assert sparse_dynamics(dyn) is dyn
+    assert np.array_equal(full_reach(3), [[0, 1, 2]] * 3)
+
+
+def test_a_grid_keeps_four_successors_per_node():
+    from airl_cli.core.problems import grid_world
+
+    P = np.stack([grid_world(epsilon=0.2), grid_world(epsilon=0.1)])
+    g = solve(P, np.random.default_rng(0).normal(size=(2, 6, 25)), np.full(25, 1 / 25), iterations=5).graph
+    # an inner cell reaches its 4 neighbours; a border cell 3 neighbours and itself (a move into the wall)
+    assert g.reach.shape == (25, 4)
+    assert all(s.shape[1] == 4 for s in g.successor)
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_sparse_and_dense_input_give_the_same_solution(seed):
+    P = sparse_problem(seed, S=5, A=2)
+    M, S = P.shape[0], P.shape[1]
+    R = np.random.default_rng(seed).normal(size=(M, 5, S))
+    p0 = np.full(S, 1 / S)
+    a = solve(P, R, p0, iterations=6, rng=np.random.default_rng(1))
+    b = solve(sparse_dynamics(P), R, p0, iterations=6, rng=np.random.default_rng(1))
+    assert a.value == b.value and np.array_equal(a.marginals, b.marginals) and np.array_equal(a.beliefs, b.beliefs)
+    assert np.allclose(a.marginals, dense_walk(a.graph, P, p0), atol=1e-12)
+    # the exact optimum (enumerated histories) is never beaten
+    exact = solve(sparse_dynamics(P), R, p0, method="exact")
+    assert a.value <= exact.value + 1e-9
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_a_graph_runs_under_dynamics_that_reach_other_states(seed):
+    """Planned under sparse models, evaluated under models reaching more next states: the missing
+    successors go to the first node of the next state, as a dense successor table would."""
+    P = sparse_problem(seed)
+    other = sparse_problem(seed + 10, n_next=3)
+    M, S = P.shape[0], P.shape[1]
+    R = np.random.default_rng(seed).normal(size=(M, 5, S))
+    p0 = np.random.default_rng(seed).dirichlet(np.ones(S))
+    graph = solve(P, R, p0, iterations=5).graph
+    assert not np.array_equal(reachable(other), graph.reach)
+    expect = dense_walk(graph.widened(reachable(other)), other, p0)
+    assert np.allclose(graph.marginals(other, p0), expect, atol=1e-12)
+    assert np.allclose(graph.marginals(sparse_dynamics(other), p0), expect, atol=1e-12)
+    # the return by the forward pass equals the marginals' reward sum
+    Rs = np.random.default_rng(seed + 1).normal(size=(M, 5, S))
+    L = layered_rewards(other, Rs)
+    assert np.allclose(graph_returns(graph, other, L, p0), np.einsum("jts,jts->j", expect, Rs))
+    # sampled states follow the same graph: Monte Carlo marginals within a few standard errors
+    states = graph.sample(np.random.default_rng(3), other, p0, 20_000)
+    for t in range(5):
+        for j in range(M):
+            freq = np.bincount(states[j, :, t], minlength=S) / 20_000
+            assert np.all(np.abs(freq - expect[j, t]) < 5 * np.sqrt(expect[j, t] * (1 - expect[j, t]) / 20_000) + 1e-9)
+
+
+def test_graph_arrays_round_trip_and_the_dense_format():
+    P = sparse_problem(5, S=12, A=2, M=2)  # each state reaches at most 8 of the 12
+    M, S = P.shape[0], P.shape[1]
+    R = np.random.default_rng(5).normal(size=(M, 5, S))
+    B = expand_beliefs(P, iterations=5)
+    g = pbvi_graph(P, R, B)
+    arrays = g.to_arrays()
+    assert arrays["successor"].shape[1] == arrays["reach"].shape[1] < S
+    back = PolicyGraph.from_arrays(arrays)
+    p0 = np.full(S, 1 / S)
+    assert np.array_equal(back.marginals(P, p0), g.marginals(P, p0))
+    # a file written before successors were sparse: one column per next state, no 'reach'
+    wide = g.widened(full_reach(S)).to_arrays()
+    del wide["reach"]
+    legacy = PolicyGraph.from_arrays(wide)
+    assert legacy.reach is None and legacy.successor[0].shape[1] == S
+    assert np.allclose(legacy.marginals(P, p0), g.marginals(P, p0), atol=1e-15)
+
+
+def test_sparse_dynamics_is_checked_by_solve():
+    P = sparse_problem(1)
+    dyn = sparse_dynamics(P)
+    bad = SparseDynamics(dyn.next_states, dyn.probs * 0.5)
+    with pytest.raises(ValueError):
+        solve(bad, np.zeros((P.shape[0], 4, P.shape[1])), np.full(P.shape[1], 1 / P.shape[1]))
