@@ -22,6 +22,7 @@ import numpy as np
 from airl_cli.core.game import AdversaryOracle, GameProblem, RestrictedGame, double_oracle, idle_counters
 from airl_cli.core.multimodel import expand_beliefs, solve
 from airl_cli.core.options import SCHEDULES, FitOptions, PlannerOptions  # noqa: F401 (re-exported)
+from airl_cli.core.sparse import sparse_dynamics
 
 HISTORY_COLUMNS = (
     "step",
@@ -81,7 +82,9 @@ def make_oracles(
     (from ``belief_seed`` if set). The screening oracle is PBVI at the first
     ``screen_beliefs`` beliefs of that set (None if there is nothing to screen with).
     """
-    P, p0 = problem.transitions, problem.initial
+    p0 = problem.initial
+    # PBVI works over the reachable next states; found once here, not in every call
+    P = sparse_dynamics(problem.transitions) if options.method == "pbvi" else problem.transitions
     beliefs = None
     n_beliefs = 0
     if options.method == "pbvi":

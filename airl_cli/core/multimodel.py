@@ -53,7 +53,7 @@ import numpy as np
 
 from airl_cli.core import _kernels, _walk_kernels
 from airl_cli.core.demos import _inverse_cdf
-from airl_cli.core.mdp import argmax_lowest, check_probabilities
+from airl_cli.core.mdp import check_probabilities
 from airl_cli.core.mmdp_exact import exact_alpha_vectors, exact_graph, markov_graph, markov_values, mean_graph, upper_envelope_1d
 from airl_cli.core.policy_graph import LayeredRewards, PolicyGraph, Solution, _as_layered, check_beliefs, check_prior, layered_rewards
 from airl_cli.core.sparse import SparseDynamics, sparse_dynamics
@@ -176,14 +176,17 @@ def pbvi_graph(
 
 
 def _best_start_nodes(alpha0: np.ndarray, offsets0: np.ndarray, prior: np.ndarray | None = None) -> np.ndarray:
-    """(S,) per initial state, the node maximising the initial-belief value (sum_j alpha_j if uniform)."""
-    S = offsets0.size - 1
+    """(S,) per initial state, the node maximising the initial-belief value (sum_j alpha_j if uniform);
+    near-ties go to the lowest node, as ``mdp.argmax_lowest`` decides them."""
     total = alpha0.sum(axis=1) if prior is None else alpha0 @ prior
-    start = np.empty(S, dtype=np.int64)
-    for s in range(S):
-        lo, hi = offsets0[s], offsets0[s + 1]
-        start[s] = lo + int(argmax_lowest(total[lo:hi]))
-    return start
+    counts = np.diff(offsets0)
+    top = np.repeat(np.maximum.reduceat(total, offsets0[:-1]), counts)  # every state has a node
+    is_top = total >= top - 1e-12 * (1.0 + np.abs(top))
+    first = np.flatnonzero(is_top)
+    state_of = np.repeat(np.arange(counts.size), counts)[first]
+    # the first top node of each state: the first occurrence of each state in state_of
+    _, where = np.unique(state_of, return_index=True)
+    return first[where].astype(np.int64)
 
 
 # --------------------------------------------------------------------------- entry point

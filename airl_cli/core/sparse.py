@@ -13,6 +13,7 @@ Shapes: transitions P (M, S, A, S) dense; ``next_states`` (S, R) int64, padded w
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -36,14 +37,18 @@ class SparseDynamics:
         M, S, A, _ = self.probs.shape
         return (M, S, A, S)
 
-    @property
+    @cached_property
     def count(self) -> np.ndarray:
         """(S,) the number of next states reachable from each state."""
         return np.sum(self.next_states >= 0, axis=1).astype(np.int64)
 
-    def model_axis_last(self) -> np.ndarray:
-        """(S, A, R, M) the probabilities with the model axis last (the planner's layout)."""
+    @cached_property
+    def _model_last(self) -> np.ndarray:
         return np.ascontiguousarray(self.probs.transpose(1, 2, 3, 0))
+
+    def model_axis_last(self) -> np.ndarray:
+        """(S, A, R, M) the probabilities with the model axis last (the planner's layout; computed once)."""
+        return self._model_last
 
     def dense(self) -> np.ndarray:
         """(M, S, A, S) the dense dynamics."""
