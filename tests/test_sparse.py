@@ -139,3 +139,30 @@ def test_sparse_dynamics_is_checked_by_solve():
     bad = SparseDynamics(dyn.next_states, dyn.probs * 0.5)
     with pytest.raises(ValueError):
         solve(bad, np.zeros((P.shape[0], 4, P.shape[1])), np.full(P.shape[1], 1 / P.shape[1]))
+
+
+def test_the_memory_estimate_counts_only_reachable_successors():
+    from airl_cli.core.budget import estimate_fit
+
+    dense = estimate_fit(n_states=1024, n_actions=5, horizon=20, n_dynamics=3, n_demos=200, iterations=8)
+    grid = estimate_fit(n_states=1024, n_actions=5, horizon=20, n_dynamics=3, n_demos=200, iterations=8, n_next=5)
+    # the policy graph: T * S * nodes * (R + M) * 8 bytes plus one step's scratch, nodes = 65
+    assert grid.parts["policy graph"] == 20 * 1024 * 65 * (5 + 4) * 8 + 1024 * 65 * 5 * 8
+    assert dense.parts["policy graph"] > 100 * grid.parts["policy graph"]
+    assert grid.total < 2**30  # a 32 x 32 grid fits in a gigabyte
+
+
+def test_fit_sizes_know_the_reach_of_a_grid_and_of_a_file(tmp_path):
+    from hydra import compose, initialize_config_module
+
+    from airl_cli.jobs.common import fit_sizes
+
+    P = sparse_problem(2, S=12, A=2, M=2)
+    phi = np.eye(12)[:, :3]
+    np.savez(tmp_path / "d.npz", transitions=P, features=phi, initial=np.full(12, 1 / 12), horizon=np.int64(4),
+             feature_expectations=np.ones((1, 3)))
+    with initialize_config_module(config_module="conf", version_base="1.3"):
+        cfg = compose(config_name="airl", overrides=["mdp=objectworld", "dynamics=slip"])
+        assert fit_sizes(cfg)["n_next"] == 5
+        cfg = compose(config_name="airl", overrides=[f"data={tmp_path / 'd.npz'}"])
+        assert fit_sizes(cfg)["n_next"] == reachable(P).shape[1] < 12

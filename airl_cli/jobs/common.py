@@ -100,15 +100,21 @@ def fit_sizes(cfg: DictConfig) -> dict | None:
 
             S, A = mdp.size**2, len(OBJECTWORLD_ACTIONS if mdp.name == "objectworld" else GRID_ACTIONS)
         n = problem.demos.n if problem.demos.kind == "sampled" else 1
-        return {"n_states": S, "n_actions": A, "horizon": mdp.horizon, "n_dynamics": problem.dynamics.n_dynamics, "n_demos": n}
+        # the most next states a state reaches: a grid cell its neighbours and itself
+        R = None if mdp.name == "random" else 5
+        if mdp.name == "random" and mdp.transition == "sparse":
+            R = mdp.n_next * mdp.n_actions * (problem.dynamics.n_dynamics + 1)
+        return {"n_states": S, "n_actions": A, "horizon": mdp.horizon, "n_dynamics": problem.dynamics.n_dynamics, "n_demos": n, "n_next": R}
     try:
         with np.load(str(data), allow_pickle=False) as npz:
-            M, S, A, _ = npz["transitions"].shape
+            P = npz["transitions"]
+            M, S, A, _ = P.shape
             T = int(npz["horizon"])
             n = npz["demo_states"].shape[1] if "demo_states" in npz.files else 0
+            R = int(np.max(np.sum(np.any(P != 0, axis=(0, 2)), axis=1))) if P.ndim == 4 and P.size else None
     except Exception:  # noqa: BLE001 (read_dataset names what is wrong)
         return None
-    return {"n_states": S, "n_actions": A, "horizon": T, "n_dynamics": M - 1, "n_demos": n}
+    return {"n_states": S, "n_actions": A, "horizon": T, "n_dynamics": M - 1, "n_demos": n, "n_next": R}
 
 
 def memory_estimate(cfg: DictConfig) -> tuple[Estimate, int | None] | None:
