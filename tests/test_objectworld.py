@@ -217,7 +217,7 @@ def test_memory_estimate_knows_the_objectworld_sizes():
 
     cfg = api.config("mdp=objectworld", "dynamics=slip")
     sizes = fit_sizes(cfg)
-    assert sizes == {"n_states": 64, "n_actions": 5, "horizon": 20, "n_dynamics": 3, "n_demos": 100}
+    assert sizes == {"n_states": 64, "n_actions": 5, "horizon": 20, "n_dynamics": 3, "n_demos": 100, "n_next": 5}
     sentence = refusal(estimate_fit(**sizes, iterations=16), 2**30, iterations=16, shrink=_shrink(cfg))
     assert sentence is not None and sentence.endswith("or mdp.size, mdp.horizon")
     assert _shrink(api.config()) == "mdp.n_states, mdp.horizon"

@@ -1,0 +1,90 @@
+"""How a certified fit grows with the problem: `python benchmarks/growth.py [--sizes 8 16 24 32] [--horizons 20]`.
+
+For each Objectworld grid (N x N cells, 5 actions, slip 0 for tau and 0.1 / 0.2 / 0.3 for
+tau_1..tau_3, K = 5 "near an object of colour c" features, N = 200 demonstrations per dynamics)
+the script generates one dataset with `airl generate`, then times `airl fit data=FILE` (the
+certified learner, defaults) and `airl fit data=FILE method=mce` on it, each in a fresh process
+on every core, as a user runs them. It prints one table: wall time of the fit and of the whole
+process, iterations, planner calls, certified relative gap, whether the fit converged, peak
+resident memory (the child's own ``ru_maxrss``), the learned reward's
+scores, and MCE IRL's fit time on the same file.
+
+`--extra` appends Hydra overrides to the certified fit (e.g. `--extra optim.tol=1e-3`).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+from rich.console import Console
+from rich.table import Table
+
+console = Console(width=160)
+
+
+def run(args: list[str]) -> tuple[float, int]:
+    """Run ``airl ARGS`` in a fresh process: (wall seconds, its peak resident memory in bytes)."""
+    with tempfile.TemporaryFile("w+") as err:
+        start = time.perf_counter()
+        proc = subprocess.Popen([sys.executable, "-m", "airl_cli", *args], stdout=subprocess.DEVNULL, stderr=err)
+        _, status, usage = os.wait4(proc.pid, 0)  # this child's own resource usage
+        wall = time.perf_counter() - start
+        proc.returncode = os.waitstatus_to_exitcode(status)
+        if proc.returncode != 0:
+            err.seek(0)
+            raise SystemExit(f"airl {' '.join(args)} failed:\n{err.read()}")
+    return wall, usage.ru_maxrss * 1024
+
+
+def fit_row(folder: Path) -> dict:
+    metrics = json.loads((folder / "metrics.json").read_text())
+    timing = json.loads((folder / "timing.json").read_text())
+    scores = [r["learner_score"] for r in metrics["dynamics"][1:]] if metrics.get("scored") else []
+    return {"metrics": metrics, "fit_seconds": timing["fit_seconds"], "scores": scores}
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--sizes", type=int, nargs="+", default=[8, 16, 24, 32])
+    parser.add_argument("--horizons", type=int, nargs="+", default=[20])
+    parser.add_argument("--demos", type=int, default=200)
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--extra", nargs="*", default=[])
+    args = parser.parse_args()
+    os.environ.pop("NUMBA_NUM_THREADS", None)
+    table = Table(title=f"certified fit on Objectworld (D=3, N={args.demos}, seed {args.seed}; all cores)")
+    for col in ("grid", "S", "T", "fit s", "process s", "iterations", "planner calls", "rel. gap", "converged", "peak GB", "score tau_1..3", "MCE fit s", "MCE score"):
+        table.add_column(col, justify="right")
+    with tempfile.TemporaryDirectory() as tmp:
+        root = Path(tmp)
+        # compile the kernels once, outside the measurements
+        run(["fit", "mdp=objectworld", "dynamics=slip", "mdp.size=4", "mdp.horizon=5", f"hydra.run.dir={root / 'warm'}"])
+        for T in args.horizons:
+            for n in args.sizes:
+                tag = f"{n}x{n}-T{T}"
+                data = root / tag / "gen"
+                run(["generate", "mdp=objectworld", "dynamics=slip", f"mdp.size={n}", f"mdp.horizon={T}", f"demos.n={args.demos}", f"seed={args.seed}", f"hydra.run.dir={data}"])
+                wall, peak = run(["fit", f"data={data / 'dataset.npz'}", f"hydra.run.dir={root / tag / 'fit'}", *args.extra])
+                fit = fit_row(root / tag / "fit")
+                _, _ = run(["fit", f"data={data / 'dataset.npz'}", "method=mce", f"hydra.run.dir={root / tag / 'mce'}"])
+                mce = fit_row(root / tag / "mce")
+                m = fit["metrics"]
+                table.add_row(
+                    f"{n}x{n}", str(n * n), str(T), f"{fit['fit_seconds']:.1f}", f"{wall:.1f}", str(m["iterations"]),
+                    str(m["planner_calls"]), f"{m['relative_gap']:.1e}", "yes" if m["converged"] else "NO",
+                    f"{peak / 2**30:.2f}", " / ".join(f"{x:.3f}" for x in fit["scores"]), f"{mce['fit_seconds']:.1f}",
+                    " / ".join(f"{x:.3f}" for x in mce["scores"]),
+                )
+                console.print(f"done {tag}: fit {fit['fit_seconds']:.1f} s, MCE {mce['fit_seconds']:.1f} s")
+    console.print(table)
+
+
+if __name__ == "__main__":
+    main()
