@@ -45,7 +45,8 @@ FIT_COLUMNS = (
     "n_demos", "demos", "sigma", "weight_sharing", "loss", "dynamics", "learner_score", "demonstrator_score",
     "cosine_similarity", "seconds", "optimizer", "objective", "relative_gap", "converged",
 )  # fmt: skip
-#: Quick profile: this many runs at most, the first and last swept value, the first two methods.
+#: Quick profile: this many runs at most, the first and last swept value (or the experiment's
+#: ``quick_values``), the first two methods.
 QUICK_RUNS = 2
 QUICK_METHODS = 2
 
@@ -60,7 +61,8 @@ def _sweep_values(what: str, *, _root_: DictConfig) -> str:
     if what == "values":
         values = list(exp["values"])
         if quick:
-            values = list(dict.fromkeys([values[0], values[-1]]))
+            # an experiment whose swept values are the problem's size shrinks them (quick_values)
+            values = list(exp.get("quick_values") or dict.fromkeys([values[0], values[-1]]))
         return ",".join(str(v) for v in values)
     if what == "methods":
         methods = list(exp.methods)

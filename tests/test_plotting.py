@@ -377,3 +377,22 @@ def test_plotting_imports_only_pandas_numpy_matplotlib_the_standard_library_and_
     for name in names - {"airl_cli.results"}:
         top = name.split(".")[0]
         assert top in {"numpy", "pandas", "matplotlib"} or top in sys.stdlib_module_names, name
+
+
+def test_times_plots_one_median_per_method_and_size_on_a_log_axis():
+    # two jobs per (method, size), each with three rows (one per dynamics) carrying the job's time
+    rows = []
+    for method, base in (("airl", 2.0), ("mce", 0.5)):
+        for x in (8, 16):
+            for seed, factor in ((0, 1.0), (1, 3.0)):
+                for dyn in ("tau_1", "tau_2", "tau_3"):
+                    rows.append(dict(method=method, x=x, seed=seed, dynamics=dyn, seconds=base * factor * x))
+    fig = plotting.times(pd.DataFrame(rows), {"x_label": "grid side", "methods": ["airl", "mce"]})
+    ax = fig.axes[0]
+    assert ax.get_yscale() == "log"
+    lines = {line.get_label(): line for line in ax.get_lines()}
+    airl = lines[[k for k in lines if k.startswith("AIRL")][0]]
+    # the median of the two jobs (x 1 and x 3) is x 2: 2 * 2 * 8 = 32 and 64
+    assert np.allclose(airl.get_ydata(), [32.0, 64.0])
+    mce = lines["MCE IRL"]
+    assert np.allclose(mce.get_ydata(), [8.0, 16.0])

@@ -18,7 +18,7 @@ from airl_cli.errors import ConfigError
 from airl_cli.sweeps import FIT_COLUMNS, experiment_names, plan
 
 runner = CliRunner()
-EXPERIMENTS = ["fig02_03", "fig04", "fig05", "fig06", "fig07", "fig08", "fig09", "fig12", "fig13", "fig14", "fig15", "fig17", "fig18"]
+EXPERIMENTS = ["fig02_03", "fig04", "fig05", "fig06", "fig07", "fig08", "fig09", "fig12", "fig13", "fig14", "fig15", "fig17", "fig18", "size", "size_random"]
 
 
 @pytest.fixture(autouse=True)
@@ -41,7 +41,7 @@ def test_every_experiment_composes_and_plans(name, profile):
         assert len(sweep.jobs) <= 8
 
 
-RANDOM_MDP = {"fig04", "fig05", "fig06", "fig07", "fig08", "fig09"}
+RANDOM_MDP = {"fig04", "fig05", "fig06", "fig07", "fig08", "fig09", "size_random"}
 
 
 @pytest.mark.parametrize("name", EXPERIMENTS[1:])

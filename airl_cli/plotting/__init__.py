@@ -40,11 +40,13 @@ from airl_cli.plotting.scores import (
     CURVES_COLUMNS,
     HISTOGRAM_COLUMNS,
     RUN_BARS_COLUMNS,
+    TIMES_COLUMNS,
     _cosine_columns,
     cosine,
     curves,
     histogram,
     run_bars,
+    times,
 )
 from airl_cli.results import atomic_write
 
@@ -56,6 +58,7 @@ __all__ = [
     "curves",
     "run_bars",
     "cosine",
+    "times",
     "alpha_vectors",
     "draw",
 ]
@@ -63,8 +66,8 @@ __all__ = [
 # the sweep folder
 
 
-_DRAWERS = {"histogram": histogram, "curves": curves, "run_bars": run_bars, "cosine": cosine}
-_NEEDS = {"histogram": HISTOGRAM_COLUMNS, "curves": CURVES_COLUMNS, "run_bars": RUN_BARS_COLUMNS}
+_DRAWERS = {"histogram": histogram, "curves": curves, "run_bars": run_bars, "cosine": cosine, "times": times}
+_NEEDS = {"histogram": HISTOGRAM_COLUMNS, "curves": CURVES_COLUMNS, "run_bars": RUN_BARS_COLUMNS, "times": TIMES_COLUMNS}
 
 
 def _read_meta(folder: Path) -> dict[str, Any]:

@@ -257,3 +257,34 @@ def cosine(df: pd.DataFrame, meta: Mapping[str, Any]) -> Figure:
     return fig
 
 
+
+
+TIMES_COLUMNS = ("method", "x", "seed", "seconds")
+
+
+def times(df: pd.DataFrame, meta: Mapping[str, Any]) -> Figure:
+    """Fit time against the swept variable (the size experiments): per method the median wall time
+    of a fit over runs, log scale, with the interquartile band of this thesis's method."""
+    _require(df, TIMES_COLUMNS, "times")
+    df = _numeric(df)
+    methods = _methods(df, meta)
+    # one row per job and dynamics in the table: one time per job
+    per_job = df.dropna(subset=["seconds"]).groupby(["method", "x", "seed"])["seconds"].first().reset_index()
+    fig, axes = _panels(1, 1, width=6.4)
+    ax = axes[0]
+    for method in methods:
+        rows = per_job[per_job["method"].astype(str) == method]
+        if rows.empty:
+            continue
+        stats = _quartiles(rows.groupby("x")["seconds"])
+        _band(ax, stats, _colour(method, methods), _label(method), band=method == "airl")
+    _x_axis(ax, per_job["x"].to_numpy(dtype=float), bool(meta.get("x_log", False)), _x_label(meta, df))
+    ax.set_yscale("log")
+    ax.set_ylabel("fit time, seconds (median over runs)")
+    ax.grid(alpha=0.3, which="both")
+    _title(fig, meta, "Fit time against the swept variable")
+    handles = _method_handles(methods, methods)
+    if "airl" in methods:
+        handles.append(Patch(facecolor="0.6", alpha=0.35, label=f"interquartile range over runs ({_label('airl')})"))
+    _legend(fig, handles)
+    return fig
