@@ -22,6 +22,7 @@ import importlib
 import multiprocessing
 import os
 import socket
+import warnings
 from collections.abc import Iterator, Sequence
 from concurrent.futures import Future, ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
@@ -108,6 +109,10 @@ def prestart(n: int) -> bool:
     if n < 2 or _pool.get("n") == n:
         return n < 2 or bool(_pool)
     shutdown()
+    # multiprocessing relaunches its resource tracker (it holds the pool's semaphores) if that
+    # process has died, and warns on stderr in two lines that ask nothing of the user; under load,
+    # with workers stopped at once after a bad value, it did, breaking the one-sentence error
+    warnings.filterwarnings("ignore", message="resource_tracker: process died unexpectedly", category=UserWarning)
     pool = None
     try:
         pool = ProcessPoolExecutor(max_workers=n, mp_context=multiprocessing.get_context("spawn"))
