@@ -6,6 +6,8 @@ A user brings their own MDP and demonstrations by writing these keys with ``nump
 key                      shape, dtype           meaning
 =======================  =====================  ==============================================
 transitions              (M, S, A, S) float     index 0 = tau, 1..D = tau_1..tau_D (M = D+1)
+transition_next          (S, R) int             or, instead of transitions: the next states each
+transition_probs         (M, S, A, R) float     state reaches (-1 padded) and their probabilities
 features                 (S, K) float           phi
 initial                  (S,) float             p0, sums to 1
 horizon                  () int                 T (states per trajectory), >= 2
@@ -18,6 +20,9 @@ loss                     (S, S) float           optional; else the config's loss
 
 Reading validates everything and raises ``DatasetError`` with one sentence naming the key.
 Writing is atomic and deterministic (fixed zip timestamps): the same data gives the same bytes.
+Dynamics whose dense array would exceed ``SPARSE_ABOVE`` bytes are written in the sparse form
+(``core.sparse``: on a 32 x 32 grid 0.4 MB of probabilities instead of 168 MB); both forms read
+into the same ``Dataset``.
 """
 
 from __future__ import annotations
@@ -32,11 +37,14 @@ import numpy as np
 
 from airl_cli.core.demos import feature_sums
 from airl_cli.core.mdp import check_probabilities
+from airl_cli.core.sparse import SparseDynamics, sparse_dynamics
 from airl_cli.errors import DatasetError
 from airl_cli.results import atomic_write
 
 KEYS = (
     "transitions",
+    "transition_next",
+    "transition_probs",
     "features",
     "initial",
     "horizon",
@@ -46,7 +54,10 @@ KEYS = (
     "true_weights",
     "loss",
 )
-REQUIRED = ("transitions", "features", "initial", "horizon")
+REQUIRED = ("features", "initial", "horizon")  # and the dynamics, in one of their two forms
+SPARSE_KEYS = ("transition_next", "transition_probs")
+#: Dynamics larger than this as a dense (M, S, A, S) float64 array are written sparse.
+SPARSE_ABOVE = 64 * 2**20
 
 
 @dataclass(frozen=True)
@@ -137,6 +148,57 @@ def _probabilities(key: str, x: np.ndarray) -> None:
         _fail(str(err))
 
 
+def _dynamics(raw: dict[str, np.ndarray]) -> np.ndarray:
+    """The (M, S, A, S) dynamics from the dense key or the two sparse ones, checked."""
+    sparse = [k for k in SPARSE_KEYS if k in raw]
+    if "transitions" in raw and sparse:
+        _fail(f"give the dynamics once: either 'transitions' or 'transition_next' with 'transition_probs', not both ('{sparse[0]}' is there too)")
+    if "transitions" not in raw and len(sparse) < 2:
+        missing = "the required key 'transitions' is missing" if not sparse else f"'{sparse[0]}' is given without '{({*SPARSE_KEYS} - {sparse[0]}).pop()}'"
+        _fail(f"{missing}; give the dynamics as 'transitions' (M, S, A, S) or as 'transition_next' (S, R) with 'transition_probs' (M, S, A, R)")
+    if "transitions" in raw:
+        P = _numeric("transitions", np.asarray(raw["transitions"]))
+        if P.ndim != 4 or P.shape[1] != P.shape[3]:
+            _fail(f"key 'transitions' must have shape (M, S, A, S), but has shape {P.shape}")
+        key = "transitions"
+    else:
+        P = _sparse_dynamics(raw)
+        key = "transition_probs"
+    M, S, A, _ = P.shape
+    if M < 2:
+        _fail(f"key '{key}' must stack tau and at least one tau_j (M >= 2), but has shape {np.shape(raw[key])}")
+    if S < 1 or A < 1:
+        _fail(f"key '{key}' needs at least one state and one action, but has shape {np.shape(raw[key])}")
+    _probabilities(key, P)
+    return P
+
+
+def _sparse_dynamics(raw: dict[str, np.ndarray]) -> np.ndarray:
+    """The dense dynamics of the sparse keys: next states (S, R) and their probabilities (M, S, A, R)."""
+    nxt = _numeric("transition_next", np.asarray(raw["transition_next"]), integer=True)
+    probs = _numeric("transition_probs", np.asarray(raw["transition_probs"]))
+    if nxt.ndim != 2 or nxt.shape[1] < 1:
+        _fail(f"key 'transition_next' must have shape (S, R) with R >= 1, but has shape {nxt.shape}")
+    S, R = nxt.shape
+    if probs.ndim != 4 or probs.shape[1] != S or probs.shape[3] != R:
+        _fail(f"key 'transition_probs' must have shape (M, S, A, R) = (M, {S}, A, {R}) (S, R from 'transition_next'), but has shape {probs.shape}")
+    if nxt.min() < -1 or nxt.max() >= S:
+        idx = tuple(int(i) for i in np.argwhere((nxt < -1) | (nxt >= S))[0])
+        _fail(f"key 'transition_next' has state index {nxt[idx]} at {idx}, outside [0, {S}) (-1 pads a row)")
+    pad = np.broadcast_to(nxt[None, :, None, :] < 0, probs.shape)
+    if np.any(probs[pad] != 0):
+        j, s, a, r = (int(i) for i in np.argwhere(pad & (probs != 0))[0])
+        _fail(f"key 'transition_probs' gives probability {probs[j, s, a, r]:.3g} at {(j, s, a, r)} to a padding entry (-1) of 'transition_next'")
+    keyed = np.where(nxt >= 0, nxt, -1 - np.arange(R)[None, :])  # padding entries never collide
+    ordered = np.sort(keyed, axis=1)
+    dup = np.argwhere(ordered[:, 1:] == ordered[:, :-1])
+    if dup.size:
+        s = int(dup[0, 0])
+        _fail(f"key 'transition_next' lists next state {ordered[s, dup[0, 1]]} twice in row {s}")
+    dense = SparseDynamics(nxt, probs).dense()
+    return dense
+
+
 def validate(raw: dict[str, np.ndarray]) -> Dataset:
     """Check the arrays of a dataset file against the schema of the README and build a ``Dataset``.
 
@@ -157,15 +219,8 @@ def validate(raw: dict[str, np.ndarray]) -> Dataset:
     if "demo_actions" in raw and "demo_states" not in raw:
         _fail("the key 'demo_actions' is given without 'demo_states'")
 
-    P = _numeric("transitions", np.asarray(raw["transitions"]))
-    if P.ndim != 4 or P.shape[1] != P.shape[3]:
-        _fail(f"key 'transitions' must have shape (M, S, A, S), but has shape {P.shape}")
+    P = _dynamics(raw)
     M, S, A, _ = P.shape
-    if M < 2:
-        _fail(f"key 'transitions' must stack tau and at least one tau_j (M >= 2), but has shape {P.shape}")
-    if S < 1 or A < 1:
-        _fail(f"key 'transitions' needs at least one state and one action, but has shape {P.shape}")
-    _probabilities("transitions", P)
     D = M - 1
 
     phi = _numeric("features", np.asarray(raw["features"]))
@@ -291,6 +346,9 @@ def write_dataset(path: str | os.PathLike, dataset: Dataset) -> Path:
     """
     arrays = validate(dataset.arrays()).arrays()
     arrays["horizon"] = np.asarray(int(arrays["horizon"]), dtype=np.int64)
+    if arrays["transitions"].nbytes > SPARSE_ABOVE:
+        dyn = sparse_dynamics(arrays.pop("transitions"))
+        arrays["transition_next"], arrays["transition_probs"] = dyn.next_states, dyn.probs
 
     def write(handle) -> None:
         with zipfile.ZipFile(handle, "w", compression=zipfile.ZIP_DEFLATED) as zf:

@@ -162,3 +162,77 @@ def test_fit_sizes_know_the_reach_of_a_grid_and_of_a_file(tmp_path):
              feature_expectations=np.ones((1, 3)))
     assert fit_sizes(api.config("mdp=objectworld", "dynamics=slip"))["n_next"] == 5
     assert fit_sizes(api.config(f"data={tmp_path / 'd.npz'}"))["n_next"] == reachable(P).shape[1] < 12
+
+
+# --------------------------------------------------------------------------- the sparse dataset file
+
+
+def small_dataset(seed: int = 0):
+    from airl_cli.core.demos import sample_trajectories
+    from airl_cli.core.planning import backward_induction
+    from airl_cli.data import Dataset
+
+    P = sparse_problem(seed, S=12, A=2, M=3, n_next=1)  # each state reaches at most 6 of the 12
+    rng = np.random.default_rng(seed)
+    phi = rng.random((12, 4))
+    w = rng.standard_normal(4)
+    p0 = np.full(12, 1 / 12)
+    policy, _ = backward_induction(P[0], phi @ w, horizon=6)
+    states, actions = sample_trajectories(rng, P[1:], policy, p0, 50)
+    return Dataset(P, phi, p0, 6, states, actions, None, w, None)
+
+
+def test_a_sparse_file_reads_as_the_dense_one_and_fits_the_same(tmp_path):
+    from airl_cli import api
+    from airl_cli.data import read_dataset
+
+    ds = small_dataset()
+    arrays = ds.arrays()
+    dyn = sparse_dynamics(arrays.pop("transitions"))
+    np.savez(tmp_path / "dense.npz", **ds.arrays())
+    np.savez(tmp_path / "sparse.npz", transition_next=dyn.next_states, transition_probs=dyn.probs, **arrays)
+    dense, sparse = read_dataset(tmp_path / "dense.npz"), read_dataset(tmp_path / "sparse.npz")
+    assert np.array_equal(dense.transitions, sparse.transitions)
+    # the same weights and scores whichever form the file has
+    a = api.fit(dense, "pbvi.iterations=4")
+    b = api.fit(sparse, "pbvi.iterations=4")
+    assert np.array_equal(a.weights, b.weights)
+    assert api.score(dense, a).equals(api.score(sparse, b))
+
+
+def test_a_large_dataset_is_written_sparse(tmp_path, monkeypatch):
+    import airl_cli.data as data
+
+    ds = small_dataset(1)
+    monkeypatch.setattr(data, "SPARSE_ABOVE", 0)  # every dynamics counts as large
+    data.write_dataset(tmp_path / "d.npz", ds)
+    with np.load(tmp_path / "d.npz") as npz:
+        assert "transitions" not in npz.files and npz["transition_next"].shape[1] < 12
+    assert np.array_equal(data.read_dataset(tmp_path / "d.npz").transitions, ds.transitions)
+
+
+@pytest.mark.parametrize(
+    "change, message",
+    [
+        (lambda a: a.update(transitions=np.zeros(1)), "not both"),
+        (lambda a: a.pop("transition_probs"), "'transition_next' is given without 'transition_probs'"),
+        (lambda a: a["transition_next"].__setitem__((0, 0), 12), "state index 12 at (0, 0), outside [0, 12)"),
+        (lambda a: a["transition_next"].__setitem__((0, 1), a["transition_next"][0, 0]), "twice in row 0"),
+        (lambda a: a["transition_probs"].__setitem__((0, 0, 0, 0), 0.5), "key 'transition_probs'"),
+        (lambda a: a.update(transition_probs=a["transition_probs"][:, :, :, :-1]), "must have shape (M, S, A, R)"),
+        (lambda a: a["transition_probs"].__setitem__((0, *np.argwhere(a["transition_next"] < 0)[0][:1], 0, *np.argwhere(a["transition_next"] < 0)[0][1:]), 0.1), "to a padding entry (-1)"),
+    ],
+)
+def test_a_bad_sparse_file_gets_one_sentence(tmp_path, change, message):
+    from airl_cli.data import read_dataset
+    from airl_cli.errors import DatasetError
+
+    ds = small_dataset(2)
+    arrays = ds.arrays()
+    dyn = sparse_dynamics(arrays.pop("transitions"))
+    arrays.update(transition_next=dyn.next_states.copy(), transition_probs=dyn.probs.copy())
+    change(arrays)
+    np.savez(tmp_path / "bad.npz", **arrays)
+    with pytest.raises(DatasetError) as err:
+        read_dataset(tmp_path / "bad.npz")
+    assert message in str(err.value) and "\n" not in str(err.value)

@@ -107,11 +107,14 @@ def fit_sizes(cfg: DictConfig) -> dict | None:
         return {"n_states": S, "n_actions": A, "horizon": mdp.horizon, "n_dynamics": problem.dynamics.n_dynamics, "n_demos": n, "n_next": R}
     try:
         with np.load(str(data), allow_pickle=False) as npz:
-            P = npz["transitions"]
-            M, S, A, _ = P.shape
+            if "transition_probs" in npz.files:  # the sparse form: (M, S, A, R)
+                M, S, A, R = npz["transition_probs"].shape
+            else:
+                P = npz["transitions"]
+                M, S, A, _ = P.shape
+                R = int(np.max(np.sum(np.any(P != 0, axis=(0, 2)), axis=1))) if P.size else None
             T = int(npz["horizon"])
             n = npz["demo_states"].shape[1] if "demo_states" in npz.files else 0
-            R = int(np.max(np.sum(np.any(P != 0, axis=(0, 2)), axis=1))) if P.ndim == 4 and P.size else None
     except Exception:  # noqa: BLE001 (read_dataset names what is wrong)
         return None
     return {"n_states": S, "n_actions": A, "horizon": T, "n_dynamics": M - 1, "n_demos": n, "n_next": R}
