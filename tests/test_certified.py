@@ -259,3 +259,13 @@ def test_bad_options():
     for bad in (CertifiedOptions(lam=0.0), CertifiedOptions(tol=0.0), CertifiedOptions(max_iterations=0)):
         with pytest.raises(ValueError):
             minimize(problem, targets, oracle, options=bad)
+
+
+def test_the_solvers_print_no_banner_on_standard_output():
+    """highspy writes a copyright banner to the C stdout at a process's first model: kept off it."""
+    import subprocess
+    import sys
+
+    code = "from airl_cli.core.qp import MasterQP; import numpy as np; MasterQP(np.ones(2), 0.1); print('done')"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout == "done\n"

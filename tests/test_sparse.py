@@ -236,3 +236,4 @@ def test_a_bad_sparse_file_gets_one_sentence(tmp_path, change, message):
     with pytest.raises(DatasetError) as err:
         read_dataset(tmp_path / "bad.npz")
     assert message in str(err.value) and "\n" not in str(err.value)
+

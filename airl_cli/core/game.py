@@ -29,6 +29,8 @@ from scipy.optimize import linprog
 
 import highspy
 
+from airl_cli.core.highs import quiet_highs
+
 from airl_cli.core.planning import backward_induction, state_marginals
 
 _INF = highspy.kHighsInf
@@ -155,8 +157,7 @@ class RestrictedGame:
         self.adversary_features = np.empty((0, D, K))
         self.loss_part = np.empty((0, 0))
         self.w = np.zeros((D, K))
-        lp = highspy.Highs()
-        lp.setOptionValue("output_flag", False)
+        lp = quiet_highs()
         lp.addVar(-_INF, _INF)  # column 0: the value v
         lp.changeColCost(0, 1.0)
         lp.addRow(1.0, 1.0, 0, np.empty(0, dtype=np.int32), np.empty(0))  # row 0: sum_i p_i = 1

@@ -39,6 +39,8 @@ import scipy.sparse as sp
 
 import highspy
 
+from airl_cli.core.highs import quiet_highs
+
 from airl_cli.core.threads import one_blas_thread
 
 _INF = highspy.kHighsInf
@@ -65,8 +67,7 @@ class MasterQP:
         self.Phi = np.empty((0, self.d))  # (m, d)
         self.fallbacks = 0
         self.iterations: list[int] = []  # HiGHS QP iterations of each successful solve
-        h = highspy.Highs()
-        h.setOptionValue("output_flag", False)
+        h = quiet_highs()
         # tight tolerances: w follows from the duals (lam w = C - Phi^T q), so they must be accurate
         for option in ("primal_feasibility_tolerance", "dual_feasibility_tolerance", "optimality_tolerance"):
             h.setOptionValue(option, 1e-10)
