@@ -16,6 +16,7 @@ from airl_cli.core import demos as core_demos
 from airl_cli.core import objectworld, problems
 from airl_cli.core.planning import backward_induction
 from airl_cli.core.scores import performance
+from airl_cli.core.sparse import SparseDynamics
 from airl_cli.data import Dataset
 from airl_cli.errors import ConfigError
 
@@ -33,7 +34,7 @@ def streams(seed: int) -> dict[str, np.random.Generator]:
 class Problem:
     """A problem without demonstrations: shapes as in ``airl_cli.data``."""
 
-    transitions: np.ndarray  # (M, S, A, S), index 0 = tau
+    transitions: np.ndarray | SparseDynamics  # (M, S, A, S), index 0 = tau
     features: np.ndarray  # (S, K)
     initial: np.ndarray  # (S,)
     horizon: int
@@ -76,9 +77,10 @@ def with_loss(dataset: Dataset, kind: str) -> Dataset:
     return Dataset(**{**dataset.__dict__, "loss": loss_matrix(kind, dataset.features)})
 
 
-def base_problem(mdp: MDPSettings, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray | None]:
-    """tau (S, A, S), phi (S, K), w* (K,), p0 (S,) and the grid coordinates (S, 2) or None, of the
-    mdp group; randomness from ``rng`` (the "mdp" stream)."""
+def base_problem(mdp: MDPSettings, rng: np.random.Generator) -> tuple[np.ndarray | None, np.ndarray, np.ndarray, np.ndarray, np.ndarray | None]:
+    """tau (S, A, S) (None for the objectworld, whose dynamics are built sparse), phi (S, K), w* (K,),
+    p0 (S,) and the grid coordinates (S, 2) or None, of the mdp group; randomness from ``rng`` (the
+    "mdp" stream)."""
     if isinstance(mdp, GridMDPSettings):
         tau = problems.grid_world(epsilon=mdp.epsilon, size=mdp.size, start=mdp.start)
         phi = problems.grid_features(size=mdp.size, start=mdp.start, goals=mdp.goals, dangers=mdp.dangers)
@@ -96,8 +98,8 @@ def base_problem(mdp: MDPSettings, rng: np.random.Generator) -> tuple[np.ndarray
         )
         # w* is drawn whatever mdp.true_weights says, so the stream stays the same
         w_star = world.true_weights if mdp.true_weights is None else np.array(mdp.true_weights)
-        tau = objectworld.slip_dynamics(mdp.size, mdp.slip)
-        return tau, world.features, w_star, objectworld.uniform_initial(mdp.size), problems.grid_coordinates(mdp.size)
+        # tau is built sparse with the other dynamics (build_problem)
+        return None, world.features, w_star, objectworld.uniform_initial(mdp.size), problems.grid_coordinates(mdp.size)
     tau, phi, w_star, p0 = problems.random_mdp(
         rng,
         n_states=mdp.n_states,
@@ -115,20 +117,21 @@ def build_problem(settings: ProblemSettings) -> Problem:
     rng = streams(settings.seed)
     mdp, dyn = settings.mdp, settings.dynamics
     tau, phi, w_star, p0, coords = base_problem(mdp, rng["mdp"])
+    loss = loss_matrix(resolved_loss(settings), phi, coords)
+    if isinstance(mdp, ObjectworldSettings):
+        # a cell reaches at most 5 cells: the dynamics stay sparse (core.sparse), even at S = 4,096
+        slips = dyn.slips if dyn.kind == "slip" else (mdp.slip,) * dyn.n_dynamics
+        return Problem(objectworld.slip_sparse(mdp.size, (mdp.slip, *slips)), phi, p0, mdp.horizon, w_star, loss, coords)
     if dyn.kind == "gaussian":
         others = problems.gaussian_perturbations(rng["dynamics"], tau, sigma=dyn.sigma, n_dynamics=dyn.n_dynamics)
     elif dyn.kind == "same":
         others = np.broadcast_to(tau, (dyn.n_dynamics,) + tau.shape)
-    elif dyn.kind == "slip":
-        assert isinstance(mdp, ObjectworldSettings)
-        others = np.stack([objectworld.slip_dynamics(mdp.size, slip) for slip in dyn.slips])
     else:
         assert isinstance(mdp, GridMDPSettings)
         others = np.stack(
             [problems.grid_world(epsilon=mdp.epsilon, crosses=layout, size=mdp.size, start=mdp.start) for layout in dyn.layouts]
         )
     transitions = np.concatenate([tau[None], others], axis=0)
-    loss = loss_matrix(resolved_loss(settings), phi, coords)
     return Problem(transitions, phi, p0, mdp.horizon, w_star, loss, coords)
 
 
@@ -152,7 +155,8 @@ def build_dataset(settings: ProblemSettings) -> tuple[Dataset, np.ndarray]:
     else:
         states, actions = core_demos.most_likely_trajectory(P[0], policy, p0)
         for j in range(1, P.shape[0]):
-            if np.any(P[j, states[:-1], actions, states[1:]] <= 0):
+            step = P.probability(j, states[:-1], actions, states[1:]) if isinstance(P, SparseDynamics) else P[j, states[:-1], actions, states[1:]]
+            if np.any(step <= 0):
                 raise ConfigError(
                     f"the expert's most likely path under tau is impossible under tau_{j} (it enters a cross cell), "
                     "so demos=optimal_path cannot use these dynamics"

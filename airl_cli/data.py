@@ -21,8 +21,8 @@ loss                     (S, S) float           optional; else the config's loss
 Reading validates everything and raises ``DatasetError`` with one sentence naming the key.
 Writing is atomic and deterministic (fixed zip timestamps): the same data gives the same bytes.
 Dynamics whose dense array would exceed ``SPARSE_ABOVE`` bytes are written in the sparse form
-(``core.sparse``: on a 32 x 32 grid 0.4 MB of probabilities instead of 168 MB); both forms read
-into the same ``Dataset``.
+(``core.sparse``: on a 32 x 32 grid 0.4 MB of probabilities instead of 168 MB). A sparse file is
+read into a ``SparseDynamics`` and stays sparse: the planners, samplers and learners take either form.
 """
 
 from __future__ import annotations
@@ -64,7 +64,7 @@ SPARSE_ABOVE = 64 * 2**20
 class Dataset:
     """The contents of a dataset file; see the module docstring for shapes."""
 
-    transitions: np.ndarray
+    transitions: np.ndarray | SparseDynamics  # (M, S, A, S); sparse when the file gave it so
     features: np.ndarray
     initial: np.ndarray
     horizon: int
@@ -104,11 +104,13 @@ class Dataset:
         return feature_sums(self.demo_states, self.features).mean(axis=1)
 
     def arrays(self) -> dict[str, np.ndarray]:
-        """The keys present, in the README's order, as arrays."""
+        """The keys present, in the README's order, as arrays (sparse dynamics as their two keys)."""
         out = {}
         for f in fields(self):
             value = getattr(self, f.name)
-            if value is not None:
+            if isinstance(value, SparseDynamics):
+                out["transition_next"], out["transition_probs"] = value.next_states, value.probs
+            elif value is not None:
                 out[f.name] = np.asarray(value)
         return out
 
@@ -148,8 +150,8 @@ def _probabilities(key: str, x: np.ndarray) -> None:
         _fail(str(err))
 
 
-def _dynamics(raw: dict[str, np.ndarray]) -> np.ndarray:
-    """The (M, S, A, S) dynamics from the dense key or the two sparse ones, checked."""
+def _dynamics(raw: dict[str, np.ndarray]) -> np.ndarray | SparseDynamics:
+    """The (M, S, A, S) dynamics from the dense key, or a ``SparseDynamics`` from the two sparse ones, checked."""
     sparse = [k for k in SPARSE_KEYS if k in raw]
     if "transitions" in raw and sparse:
         _fail(f"give the dynamics once: either 'transitions' or 'transition_next' with 'transition_probs', not both ('{sparse[0]}' is there too)")
@@ -169,12 +171,12 @@ def _dynamics(raw: dict[str, np.ndarray]) -> np.ndarray:
         _fail(f"key '{key}' must stack tau and at least one tau_j (M >= 2), but has shape {np.shape(raw[key])}")
     if S < 1 or A < 1:
         _fail(f"key '{key}' needs at least one state and one action, but has shape {np.shape(raw[key])}")
-    _probabilities(key, P)
+    _probabilities(key, P.probs if isinstance(P, SparseDynamics) else P)
     return P
 
 
-def _sparse_dynamics(raw: dict[str, np.ndarray]) -> np.ndarray:
-    """The dense dynamics of the sparse keys: next states (S, R) and their probabilities (M, S, A, R)."""
+def _sparse_dynamics(raw: dict[str, np.ndarray]) -> SparseDynamics:
+    """The dynamics of the sparse keys, kept sparse: next states (S, R) and their probabilities (M, S, A, R)."""
     nxt = _numeric("transition_next", np.asarray(raw["transition_next"]), integer=True)
     probs = _numeric("transition_probs", np.asarray(raw["transition_probs"]))
     if nxt.ndim != 2 or nxt.shape[1] < 1:
@@ -195,8 +197,7 @@ def _sparse_dynamics(raw: dict[str, np.ndarray]) -> np.ndarray:
     if dup.size:
         s = int(dup[0, 0])
         _fail(f"key 'transition_next' lists next state {ordered[s, dup[0, 1]]} twice in row {s}")
-    dense = SparseDynamics(nxt, probs).dense()
-    return dense
+    return SparseDynamics(nxt, probs)
 
 
 def validate(raw: dict[str, np.ndarray]) -> Dataset:
@@ -264,11 +265,15 @@ def validate(raw: dict[str, np.ndarray]) -> Dataset:
     if states is not None:
         j_idx = np.arange(1, M)[:, None, None]
         s, s_next = states[:, :, :-1], states[:, :, 1:]
+        sparse = isinstance(P, SparseDynamics)
         if actions is not None:
-            prob = P[j_idx, s, actions, s_next]
+            prob = P.probability(j_idx, s, actions, s_next) if sparse else P[j_idx, s, actions, s_next]
             what = "with the recorded action"
         else:
-            prob = P[j_idx, s, :, s_next].max(axis=-1)
+            if sparse:
+                prob = np.max([P.probability(j_idx, s, a, s_next) for a in range(A)], axis=0)
+            else:
+                prob = P[j_idx, s, :, s_next].max(axis=-1)
             what = "under any action"
         if np.any(prob <= 0):
             j, n, t = (int(i) for i in np.argwhere(prob <= 0)[0])
@@ -346,9 +351,12 @@ def write_dataset(path: str | os.PathLike, dataset: Dataset) -> Path:
     """
     arrays = validate(dataset.arrays()).arrays()
     arrays["horizon"] = np.asarray(int(arrays["horizon"]), dtype=np.int64)
-    if arrays["transitions"].nbytes > SPARSE_ABOVE:
+    dense_bytes = 8 * int(np.prod(dataset.transitions.shape))
+    if "transitions" in arrays and dense_bytes > SPARSE_ABOVE:
         dyn = sparse_dynamics(arrays.pop("transitions"))
         arrays["transition_next"], arrays["transition_probs"] = dyn.next_states, dyn.probs
+    elif "transitions" not in arrays and dense_bytes <= SPARSE_ABOVE:  # small: the familiar dense key
+        arrays["transitions"] = SparseDynamics(arrays.pop("transition_next"), arrays.pop("transition_probs")).dense()
 
     def write(handle) -> None:
         with zipfile.ZipFile(handle, "w", compression=zipfile.ZIP_DEFLATED) as zf:

@@ -26,6 +26,7 @@ import numpy as np
 from scipy.optimize import minimize
 
 from airl_cli.core.mdp import check_probabilities, check_transitions
+from airl_cli.core.sparse import SparseDynamics
 from airl_cli.core.planning import backward_induction, soft_backward_induction, state_marginals
 
 
@@ -54,7 +55,7 @@ def _check_problem(
     Raises:
         ValueError: quoting the shape of the offending array.
     """
-    P = np.array(transitions, dtype=np.float64)
+    P = transitions if isinstance(transitions, SparseDynamics) else np.array(transitions, dtype=np.float64)
     if P.ndim != 4 or P.shape[0] < 2:
         raise ValueError(f"transitions must have shape (M, S, A, S) with M = D+1 >= 2, got {P.shape}")
     S, _ = check_transitions(P)

@@ -87,8 +87,9 @@ def estimate_fit(
     R = S if n_next is None else min(n_next, S)
     parts = {
         "base": BASE_BYTES,
-        # P, its transposed copy and the inverse CDF used for sampling, float64
-        "problem": 3 * M * S * A * S * 8,
+        # P, its transposed copy and the inverse CDF used for sampling, float64, over the R
+        # reachable next states (R = S when dense); the (S, S) loss
+        "problem": 3 * M * S * A * R * 8 + S * S * 8,
         "demonstrations": 2 * n_dynamics * n_demos * T * 8,
         # values, policies and marginals of the single-MDP planners: (T, S, A) per model, a few copies
         "planning": 4 * M * T * S * A * 8,

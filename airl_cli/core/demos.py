@@ -9,6 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from airl_cli.core.planning import state_marginals
+from airl_cli.core.sparse import SparseDynamics, SparseModel
 
 
 def _inverse_cdf(p: np.ndarray) -> np.ndarray:
@@ -39,7 +40,7 @@ def sample_trajectories(
     s_{t+1} ~ P_j[s_t, a_t, :].
 
     Args:
-        P: (S, A, S) or (D, S, A, S).
+        P: (S, A, S) or (D, S, A, S), dense or sparse (``core.sparse``).
         policy: (T-1, S) int, the same policy under every dynamics.
         p0: (S,) initial distribution.
         n: number of trajectories per dynamics, N >= 1.
@@ -48,15 +49,20 @@ def sample_trajectories(
         states: (N, T) or (D, N, T) int64.
         actions: (N, T-1) or (D, N, T-1) int64.
     """
-    P = np.asarray(P, dtype=np.float64)
     single = P.ndim == 3
-    if single:
-        P = P[None]
-    D = P.shape[0]
+    if isinstance(P, (SparseDynamics, SparseModel)):
+        # over the reachable next states only: the same draws as over all S (see _inverse_cdf)
+        nxt = P.next_states
+        probs = P.probs[None] if single else P.probs
+    else:
+        probs = np.asarray(P, dtype=np.float64)
+        probs = probs[None] if single else probs
+        nxt = None
+    D = probs.shape[0]
     T = policy.shape[0] + 1
     u = rng.random((D, n, T))
     C0 = _inverse_cdf(np.asarray(p0, dtype=np.float64))
-    CP = _inverse_cdf(P)  # (D, S, A, S)
+    CP = _inverse_cdf(probs)  # (D, S, A, S), or (D, S, A, R) over the reachable next states
     states = np.empty((D, n, T), dtype=np.int64)
     actions = np.empty((D, n, T - 1), dtype=np.int64)
     states[:, :, 0] = np.sum(C0 <= u[:, :, 0, None], axis=-1)
@@ -65,8 +71,9 @@ def sample_trajectories(
         s = states[:, :, t]
         a = policy[t][s]
         actions[:, :, t] = a
-        rows = CP[d_idx, s, a]  # (D, n, S)
-        states[:, :, t + 1] = np.sum(rows <= u[:, :, t + 1, None], axis=-1)
+        rows = CP[d_idx, s, a]  # (D, n, S) or (D, n, R)
+        pick = np.sum(rows <= u[:, :, t + 1, None], axis=-1)
+        states[:, :, t + 1] = pick if nxt is None else nxt[s, pick]
     if single:
         return states[0], actions[0]
     return states, actions
@@ -85,7 +92,7 @@ def most_likely_trajectory(
     Returns:
         states: (T,) int64; actions: (T-1,) int64.
     """
-    P = np.asarray(P, dtype=np.float64)
+    P = P.dense() if isinstance(P, SparseModel) else np.asarray(P, dtype=np.float64)  # small problems: one path
     S = P.shape[0]
     T = policy.shape[0] + 1
     with np.errstate(divide="ignore"):
@@ -128,7 +135,8 @@ def expected_feature_sums(P: np.ndarray, policy: np.ndarray, p0: np.ndarray, phi
     Returns:
         (K,) or (D, K).
     """
-    P = np.asarray(P, dtype=np.float64)
+    if not isinstance(P, (SparseDynamics, SparseModel)):
+        P = np.asarray(P, dtype=np.float64)
     if P.ndim == 3:
         return state_marginals(P, policy, p0).sum(axis=0) @ phi
     return np.stack([state_marginals(Pj, policy, p0).sum(axis=0) @ phi for Pj in P])

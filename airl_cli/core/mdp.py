@@ -58,6 +58,10 @@ def check_transitions(P: np.ndarray, *, name: str = "transitions") -> tuple[int,
         ValueError: on a wrong number of axes, a non-square state axis, or rows that are not
             probability distributions.
     """
+    probs = getattr(P, "probs", None)  # sparse dynamics (core.sparse): check their probabilities
+    if probs is not None:
+        check_probabilities(probs, name=name)
+        return P.shape[-3], P.shape[-2]
     P = np.asarray(P)
     if P.ndim not in (3, 4):
         raise ValueError(f"{name} must have shape (S, A, S) or (M, S, A, S), got {P.shape}")

@@ -35,6 +35,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from airl_cli.core.sparse import SparseDynamics
+
 #: Actions of the objectworld, in index order.
 OBJECTWORLD_ACTIONS = ("STAY", "UP", "RIGHT", "DOWN", "LEFT")
 #: (row, col) change of each action, in the order of ``OBJECTWORLD_ACTIONS``.
@@ -197,6 +199,34 @@ def slip_dynamics(size: int, slip: float) -> np.ndarray:
         moves[b, np.arange(S), nxt] = 1.0
     P = (1.0 - slip) * moves + (slip / A) * moves.sum(axis=0)[None]  # (A, S, S)
     return np.ascontiguousarray(P.transpose(1, 0, 2))
+
+
+def slip_sparse(size: int, slips) -> SparseDynamics:
+    """``slip_dynamics`` for each slip of ``slips``, stacked, kept over the at most 5 cells each
+    cell reaches (``core.sparse``): the same probabilities, without any (S, S) array.
+
+    Returns:
+        ``SparseDynamics`` with M = len(slips) models, ``next_states`` (S, R <= 5).
+    """
+    for slip in slips:
+        if not 0.0 <= slip <= 1.0:
+            raise ValueError(f"slip must be between 0 and 1, got {slip}")
+    S, A = size * size, len(_MOVES)
+    rows, cols = np.divmod(np.arange(S), size)
+    target = np.empty((A, S), dtype=np.int64)  # target[b, s]: where the move of action b takes s
+    for b, (dr, dc) in enumerate(_MOVES):
+        r, c = rows + dr, cols + dc
+        off = (r < 0) | (r >= size) | (c < 0) | (c >= size)
+        target[b] = np.where(off, np.arange(S), r * size + c)
+    nxt = np.full((S, A), -1, dtype=np.int64)
+    for s in range(S):
+        reach = np.unique(target[:, s])
+        nxt[s, : reach.size] = reach
+    nxt = nxt[:, : int(np.max(np.sum(nxt >= 0, axis=1)))]
+    hit = (target.T[:, :, None] == nxt[:, None, :]).astype(np.float64)  # (S, A, R): action a's move lands on r
+    count = hit.sum(axis=1)  # (S, R): how many actions' moves land on r
+    probs = np.stack([(1.0 - slip) * hit + (slip / A) * count[:, None, :] for slip in slips])
+    return SparseDynamics(nxt, probs)
 
 
 def uniform_initial(size: int) -> np.ndarray:

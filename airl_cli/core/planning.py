@@ -6,8 +6,9 @@ Thesis §2.1, Theorems 2.1.1-2.1.2 (eq. 2.4-2.9), with per-time state rewards R[
     Q[t, s, a] = R[t, s] + sum_{s'} P[s, a, s'] V[t+1, s']            (eq. 2.6)
     V[t, s]   = max_a Q[t, s, a]   (or min_a, or the soft maximum)     (eq. 2.8, 3.8)
 
-Shapes: P (S, A, S) one dynamics; R (T, S) or (S,); deterministic policy (T-1, S) int;
-stochastic policy (T-1, S, A); initial distribution p0 (S,); values and marginals (T, S).
+Shapes: P (S, A, S) one dynamics, dense or a ``core.sparse.SparseModel`` (its reachable next
+states only: the same values, no (S, S) array); R (T, S) or (S,); deterministic policy (T-1, S)
+int; stochastic policy (T-1, S, A); initial distribution p0 (S,); values and marginals (T, S).
 """
 
 from __future__ import annotations
@@ -16,6 +17,16 @@ import numpy as np
 from scipy.special import logsumexp
 
 from airl_cli.core.mdp import argmax_lowest, per_time
+from airl_cli.core.sparse import SparseModel
+
+
+def _dynamics(P) -> np.ndarray | SparseModel:
+    return P if isinstance(P, SparseModel) else np.asarray(P, dtype=np.float64)
+
+
+def _expect(P, V: np.ndarray) -> np.ndarray:
+    """(S, A) E[V(s') | s, a]."""
+    return P.expect(V) if isinstance(P, SparseModel) else P @ V
 
 
 def backward_induction(
@@ -35,7 +46,7 @@ def backward_induction(
         V: (T, S) optimal values, ``V[t, s]`` = the best (worst) expected sum of R[t..T-1]
             from state s at time t.
     """
-    P = np.asarray(P, dtype=np.float64)
+    P = _dynamics(P)
     R = per_time(R, horizon if horizon is not None else np.asarray(R).shape[0])
     T, S = R.shape
     V = np.empty((T, S))
@@ -43,7 +54,7 @@ def backward_induction(
     V[T - 1] = R[T - 1]
     sign = 1.0 if maximize else -1.0
     for t in range(T - 2, -1, -1):
-        Q = R[t][:, None] + P @ V[t + 1]  # (S, A)
+        Q = R[t][:, None] + _expect(P, V[t + 1])  # (S, A)
         a = argmax_lowest(sign * Q, axis=1)
         policy[t] = a
         V[t] = Q[np.arange(S), a]
@@ -62,7 +73,7 @@ def soft_backward_induction(P: np.ndarray, R: np.ndarray) -> tuple[np.ndarray, n
         V: (T, S) soft values, ``V[t, s] = log sum_a exp Q[t, s, a]`` for t < T-1 and
             ``V[T-1] = R[T-1]``.
     """
-    P = np.asarray(P, dtype=np.float64)
+    P = _dynamics(P)
     R = np.asarray(R, dtype=np.float64)
     T, S = R.shape
     A = P.shape[1]
@@ -70,7 +81,7 @@ def soft_backward_induction(P: np.ndarray, R: np.ndarray) -> tuple[np.ndarray, n
     policy = np.empty((T - 1, S, A))
     V[T - 1] = R[T - 1]
     for t in range(T - 2, -1, -1):
-        Q = R[t][:, None] + P @ V[t + 1]
+        Q = R[t][:, None] + _expect(P, V[t + 1])
         V[t] = logsumexp(Q, axis=1)
         policy[t] = np.exp(Q - V[t][:, None])
     return policy, V
@@ -94,13 +105,18 @@ def policy_values(P: np.ndarray, R: np.ndarray, policy: np.ndarray) -> np.ndarra
     Returns:
         V: (T, S), ``V[t, s]`` = expected sum of R[t..T-1] from s at time t under ``policy``.
     """
-    P = np.asarray(P, dtype=np.float64)
+    P = _dynamics(P)
     R = np.asarray(R, dtype=np.float64)
     T, S = R.shape
     V = np.empty((T, S))
     V[T - 1] = R[T - 1]
     for t in range(T - 2, -1, -1):
-        V[t] = R[t] + _next_state_matrix(P, np.asarray(policy[t])) @ V[t + 1]
+        rule = np.asarray(policy[t])
+        if isinstance(P, SparseModel):
+            E = P.expect(V[t + 1])
+            V[t] = R[t] + (E[np.arange(S), rule] if rule.ndim == 1 else np.sum(rule * E, axis=1))
+        else:
+            V[t] = R[t] + _next_state_matrix(P, rule) @ V[t + 1]
     return V
 
 
@@ -115,13 +131,18 @@ def state_marginals(P: np.ndarray, policy: np.ndarray, p0: np.ndarray) -> np.nda
     Returns:
         d: (T, S), ``d[t, s]`` = Pr(s_{t+1} = s); each row sums to 1.
     """
-    P = np.asarray(P, dtype=np.float64)
+    P = _dynamics(P)
     policy = np.asarray(policy)
     T = policy.shape[0] + 1
-    d = np.empty((T, P.shape[0]))
+    S, A = P.shape[0], P.shape[1]
+    d = np.empty((T, S))
     d[0] = p0
     for t in range(T - 1):
-        d[t + 1] = d[t] @ _next_state_matrix(P, policy[t])
+        if isinstance(P, SparseModel):
+            rule = policy[t] if policy.ndim == 3 else np.eye(A)[policy[t]]  # (S, A)
+            d[t + 1] = P.push(d[t][:, None] * rule)
+        else:
+            d[t + 1] = d[t] @ _next_state_matrix(P, policy[t])
     return d
 
 

@@ -7,7 +7,10 @@ P_j(next_states[s, r] | s, a). Memory is O(M * S * A * R) instead of O(M * S * A
 largest number of next states any state reaches (R = S for a dense MDP: nothing is lost).
 
 Shapes: transitions P (M, S, A, S) dense; ``next_states`` (S, R) int64, padded with -1 past
-``count[s]``; ``probs`` (M, S, A, R) float64, 0 on the padding.
+``count[s]``; ``probs`` (M, S, A, R) float64, 0 on the padding. ``SparseDynamics`` indexes like
+the dense stack: ``P[j]`` is one dynamics (``SparseModel``, standing for (S, A, S)), ``P[1:]``
+a sub-stack, and iterating yields the models, so the single-MDP planners (``core.planning``),
+the samplers (``core.demos``) and the comparison methods take either form.
 """
 
 from __future__ import annotations
@@ -31,11 +34,32 @@ class SparseDynamics:
     next_states: np.ndarray
     probs: np.ndarray
 
+    ndim = 4
+
     @property
     def shape(self) -> tuple[int, int, int, int]:
         """(M, S, A, S), the shape of the dense array this stands for."""
         M, S, A, _ = self.probs.shape
         return (M, S, A, S)
+
+    def __len__(self) -> int:
+        return int(self.probs.shape[0])
+
+    def __getitem__(self, j):
+        """``P[j]``: model j as a ``SparseModel``; ``P[j0:j1]``: those models, same next states."""
+        if isinstance(j, slice):
+            return SparseDynamics(self.next_states, self.probs[j])
+        return SparseModel(self.next_states, self.probs[j])
+
+    def __iter__(self):
+        return (self[j] for j in range(len(self)))
+
+    def probability(self, j: np.ndarray, s: np.ndarray, a: np.ndarray, s2: np.ndarray) -> np.ndarray:
+        """P_j(s2 | s, a) for broadcastable index arrays (0 where s2 is not a next state of s)."""
+        j, s, a, s2 = np.broadcast_arrays(j, s, a, s2)
+        match = self.next_states[s] == s2[..., None]  # (..., R)
+        r = np.argmax(match, axis=-1)
+        return np.where(match.any(axis=-1), self.probs[j, s, a, r], 0.0)
 
     @cached_property
     def count(self) -> np.ndarray:
@@ -57,6 +81,44 @@ class SparseDynamics:
         rows, cols = np.nonzero(self.next_states >= 0)
         out[:, rows, :, self.next_states[rows, cols]] = self.probs[:, rows, :, cols]  # both (nnz, M, A)
         return out
+
+
+@dataclass(frozen=True)
+class SparseModel:
+    """One dynamics (S, A, S) over the reachable next states.
+
+    Attributes:
+        next_states: (S, R) int64, as in ``SparseDynamics``.
+        probs: (S, A, R) float64, ``probs[s, a, r]`` = P(next_states[s, r] | s, a).
+    """
+
+    next_states: np.ndarray
+    probs: np.ndarray
+    ndim = 3
+
+    @property
+    def shape(self) -> tuple[int, int, int]:
+        S, A, _ = self.probs.shape
+        return (S, A, S)
+
+    @cached_property
+    def _safe_next(self) -> np.ndarray:
+        return np.maximum(self.next_states, 0)  # padding points at state 0 with probability 0
+
+    def expect(self, V: np.ndarray) -> np.ndarray:
+        """(S, A) E[V(s') | s, a] for values V (S,): the dense ``P @ V``."""
+        return np.einsum("sar,sr->sa", self.probs, V[self._safe_next])
+
+    def push(self, weights: np.ndarray) -> np.ndarray:
+        """(S,) sum_{s, a} weights[s, a] P(s' | s, a) for weights (S, A): the dense ``einsum('sa,sax->x')``."""
+        S = self.probs.shape[0]
+        flow = weights[:, :, None] * self.probs  # (S, A, R)
+        idx = np.broadcast_to(self._safe_next[:, None, :], flow.shape)
+        return np.bincount(idx.ravel(), weights=flow.ravel(), minlength=S)
+
+    def dense(self) -> np.ndarray:
+        """(S, A, S) the dense dynamics."""
+        return SparseDynamics(self.next_states, self.probs[None]).dense()[0]
 
 
 def reachable(transitions: np.ndarray) -> np.ndarray:
