@@ -216,6 +216,9 @@ def test_a_large_dataset_is_written_sparse(tmp_path, monkeypatch):
         assert "transitions" not in npz.files and npz["transition_next"].shape[1] < 12
     back = data.read_dataset(tmp_path / "d.npz")
     assert np.array_equal(back.transitions.dense(), ds.transitions)
+    from airl_cli.jobs.inspect import describe
+
+    assert "sparse (at most 6 next states per state)" in describe(str(tmp_path / "d.npz"))
     data.write_dataset(tmp_path / "again.npz", back)  # a sparse dataset writes as it is
     assert (tmp_path / "again.npz").read_bytes() == (tmp_path / "d.npz").read_bytes()
 

@@ -4,9 +4,16 @@ from __future__ import annotations
 
 import numpy as np
 
+from airl_cli.core.sparse import SparseDynamics
 from airl_cli.data import read_dataset
 from airl_cli.errors import AirlError
 from airl_cli.jobs.common import err_console, out_console
+
+
+def _form(ds) -> str:
+    if isinstance(ds.transitions, SparseDynamics):
+        return f", sparse (at most {ds.transitions.next_states.shape[1]} next states per state)"
+    return ""
 
 
 def describe(path: str) -> str:
@@ -15,7 +22,7 @@ def describe(path: str) -> str:
     lines = [
         f"{path}: a valid airl dataset",
         f"  states S={ds.n_states}, actions A={ds.n_actions}, features K={ds.n_features}, horizon T={ds.horizon}",
-        f"  dynamics: tau and D={ds.n_dynamics} demonstration dynamics",
+        f"  dynamics: tau and D={ds.n_dynamics} demonstration dynamics" + _form(ds),
     ]
     if ds.demo_states is not None:
         acts = "with actions" if ds.demo_actions is not None else "states only"
