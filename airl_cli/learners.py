@@ -8,7 +8,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from airl_cli.config import FitSettings
-from airl_cli.core import baselines
+from airl_cli.core import baselines, mmp
 from airl_cli.core.game import GameProblem
 from airl_cli.core.certified import minimize, objective_at
 from airl_cli.core.learn import fit, make_oracles
@@ -88,7 +88,7 @@ def learn(
         loss = dataset.loss
         if settings.options.normalize_loss and loss is not None and np.max(loss) > 0:
             loss = loss / np.max(loss)
-        res = baselines.max_margin_planning(P, phi, p0, T, targets, demo_marginals=demo_marginals(dataset), loss=loss, **opts)
+        res = mmp.max_margin_planning(P, phi, p0, T, targets, demo_marginals=demo_marginals(dataset), loss=loss, **opts)
     return Learned(name, res.weights, None, res.history, {"iterations": int(len(next(iter(res.history.values()), [])))})
 
 

@@ -8,11 +8,11 @@ import pytest
 from airl_cli.core.baselines import (
     behavioral_cloning,
     expected_features_per_dynamics,
-    max_margin_planning,
     mce_irl,
     mce_objective,
     projection,
 )
+from airl_cli.core.mmp import max_margin_planning
 from airl_cli.core.demos import expected_feature_sums, feature_sums, sample_trajectories
 from airl_cli.core.planning import backward_induction, state_marginals
 from airl_cli.core.scores import performance

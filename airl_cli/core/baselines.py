@@ -7,8 +7,8 @@ sum_t phi(s_t) under tau_j (row j-1 for j = 1..D):
 * ``mce_irl``: maximum causal entropy IRL (Ziebart et al.), finite horizon, its dual summed
   over the dynamics and maximised by L-BFGS-B.
 * ``projection``: Abbeel & Ng's projection method, feature expectations summed over dynamics.
-* ``max_margin_planning``: Ratliff et al.'s maximum margin planning by subgradient descent,
-  one loss-augmented planning problem per dynamics.
+* ``max_margin_planning`` (in ``core.mmp``, on the helpers here): Ratliff et al.'s maximum
+  margin planning by subgradient descent, one loss-augmented planning problem per dynamics.
 
 ``behavioral_cloning`` learns no reward: it returns the demonstrations' action frequencies.
 
@@ -26,8 +26,8 @@ import numpy as np
 from scipy.optimize import minimize
 
 from airl_cli.core.mdp import check_probabilities, check_transitions
-from airl_cli.core.sparse import SparseDynamics
 from airl_cli.core.planning import backward_induction, soft_backward_induction, state_marginals
+from airl_cli.core.sparse import SparseDynamics
 
 
 @dataclass(frozen=True)
@@ -47,7 +47,7 @@ class BaselineResult:
     history: dict[str, np.ndarray]
 
 
-def _check_problem(
+def check_problem(
     transitions: np.ndarray, features: np.ndarray, initial: np.ndarray, horizon: int, targets: np.ndarray | None
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray | None]:
     """Validate the common inputs and return float64 copies (P, phi, p0, targets).
@@ -88,7 +88,7 @@ def _check_weights(w: np.ndarray, K: int) -> np.ndarray:
     return w
 
 
-def _feature_sum(P: np.ndarray, policy: np.ndarray, p0: np.ndarray, phi: np.ndarray) -> np.ndarray:
+def feature_sum(P: np.ndarray, policy: np.ndarray, p0: np.ndarray, phi: np.ndarray) -> np.ndarray:
     """Expected feature sum E[sum_t phi(s_t)] (K,) of a (T-1, S) or (T-1, S, A) policy under P (S, A, S)."""
     return state_marginals(P, policy, p0).sum(axis=0) @ phi
 
@@ -119,7 +119,7 @@ def expected_features_per_dynamics(
         kind = "(T-1, S) or (D, T-1, S) for int" if integer else "(T-1, S, A) or (D, T-1, S, A) for float"
         raise ValueError(f"policies must have shape {kind} policies, got {policies.shape}")
     horizon = policies.shape[policies.ndim - n_axes] + 1
-    P, phi, p0, _ = _check_problem(transitions, features, initial, horizon, None)
+    P, phi, p0, _ = check_problem(transitions, features, initial, horizon, None)
     D, S, A = P.shape[0] - 1, P.shape[1], P.shape[2]
     single = (horizon - 1, S) if integer else (horizon - 1, S, A)
     if policies.shape == single:
@@ -134,7 +134,7 @@ def expected_features_per_dynamics(
         raise ValueError(f"policy actions must lie in [0, {A}), got range [{stack.min()}, {stack.max()}]")
     if not integer:
         check_probabilities(stack, name="policies")
-    return np.stack([_feature_sum(P[j + 1], stack[j], p0, phi) for j in range(D)])
+    return np.stack([feature_sum(P[j + 1], stack[j], p0, phi) for j in range(D)])
 
 
 def _mce_value_and_grad(
@@ -147,7 +147,7 @@ def _mce_value_and_grad(
     for Pj in P[1:]:
         policy, V = soft_backward_induction(Pj, R)
         value -= float(p0 @ V[0])
-        grad = grad - _feature_sum(Pj, policy, p0, phi)
+        grad = grad - feature_sum(Pj, policy, p0, phi)
     return value, grad
 
 
@@ -181,7 +181,7 @@ def mce_objective(
     Returns:
         (value, gradient): g(w) as a float and its gradient (K,).
     """
-    P, phi, p0, c = _check_problem(transitions, features, initial, horizon, targets)
+    P, phi, p0, c = check_problem(transitions, features, initial, horizon, targets)
     if lam < 0:
         raise ValueError(f"lam must be >= 0, got {lam}")
     return _mce_value_and_grad(_check_weights(w, phi.shape[1]), P, phi, p0, horizon, c, lam)
@@ -217,7 +217,7 @@ def mce_irl(
         "objective" (g(w), maximised) and "grad_norm" (Euclidean norm of grad g); row 0 is the
         starting point w = 0, then one row per L-BFGS-B iteration.
     """
-    P, phi, p0, c = _check_problem(transitions, features, initial, horizon, targets)
+    P, phi, p0, c = check_problem(transitions, features, initial, horizon, targets)
     if lam < 0 or max_iterations < 1 or tol < 0:
         raise ValueError(f"need lam >= 0, max_iterations >= 1 and tol >= 0, got {lam}, {max_iterations}, {tol}")
     K = phi.shape[1]
@@ -259,7 +259,7 @@ def mce_irl(
 def _optimal_features(P: np.ndarray, phi: np.ndarray, p0: np.ndarray, horizon: int, w: np.ndarray) -> np.ndarray:
     """mu(w) = sum_j F_j(pi_{w,j}) (K,), pi_{w,j} optimal for w . phi under tau_j, j = 1..D."""
     R = phi @ w
-    return sum(_feature_sum(Pj, backward_induction(Pj, R, horizon=horizon)[0], p0, phi) for Pj in P[1:])
+    return sum(feature_sum(Pj, backward_induction(Pj, R, horizon=horizon)[0], p0, phi) for Pj in P[1:])
 
 
 def projection(
@@ -304,7 +304,7 @@ def projection(
         (|mu_E - mu_bar| after that step) and "feature_gap" (|mu_E - mu(w)| of that step's w),
         one row per step, step 0 included.
     """
-    P, phi, p0, c = _check_problem(transitions, features, initial, horizon, targets)
+    P, phi, p0, c = check_problem(transitions, features, initial, horizon, targets)
     if max_iterations < 1 or tol < 0:
         raise ValueError(f"need max_iterations >= 1 and tol >= 0, got {max_iterations}, {tol}")
     mu_E = c.sum(axis=0)
@@ -329,96 +329,6 @@ def projection(
             best_w = w
     history = {"step": np.arange(len(margins)), "margin": np.array(margins), "feature_gap": np.array(gaps)}
     return BaselineResult(np.tile(best_w, (P.shape[0] - 1, 1)), None, history)
-
-
-def max_margin_planning(
-    transitions: np.ndarray,
-    features: np.ndarray,
-    initial: np.ndarray,
-    horizon: int,
-    targets: np.ndarray,
-    *,
-    demo_marginals: np.ndarray | None = None,
-    loss: np.ndarray | None = None,
-    lam: float = 1e-3,
-    eta0: float = 0.1,
-    max_iterations: int = 100,
-) -> BaselineResult:
-    """Ratliff et al.'s maximum margin planning by subgradient descent, one MDP per dynamics.
-
-    Minimises over one shared w
-
-        f(w) = lam/2 |w|^2 + sum_j [ max_pi (w . F_j(pi) + L_j(pi)) - w . c~_j ]
-
-    where the inner maximum is the loss-augmented planning problem under tau_j with per-time
-    reward r_j(t, s) = w . phi(s) + l_j(t, s), l_j(t, s) = sum_{s'} loss[s, s'] d~_j(t, s'), solved
-    by backward induction (its value is p0 . V_j[0]). If ``demo_marginals`` or ``loss`` is None,
-    l_j = 0 and this is the plain max-margin structured perceptron; then, when every c~_j is
-    achievable under tau_j (for instance exact expected features of a policy), f >= f(0) = 0 and
-    the best w seen is 0.
-
-    Steps: w <- w - eta_t g_t with g_t = sum_j (F_j(pi*_j) - c~_j) + lam w, pi*_j the
-    loss-augmented optimal policy under tau_j, eta_t = eta0 / sqrt(1 + t), from w = 0.
-
-    Args:
-        transitions: (M, S, A, S), index 0 = tau (not used), 1..D = tau_1..tau_D.
-        features: (S, K) phi.
-        initial: (S,) p0.
-        horizon: T.
-        targets: (D, K) c~_j.
-        demo_marginals: (D, T, S) d~_j(t, s), the demonstrations' empirical state distribution at
-            time t under tau_j (row j-1), or None.
-        loss: (S, S) loss[s, s'] of being in s where the demonstration is in s', or None.
-        lam: L2 regularisation strength >= 0.
-        eta0: initial step size > 0.
-        max_iterations: number of subgradient evaluations, >= 1.
-
-    Returns:
-        ``BaselineResult`` with weights (D, K), identical rows holding the w of the lowest
-        objective seen. History columns "step", "objective" (f at that step's w), "grad_norm"
-        (Euclidean norm of the subgradient) and "eta", one row per iteration.
-    """
-    P, phi, p0, c = _check_problem(transitions, features, initial, horizon, targets)
-    if lam < 0 or eta0 <= 0 or max_iterations < 1:
-        raise ValueError(f"need lam >= 0, eta0 > 0 and max_iterations >= 1, got {lam}, {eta0}, {max_iterations}")
-    D, S = P.shape[0] - 1, P.shape[1]
-    augment = np.zeros((D, horizon, S))
-    if demo_marginals is not None and loss is not None:
-        d = np.asarray(demo_marginals, dtype=np.float64)
-        if d.shape != (D, horizon, S):
-            raise ValueError(f"demo_marginals must have shape (D, T, S) = {(D, horizon, S)}, got {d.shape}")
-        check_probabilities(d, name="demo_marginals")
-        L = np.asarray(loss, dtype=np.float64)
-        if L.shape != (S, S):
-            raise ValueError(f"loss must have shape (S, S) = {(S, S)}, got {L.shape}")
-        if not np.all(np.isfinite(L)):
-            raise ValueError("loss must be finite")
-        augment = d @ L.T  # (D, T, S): l_j(t, s) = sum_{s'} loss[s, s'] d~_j(t, s')
-    target_sum = c.sum(axis=0)
-    w = np.zeros(phi.shape[1])
-    best_w, best_f = w, np.inf
-    objective, grad_norm, etas = [], [], []
-    for t in range(max_iterations):
-        f = 0.5 * lam * float(w @ w) - float(w @ target_sum)
-        g = lam * w - target_sum
-        for j in range(D):
-            policy, V = backward_induction(P[j + 1], phi @ w + augment[j])
-            f += float(p0 @ V[0])
-            g = g + _feature_sum(P[j + 1], policy, p0, phi)
-        if f < best_f:
-            best_w, best_f = w, f
-        eta = eta0 / np.sqrt(1.0 + t)
-        objective.append(f)
-        grad_norm.append(float(np.linalg.norm(g)))
-        etas.append(eta)
-        w = w - eta * g
-    history = {
-        "step": np.arange(max_iterations),
-        "objective": np.array(objective),
-        "grad_norm": np.array(grad_norm),
-        "eta": np.array(etas),
-    }
-    return BaselineResult(np.tile(best_w, (D, 1)), None, history)
 
 
 def behavioral_cloning(

@@ -1,4 +1,4 @@
-"""The learner-adversary game of thesis §5.3.1: matrix games by linear programming, double oracle.
+"""The learner-adversary game of thesis §5.3.1: the restricted game, best responses, double oracle.
 
 For fixed weights w the inner game of eq. 5.4 (or 5.3 without weight sharing) is played between
 the learner (minimiser), who mixes deterministic Markov policies under tau, and the adversary
@@ -25,76 +25,14 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.optimize import linprog
 
 import highspy
 
 from airl_cli.core.highs import quiet_highs
-
+from airl_cli.core.matrix_game import MatrixGameSolution, clean_mixture, solve_matrix_game  # noqa: F401 (re-exported)
 from airl_cli.core.planning import backward_induction, state_marginals
 
 _INF = highspy.kHighsInf
-
-# --------------------------------------------------------------------------- matrix games
-
-
-@dataclass(frozen=True)
-class MatrixGameSolution:
-    """value = min_p max_q p^T G q; ``row`` (n,) is the minimiser's mixture, ``col`` (m,) the maximiser's."""
-
-    value: float
-    row: np.ndarray
-    col: np.ndarray
-
-
-def _clean(x: np.ndarray) -> np.ndarray:
-    x = np.where(x > 1e-12, x, 0.0)
-    return x / x.sum()
-
-
-def solve_matrix_game(G: np.ndarray) -> MatrixGameSolution:
-    """Mixed equilibrium of a zero-sum matrix game by linear programming (scipy's HiGHS).
-
-    The row player minimises and the column player maximises p^T G q. Solves
-    min_{p, v} v  s.t.  G^T p <= v 1, 1^T p = 1, p >= 0
-    and reads the column player's mixture from the duals of the inequality constraints (with a
-    second LP as a fallback if the duals are not a distribution).
-
-    Args:
-        G: (n, m) payoffs to the column player.
-
-    Returns:
-        The game value and both mixtures.
-    """
-    G = np.asarray(G, dtype=np.float64)
-    if G.ndim != 2 or G.shape[0] < 1 or G.shape[1] < 1 or not np.all(np.isfinite(G)):
-        raise ValueError(f"the payoff matrix must be a finite (n, m) array with n, m >= 1, got shape {G.shape}")
-    n, m = G.shape
-    c = np.r_[np.zeros(n), 1.0]
-    A_ub = np.hstack([G.T, -np.ones((m, 1))])
-    A_eq = np.r_[np.ones(n), 0.0][None, :]
-    bounds = [(0.0, None)] * n + [(None, None)]
-    res = linprog(c, A_ub=A_ub, b_ub=np.zeros(m), A_eq=A_eq, b_eq=[1.0], bounds=bounds, method="highs")
-    if res.status != 0:
-        raise RuntimeError(f"the matrix-game LP failed: {res.message}")
-    p = _clean(res.x[:n])
-    q = -np.asarray(res.ineqlin.marginals)
-    if not (np.all(q > -1e-9) and abs(q.sum() - 1.0) < 1e-6):
-        # the column player's LP: max_{q, u} u  s.t.  G q >= u 1, 1^T q = 1, q >= 0
-        res2 = linprog(
-            np.r_[np.zeros(m), -1.0],
-            A_ub=np.hstack([-G, np.ones((n, 1))]),
-            b_ub=np.zeros(n),
-            A_eq=np.r_[np.ones(m), 0.0][None, :],
-            b_eq=[1.0],
-            bounds=[(0.0, None)] * m + [(None, None)],
-            method="highs",
-        )
-        if res2.status != 0:
-            raise RuntimeError(f"the matrix-game LP failed: {res2.message}")
-        q = res2.x[:m]
-    return MatrixGameSolution(float(res.x[n]), p, _clean(q))
-
 
 # --------------------------------------------------------------------------- the IRL game
 
@@ -231,7 +169,7 @@ class RestrictedGame:
             x = np.asarray(sol.col_value)
             duals = -np.asarray(sol.row_dual)[1 : m + 1]
             if abs(duals.sum() - 1.0) < 1e-6 and np.all(duals > -1e-9):
-                return MatrixGameSolution(float(x[0]), _clean(x[1 : n + 1]), _clean(duals))
+                return MatrixGameSolution(float(x[0]), clean_mixture(x[1 : n + 1]), clean_mixture(duals))
         return solve_matrix_game(self.payoff())
 
 

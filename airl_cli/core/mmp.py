@@ -1,0 +1,103 @@
+"""Maximum margin planning (Ratliff, Bagnell & Zinkevich 2006), a comparison method.
+
+Subgradient descent on the structured-margin objective, one loss-augmented planning problem per
+demonstration dynamics; shapes and the result type as in ``airl_cli.core.baselines``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from airl_cli.core.baselines import BaselineResult, check_problem, feature_sum
+from airl_cli.core.mdp import check_probabilities
+from airl_cli.core.planning import backward_induction
+
+
+def max_margin_planning(
+    transitions: np.ndarray,
+    features: np.ndarray,
+    initial: np.ndarray,
+    horizon: int,
+    targets: np.ndarray,
+    *,
+    demo_marginals: np.ndarray | None = None,
+    loss: np.ndarray | None = None,
+    lam: float = 1e-3,
+    eta0: float = 0.1,
+    max_iterations: int = 100,
+) -> BaselineResult:
+    """Ratliff et al.'s maximum margin planning by subgradient descent, one MDP per dynamics.
+
+    Minimises over one shared w
+
+        f(w) = lam/2 |w|^2 + sum_j [ max_pi (w . F_j(pi) + L_j(pi)) - w . c~_j ]
+
+    where the inner maximum is the loss-augmented planning problem under tau_j with per-time
+    reward r_j(t, s) = w . phi(s) + l_j(t, s), l_j(t, s) = sum_{s'} loss[s, s'] d~_j(t, s'), solved
+    by backward induction (its value is p0 . V_j[0]). If ``demo_marginals`` or ``loss`` is None,
+    l_j = 0 and this is the plain max-margin structured perceptron; then, when every c~_j is
+    achievable under tau_j (for instance exact expected features of a policy), f >= f(0) = 0 and
+    the best w seen is 0.
+
+    Steps: w <- w - eta_t g_t with g_t = sum_j (F_j(pi*_j) - c~_j) + lam w, pi*_j the
+    loss-augmented optimal policy under tau_j, eta_t = eta0 / sqrt(1 + t), from w = 0.
+
+    Args:
+        transitions: (M, S, A, S), index 0 = tau (not used), 1..D = tau_1..tau_D.
+        features: (S, K) phi.
+        initial: (S,) p0.
+        horizon: T.
+        targets: (D, K) c~_j.
+        demo_marginals: (D, T, S) d~_j(t, s), the demonstrations' empirical state distribution at
+            time t under tau_j (row j-1), or None.
+        loss: (S, S) loss[s, s'] of being in s where the demonstration is in s', or None.
+        lam: L2 regularisation strength >= 0.
+        eta0: initial step size > 0.
+        max_iterations: number of subgradient evaluations, >= 1.
+
+    Returns:
+        ``BaselineResult`` with weights (D, K), identical rows holding the w of the lowest
+        objective seen. History columns "step", "objective" (f at that step's w), "grad_norm"
+        (Euclidean norm of the subgradient) and "eta", one row per iteration.
+    """
+    P, phi, p0, c = check_problem(transitions, features, initial, horizon, targets)
+    if lam < 0 or eta0 <= 0 or max_iterations < 1:
+        raise ValueError(f"need lam >= 0, eta0 > 0 and max_iterations >= 1, got {lam}, {eta0}, {max_iterations}")
+    D, S = P.shape[0] - 1, P.shape[1]
+    augment = np.zeros((D, horizon, S))
+    if demo_marginals is not None and loss is not None:
+        d = np.asarray(demo_marginals, dtype=np.float64)
+        if d.shape != (D, horizon, S):
+            raise ValueError(f"demo_marginals must have shape (D, T, S) = {(D, horizon, S)}, got {d.shape}")
+        check_probabilities(d, name="demo_marginals")
+        L = np.asarray(loss, dtype=np.float64)
+        if L.shape != (S, S):
+            raise ValueError(f"loss must have shape (S, S) = {(S, S)}, got {L.shape}")
+        if not np.all(np.isfinite(L)):
+            raise ValueError("loss must be finite")
+        augment = d @ L.T  # (D, T, S): l_j(t, s) = sum_{s'} loss[s, s'] d~_j(t, s')
+    target_sum = c.sum(axis=0)
+    w = np.zeros(phi.shape[1])
+    best_w, best_f = w, np.inf
+    objective, grad_norm, etas = [], [], []
+    for t in range(max_iterations):
+        f = 0.5 * lam * float(w @ w) - float(w @ target_sum)
+        g = lam * w - target_sum
+        for j in range(D):
+            policy, V = backward_induction(P[j + 1], phi @ w + augment[j])
+            f += float(p0 @ V[0])
+            g = g + feature_sum(P[j + 1], policy, p0, phi)
+        if f < best_f:
+            best_w, best_f = w, f
+        eta = eta0 / np.sqrt(1.0 + t)
+        objective.append(f)
+        grad_norm.append(float(np.linalg.norm(g)))
+        etas.append(eta)
+        w = w - eta * g
+    history = {
+        "step": np.arange(max_iterations),
+        "objective": np.array(objective),
+        "grad_norm": np.array(grad_norm),
+        "eta": np.array(etas),
+    }
+    return BaselineResult(np.tile(best_w, (D, 1)), None, history)
