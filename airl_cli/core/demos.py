@@ -49,15 +49,15 @@ def sample_trajectories(
         states: (N, T) or (D, N, T) int64.
         actions: (N, T-1) or (D, N, T-1) int64.
     """
+    if not isinstance(P, (SparseDynamics, SparseModel)):
+        P = np.asarray(P, dtype=np.float64)
     single = P.ndim == 3
     if isinstance(P, (SparseDynamics, SparseModel)):
         # over the reachable next states only: the same draws as over all S (see _inverse_cdf)
         nxt = P.next_states
         probs = P.probs[None] if single else P.probs
     else:
-        probs = np.asarray(P, dtype=np.float64)
-        probs = probs[None] if single else probs
-        nxt = None
+        probs, nxt = (P[None] if single else P), None
     D = probs.shape[0]
     T = policy.shape[0] + 1
     u = rng.random((D, n, T))

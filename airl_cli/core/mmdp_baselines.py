@@ -39,7 +39,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from airl_cli.core import _walk_kernels
 from airl_cli.core.mdp import argmax_lowest
 from airl_cli.core.multimodel import (
     METHODS,
@@ -211,17 +210,13 @@ def graph_returns(graph: PolicyGraph, transitions: np.ndarray, rewards: LayeredR
     T = graph.horizon
     if rewards.horizon != T or graph.start.shape != (S,):
         raise ValueError(f"the graph has {T} layers over {graph.start.size} states; the problem has {rewards.horizon} layers over {S}")
-    walk, PR = graph.aligned(transitions)
-    nxt = walk.next_states
-    cnt = np.sum(nxt >= 0, axis=1).astype(np.int64)
-    mu = np.zeros((M, graph.state[0].size))
-    np.add.at(mu, (slice(None), graph.start), np.asarray(initial, dtype=np.float64)[None, :])
     total = np.zeros(M)
     j = np.arange(M)[:, None]
-    for t in range(T - 1):
-        total += np.sum(mu * rewards.step[j, t, graph.state[t][None, :], graph.action[t][None, :]], axis=1)
-        mu = _walk_kernels.forward_step(PR, nxt, cnt, mu, graph.state[t], graph.action[t], walk.successor[t], graph.state[t + 1].size)
-    total += np.sum(mu * rewards.last[j, graph.state[T - 1][None, :]], axis=1)
+    for t, mu in enumerate(graph.walk(transitions, initial)):
+        if t < T - 1:
+            total += np.sum(mu * rewards.step[j, t, graph.state[t][None, :], graph.action[t][None, :]], axis=1)
+        else:
+            total += np.sum(mu * rewards.last[j, graph.state[T - 1][None, :]], axis=1)
     return total
 
 

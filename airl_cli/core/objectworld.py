@@ -180,6 +180,18 @@ def objectworld(
     return Objectworld(cells=cells, colours=colours, features=phi, true_weights=rng.standard_normal(phi.shape[1]))
 
 
+def _move_targets(size: int) -> np.ndarray:
+    """(A, S) int: ``target[b, s]`` is the cell the move of action b takes s to (itself at a wall)."""
+    S = size * size
+    rows, cols = np.divmod(np.arange(S), size)
+    target = np.empty((len(_MOVES), S), dtype=np.int64)
+    for b, (dr, dc) in enumerate(_MOVES):
+        r, c = rows + dr, cols + dc
+        off = (r < 0) | (r >= size) | (c < 0) | (c >= size)
+        target[b] = np.where(off, np.arange(S), r * size + c)
+    return target
+
+
 def slip_dynamics(size: int, slip: float) -> np.ndarray:
     """Dynamics of the objectworld with slip ``slip`` in [0, 1] (module docstring).
 
@@ -190,13 +202,9 @@ def slip_dynamics(size: int, slip: float) -> np.ndarray:
     if not 0.0 <= slip <= 1.0:
         raise ValueError(f"slip must be between 0 and 1, got {slip}")
     S, A = size * size, len(_MOVES)
-    rows, cols = np.divmod(np.arange(S), size)
     moves = np.zeros((A, S, S))  # moves[b, s, s'] = 1 if the move of action b takes s to s'
-    for b, (dr, dc) in enumerate(_MOVES):
-        r, c = rows + dr, cols + dc
-        off = (r < 0) | (r >= size) | (c < 0) | (c >= size)
-        nxt = np.where(off, np.arange(S), r * size + c)
-        moves[b, np.arange(S), nxt] = 1.0
+    for b, target in enumerate(_move_targets(size)):
+        moves[b, np.arange(S), target] = 1.0
     P = (1.0 - slip) * moves + (slip / A) * moves.sum(axis=0)[None]  # (A, S, S)
     return np.ascontiguousarray(P.transpose(1, 0, 2))
 
@@ -212,12 +220,7 @@ def slip_sparse(size: int, slips) -> SparseDynamics:
         if not 0.0 <= slip <= 1.0:
             raise ValueError(f"slip must be between 0 and 1, got {slip}")
     S, A = size * size, len(_MOVES)
-    rows, cols = np.divmod(np.arange(S), size)
-    target = np.empty((A, S), dtype=np.int64)  # target[b, s]: where the move of action b takes s
-    for b, (dr, dc) in enumerate(_MOVES):
-        r, c = rows + dr, cols + dc
-        off = (r < 0) | (r >= size) | (c < 0) | (c >= size)
-        target[b] = np.where(off, np.arange(S), r * size + c)
+    target = _move_targets(size)
     nxt = np.full((S, A), -1, dtype=np.int64)
     for s in range(S):
         reach = np.unique(target[:, s])

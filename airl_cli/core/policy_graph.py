@@ -12,6 +12,7 @@ initial p0 (S,); prior (M,); beliefs (nb, M); marginals (M, T, S) with T the num
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -77,6 +78,26 @@ class PolicyGraph:
         """(M,) the exact expected return under each model, from the start nodes' alpha-vectors."""
         return initial @ self.alpha[0][self.start]
 
+    def walk(self, transitions: np.ndarray | SparseDynamics, initial: np.ndarray) -> Iterator[np.ndarray]:
+        """The exact node distributions of the graph under each model, layer by layer.
+
+        Args:
+            transitions: (M, S, A, S), dense or ``SparseDynamics``.
+            initial: (S,).
+
+        Yields:
+            for t = 0..T-1, mu_t (M, n_t): Pr_j(at node k at layer t).
+        """
+        graph, PR = self.aligned(transitions)
+        nxt = graph.next_states
+        cnt = np.sum(nxt >= 0, axis=1).astype(np.int64)
+        mu = np.zeros((PR.shape[3], self.state[0].size))
+        np.add.at(mu, (slice(None), self.start), np.asarray(initial, dtype=np.float64)[None, :])
+        for t in range(self.horizon):
+            yield mu
+            if t < self.horizon - 1:
+                mu = _walk_kernels.forward_step(PR, nxt, cnt, mu, self.state[t], self.action[t], graph.successor[t], self.state[t + 1].size)
+
     def marginals(self, transitions: np.ndarray | SparseDynamics, initial: np.ndarray) -> np.ndarray:
         """Exact state distribution of the graph under each model, by a forward pass over nodes.
 
@@ -87,19 +108,11 @@ class PolicyGraph:
         Returns:
             (M, T, S): Pr_j(s_{t+1} = s); each (j, t) row sums to 1.
         """
-        graph, PR = self.aligned(transitions)
-        nxt = graph.next_states
-        cnt = np.sum(nxt >= 0, axis=1).astype(np.int64)
-        M, S = PR.shape[3], PR.shape[0]
-        T = self.horizon
-        out = np.zeros((M, T, S))
-        mu = np.zeros((M, self.state[0].size))
-        np.add.at(mu, (slice(None), self.start), np.asarray(initial, dtype=np.float64)[None, :])
-        for t in range(T):
+        M, S = transitions.shape[0], transitions.shape[1]
+        out = np.zeros((M, self.horizon, S))
+        for t, mu in enumerate(self.walk(transitions, initial)):
             for j in range(M):
                 out[j, t] = np.bincount(self.state[t], weights=mu[j], minlength=S)
-            if t < T - 1:
-                mu = _walk_kernels.forward_step(PR, nxt, cnt, mu, self.state[t], self.action[t], graph.successor[t], self.state[t + 1].size)
         return out
 
     def aligned(self, transitions: np.ndarray | SparseDynamics) -> tuple["PolicyGraph", np.ndarray]:
