@@ -25,7 +25,7 @@ from omegaconf import DictConfig
 from airl_cli.build import build_dataset, streams, with_loss
 from airl_cli.config import fit_settings, loss_and_seed, problem_settings
 from airl_cli.data import Dataset, read_dataset, write_dataset
-from airl_cli.evaluate import score_rows
+from airl_cli.evaluate import score_learned
 from airl_cli.learners import Learned, learn
 from airl_cli.paths import conf_dir
 
@@ -78,9 +78,11 @@ def fit(dataset: Dataset, *overrides: str, callback=None, planner_progress=None)
 
 
 def score(dataset: Dataset, learned: Learned) -> pd.DataFrame:
-    """Normalised performance (thesis §7.2) of the learner and the demonstrator, and cos(w, w*), per dynamics."""
-    policies = None if learned.policy is None else [learned.policy] * dataset.transitions.shape[0]
-    return pd.DataFrame(score_rows(dataset, learned.weights, policies))
+    """Normalised performance (thesis §7.2) of the learner and the demonstrator, and cos(w, w*), per dynamics.
+
+    For method=airl (optim=exact) ``equilibrium_score`` is the game's own learner's: its mixture p of policies.
+    """
+    return pd.DataFrame(score_learned(dataset, learned))
 
 
 def read_sweep(folder: str | os.PathLike) -> pd.DataFrame:

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from airl_cli.core.planning import backward_induction
-from airl_cli.core.scores import cosine_similarity, performance
+from airl_cli.core.scores import cosine_similarity, mixture_performance, performance
 from airl_cli.data import Dataset
 
 
@@ -27,13 +27,20 @@ def learner_policy(dataset: Dataset, weights: np.ndarray, j: int) -> np.ndarray:
     return policy
 
 
-def score_rows(dataset: Dataset, weights: np.ndarray | None, policies: list[np.ndarray] | None = None) -> list[dict]:
+def score_rows(
+    dataset: Dataset,
+    weights: np.ndarray | None,
+    policies: list[np.ndarray] | None = None,
+    equilibrium: tuple[np.ndarray, np.ndarray] | None = None,
+) -> list[dict]:
     """Per dynamics j = 0..D: the learner's and the demonstrator's normalised performance and cos(w, w*).
 
     The demonstrator is the optimal policy of w* . phi under tau, run in tau_j. The learner's
     policy per dynamics comes from ``weights`` (D, K), or is given directly as ``policies`` (for
-    methods that learn a policy, not a reward). Scores are None when the dataset has no true
-    weights; the cosine is None without weights.
+    methods that learn a policy, not a reward). ``equilibrium`` = (policies (n, T-1, S), mix (n,))
+    is the game's own learner (method=airl): its score, the mix-weighted performance of its
+    policies, is ``equilibrium_score`` (None without it). Scores are None when the dataset has no
+    true weights; the cosine is None without weights.
     """
     rows = []
     w_star = dataset.true_weights
@@ -44,11 +51,20 @@ def score_rows(dataset: Dataset, weights: np.ndarray | None, policies: list[np.n
         P = dataset.transitions[j]
         policy = policies[j] if policies is not None else learner_policy(dataset, weights, j)
         row = {"dynamics": dynamics_name(j), "learner_score": None, "demonstrator_score": None, "cosine_similarity": None}
+        row["equilibrium_score"] = None
         if w_star is not None:
             R = dataset.features @ w_star
             row["learner_score"] = performance(P, R, policy, dataset.initial)
             row["demonstrator_score"] = performance(P, R, expert, dataset.initial)
+            if equilibrium is not None:
+                row["equilibrium_score"] = mixture_performance(P, R, equilibrium[0], equilibrium[1], dataset.initial)
             if weights is not None:
                 row["cosine_similarity"] = cosine_similarity(weights_for(weights, j), w_star)
         rows.append(row)
     return rows
+
+
+def score_learned(dataset: Dataset, learned) -> list[dict]:
+    """``score_rows`` for a ``learners.Learned``: its weights, or its one policy for every dynamics, and its equilibrium."""
+    policies = None if learned.policy is None else [learned.policy] * dataset.transitions.shape[0]
+    return score_rows(dataset, learned.weights, policies, learned.equilibrium)

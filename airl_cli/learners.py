@@ -11,6 +11,7 @@ from airl_cli.config import FitSettings
 from airl_cli.core import baselines, mmp
 from airl_cli.core.game import GameProblem
 from airl_cli.core.certified import minimize, objective_at
+from airl_cli.core.degeneracy import is_degenerate, reward_effect
 from airl_cli.core.learn import fit, make_oracles
 from airl_cli.data import Dataset
 from airl_cli.errors import ConfigError
@@ -26,6 +27,9 @@ class Learned:
         policy: (T-1, S, A) the learned policy for behavioural cloning, else None.
         history: column -> (iterations,) array, one row per iteration (columns per method).
         info: a few method-specific facts for the metrics file (all JSON-able).
+        equilibrium: for method=airl with optim=exact, the game's own learner: (policies (n, T-1, S)
+            int, deterministic Markov policies under any dynamics; mix (n,) their probabilities p,
+            eq. 5.9), else None.
     """
 
     method: str
@@ -33,6 +37,7 @@ class Learned:
     policy: np.ndarray | None
     history: dict[str, np.ndarray]
     info: dict = field(default_factory=dict)
+    equilibrium: tuple[np.ndarray, np.ndarray] | None = None
 
     @property
     def shared(self) -> bool:
@@ -140,8 +145,9 @@ def _learn_airl(
             "screen_calls": int(h["screen_calls"][-1]),
             "qp_fallbacks": res.qp_fallbacks,
             "n_beliefs": int(n_beliefs),
+            **_degeneracy(problem, targets, res.weights, res.objective, settings.certified.tol),
         }
-        return Learned("airl", res.weights, None, res.history, info)
+        return Learned("airl", res.weights, None, res.history, info, (res.learner_policies, res.learner_mix))
     result = fit(problem, targets, rng=rng, options=settings.options, oracle=oracle, callback=callback)
     history = dict(result.history)
     info = {
@@ -169,3 +175,12 @@ def _learn_airl(
         }
         history["above_optimum"] = history["objective"] - best.objective
     return Learned("airl", result.weights, None, history, info)
+
+
+def _degeneracy(problem: GameProblem, targets: np.ndarray, weights: np.ndarray, objective: float, tol: float) -> dict:
+    """Whether the certified w is the zero reward in all but name (``airl_cli.core.degeneracy``).
+
+    ``objective`` is f at ``weights`` in the certificate's units (the loss scaled as the solve scaled it).
+    """
+    effect = reward_effect(problem.transitions[1:], problem.features, problem.initial, problem.horizon, weights, targets)
+    return {"reward_effect": effect, "degenerate": is_degenerate(effect, objective, tol)}

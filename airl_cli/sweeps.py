@@ -43,7 +43,8 @@ ERROR = "error.txt"
 FIT_COLUMNS = (
     "experiment", "method", "seed", "run", "x", "x_name", "mdp", "dynamics_kind", "n_dynamics", "n_features",
     "n_demos", "demos", "sigma", "weight_sharing", "loss", "dynamics", "learner_score", "demonstrator_score",
-    "cosine_similarity", "seconds", "optimizer", "objective", "relative_gap", "converged",
+    "cosine_similarity", "seconds", "optimizer", "objective", "relative_gap", "converged", "degenerate",
+    "equilibrium_score",
 )  # fmt: skip
 #: Quick profile: this many runs at most, the first and last swept value (or the experiment's
 #: ``quick_values``), the first two methods.

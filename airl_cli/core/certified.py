@@ -53,7 +53,7 @@ from airl_cli.core.game import (
     adversary_rewards,
     double_oracle,
     idle_counters,
-    learner_best_response,
+    learner_best_policy,
 )
 from airl_cli.core.planning import backward_induction, state_marginals
 from airl_cli.core.options import CertifiedOptions
@@ -101,6 +101,9 @@ class CertifiedResult:
         history: column -> (iterations,) array, columns ``HISTORY_COLUMNS``.
         adversary_features: (D, K) the adversary mixture's expected feature sums F_j(q) at the end.
         learner_mix: (n,) p; adversary_mix: (m,) q, over the final strategy sets.
+        learner_policies: (n, T-1, S) the learner strategies p mixes (deterministic Markov policies,
+            action per time step and state): the game's own learner, an alternative to the
+            optimal policy of the learned reward.
         qp_fallbacks: QP solves done without HiGHS, after its first failure in the fit (``core.qp``).
     """
 
@@ -115,6 +118,7 @@ class CertifiedResult:
     adversary_features: np.ndarray
     learner_mix: np.ndarray
     adversary_mix: np.ndarray
+    learner_policies: np.ndarray
     qp_fallbacks: int
 
 
@@ -142,6 +146,7 @@ class _Sets:
     Attributes (i: learner strategy, k: adversary strategy, d = K with sharing, D*K without):
         l_loss: (n, T*S) p_hat_i(t) @ loss, flattened, so L = l_loss @ a_tau.T.
         l_marg: (n, T, S) learner marginals under tau.
+        l_policy: (n, T-1, S) the learner strategies themselves (deterministic Markov policies).
         a_tau: (m, T*S) adversary marginals under tau, flattened.
         a_F: (m, D, K) F_k[j], adversary feature sums under tau_1..tau_D.
         a_phi: (m, d) Phi[:, k].
@@ -153,21 +158,23 @@ class _Sets:
         self.problem, self.qp, self.shared = problem, qp, shared
         self.l_loss = np.empty((0, T * S))
         self.l_marg = np.empty((0, T, S))
+        self.l_policy = np.empty((0, T - 1, S), dtype=np.int64)
         self.a_tau = np.empty((0, T * S))
         self.a_F = np.empty((0, D, K))
         self.a_phi = np.empty((0, qp.d))
 
-    def add_learner(self, marginals: np.ndarray) -> None:
-        """A learner strategy from its marginals (T, S) under tau."""
+    def add_learner(self, policy: np.ndarray, marginals: np.ndarray) -> None:
+        """A learner strategy: the deterministic Markov policy (T-1, S) and its marginals (T, S) under tau."""
         row = (marginals @ self.problem.loss).reshape(-1)
         self.qp.add_learner(self.a_tau @ row)
         self.l_loss = np.vstack([self.l_loss, row[None]])
         self.l_marg = np.concatenate([self.l_marg, marginals[None]])
+        self.l_policy = np.concatenate([self.l_policy, np.asarray(policy, dtype=np.int64)[None]])
 
     def keep(self, learner: np.ndarray, adversary: np.ndarray) -> None:
         """Keep only these strategies (sorted index arrays), here and in the QP."""
         self.qp.keep(learner, adversary)
-        self.l_loss, self.l_marg = self.l_loss[learner], self.l_marg[learner]
+        self.l_loss, self.l_marg, self.l_policy = self.l_loss[learner], self.l_marg[learner], self.l_policy[learner]
         self.a_tau, self.a_F, self.a_phi = self.a_tau[adversary], self.a_F[adversary], self.a_phi[adversary]
 
     def add_adversary(self, marginals: np.ndarray) -> None:
@@ -230,7 +237,7 @@ def minimize(
     # Start: the learner plays the optimal policy of the demonstrations' mean features under tau,
     # the adversary its best response to that at w = 0.
     policy, _ = backward_induction(P[0], phi @ targets.mean(axis=0), horizon=T)
-    sets.add_learner(state_marginals(P[0], policy, p0))
+    sets.add_learner(policy, state_marginals(P[0], policy, p0))
     sets.add_adversary(oracle(adversary_rewards(problem, sets.l_marg[0], np.zeros((D, K))))[1])
     planner_calls, screen_calls = 1, 0
     last_full = 0  # the iteration of the last full oracle call
@@ -256,14 +263,15 @@ def minimize(
         tiny = 1e-9 * (1.0 + abs(v))
         # the learner's best response against q: a lower bound, and maybe a new column
         q_tau = q @ sets.a_tau
-        br = learner_best_response(problem, q_tau.reshape(T, S))
+        br_policy = learner_best_policy(problem, q_tau.reshape(T, S))
+        br = state_marginals(P[0], br_policy, p0)
         br_loss = float((br @ problem.loss).reshape(-1) @ q_tau)
         g = q @ sets.a_phi - C
         best_lower = max(best_lower, br_loss - float(g @ g) / (2.0 * lam))
         gap_l = float(np.min(sets.l_loss @ q_tau)) - br_loss
         added_l = gap_l > tiny
         if added_l:
-            sets.add_learner(br)
+            sets.add_learner(br_policy, br)
         added_a = False
         # the adversary's side is asked unless the learner's side still accounts for most of the gap
         if not added_l or gap_l <= BALANCE * (best_upper - best_lower):
@@ -324,6 +332,7 @@ def minimize(
         adversary_features=F_q,
         learner_mix=p,
         adversary_mix=q,
+        learner_policies=sets.l_policy[: p.size].copy(),
         qp_fallbacks=qp.fallbacks,
     )
 

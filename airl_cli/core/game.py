@@ -180,8 +180,8 @@ def idle_counters(idle: np.ndarray, mix: np.ndarray) -> np.ndarray:
     return np.where(mix > 0, 0, grown + 1)
 
 
-def learner_best_response(problem: GameProblem, adversary_tau: np.ndarray) -> np.ndarray:
-    """The learner's best response (eq. 5.6-5.7) to the adversary's mixed marginals under tau.
+def learner_best_policy(problem: GameProblem, adversary_tau: np.ndarray) -> np.ndarray:
+    """The learner's best response (eq. 5.6-5.7) to the adversary's mixed marginals under tau, as a policy.
 
     Plans in tau with per-time reward R(t, s) = -E[loss(s, S_check_t)] = -(loss @ p_check(t))(s).
 
@@ -189,11 +189,16 @@ def learner_best_response(problem: GameProblem, adversary_tau: np.ndarray) -> np
         adversary_tau: (T, S) the mixture's state marginals under tau.
 
     Returns:
-        (T, S) the best response's state marginals under tau.
+        (T-1, S) the deterministic Markov policy, action per (time step, state).
     """
     R = -(adversary_tau @ problem.loss.T)
     policy, _ = backward_induction(problem.transitions[0], R)
-    return state_marginals(problem.transitions[0], policy, problem.initial)
+    return policy
+
+
+def learner_best_response(problem: GameProblem, adversary_tau: np.ndarray) -> np.ndarray:
+    """``learner_best_policy``'s state marginals (T, S) under tau."""
+    return state_marginals(problem.transitions[0], learner_best_policy(problem, adversary_tau), problem.initial)
 
 
 def adversary_rewards(problem: GameProblem, learner_tau: np.ndarray, w: np.ndarray) -> np.ndarray:

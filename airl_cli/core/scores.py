@@ -35,10 +35,26 @@ def performance(P: np.ndarray, R: np.ndarray, policy: np.ndarray, p0: np.ndarray
     Returns:
         The share of the achievable range reached; 1.0 when every policy earns the same.
     """
-    T = np.asarray(policy).shape[0] + 1
-    R = per_time(R, T)
+    return mixture_performance(P, R, np.asarray(policy)[None], np.ones(1), p0)
+
+
+def mixture_performance(P: np.ndarray, R: np.ndarray, policies: np.ndarray, mix: np.ndarray, p0: np.ndarray) -> float:
+    """Normalised performance of a mixture of policies, one drawn by ``mix`` at the start of each episode.
+
+    The game's learner (thesis eq. 5.9's p) is such a mixture; its expected return is the
+    ``mix``-weighted sum of its policies' returns.
+
+    Args:
+        P: (S, A, S) the dynamics the policies are run in.
+        R: (S,) or (T, S) the true reward.
+        policies: (n, T-1, S) int or (n, T-1, S, A) float, policy i of the mixture.
+        mix: (n,) the probabilities of the policies (summing to 1).
+        p0: (S,).
+    """
+    policies = np.asarray(policies)
+    R = per_time(R, policies.shape[1] + 1)
     r_min, r_max = return_bounds(P, R, p0)
-    value = expected_return(P, R, policy, p0)
+    value = sum(float(m) * expected_return(P, R, pi, p0) for m, pi in zip(mix, policies) if m > 0)
     span = r_max - r_min
     if span <= 1e-12 * max(1.0, abs(r_max)):
         return 1.0

@@ -18,7 +18,7 @@ from airl_cli.build import build_dataset, streams, with_loss
 from airl_cli.config import FitSettings, fit_settings, loss_and_seed, problem_settings
 from airl_cli.core.multimodel import solve
 from airl_cli.data import Dataset, read_dataset, write_dataset
-from airl_cli.evaluate import score_rows
+from airl_cli.evaluate import score_learned
 from airl_cli.jobs.common import check_memory, err_console, out_console, output_dir, run_job, save_config, size_note
 from airl_cli.learners import Learned, learn
 from airl_cli.paths import conf_dir
@@ -63,6 +63,8 @@ def summary_text(dataset: Dataset, settings: FitSettings, learned: Learned, rows
     ]
     if learned.method == "airl":
         lines += _objective_lines(info)
+        if info.get("degenerate"):
+            lines.append(f"warning   {degenerate_sentence(info)}")
     if learned.weights is not None:
         lines += ["", "learned weights:"]
         if learned.shared:
@@ -72,13 +74,26 @@ def summary_text(dataset: Dataset, settings: FitSettings, learned: Learned, rows
                 lines.append(f"  w_{j}: " + np.array2string(row, precision=4, separator=", "))
     if rows and rows[0]["learner_score"] is not None:
         lines += ["", "normalised performance under the true reward (thesis §7.2):", ""]
-        lines.append(f"  {'dynamics':<10}{'learner':>9}{'demonstrator':>14}{'cos(w, w*)':>12}")
+        mixed = rows[0]["equilibrium_score"] is not None
+        lines.append(f"  {'dynamics':<10}{'learner':>9}{'demonstrator':>14}{'cos(w, w*)':>12}" + (f"{'game p':>9}" if mixed else ""))
         for r in rows:
             cos = "-" if r["cosine_similarity"] is None else f"{r['cosine_similarity']:.3f}"
-            lines.append(f"  {r['dynamics']:<10}{r['learner_score']:>9.4f}{r['demonstrator_score']:>14.4f}{cos:>12}")
+            p = f"{r['equilibrium_score']:>9.4f}" if mixed else ""
+            lines.append(f"  {r['dynamics']:<10}{r['learner_score']:>9.4f}{r['demonstrator_score']:>14.4f}{cos:>12}{p}")
+        if mixed:
+            lines.append("  (learner: the optimal policy of the learned reward; game p: the equilibrium's own mixture of policies)")
     else:
         lines += ["", "the dataset has no true weights: nothing to score against"]
     return "\n".join(lines) + "\n"
+
+
+def degenerate_sentence(info: dict) -> str:
+    """One sentence for a certified w that is the zero reward in all but name (``core.degeneracy``)."""
+    return (
+        f"the learned reward is indistinguishable from zero: it moves the game's payoff by at most "
+        f"{info['reward_effect']:.2g}, below the certificate's tolerance, so w = 0 is optimal too and the "
+        "demonstrations do not constrain the reward (its direction is noise; see the README, 'A degenerate optimum')"
+    )
 
 
 def _objective_lines(info: dict) -> list[str]:
@@ -134,8 +149,7 @@ def fit_and_write(
     start = time.perf_counter()
     learned = learn(dataset, settings, rng, callback=on_step, planner_progress=on_planner)
     seconds = time.perf_counter() - start
-    policies = None if learned.policy is None else [learned.policy] * dataset.transitions.shape[0]
-    rows = score_rows(dataset, learned.weights, policies)
+    rows = score_learned(dataset, learned)
     text = summary_text(dataset, settings, learned, rows, seconds)
     if generated:
         write_dataset(folder / "dataset.npz", dataset)
@@ -200,6 +214,8 @@ def main(cfg: DictConfig) -> None:
         run = fit_with_progress(cfg, folder, settings)
     out_console.print(run.text, end="", soft_wrap=True)
     out_console.print(f"\nwrote {folder} (fit in {run.seconds:.2f} s)", soft_wrap=True)
+    if run.learned.info.get("degenerate"):
+        err_console.print(f"warning: {degenerate_sentence(run.learned.info)}", soft_wrap=True)
 
 
 @hydra.main(version_base="1.3", config_path=conf_dir(), config_name="airl")

@@ -60,6 +60,7 @@ def fit_rows(cfg: DictConfig, folder) -> list[dict]:
         "objective": info.get("objective", np.nan) if run.settings.method == "airl" else np.nan,
         "relative_gap": info["relative_gap"] if certified else np.nan,
         "converged": info["converged"] if certified else np.nan,
+        "degenerate": info["degenerate"] if certified else np.nan,
     }
     settings = setting_columns(c)
     out = []
@@ -73,6 +74,7 @@ def fit_rows(cfg: DictConfig, folder) -> list[dict]:
                 "cosine_similarity": row["cosine_similarity"],
                 "seconds": run.seconds,
                 **fit_facts,
+                "equilibrium_score": np.nan if row["equilibrium_score"] is None else row["equilibrium_score"],
                 **settings,
             }
         )
