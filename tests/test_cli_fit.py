@@ -153,8 +153,11 @@ def test_the_gradient_learner_reports_its_distance_to_the_certified_optimum(tmp_
     assert result.exit_code == 0, result.output
     metrics = json.loads((out / "metrics.json").read_text())
     assert metrics["optimizer"] == "gradient" and metrics["steps"] == 5
-    # five steps do not reach the minimum, and f at their w is never below the certified optimum
-    assert metrics["above_optimum"] >= -1e-6 and metrics["objective_at_weights"] >= metrics["certified_lower_bound"] - 1e-9
+    # five steps do not reach the minimum, and f at their w (to the tolerance) is never below the certified optimum
+    # f at the learned w is computed to the certificate's tolerance, not far beyond (that took 445 s, not 2 s)
+    assert metrics["objective_at_weights_tol"] == 1e-4
+    slack = 2 * metrics["objective_at_weights_tol"] * (1 + abs(metrics["objective_at_weights"]))
+    assert metrics["above_optimum"] >= -slack and metrics["objective_at_weights"] >= metrics["certified_lower_bound"] - slack
     history = pd.read_csv(out / "history.csv")
     assert list(history["step"]) == [0, 1, 2, 3, 4] and "above_optimum" in history
     assert "certified by optim=exact" in (out / "summary.txt").read_text()

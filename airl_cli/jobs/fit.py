@@ -106,7 +106,8 @@ def _objective_lines(info: dict) -> list[str]:
     if "certified_optimum" in info:
         lines.append(
             f"optimum   {info['certified_optimum']:.6g} (certified by optim=exact); f at the learned w is "
-            f"{info['objective_at_weights']:.6g}, {info['above_optimum']:.3g} above it ({100 * info['relative_above_optimum']:.2g}%)"
+            f"{info['objective_at_weights']:.6g} (double oracle to threshold {info['objective_at_weights_tol']:g}), "
+            f"{info['above_optimum']:.3g} above it ({100 * info['relative_above_optimum']:.2g}%)"
         )
     if info["oracle_capped_steps"]:
         lines.append(f"note      double oracle reached its iteration cap in {info['oracle_capped_steps']} step(s) (game.max_iterations)")
