@@ -101,11 +101,15 @@ def sweep(
     cfg: str | None = CfgOption,
     resolve: bool = ResolveOption,
     plot: bool = typer.Option(True, "--plot/--no-plot", help="Draw the experiment's figures when the sweep is done."),
+    partial: bool = typer.Option(
+        False, "--partial", help="Run no job: a table and figures of the jobs that have finished (an interrupted sweep's), in FOLDER/partial/."
+    ),
 ) -> None:
     """Run an experiment of thesis chapter 7 (a Hydra multirun on every core), collect its table, draw its figures.
 
     Takes experiment=NAME and any overrides, e.g. airl sweep experiment=fig05 profile=quick.
-    Jobs that finished in an earlier run of the same command are skipped. The folder is
+    Jobs that finished in an earlier run of the same command are skipped (--partial: a table
+    and figures of those alone, running nothing). The folder is
     results/sweeps/<experiment>-<profile>/ unless hydra.sweep.dir=PATH says otherwise.
     The jobs run on one warm worker per core (hydra.launcher.n_jobs=N for fewer);
     hydra/launcher=basic runs them one by one, hydra/launcher=submitit_slurm on a cluster.
@@ -119,7 +123,7 @@ def sweep(
     check_group_choices(ctx.args)
     check_keys(ctx.args)
     try:
-        status = run(ctx.args, draw=plot, console=err_console, out=out_console)
+        status = run(ctx.args, draw=plot, console=err_console, out=out_console, partial=partial)
     except AirlError as err:
         err_console.print(f"[bold red]error:[/] {err}", soft_wrap=True)
         raise typer.Exit(2) from None

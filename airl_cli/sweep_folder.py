@@ -106,12 +106,19 @@ def unwritable(folder: Path, err: OSError) -> str:
 def _stored_settings(sweep: SweepPlan) -> tuple[dict, str] | None:
     """The settings an earlier run into this folder used, and where they were read from."""
     record = sweep.folder / SETTINGS
-    if record.exists():
-        return json.loads(record.read_text())["settings"], str(record)
+    try:
+        settings = json.loads(record.read_text())["settings"]
+        if isinstance(settings, dict):
+            return settings, str(record)
+    except (OSError, ValueError, KeyError, TypeError):
+        pass  # absent or damaged (this run writes it anew): the jobs' configs tell
     # a folder from before sweep.json: any finished job's config tells
     for job in sorted(p.parent for p in sweep.folder.glob(f"*/{ROWS}")):
-        if (job / "config.yaml").exists():
+        try:
             config = OmegaConf.to_container(OmegaConf.load(job / "config.yaml"), resolve=False)
+        except Exception:  # absent or damaged: that job runs again  # noqa: BLE001
+            continue
+        if isinstance(config, dict):
             return shared_settings(config, sweep.swept), str(job / "config.yaml")
     return None
 

@@ -1,7 +1,8 @@
 """What a finished ``airl sweep`` gives: the results table, its summary, and the figures.
 
 The jobs' ``rows.csv`` files become the sweep folder's ``results.csv`` (one row per job x
-dynamics) and ``experiment.json``; the terminal gets the median scores beside the thesis's
+dynamics) and ``experiment.json`` (``airl sweep --partial``: those of the jobs that have finished,
+in ``partial/``); the terminal gets the median scores beside the thesis's
 claim; the figures are drawn on the sweep's warm workers when it has them. pandas is imported
 here only when a table is read, so that a sweep's start-up stays light.
 """
@@ -12,37 +13,94 @@ import json
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from airl_cli.errors import ConfigError
+from airl_cli.job_files import damaged_jobs
 from airl_cli.pool import call
 from airl_cli.results import atomic_write, write_json, write_text
-from airl_cli.sweep_folder import ROWS
+from airl_cli.sweep_folder import ROWS, check_folder, unwritable
 
 if TYPE_CHECKING:
     import pandas as pd
+    from rich.console import Console
 
     from airl_cli.sweeps import SweepPlan
 
 TABLE = "results.csv"
 META = "experiment.json"
+#: The sub-folder of a sweep folder that ``airl sweep --partial`` writes its table and figures into.
+PARTIAL = "partial"
 
 
-def collect(sweep: SweepPlan) -> pd.DataFrame:
-    """Concatenate the rows of every finished job of this sweep into the results table.
+def collect(sweep: SweepPlan, finished: list[str] | None = None, *, into: Path | None = None) -> pd.DataFrame:
+    """Concatenate the rows of the finished jobs of this sweep (all of them by default) into the results table.
 
-    Writes ``results.csv`` (sorted, one row per job x dynamics) and ``experiment.json`` into the
-    sweep folder, atomically; returns the table.
+    Writes ``results.csv`` (sorted, one row per job x dynamics) and ``experiment.json`` (how many
+    of the sweep's jobs the table holds: ``jobs``, ``finished``) into the sweep folder, or
+    ``into``, atomically; returns the table.
     """
-    finished = sweep.done()
+    finished = sweep.done() if finished is None else finished
+    into = sweep.folder if into is None else into
     table = read_rows([sweep.folder / j / ROWS for j in finished])
     if not table.empty:
         keys = [c for c in ("method", "x", "seed", "dynamics") if c in table]
         table = table.sort_values(keys, kind="stable").reset_index(drop=True)
-    write_text(sweep.folder / TABLE, table.to_csv(index=False))
+    write_text(into / TABLE, table.to_csv(index=False))
     if sweep.experiment.get("kind") == "alphas" and finished:
         data = (sweep.folder / finished[0] / "alphas.npz").read_bytes()
-        atomic_write(sweep.folder / "alphas.npz", lambda h: h.write(data))
+        atomic_write(into / "alphas.npz", lambda h: h.write(data))
     profile = sweep.settings.get("profile.name")
-    write_json(sweep.folder / META, {**sweep.experiment, "profile": profile, "jobs": len(sweep.jobs), "finished": len(finished)})
+    write_json(into / META, {**sweep.experiment, "profile": profile, "jobs": len(sweep.jobs), "finished": len(finished)})
     return table
+
+
+def write_partial(sweep: SweepPlan, *, draw: bool, console: Console, out: Console) -> int | None:
+    """``airl sweep --partial``: the table and figures of the jobs that have finished, undamaged,
+    in ``FOLDER/partial/``, labelled with how many of the sweep's jobs they are; the sweep's own
+    ``results.csv`` is never touched. None if every job has finished: then the sweep is whole
+    and its own table is collected (no job runs).
+
+    Raises:
+        ConfigError: a folder of another sweep, no finished job, or an unwritable folder.
+    """
+    check_folder(sweep)
+    done = sweep.done()
+    damaged = damaged_jobs(sweep.folder, done)
+    finished = [j for j in done if j not in damaged]
+    if len(finished) == len(sweep.jobs):
+        return None
+    if not finished:
+        raise ConfigError(f"no job of this sweep has finished in {sweep.folder}: run it without --partial first")
+    if damaged:
+        console.print(damaged_line(damaged, "left out"), soft_wrap=True)
+    into = sweep.folder / PARTIAL
+    figures: list[Path] = []
+    try:
+        table = collect(sweep, finished, into=into)
+        try:
+            figures = draw_figures(into) if draw and not table.empty else []
+        except ValueError as err:  # too few jobs for a figure (say, none of the methods it draws)
+            console.print(f"[bold yellow]no figures:[/] {err}", soft_wrap=True)
+    except OSError as err:
+        raise ConfigError(unwritable(into, err)) from None
+    console.print(
+        f"[bold yellow]partial:[/] {len(finished)} of {len(sweep.jobs)} jobs have finished; their table and figures are in {into} "
+        f"(the sweep's own {TABLE} is left as it was: run the same command without --partial to finish the sweep)",
+        soft_wrap=True,
+    )
+    out.print(f"table {into / TABLE} ({len(table)} rows, {len(finished)} of {len(sweep.jobs)} jobs)", soft_wrap=True)
+    if not table.empty:
+        out.print(medians_text(sweep.experiment, table), end="", soft_wrap=True)
+    for path in figures:
+        out.print(f"figure {path}", soft_wrap=True)
+    return 0
+
+
+def damaged_line(damaged: dict[str, str], what: str) -> str:
+    """One line: how many finished jobs had damaged files, what becomes of them, one example."""
+    job, reason = next(iter(damaged.items()))
+    n = len(damaged)
+    some = f"{n} finished jobs had damaged files and are" if n > 1 else "1 finished job had damaged files and is"
+    return f"[bold yellow]{some} {what}[/] (for example {job}: {reason})"
 
 
 def read_rows(paths: list[Path]) -> pd.DataFrame:

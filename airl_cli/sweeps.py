@@ -30,22 +30,15 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 from airl_cli import compose_memo
 from airl_cli.config import fit_settings, plain, problem_settings
 from airl_cli.errors import ConfigError
+from airl_cli.job_files import FIT_COLUMNS, damaged_jobs, discard  # noqa: F401 (FIT_COLUMNS: part of the interface)
 from airl_cli.launch import launcher_discoverable
 from airl_cli.paths import conf_dir
 from airl_cli.pool import WorkerDied, environment, kept, prestart, shutdown, workers
 from airl_cli.sweep_folder import ROWS, check_folder, claim, record_settings, shared_settings, unwritable
-from airl_cli.sweep_table import TABLE, collect, draw_figures, medians_text
+from airl_cli.sweep_table import TABLE, collect, damaged_line, draw_figures, medians_text, write_partial
 
 ERROR = "error.txt"
 
-#: The first columns of the results table of a fit experiment, in order (one row per job x
-#: dynamics); every setting of the problem and learner groups follows (``jobs.sweep_rows.setting_columns``).
-FIT_COLUMNS = (
-    "experiment", "method", "seed", "run", "x", "x_name", "mdp", "dynamics_kind", "n_dynamics", "n_features",
-    "n_demos", "demos", "sigma", "weight_sharing", "loss", "dynamics", "learner_score", "demonstrator_score",
-    "cosine_similarity", "seconds", "optimizer", "objective", "relative_gap", "converged", "degenerate",
-    "equilibrium_score",
-)  # fmt: skip
 #: Quick profile: this many runs at most, the first and last swept value (or the experiment's
 #: ``quick_values``), the first two methods.
 QUICK_RUNS = 2
@@ -265,11 +258,14 @@ def experiment_names() -> list[str]:
 # --------------------------------------------------------------------------- the command
 
 
-INTERRUPTED = "interrupted: run the same command again to resume"
+INTERRUPTED = "interrupted: run the same command again to resume (or add --partial for a table and figures of the finished jobs)"
 
 
-def run(overrides: list[str], *, draw: bool, console: Console, out: Console) -> int:
+def run(overrides: list[str], *, draw: bool, console: Console, out: Console, partial: bool = False) -> int:
     """``airl sweep``: plan, run the jobs not yet done, collect the table, draw the figures.
+
+    With ``partial``, run no job: the table and figures of the jobs that have finished go to the
+    sweep folder's ``partial/`` (``airl sweep --partial``), or, if every job has, to the sweep folder.
 
     Returns:
         The exit status: 0, 1 if some jobs stopped on bad input or a worker process died, 130 if
@@ -279,9 +275,12 @@ def run(overrides: list[str], *, draw: bool, console: Console, out: Console) -> 
         ConfigError: bad overrides, a folder in use by another sweep, or a folder that holds
             another sweep's jobs.
     """
-    prestart(_expected_workers(overrides))  # their imports overlap the planning below
+    if not partial:
+        prestart(_expected_workers(overrides))  # their imports overlap the planning below
     try:
         sweep = plan(overrides)
+        if partial and (status := write_partial(sweep, draw=draw, console=console, out=out)) is not None:
+            return status
         return _claim_and_run(sweep, overrides, draw=draw, console=console, out=out)
     finally:
         shutdown(idle=True)  # workers left here run no job: warming up (bad input) or done (figures)
@@ -319,9 +318,23 @@ def _claim_and_run(sweep: SweepPlan, overrides: list[str], *, draw: bool, consol
             return 1
 
 
+def _discard_damaged(sweep: SweepPlan, console: Console) -> None:
+    """Remove the finished jobs whose files are not what the job writes (``job_files``), so that
+    they run again, and say how many and why, in one line."""
+    damaged = damaged_jobs(sweep.folder, sweep.done())
+    for job in damaged:
+        try:
+            discard(sweep.folder / job)
+        except OSError as err:
+            raise ConfigError(unwritable(sweep.folder, err)) from None
+    if damaged:
+        console.print(damaged_line(damaged, "run again"), soft_wrap=True)
+
+
 def _run(sweep: SweepPlan, overrides: list[str], *, draw: bool, console: Console, out: Console) -> int:
     from airl_cli.launch import run_hydra
 
+    _discard_damaged(sweep, console)
     done = len(sweep.done())
     name = sweep.experiment["name"]
     out.print(f"sweep {name}: {len(sweep.jobs)} jobs, {done} finished earlier; folder {sweep.folder}", soft_wrap=True)

@@ -15,6 +15,7 @@ from typer.testing import CliRunner
 
 from airl_cli.cli import app
 from airl_cli.errors import ConfigError
+from airl_cli.job_files import damaged_jobs
 from airl_cli.sweeps import FIT_COLUMNS, experiment_names, plan
 
 runner = CliRunner()
@@ -91,6 +92,8 @@ def test_every_experiment_runs_small_in_process(tmp_path, name):
         assert (table["optimizer"] == "exact").all()
         assert table["converged"].astype(bool).all() and (table["relative_gap"] <= 1e-4).all()
     assert list((folder / "figures").glob("*.png")) and list((folder / "figures").glob("*.pdf"))
+    # every job's files pass the check a resumed sweep makes (none would be run again)
+    assert damaged_jobs(folder, [p.parent.name for p in folder.glob("*/rows.csv")]) == {}
 
 
 @pytest.mark.parametrize("name", ["fig04", "fig12"])

@@ -20,6 +20,7 @@ from airl_cli.core.multimodel import solve
 from airl_cli.data import Dataset, read_dataset, write_dataset
 from airl_cli.evaluate import score_learned
 from airl_cli.jobs.common import check_memory, err_console, out_console, output_dir, run_job, save_config, size_note
+from airl_cli.job_files import EQUILIBRIUM_NOTE
 from airl_cli.learners import Learned, learn
 from airl_cli.paths import conf_dir
 from airl_cli.results import atomic_write, write_json, write_text
@@ -81,7 +82,7 @@ def summary_text(dataset: Dataset, settings: FitSettings, learned: Learned, rows
             p = f"{r['equilibrium_score']:>9.4f}" if mixed else ""
             lines.append(f"  {r['dynamics']:<10}{r['learner_score']:>9.4f}{r['demonstrator_score']:>14.4f}{cos:>12}{p}")
         if mixed:
-            lines.append("  (learner: the optimal policy of the learned reward; game p: the equilibrium's own mixture of policies)")
+            lines.append(EQUILIBRIUM_NOTE)
     else:
         lines += ["", "the dataset has no true weights: nothing to score against"]
     return "\n".join(lines) + "\n"

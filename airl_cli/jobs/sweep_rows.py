@@ -8,16 +8,15 @@ workers, never imports the solvers (numba, scipy.optimize); the workers import t
 from __future__ import annotations
 
 import io
-import json
 import time
 
 import numpy as np
 from omegaconf import DictConfig, OmegaConf
 
-from airl_cli import sweep_folder
 from airl_cli.build import resolved_loss, streams
 from airl_cli.config import plain, problem_settings
 from airl_cli.core.multimodel import exact_alpha_vectors, expand_beliefs, pbvi_graph, upper_envelope_1d
+from airl_cli.job_files import setting_columns
 from airl_cli.jobs.common import save_config
 from airl_cli.jobs.fit import fit_and_write
 from airl_cli.results import atomic_write
@@ -31,7 +30,7 @@ def rows_csv(rows: list[dict]) -> str:
 
 
 def fit_rows(cfg: DictConfig, folder) -> list[dict]:
-    """Run the fit of this job; one row per dynamics: ``sweeps.FIT_COLUMNS``, then every setting."""
+    """Run the fit of this job; one row per dynamics: ``job_files.FIT_COLUMNS``, then every setting."""
     run = fit_and_write(cfg, folder)
     c = plain(cfg)
     exp = c["experiment"]
@@ -78,23 +77,6 @@ def fit_rows(cfg: DictConfig, folder) -> list[dict]:
                 **settings,
             }
         )
-    return out
-
-
-#: The config groups whose every setting becomes a column of the results table.
-SETTING_GROUPS = ("mdp", "dynamics", "demos", "loss", "method", "pbvi", "game", "optim")
-
-
-def setting_columns(config: dict) -> dict[str, object]:
-    """Every setting of the problem and learner groups as a column (``optim.lam``, ``mdp.transition``...).
-
-    A variant's table (say ``mdp.transition=dirichlet``) thus says what it ran, row by row. Lists
-    (grid cells) are written as JSON text.
-    """
-    out: dict[str, object] = {}
-    for group in SETTING_GROUPS:
-        for key, value in sweep_folder.shared_settings({group: config.get(group) or {}}, ()).items():
-            out[key] = json.dumps(value) if isinstance(value, (list, dict)) else value
     return out
 
 

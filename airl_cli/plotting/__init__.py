@@ -70,12 +70,19 @@ _DRAWERS = {"histogram": histogram, "curves": curves, "run_bars": run_bars, "cos
 _NEEDS = {"histogram": HISTOGRAM_COLUMNS, "curves": CURVES_COLUMNS, "run_bars": RUN_BARS_COLUMNS, "times": TIMES_COLUMNS}
 
 
+def _unfinished(folder: Path) -> str:
+    """What to add to "no results.csv" when jobs of the folder finished but its sweep did not."""
+    if not any(folder.glob("*/rows.csv")):
+        return ""
+    return ": its sweep has not finished; the same airl sweep command with --partial draws the jobs that have"
+
+
 def _read_meta(folder: Path) -> dict[str, Any]:
     path = folder / "experiment.json"
     if not folder.is_dir():
         raise ValueError(f"The sweep folder {folder} does not exist." if not folder.exists() else f"{folder} is a file, not a sweep folder.")
     if not path.is_file():
-        raise ValueError(f"The sweep folder {folder} has no experiment.json.")
+        raise ValueError(f"The sweep folder {folder} has no experiment.json{_unfinished(folder)}.")
     try:
         meta = json.loads(path.read_text(encoding="utf-8"))
     except json.JSONDecodeError as error:
@@ -99,7 +106,7 @@ def _read_meta(folder: Path) -> dict[str, Any]:
 def _read_results(folder: Path) -> pd.DataFrame:
     path = folder / "results.csv"
     if not path.is_file():
-        raise ValueError(f"The sweep folder {folder} has no results.csv.")
+        raise ValueError(f"The sweep folder {folder} has no results.csv{_unfinished(folder)}.")
     df = pd.read_csv(path)
     if df.empty:
         raise ValueError(f"results.csv in {folder} has no rows.")
@@ -148,6 +155,16 @@ def sized_title(meta: dict[str, Any], df: pd.DataFrame) -> str:
     return f"{title} [{'quick profile: ' if quick else ''}{n} run{'s' if n != 1 else ''} per point]"
 
 
+def partial_title(meta: dict[str, Any]) -> str:
+    """The title of a table of some of the sweep's jobs (``experiment.json``'s ``finished`` below
+    its ``jobs``: an interrupted sweep's, or one whose jobs stopped on bad input) says how many."""
+    title = str(meta.get("title") or "")
+    finished, jobs = meta.get("finished"), meta.get("jobs")
+    if not title or not isinstance(finished, int) or not isinstance(jobs, int) or finished >= jobs:
+        return title
+    return f"{title} [partial: {finished} of {jobs} jobs]"
+
+
 def draw(folder: str | os.PathLike, formats: tuple[str, ...] = ("png", "pdf")) -> list[Path]:
     """Draw every figure experiment.json lists; return the paths written, each figure's in
     ``formats`` order.
@@ -172,6 +189,7 @@ def draw(folder: str | os.PathLike, formats: tuple[str, ...] = ("png", "pdf")) -
 
     if df is not None:
         meta = {**meta, "title": sized_title(meta, df)}
+    meta = {**meta, "title": partial_title(meta)}
 
     def figures() -> list[tuple[str, Figure]]:
         made: list[tuple[str, Figure]] = []
