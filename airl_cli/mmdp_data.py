@@ -71,6 +71,13 @@ class MMDPProblem:
         return M, S, A
 
 
+def _shown(value: object) -> str:
+    """A cell's value as a user wrote it: numpy scalars as plain numbers (``nan``, not ``np.float64(nan)``)."""
+    if isinstance(value, np.generic):
+        value = value.item()
+    return repr(value)
+
+
 def _read_csv(path: Path, columns: tuple[str, ...]) -> pd.DataFrame:
     try:
         frame = pd.read_csv(path)
@@ -88,11 +95,11 @@ def _read_csv(path: Path, columns: tuple[str, ...]) -> pd.DataFrame:
         bad = values.isna() | ~np.isfinite(values.to_numpy(dtype=float, na_value=np.nan))
         if bad.any():
             row = int(np.flatnonzero(bad.to_numpy())[0])
-            raise DatasetError(f"'{path}' row {row + 2}: column '{c}' holds {frame[c].iloc[row]!r}, not a finite number")
+            raise DatasetError(f"'{path}' row {row + 2}: column '{c}' holds {_shown(frame[c].iloc[row])}, not a finite number")
         if c.startswith("id"):
             if np.any(values != np.round(values)) or np.any(values < 0):
                 row = int(np.flatnonzero(((values != np.round(values)) | (values < 0)).to_numpy())[0])
-                raise DatasetError(f"'{path}' row {row + 2}: '{c}' must be a whole number >= 0, got {frame[c].iloc[row]!r}")
+                raise DatasetError(f"'{path}' row {row + 2}: '{c}' must be a whole number >= 0, got {_shown(frame[c].iloc[row])}")
         frame[c] = values
     return frame
 
@@ -176,7 +183,7 @@ def _read_parameters(path: Path) -> dict[str, float]:
         try:
             out[str(name)] = float(value)
         except (TypeError, ValueError):
-            raise DatasetError(f"'{path}': parameter '{name}' has the value {value!r}, not a number") from None
+            raise DatasetError(f"'{path}': parameter '{name}' has the value {_shown(value)}, not a number") from None
     return out
 
 

@@ -83,6 +83,10 @@ BAD = [
     ("training", TRAINING.replace("probability,", "prob,"), "has no column 'probability'"),
     ("training", TRAINING.replace("0,1,1,0,0.8,1", "0,1,1,0,0.7,1"), "model 0, state 0, action 1 sum to 0.9"),
     ("training", TRAINING.replace("1,1,1,1,0.6,1", "1,1,1,1,abc,1"), "not a finite number"),
+    # an empty cell reads as NaN: said as the plain number, not numpy's repr np.float64(nan)
+    ("training", TRAINING.replace("1,1,1,1,0.6,1", "1,1,1,1,,1"), "row 13: column 'probability' holds nan, not a finite number"),
+    ("training", TRAINING.replace("1,1,1,1,0.6,1", "1,1,1,1,inf,1"), "column 'probability' holds inf, not"),
+    ("training", TRAINING.replace("1,1,1,1,0.6,1", "1.5,1,1,1,0.6,1"), "'idstatefrom' must be a whole number >= 0, got 1.5"),
     ("training", TRAINING + "0,0,0,0,1,0\n", "twice"),
     ("training", "\n".join(renumber(line) for line in TRAINING.splitlines()) + "\n", "no rows for model 1"),
     ("training", "\n".join(line for line in TRAINING.splitlines() if not line.startswith("1,1,")) + "\n", "no transitions for model 0, state 1, action 1"),
