@@ -1,0 +1,28 @@
+"""What the README quotes is what airl does: its error examples, and the paths its examples name."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import pytest
+from typer.testing import CliRunner
+
+from airl_cli.cli import app
+
+README = Path(__file__).resolve().parent.parent / "README.md"
+runner = CliRunner()
+
+
+@pytest.fixture(autouse=True)
+def in_tmp(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+
+
+def test_the_quoted_bad_value_error_is_the_one_airl_prints(tmp_path):
+    quoted = re.search(r"\(`(error: 'optim\.lam' must be [^`]*)`\)", README.read_text())
+    assert quoted, "the README quotes the error of a bad optim.lam"
+    value = quoted.group(1).rsplit("got ", 1)[1]
+    result = runner.invoke(app, ["fit", f"optim.lam={value}", f"hydra.run.dir={tmp_path / 'r'}"])
+    assert result.exit_code == 2
+    assert result.output.strip() == quoted.group(1)
