@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import shutil
 import signal
 import subprocess
@@ -349,6 +350,23 @@ def test_the_estimate_grows_with_the_problem_and_the_refusal_says_what_to_lower(
     lowered = estimate_fit(n_states=300, n_actions=5, horizon=30, n_dynamics=3, n_demos=1000, iterations=9)
     assert refusal(lowered, 4 * 2**30) is None  # the advice is enough
     assert "hydra.launcher.n_jobs" in refusal(lowered, 4 * 2**30, iterations=9, workers=4)
+
+
+def test_the_refusal_never_advises_iterations_that_do_not_fit():
+    """At S = 100,000 nothing fits: the refusal says so instead of "lower pbvi.iterations (to 1 or less)"."""
+    sizes = dict(n_actions=5, horizon=10, n_dynamics=3, n_demos=100)
+    huge = estimate_fit(n_states=100_000, **sizes, iterations=8)
+    sentence = refusal(huge, 23 * 2**30, iterations=8)
+    assert "pbvi.iterations (to" not in sentence and "\n" not in sentence
+    assert "does not fit even with the smallest planner (pbvi.iterations=1" in sentence and sentence.endswith("lower mdp.n_states, mdp.horizon")
+    assert refusal(estimate_fit(n_states=100_000, **sizes, iterations=1), 23 * 2**30, iterations=1) is not None
+    # where it is advised, the advised number of iterations does fit (by the same estimate)
+    for S, T in [(5000, 50), (2000, 50), (300, 30), (1000, 20)]:
+        sizes["horizon"] = T
+        estimate = estimate_fit(n_states=S, **sizes, iterations=12)
+        advice = re.search(r"pbvi.iterations \(to (\d+) or less\)", refusal(estimate, 23 * 2**30, iterations=12) or "")
+        if advice:
+            assert estimate_fit(n_states=S, **sizes, iterations=int(advice.group(1))).total <= 23 * 2**30, (S, T)
 
 
 @pytest.mark.parametrize(
