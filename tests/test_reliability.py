@@ -369,6 +369,17 @@ def test_the_refusal_never_advises_iterations_that_do_not_fit():
             assert estimate_fit(n_states=S, **sizes, iterations=int(advice.group(1))).total <= 23 * 2**30, (S, T)
 
 
+@pytest.mark.parametrize("optim, each", [("exact", "each iteration of the exact solve"), ("gradient", "each gradient step")])
+def test_the_large_fit_note_names_the_optimiser_in_use(monkeypatch, optim, each):
+    from airl_cli import api
+    from airl_cli.jobs import common
+
+    monkeypatch.setattr(common, "available_memory", lambda: 1 << 50)
+    note = common.size_note(api.config(f"optim={optim}", "pbvi.iterations=14"))
+    assert note is not None and "8,192 belief points" in note and f"{each} may take minutes" in note
+    assert optim == "gradient" or "gradient" not in note
+
+
 @pytest.mark.parametrize(
     "args",
     [
