@@ -263,9 +263,34 @@ def _validate(raw: dict[str, np.ndarray]) -> MMDPProblem:
     return MMDPProblem(P, r, p0, discount, prior, test_P, test_r)
 
 
+#: ``plan.input=benchmark:NAME`` names a benchmark folder shipped inside the package (MIT licence).
+BENCHMARK = "benchmark:"
+BENCHMARKS = Path(__file__).resolve().parent / "benchmarks"
+
+
+def benchmark_names() -> list[str]:
+    """The benchmark folders shipped in ``airl_cli/benchmarks/`` (Su & Petrik, UAI 2023)."""
+    return sorted(p.name for p in BENCHMARKS.iterdir() if p.is_dir() and (p / "training.csv").is_file())
+
+
+def input_path(path: str | os.PathLike) -> Path:
+    """``path`` itself, or for ``benchmark:NAME`` the shipped folder of that name.
+
+    Raises:
+        DatasetError: ``benchmark:NAME`` with a NAME that is not shipped.
+    """
+    text = os.fspath(path)
+    if not text.startswith(BENCHMARK):
+        return Path(text)
+    name = text[len(BENCHMARK) :]
+    if name not in benchmark_names():
+        raise DatasetError(f"airl ships no benchmark '{name}'; choose one of: {', '.join(BENCHMARK + n for n in benchmark_names())}")
+    return BENCHMARKS / name
+
+
 def read_problem(path: str | os.PathLike) -> MMDPProblem:
-    """A CSV folder or an ``.npz`` file, whichever ``path`` is."""
-    path = Path(path)
+    """A CSV folder or an ``.npz`` file, whichever ``path`` is; ``benchmark:NAME`` a shipped folder."""
+    path = input_path(path)
     if path.is_dir():
         return read_csv_folder(path)
     if not path.exists():

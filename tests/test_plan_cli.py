@@ -173,3 +173,21 @@ def test_exact_on_a_long_horizon_is_refused_in_one_sentence(tmp_path):
 def test_plan_config_is_packaged_and_printable():
     result = runner.invoke(app, ["plan", "--cfg", "job"])
     assert result.exit_code == 0 and "method: pbvi" in result.output and "horizon: 50" in result.output
+
+
+def test_the_shipped_benchmarks_plan_from_any_folder(tmp_path):
+    """`plan.input=benchmark:NAME`: Su & Petrik's small domains, shipped in the package (MIT licence)."""
+    from airl_cli.mmdp_data import benchmark_names
+
+    assert benchmark_names() == ["hiv", "riverswim"]
+    hiv = read_problem("benchmark:hiv")
+    assert hiv.shape == (50, 4, 3) and hiv.test_transitions is None and hiv.discount == 0.9
+    out = tmp_path / "run"
+    result = runner.invoke(app, ["plan", "plan.input=benchmark:riverswim", "plan.method=mvp", f"hydra.run.dir={out}"])
+    assert result.exit_code == 0, result.output
+    record = json.loads((out / "plan.json").read_text())
+    assert (record["models"], record["states"], record["actions"], record["test_models"]) == (100, 20, 2, 700)
+    # the published MVP policy's mean return on the 700 test models (Su & Petrik 2023, T = 50): 201.870
+    assert record["test_return"] == pytest.approx(201.870, abs=0.01)
+    bad = runner.invoke(app, ["plan", "plan.input=benchmark:river", f"hydra.run.dir={tmp_path / 'r'}"])
+    assert bad.exit_code == 2 and "benchmark:hiv, benchmark:riverswim" in bad.output and not (tmp_path / "r").exists()

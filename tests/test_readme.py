@@ -26,3 +26,14 @@ def test_the_quoted_bad_value_error_is_the_one_airl_prints(tmp_path):
     result = runner.invoke(app, ["fit", f"optim.lam={value}", f"hydra.run.dir={tmp_path / 'r'}"])
     assert result.exit_code == 2
     assert result.output.strip() == quoted.group(1)
+
+
+def test_the_plan_examples_use_data_a_users_install_has():
+    """The README's `airl plan` examples once pointed at ../shared/..., which a user's clone lacks."""
+    from airl_cli.mmdp_data import BENCHMARK, benchmark_names
+
+    text = README.read_text()
+    inputs = re.findall(r"^airl plan plan\.input=(\S+)", text, flags=re.M)
+    assert inputs and "../" not in text.split("## The multiple-MDP planner on its own")[1]
+    for value in inputs:
+        assert value.startswith(BENCHMARK) and value[len(BENCHMARK) :] in benchmark_names() or value == "problem.npz", value
