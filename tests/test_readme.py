@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import re
 from pathlib import Path
 
@@ -37,3 +38,22 @@ def test_the_plan_examples_use_data_a_users_install_has():
     assert inputs and "../" not in text.split("## The multiple-MDP planner on its own")[1]
     for value in inputs:
         assert value.startswith(BENCHMARK) and value[len(BENCHMARK) :] in benchmark_names() or value == "problem.npz", value
+
+
+@pytest.mark.slow  # the default fit, 10-40 s
+def test_the_seed_0_numbers_are_what_a_fresh_install_gives(tmp_path):
+    """The README's "what to expect from `airl fit`" sentence, to the three decimals it quotes."""
+    text = " ".join(README.read_text().split())
+    found = re.search(
+        r"with seed 0 the learner scores ([\d.]+) / ([\d.]+) / ([\d.]+) under τ_1 / τ_2 / τ_3 against the "
+        r"demonstrator's ([\d.]+) / ([\d.]+) / ([\d.]+), with cos\(w, w\*\) = ([\d.]+)",
+        text,
+    )
+    assert found, "the README quotes the seed-0 scores"
+    out = tmp_path / "run"
+    result = runner.invoke(app, ["fit", f"hydra.run.dir={out}"])
+    assert result.exit_code == 0, result.output
+    rows = {r["dynamics"]: r for r in json.loads((out / "metrics.json").read_text())["dynamics"]}
+    got = [rows[f"tau_{j}"]["learner_score"] for j in (1, 2, 3)] + [rows[f"tau_{j}"]["demonstrator_score"] for j in (1, 2, 3)]
+    got.append(rows["tau_1"]["cosine_similarity"])
+    assert [f"{x:.3f}" for x in got] == list(found.groups())
