@@ -195,7 +195,6 @@ def main(cfg: DictConfig) -> None:
     folder = output_dir()
     settings = fit_settings(cfg)
     if settings.method != "airl":
-        PlainProgress(err_console).line(f"fitting method={settings.method}")
         with err_console.status(f"fitting method={settings.method}"):
             run = fit_and_write(cfg, folder)
     else:

@@ -67,7 +67,6 @@ def main(cfg: DictConfig) -> None:
     plain = PlainProgress(err_console)  # stderr to a file: plain lines, at most every 5 s
     with Progress(SpinnerColumn(), TextColumn("{task.description}"), TimeElapsedColumn(), console=err_console, transient=True, disable=plain.active) as bar:
         task = bar.add_task("building the problem and the demonstrations", total=3)
-        plain.line("building the problem and the demonstrations")
         dataset, policy = build_dataset(settings)
         bar.update(task, advance=1, description="scoring the demonstrator")
         plain.line("scoring the demonstrator")

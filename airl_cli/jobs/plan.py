@@ -83,7 +83,6 @@ def main(cfg: DictConfig) -> dict:
     folder = output_dir()
     what = f"planning with {settings.method} (M={M}, S={S}, A={A}, T={settings.horizon})"
     plain = PlainProgress(err_console)  # stderr to a file: plain lines, at most every 5 s
-    plain.line(what)
     with err_console.status(what) as status:
         warm_up()
 
