@@ -36,7 +36,10 @@ def in_tmp(tmp_path, monkeypatch):
 
 
 def one_sentence(output: str) -> bool:
-    text = output.strip()
+    """The error is one sentence; before it, a job that ran over 5 s with stderr to a pipe or file
+    may have printed its plain progress lines (``[0:00:05] sweep fig05: 0/8 jobs finished``)."""
+    lines = [line for line in output.strip().splitlines() if not re.match(r"\[\d+:\d\d:\d\d\] \S", line)]
+    text = "\n".join(lines)
     return text.startswith("error:") and "\n" not in text and "Traceback" not in text
 
 
