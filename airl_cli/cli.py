@@ -11,6 +11,7 @@ from __future__ import annotations
 import gc
 
 import typer
+from typer.core import TyperCommand
 
 from airl_cli.errors import AirlError
 from airl_cli.launch import check_group_choices, check_keys, config_groups, run_hydra
@@ -25,6 +26,20 @@ def _groups_epilog() -> str:
 
 
 EPILOG = _groups_epilog()
+
+
+class _SweepCommand(TyperCommand):
+    """``airl sweep``, whose help ends with the experiments: read from their configs only for ``--help``."""
+
+    def format_epilog(self, ctx, formatter) -> None:
+        from airl_cli.launch import experiment_titles
+
+        titles = experiment_titles()
+        width = max(map(len, titles), default=0)
+        lines = ["Experiments (choose with experiment=NAME; profile=quick for a small size):", "", "\b"]
+        lines += [f"  {name:<{width}}  {title}" for name, title in titles.items()]
+        self.epilog = "\n".join(lines) + "\n\n" + EPILOG
+        super().format_epilog(ctx, formatter)
 
 app = typer.Typer(
     name="airl",
@@ -95,7 +110,7 @@ def fit(
     run_hydra("fit", ctx.args, cfg=cfg, resolve=resolve, multirun=multirun)
 
 
-@app.command(context_settings=PASS_THROUGH)
+@app.command(context_settings=PASS_THROUGH, cls=_SweepCommand)
 def sweep(
     ctx: typer.Context,
     cfg: str | None = CfgOption,

@@ -367,7 +367,7 @@ def plan_settings(cfg: DictConfig | Mapping) -> PlanSettings:
     p = Reader(top.raw("plan"), "plan")
     path = p.raw("input", None)
     if not isinstance(path, str) or not path:
-        raise ConfigError("'plan.input' must be a folder of CSV files or an .npz file, e.g. plan.input=data/riverswim")
+        raise ConfigError("'plan.input' must be a folder of CSV files or an .npz file, or a shipped benchmark: plan.input=benchmark:riverswim (or benchmark:hiv)")
     discount = p.raw("discount", None)
     return PlanSettings(
         input=path,

@@ -29,6 +29,17 @@ def config_groups() -> dict[str, list[str]]:
     return groups
 
 
+def experiment_titles() -> dict[str, str]:
+    """Experiment name -> its title, from the packaged ``conf/experiment/`` group (``airl sweep --help``)."""
+    root = Path(conf_dir()) / "experiment"
+    titles = {}
+    for name in config_groups().get("experiment", []):
+        data, _ = _yaml(root / f"{name}.yaml")
+        experiment = data.get("experiment") if isinstance(data.get("experiment"), dict) else {}
+        titles[name] = str(experiment.get("title") or "")
+    return titles
+
+
 def check_group_choices(overrides: list[str]) -> None:
     """Refuse ``GROUP=OPTION`` with an unknown OPTION in one sentence (Hydra would print its search path)."""
     groups = config_groups()

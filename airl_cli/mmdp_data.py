@@ -71,6 +71,13 @@ class MMDPProblem:
         return M, S, A
 
 
+def _shown(value: object) -> str:
+    """A cell's value as a user wrote it: numpy scalars as plain numbers (``nan``, not ``np.float64(nan)``)."""
+    if isinstance(value, np.generic):
+        value = value.item()
+    return repr(value)
+
+
 def _read_csv(path: Path, columns: tuple[str, ...]) -> pd.DataFrame:
     try:
         frame = pd.read_csv(path)
@@ -88,11 +95,11 @@ def _read_csv(path: Path, columns: tuple[str, ...]) -> pd.DataFrame:
         bad = values.isna() | ~np.isfinite(values.to_numpy(dtype=float, na_value=np.nan))
         if bad.any():
             row = int(np.flatnonzero(bad.to_numpy())[0])
-            raise DatasetError(f"'{path}' row {row + 2}: column '{c}' holds {frame[c].iloc[row]!r}, not a finite number")
+            raise DatasetError(f"'{path}' row {row + 2}: column '{c}' holds {_shown(frame[c].iloc[row])}, not a finite number")
         if c.startswith("id"):
             if np.any(values != np.round(values)) or np.any(values < 0):
                 row = int(np.flatnonzero(((values != np.round(values)) | (values < 0)).to_numpy())[0])
-                raise DatasetError(f"'{path}' row {row + 2}: '{c}' must be a whole number >= 0, got {frame[c].iloc[row]!r}")
+                raise DatasetError(f"'{path}' row {row + 2}: '{c}' must be a whole number >= 0, got {_shown(frame[c].iloc[row])}")
         frame[c] = values
     return frame
 
@@ -176,7 +183,7 @@ def _read_parameters(path: Path) -> dict[str, float]:
         try:
             out[str(name)] = float(value)
         except (TypeError, ValueError):
-            raise DatasetError(f"'{path}': parameter '{name}' has the value {value!r}, not a number") from None
+            raise DatasetError(f"'{path}': parameter '{name}' has the value {_shown(value)}, not a number") from None
     return out
 
 
@@ -256,9 +263,34 @@ def _validate(raw: dict[str, np.ndarray]) -> MMDPProblem:
     return MMDPProblem(P, r, p0, discount, prior, test_P, test_r)
 
 
+#: ``plan.input=benchmark:NAME`` names a benchmark folder shipped inside the package (MIT licence).
+BENCHMARK = "benchmark:"
+BENCHMARKS = Path(__file__).resolve().parent / "benchmarks"
+
+
+def benchmark_names() -> list[str]:
+    """The benchmark folders shipped in ``airl_cli/benchmarks/`` (Su & Petrik, UAI 2023)."""
+    return sorted(p.name for p in BENCHMARKS.iterdir() if p.is_dir() and (p / "training.csv").is_file())
+
+
+def input_path(path: str | os.PathLike) -> Path:
+    """``path`` itself, or for ``benchmark:NAME`` the shipped folder of that name.
+
+    Raises:
+        DatasetError: ``benchmark:NAME`` with a NAME that is not shipped.
+    """
+    text = os.fspath(path)
+    if not text.startswith(BENCHMARK):
+        return Path(text)
+    name = text[len(BENCHMARK) :]
+    if name not in benchmark_names():
+        raise DatasetError(f"airl ships no benchmark '{name}'; choose one of: {', '.join(BENCHMARK + n for n in benchmark_names())}")
+    return BENCHMARKS / name
+
+
 def read_problem(path: str | os.PathLike) -> MMDPProblem:
-    """A CSV folder or an ``.npz`` file, whichever ``path`` is."""
-    path = Path(path)
+    """A CSV folder or an ``.npz`` file, whichever ``path`` is; ``benchmark:NAME`` a shipped folder."""
+    path = input_path(path)
     if path.is_dir():
         return read_csv_folder(path)
     if not path.exists():

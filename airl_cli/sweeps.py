@@ -33,6 +33,7 @@ from airl_cli.errors import ConfigError
 from airl_cli.job_files import FIT_COLUMNS, damaged_jobs, discard  # noqa: F401 (FIT_COLUMNS: part of the interface)
 from airl_cli.launch import launcher_discoverable
 from airl_cli.paths import conf_dir
+from airl_cli.plain_progress import PlainProgress
 from airl_cli.pool import WorkerDied, environment, kept, prestart, shutdown, workers
 from airl_cli.sweep_folder import ROWS, check_folder, claim, record_settings, shared_settings, unwritable
 from airl_cli.sweep_table import TABLE, collect, damaged_line, draw_figures, medians_text, write_partial
@@ -221,7 +222,8 @@ def progress(sweep: SweepPlan, console: Console, interval: float = 0.5) -> Itera
         TimeRemainingColumn(),
     )
     reported = set(sweep.failed())  # an earlier run's failures were reported then
-    with Progress(*columns, console=console, transient=True) as bar:
+    plain, logged = PlainProgress(console), [-1]  # stderr to a file: a line at the start, then per change, at most every 5 s
+    with Progress(*columns, console=console, transient=True, disable=plain.active) as bar:
         task = bar.add_task("jobs", total=len(sweep.jobs), completed=len(sweep.done()))
 
         def update() -> None:
@@ -230,7 +232,10 @@ def progress(sweep: SweepPlan, console: Console, interval: float = 0.5) -> Itera
                 if job not in reported:
                     reported.add(job)
                     bar.console.print(f"[bold red]failed:[/] {job}: {message}", soft_wrap=True)
-            bar.update(task, completed=len(set(sweep.done()) | set(failed)))
+            finished = len(set(sweep.done()) | set(failed))
+            bar.update(task, completed=finished)
+            if finished != logged[0] and plain.line(f"sweep {sweep.experiment['name']}: {finished}/{len(sweep.jobs)} jobs finished"):
+                logged[0] = finished
 
         def watch() -> None:
             warm = sweep.workers < 2  # jobs in this process import pandas themselves

@@ -1,7 +1,7 @@
 """Benchmarks of airl: `python benchmarks/bench.py [SECTION ...]` prints a table per section.
 
 Sections: sampling, planner, backup, fit, certified, mmdp (the multi-model MDP benchmark of Su & Petrik
-2023; data from $AIRL_MMDP_DATA, default ../shared/data/mmdp beside the checkout). Each measurement is the
+2023; data from $AIRL_MMDP_DATA, default the copy shipped in airl_cli/benchmarks/). Each measurement is the
 median of several repeats on one core: the script sets OMP_NUM_THREADS=1 etc. and NUMBA_NUM_THREADS=1
 unless they are set already. The backup section compares one and all cores itself; run it with
 NUMBA_NUM_THREADS set to the number of cores.
@@ -28,6 +28,7 @@ from airl_cli.core.demos import sample_trajectories  # noqa: E402
 from airl_cli.core.planning import backward_induction  # noqa: E402
 from airl_cli.core.problems import gaussian_perturbations, random_mdp  # noqa: E402
 from airl_cli.core.sparse import sparse_dynamics  # noqa: E402
+from airl_cli.mmdp_data import BENCHMARKS  # noqa: E402
 from airl_cli.multimodel import expand_beliefs, solve  # noqa: E402
 
 console = Console(width=150)
@@ -320,7 +321,7 @@ def bench_certified() -> None:
     console.print(table)
 
 
-MMDP_DATA = os.environ.get("AIRL_MMDP_DATA", str(Path(__file__).resolve().parent.parent.parent / "shared" / "data" / "mmdp"))
+MMDP_DATA = os.environ.get("AIRL_MMDP_DATA", str(BENCHMARKS))  # default: the copy shipped in the package
 
 
 def _published(folder: Path, method: str) -> str:

@@ -108,3 +108,33 @@ def test_bad_options_and_shapes():
         fit(problem, targets, rng=np.random.default_rng(0), options=FitOptions(schedule="fast"))
     with pytest.raises(ValueError, match="targets"):
         fit(problem, targets[:1], rng=np.random.default_rng(0))
+
+
+def test_history_seconds_is_the_wall_time_since_the_fit_began_for_both_optimisers():
+    """One meaning for `history.csv`'s seconds: cumulative, for the gradient steps as for the exact solve."""
+    import time
+
+    from airl_cli.core.certified import CertifiedOptions, minimize
+
+    problem, targets, _ = tiny_irl(2)
+    exact, _ = make_oracle(problem, EXACT, np.random.default_rng(0))
+    first, pause = 0.3, 0.02
+    calls = []
+
+    def slow(rewards):  # the first adversary call takes 0.3 s, every other one 0.02 s
+        time.sleep(pause if calls else first)
+        calls.append(1)
+        return exact(rewards)
+
+    for run in ("gradient", "exact"):
+        calls.clear()
+        rows = []
+        start = time.perf_counter()
+        if run == "gradient":
+            fit(problem, targets, rng=np.random.default_rng(0), options=FitOptions(max_steps=6, planner=EXACT), oracle=slow, callback=rows.append)
+        else:  # its first call, before the first iteration, belongs to the fit too
+            minimize(problem, targets, slow, options=CertifiedOptions(tol=1e-6), callback=rows.append)
+        total = time.perf_counter() - start
+        seconds = np.array([r["seconds"] for r in rows])
+        assert len(seconds) > 1 and np.all(np.diff(seconds) > 0) and seconds[-1] <= total, run
+        assert seconds[-1] >= first + pause * (len(calls) - 1), run

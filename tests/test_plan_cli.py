@@ -83,6 +83,10 @@ BAD = [
     ("training", TRAINING.replace("probability,", "prob,"), "has no column 'probability'"),
     ("training", TRAINING.replace("0,1,1,0,0.8,1", "0,1,1,0,0.7,1"), "model 0, state 0, action 1 sum to 0.9"),
     ("training", TRAINING.replace("1,1,1,1,0.6,1", "1,1,1,1,abc,1"), "not a finite number"),
+    # an empty cell reads as NaN: said as the plain number, not numpy's repr np.float64(nan)
+    ("training", TRAINING.replace("1,1,1,1,0.6,1", "1,1,1,1,,1"), "row 13: column 'probability' holds nan, not a finite number"),
+    ("training", TRAINING.replace("1,1,1,1,0.6,1", "1,1,1,1,inf,1"), "column 'probability' holds inf, not"),
+    ("training", TRAINING.replace("1,1,1,1,0.6,1", "1.5,1,1,1,0.6,1"), "'idstatefrom' must be a whole number >= 0, got 1.5"),
     ("training", TRAINING + "0,0,0,0,1,0\n", "twice"),
     ("training", "\n".join(renumber(line) for line in TRAINING.splitlines()) + "\n", "no rows for model 1"),
     ("training", "\n".join(line for line in TRAINING.splitlines() if not line.startswith("1,1,")) + "\n", "no transitions for model 0, state 1, action 1"),
@@ -169,3 +173,21 @@ def test_exact_on_a_long_horizon_is_refused_in_one_sentence(tmp_path):
 def test_plan_config_is_packaged_and_printable():
     result = runner.invoke(app, ["plan", "--cfg", "job"])
     assert result.exit_code == 0 and "method: pbvi" in result.output and "horizon: 50" in result.output
+
+
+def test_the_shipped_benchmarks_plan_from_any_folder(tmp_path):
+    """`plan.input=benchmark:NAME`: Su & Petrik's small domains, shipped in the package (MIT licence)."""
+    from airl_cli.mmdp_data import benchmark_names
+
+    assert benchmark_names() == ["hiv", "riverswim"]
+    hiv = read_problem("benchmark:hiv")
+    assert hiv.shape == (50, 4, 3) and hiv.test_transitions is None and hiv.discount == 0.9
+    out = tmp_path / "run"
+    result = runner.invoke(app, ["plan", "plan.input=benchmark:riverswim", "plan.method=mvp", f"hydra.run.dir={out}"])
+    assert result.exit_code == 0, result.output
+    record = json.loads((out / "plan.json").read_text())
+    assert (record["models"], record["states"], record["actions"], record["test_models"]) == (100, 20, 2, 700)
+    # the published MVP policy's mean return on the 700 test models (Su & Petrik 2023, T = 50): 201.870
+    assert record["test_return"] == pytest.approx(201.870, abs=0.01)
+    bad = runner.invoke(app, ["plan", "plan.input=benchmark:river", f"hydra.run.dir={tmp_path / 'r'}"])
+    assert bad.exit_code == 2 and "benchmark:hiv, benchmark:riverswim" in bad.output and not (tmp_path / "r").exists()

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import shutil
 import signal
 import subprocess
@@ -35,7 +36,10 @@ def in_tmp(tmp_path, monkeypatch):
 
 
 def one_sentence(output: str) -> bool:
-    text = output.strip()
+    """The error is one sentence; before it, a job that ran over 5 s with stderr to a pipe or file
+    may have printed its plain progress lines (``[0:00:05] sweep fig05: 0/8 jobs finished``)."""
+    lines = [line for line in output.strip().splitlines() if not re.match(r"\[\d+:\d\d:\d\d\] \S", line)]
+    text = "\n".join(lines)
     return text.startswith("error:") and "\n" not in text and "Traceback" not in text
 
 
@@ -349,6 +353,34 @@ def test_the_estimate_grows_with_the_problem_and_the_refusal_says_what_to_lower(
     lowered = estimate_fit(n_states=300, n_actions=5, horizon=30, n_dynamics=3, n_demos=1000, iterations=9)
     assert refusal(lowered, 4 * 2**30) is None  # the advice is enough
     assert "hydra.launcher.n_jobs" in refusal(lowered, 4 * 2**30, iterations=9, workers=4)
+
+
+def test_the_refusal_never_advises_iterations_that_do_not_fit():
+    """At S = 100,000 nothing fits: the refusal says so instead of "lower pbvi.iterations (to 1 or less)"."""
+    sizes = dict(n_actions=5, horizon=10, n_dynamics=3, n_demos=100)
+    huge = estimate_fit(n_states=100_000, **sizes, iterations=8)
+    sentence = refusal(huge, 23 * 2**30, iterations=8)
+    assert "pbvi.iterations (to" not in sentence and "\n" not in sentence
+    assert "does not fit even with the smallest planner (pbvi.iterations=1" in sentence and sentence.endswith("lower mdp.n_states, mdp.horizon")
+    assert refusal(estimate_fit(n_states=100_000, **sizes, iterations=1), 23 * 2**30, iterations=1) is not None
+    # where it is advised, the advised number of iterations does fit (by the same estimate)
+    for S, T in [(5000, 50), (2000, 50), (300, 30), (1000, 20)]:
+        sizes["horizon"] = T
+        estimate = estimate_fit(n_states=S, **sizes, iterations=12)
+        advice = re.search(r"pbvi.iterations \(to (\d+) or less\)", refusal(estimate, 23 * 2**30, iterations=12) or "")
+        if advice:
+            assert estimate_fit(n_states=S, **sizes, iterations=int(advice.group(1))).total <= 23 * 2**30, (S, T)
+
+
+@pytest.mark.parametrize("optim, each", [("exact", "each iteration of the exact solve"), ("gradient", "each gradient step")])
+def test_the_large_fit_note_names_the_optimiser_in_use(monkeypatch, optim, each):
+    from airl_cli import api
+    from airl_cli.jobs import common
+
+    monkeypatch.setattr(common, "available_memory", lambda: 1 << 50)
+    note = common.size_note(api.config(f"optim={optim}", "pbvi.iterations=14"))
+    assert note is not None and "8,192 belief points" in note and f"{each} may take minutes" in note
+    assert optim == "gradient" or "gradient" not in note
 
 
 @pytest.mark.parametrize(

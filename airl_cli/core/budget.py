@@ -134,18 +134,39 @@ def refusal(
     at_once = f" per job, {workers} jobs at once," if workers > 1 else ""
     graph = estimate.parts.get("policy graph", 0)
     what = shrink
+    nothing_fits = ""
     if graph > estimate.total / 2 and iterations is not None and estimate.n_beliefs > 1:
-        fits = iterations
-        while fits > 1 and estimate.total - graph + graph * 2 ** (fits - iterations) > available / workers:
-            fits -= 1
-        what = f"pbvi.iterations (to {fits} or less), or " + what
+        fits = fewer_iterations(estimate, available / workers, iterations=iterations)
+        if fits is not None:
+            what = f"pbvi.iterations (to {fits} or less), or " + what
+        else:
+            smallest = estimate.total - graph + graph * _nodes(1) / _nodes(iterations)
+            nothing_fits = f"; it does not fit even with the smallest planner (pbvi.iterations=1, about {_size(smallest)})"
     if workers > 1:
         what += ", or hydra.launcher.n_jobs"
     return (
         f"this fit needs about {_size(estimate.total)} of memory{at_once} "
-        f"(up to {estimate.n_beliefs} belief points in the planner's policy graph), but only {_size(available)} is free; "
-        f"lower {what}"
+        f"(up to {estimate.n_beliefs} belief points in the planner's policy graph), but only {_size(available)} is free"
+        f"{nothing_fits}; lower {what}"
     )
+
+
+def fewer_iterations(estimate: Estimate, available: float, *, iterations: int) -> int | None:
+    """The most PBVI iterations below ``iterations`` whose fit needs at most ``available`` bytes.
+
+    The policy graph grows with its nodes per (t, s), ``max_beliefs // 2 + 1``; the rest of the
+    estimate does not depend on the iterations. None if not even one iteration fits.
+    """
+    graph = estimate.parts.get("policy graph", 0)
+    for fits in range(iterations - 1, 0, -1):
+        if estimate.total - graph + graph * _nodes(fits) / _nodes(iterations) <= available:
+            return fits
+    return None
+
+
+def _nodes(iterations: int) -> int:
+    """Nodes per (t, s) that ``estimate_fit`` counts for this many PBVI iterations."""
+    return max_beliefs(iterations) // 2 + 1
 
 
 def _size(n: int) -> str:

@@ -219,6 +219,7 @@ def minimize(
         A ``CertifiedResult``.
     """
     check_options(options)
+    start = time.perf_counter()  # each history row's seconds: the wall time since here
     problem = scaled_loss(problem, options.normalize_loss)
     targets = np.asarray(targets, dtype=np.float64)
     P, phi, p0, T = problem.transitions, problem.features, problem.initial, problem.horizon
@@ -248,7 +249,6 @@ def minimize(
     idle_a = np.zeros(0, dtype=np.int64)
     rows: list[dict] = []
     stopped = "max_iterations"
-    start = time.perf_counter()
     for it in range(1, options.max_iterations + 1):
         t0 = time.perf_counter()
         w, v, p, q, qp_objective = qp.solve()

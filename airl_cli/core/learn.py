@@ -168,6 +168,7 @@ def fit(
         A ``FitResult``.
     """
     check_options(options)
+    start = time.perf_counter()  # each history row's seconds: the wall time since here
     if options.normalize_loss and np.max(problem.loss) > 0:
         problem = dataclasses.replace(problem, loss=problem.loss / np.max(problem.loss))
     targets = np.asarray(targets, dtype=np.float64)
@@ -187,7 +188,6 @@ def fit(
     F = np.zeros((D, K))
     F_history = []
     for step in range(options.max_steps):
-        start = time.perf_counter()
         W = np.broadcast_to(w, (D, K)) if shared else w
         result = double_oracle(game, np.array(W), oracle, threshold=options.threshold, max_iterations=options.max_oracle_iterations)
         F = result.adversary_features

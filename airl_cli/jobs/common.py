@@ -167,7 +167,11 @@ def size_note(cfg: DictConfig) -> str | None:
         return None
     if refusal(estimate, available_memory(), iterations=iterations) is not None:
         return None  # check_memory will refuse it
+    from airl_cli.config import fit_settings
+
+    # the planner is called once per gradient step, or up to once per iteration of the exact solve
+    each = "gradient step" if fit_settings(cfg).optimizer == "gradient" else "iteration of the exact solve"
     return (
         f"note: pbvi.iterations={iterations} allows up to {estimate.n_beliefs:,} belief points and about "
-        f"{estimate.total / 2**30:,.1f} GB of memory; each gradient step may take minutes"
+        f"{estimate.total / 2**30:,.1f} GB of memory; each {each} may take minutes"
     )

@@ -23,6 +23,7 @@ from airl_cli.jobs.common import check_memory, err_console, out_console, output_
 from airl_cli.job_files import EQUILIBRIUM_NOTE
 from airl_cli.learners import Learned, learn
 from airl_cli.paths import conf_dir
+from airl_cli.plain_progress import PlainProgress
 from airl_cli.results import atomic_write, write_json, write_text
 
 
@@ -177,10 +178,10 @@ def fit_with_progress(cfg: DictConfig, folder: Path, settings: FitSettings) -> F
     exact = settings.optimizer == "exact"
     tol = settings.certified.tol
     columns = (TextColumn("{task.description}"), BarColumn(bar_width=12), TextColumn("{task.fields[info]}"), TimeElapsedColumn())
-    with Progress(*columns, console=err_console, transient=True) as bar:
-        fit_task = bar.add_task(
-            "fit (exact)" if exact else "fit (gradient)", total=None if exact else settings.options.max_steps, info=""
-        )
+    name = "fit (exact)" if exact else "fit (gradient)"
+    plain, last = PlainProgress(err_console), [""]  # stderr to a file: plain lines, the last step's info
+    with Progress(*columns, console=err_console, transient=True, disable=plain.active) as bar:
+        fit_task = bar.add_task(name, total=None if exact else settings.options.max_steps, info="")
         # one planner call at S=300, T=30 takes tens of seconds: show which time step it has backed up
         planner_task = bar.add_task("  planner", total=1, info="", visible=False)
 
@@ -193,9 +194,13 @@ def fit_with_progress(cfg: DictConfig, folder: Path, settings: FitSettings) -> F
             else:
                 info = f"step {int(row['step']) + 1}/{settings.options.max_steps}  objective {row['objective']:.5g}  |grad| {row['grad_norm']:.3g}"
             bar.update(fit_task, advance=1, info=info)
+            last[0] = info
+            plain.line(f"{name} {info}")
 
         def on_planner(done: int, total: int) -> None:
             bar.update(planner_task, completed=done, total=total, visible=done < total, info=f"time step {done}/{total}")
+            if done < total:  # a finished call is followed by its iteration's line
+                plain.line(f"{name} {last[0] or 'starting'}; planner time step {done}/{total}")
 
         if settings.optimizer == "gradient" and settings.certify:
             bar.console.print("after the gradient steps, the exact solve certifies the optimum for comparison (optim.certify)")

@@ -12,6 +12,7 @@ from airl_cli.config import ProblemSettings, problem_settings
 from airl_cli.data import Dataset, write_dataset
 from airl_cli.jobs.common import err_console, out_console, output_dir, run_job, save_config
 from airl_cli.paths import conf_dir
+from airl_cli.plain_progress import PlainProgress
 from airl_cli.results import write_text
 
 
@@ -63,12 +64,15 @@ def summary_text(settings: ProblemSettings, dataset: Dataset, scores: np.ndarray
 def main(cfg: DictConfig) -> None:
     settings = problem_settings(cfg)
     folder = output_dir()
-    with Progress(SpinnerColumn(), TextColumn("{task.description}"), TimeElapsedColumn(), console=err_console, transient=True) as bar:
+    plain = PlainProgress(err_console)  # stderr to a file: plain lines, at most every 5 s
+    with Progress(SpinnerColumn(), TextColumn("{task.description}"), TimeElapsedColumn(), console=err_console, transient=True, disable=plain.active) as bar:
         task = bar.add_task("building the problem and the demonstrations", total=3)
         dataset, policy = build_dataset(settings)
         bar.update(task, advance=1, description="scoring the demonstrator")
+        plain.line("scoring the demonstrator")
         scores = expert_scores(dataset, policy)
         bar.update(task, advance=1, description="writing the dataset file")
+        plain.line("writing the dataset file")
         text = summary_text(settings, dataset, scores)
         write_dataset(folder / "dataset.npz", dataset)
         write_text(folder / "summary.txt", text)

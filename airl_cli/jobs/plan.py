@@ -22,8 +22,9 @@ from airl_cli.core.mmdp_baselines import Plan, graph_returns, plan
 from airl_cli.core.multimodel import PolicyGraph, layered_rewards
 from airl_cli.errors import ConfigError
 from airl_cli.jobs.common import err_console, out_console, output_dir, run_job, save_config
-from airl_cli.mmdp_data import MMDPProblem, read_problem
+from airl_cli.mmdp_data import MMDPProblem, input_path, read_problem
 from airl_cli.paths import conf_dir
+from airl_cli.plain_progress import PlainProgress
 from airl_cli.results import atomic_write, write_json
 
 
@@ -81,15 +82,17 @@ def main(cfg: DictConfig) -> dict:
     M, S, A = problem.shape
     folder = output_dir()
     what = f"planning with {settings.method} (M={M}, S={S}, A={A}, T={settings.horizon})"
+    plain = PlainProgress(err_console)  # stderr to a file: plain lines, at most every 5 s
     with err_console.status(what) as status:
         warm_up()
 
         def progress(done: int, total: int) -> None:
             status.update(f"{what}: time step {done}/{total} backed up")
+            plain.line(f"{what}: time step {done}/{total} backed up")
 
         result, discount, test, seconds = run_plan(problem, settings, progress)
     record = {
-        "input": str(Path(settings.input).resolve()),
+        "input": str(input_path(settings.input).resolve()),
         "method": settings.method,
         "horizon": settings.horizon,
         "discount": discount,

@@ -1,0 +1,59 @@
+"""What the README quotes is what airl does: its error examples, and the paths its examples name."""
+
+from __future__ import annotations
+
+import json
+import re
+from pathlib import Path
+
+import pytest
+from typer.testing import CliRunner
+
+from airl_cli.cli import app
+
+README = Path(__file__).resolve().parent.parent / "README.md"
+runner = CliRunner()
+
+
+@pytest.fixture(autouse=True)
+def in_tmp(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+
+
+def test_the_quoted_bad_value_error_is_the_one_airl_prints(tmp_path):
+    quoted = re.search(r"\(`(error: 'optim\.lam' must be [^`]*)`\)", README.read_text())
+    assert quoted, "the README quotes the error of a bad optim.lam"
+    value = quoted.group(1).rsplit("got ", 1)[1]
+    result = runner.invoke(app, ["fit", f"optim.lam={value}", f"hydra.run.dir={tmp_path / 'r'}"])
+    assert result.exit_code == 2
+    assert result.output.strip() == quoted.group(1)
+
+
+def test_the_plan_examples_use_data_a_users_install_has():
+    """The README's `airl plan` examples once pointed at ../shared/..., which a user's clone lacks."""
+    from airl_cli.mmdp_data import BENCHMARK, benchmark_names
+
+    text = README.read_text()
+    inputs = re.findall(r"^airl plan plan\.input=(\S+)", text, flags=re.M)
+    assert inputs and "../" not in text.split("## The multiple-MDP planner on its own")[1]
+    for value in inputs:
+        assert value.startswith(BENCHMARK) and value[len(BENCHMARK) :] in benchmark_names() or value == "problem.npz", value
+
+
+@pytest.mark.slow  # the default fit, 10-40 s
+def test_the_seed_0_numbers_are_what_a_fresh_install_gives(tmp_path):
+    """The README's "what to expect from `airl fit`" sentence, to the three decimals it quotes."""
+    text = " ".join(README.read_text().split())
+    found = re.search(
+        r"with seed 0 the learner scores ([\d.]+) / ([\d.]+) / ([\d.]+) under τ_1 / τ_2 / τ_3 against the "
+        r"demonstrator's ([\d.]+) / ([\d.]+) / ([\d.]+), with cos\(w, w\*\) = ([\d.]+)",
+        text,
+    )
+    assert found, "the README quotes the seed-0 scores"
+    out = tmp_path / "run"
+    result = runner.invoke(app, ["fit", f"hydra.run.dir={out}"])
+    assert result.exit_code == 0, result.output
+    rows = {r["dynamics"]: r for r in json.loads((out / "metrics.json").read_text())["dynamics"]}
+    got = [rows[f"tau_{j}"]["learner_score"] for j in (1, 2, 3)] + [rows[f"tau_{j}"]["demonstrator_score"] for j in (1, 2, 3)]
+    got.append(rows["tau_1"]["cosine_similarity"])
+    assert [f"{x:.3f}" for x in got] == list(found.groups())
