@@ -143,17 +143,21 @@ def plan_command(
 
 
 @app.command()
-def plot(folder: str = typer.Argument(..., help="A sweep folder (results/sweeps/NAME-PROFILE).")) -> None:
-    """Draw the thesis's figure(s) of a finished sweep from its results table, as PNG and PDF."""
-    from pathlib import Path
+def plot(
+    folder: str = typer.Argument(..., help="A sweep folder (results/sweeps/NAME-PROFILE) or a fit's run folder (results/fit/TIME)."),
+) -> None:
+    """Draw a sweep's figure(s) from its results table, or a fit's convergence, as PNG and PDF into FOLDER/figures/.
 
+    For a fit (optim=exact) the bounds on the objective per iteration and the relative gap against
+    the tolerance; for optim=gradient the objective per step and the gradient's norm; for a
+    comparison method the columns of its history.csv.
+    """
     from airl_cli.jobs.common import err_console, out_console
-    from airl_cli.plotting import draw
-
+    from airl_cli.plotting import draw_folder
     from airl_cli.results import describe_os_error
 
     try:
-        paths = draw(Path(folder))
+        paths = draw_folder(folder)
     except (ValueError, FileNotFoundError) as err:
         err_console.print(f"[bold red]error:[/] {err}", soft_wrap=True)
         raise typer.Exit(2) from None
