@@ -169,6 +169,37 @@ def plot(
 
 
 @app.command()
+def report(
+    folder: str = typer.Argument("results/sweeps", help="The folder holding the sweep folders (<experiment>-full/ ...)."),
+    out: str = typer.Option("results/report", "--out", "-o", help="Where to write results.md, claims.md and figures/."),
+    profile: str = typer.Option("full", "--profile", help="Report the sweeps of this profile: full or quick."),
+) -> None:
+    """Write the claims table, results.md and the figures of chapter 7 from finished sweeps.
+
+    Reads every <experiment>-full/results.csv under FOLDER (and the variants <experiment>-full-<overrides>/),
+    computes each experiment's numbers, the method x experiment table and the claims table (each claim of
+    the thesis with its verdict under each reading), and copies the sweeps' PNG figures. The claims
+    table goes between the marker lines of OUT/README.md if it has them (experiments/README.md does),
+    else into OUT/claims.md.
+    """
+    from airl_cli.jobs.common import err_console, out_console
+    from airl_cli.report import make_report
+    from airl_cli.results import describe_os_error
+
+    try:
+        paths = make_report(folder, out, profile)
+    except AirlError as err:
+        err_console.print(f"[bold red]error:[/] {err}", soft_wrap=True)
+        raise typer.Exit(2) from None
+    except OSError as err:
+        err_console.print(f"[bold red]error:[/] cannot write the report ({describe_os_error(err)})", soft_wrap=True)
+        raise typer.Exit(2) from None
+    # make_report writes the figures, then results.md, then the claims table
+    n = len(paths) - 2
+    out_console.print(f"wrote {paths[-2]}, {paths[-1]} and {n} figure{'' if n == 1 else 's'}", soft_wrap=True)
+
+
+@app.command()
 def inspect(path: str = typer.Argument(..., help="A dataset file (.npz) of the schema in the README.")) -> None:
     """Check a dataset file against the schema and describe it; exit 2 with the reason if it is bad."""
     from airl_cli.jobs.inspect import main as inspect_main

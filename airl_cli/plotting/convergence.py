@@ -181,6 +181,8 @@ def exact_figure(history: pd.DataFrame, metrics: Mapping[str, Any]) -> Figure:
         gap_ax.axhline(float(metrics["tol"]), color=THRESHOLD_COLOUR, linewidth=1.6, linestyle="--",
                        label=f"tolerance {float(metrics['tol']):g}")
     gap_ax.set_yscale("log")
+    if (skipped := int(np.sum(gap <= 0))) > 0:  # PBVI's bound crossed the upper one: nothing to draw on a log axis
+        gap_ax.set_title(f"{skipped} iteration(s) with a relative gap <= 0 are not drawn", fontsize=9, color="#555555")
     gap_ax.set_xlabel("iteration")
     gap_ax.set_ylabel("relative gap (log scale)")
     gap_ax.legend(loc="best", frameon=False, fontsize=8)
