@@ -162,17 +162,21 @@ def plan_command(
 
 
 @app.command()
-def plot(folder: str = typer.Argument(..., help="A sweep folder (results/sweeps/NAME-PROFILE).")) -> None:
-    """Draw the thesis's figure(s) of a finished sweep from its results table, as PNG and PDF."""
-    from pathlib import Path
+def plot(
+    folder: str = typer.Argument(..., help="A sweep folder (results/sweeps/NAME-PROFILE) or a fit's run folder (results/fit/TIME)."),
+) -> None:
+    """Draw a sweep's figure(s) from its results table, or a fit's convergence, as PNG and PDF into FOLDER/figures/.
 
+    For a fit (optim=exact) the bounds on the objective per iteration and the relative gap against
+    the tolerance; for optim=gradient the objective per step and the gradient's norm; for a
+    comparison method the columns of its history.csv.
+    """
     from airl_cli.jobs.common import err_console, out_console
-    from airl_cli.plotting import draw
-
+    from airl_cli.plotting import draw_folder
     from airl_cli.results import describe_os_error
 
     try:
-        paths = draw(Path(folder))
+        paths = draw_folder(folder)
     except (ValueError, FileNotFoundError) as err:
         err_console.print(f"[bold red]error:[/] {err}", soft_wrap=True)
         raise typer.Exit(2) from None
@@ -181,6 +185,37 @@ def plot(folder: str = typer.Argument(..., help="A sweep folder (results/sweeps/
         raise typer.Exit(2) from None
     for path in paths:
         out_console.print(f"figure {path}", soft_wrap=True)
+
+
+@app.command()
+def report(
+    folder: str = typer.Argument("results/sweeps", help="The folder holding the sweep folders (<experiment>-full/ ...)."),
+    out: str = typer.Option("results/report", "--out", "-o", help="Where to write results.md, claims.md and figures/."),
+    profile: str = typer.Option("full", "--profile", help="Report the sweeps of this profile: full or quick."),
+) -> None:
+    """Write the claims table, results.md and the figures of chapter 7 from finished sweeps.
+
+    Reads every <experiment>-full/results.csv under FOLDER (and the variants <experiment>-full-<overrides>/),
+    computes each experiment's numbers, the method x experiment table and the claims table (each claim of
+    the thesis with its verdict under each reading), and copies the sweeps' PNG figures. The claims
+    table goes between the marker lines of OUT/README.md if it has them (experiments/README.md does),
+    else into OUT/claims.md.
+    """
+    from airl_cli.jobs.common import err_console, out_console
+    from airl_cli.report import make_report
+    from airl_cli.results import describe_os_error
+
+    try:
+        paths = make_report(folder, out, profile)
+    except AirlError as err:
+        err_console.print(f"[bold red]error:[/] {err}", soft_wrap=True)
+        raise typer.Exit(2) from None
+    except OSError as err:
+        err_console.print(f"[bold red]error:[/] cannot write the report ({describe_os_error(err)})", soft_wrap=True)
+        raise typer.Exit(2) from None
+    # make_report writes the figures, then results.md, then the claims table
+    n = len(paths) - 2
+    out_console.print(f"wrote {paths[-2]}, {paths[-1]} and {n} figure{'' if n == 1 else 's'}", soft_wrap=True)
 
 
 @app.command()

@@ -1,15 +1,11 @@
-"""The claims table's rules (experiments/claims.py): verdicts from hand-made results tables."""
+"""The claims table's rules (airl_cli/claims.py): verdicts from hand-made results tables."""
 
 from __future__ import annotations
-
-import sys
-from pathlib import Path
 
 import pandas as pd
 import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "experiments"))
-import claims  # noqa: E402
+from airl_cli import claims
 
 
 def table(scores, demo=0.9, x=None, method="airl", cos=None):

@@ -1,4 +1,5 @@
-"""Figures of the thesis from a sweep folder: one matplotlib ``Figure`` per thesis figure.
+"""Figures of the thesis from a sweep folder: one matplotlib ``Figure`` per thesis figure; and a
+fit's convergence figure from its run folder (``plotting.convergence``).
 
 A sweep folder holds ``experiment.json`` (what to draw) and either ``results.csv`` (a tidy table,
 one row per job x dynamics) or, for the alpha-vector figures 2 and 3, ``alphas.npz``.
@@ -14,6 +15,7 @@ from __future__ import annotations
 import json
 import os
 import re
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -36,6 +38,7 @@ from airl_cli.plotting._style import (  # noqa: F401 (the constants are part of 
     _require,
 )
 from airl_cli.plotting.alphas import _alpha_arrays, _upper_envelope, alpha_vectors  # noqa: F401 (tests check _upper_envelope)
+from airl_cli.plotting.convergence import convergence, fit_figures, is_fit_folder, read_fit
 from airl_cli.plotting.scores import (
     CURVES_COLUMNS,
     HISTOGRAM_COLUMNS,
@@ -60,7 +63,9 @@ __all__ = [
     "cosine",
     "times",
     "alpha_vectors",
+    "convergence",
     "draw",
+    "draw_folder",
 ]
 # --------------------------------------------------------------------------------------------
 # the sweep folder
@@ -201,9 +206,30 @@ def draw(folder: str | os.PathLike, formats: tuple[str, ...] = ("png", "pdf")) -
                 made.append((f"{name}_{kind}", _DRAWERS[kind](df, meta)))
         return made
 
-    out = folder / "figures"
+    return _write(folder / "figures", figures, formats)
+
+
+def _write(out: Path, figures: Callable[[], list[tuple[str, Figure]]], formats: tuple[str, ...]) -> list[Path]:
+    """Save every (stem, figure) ``figures()`` makes into ``out``, in each format; the paths, figure by figure."""
     out.mkdir(parents=True, exist_ok=True)
     # a new figure per format: a layout left by one format's renderer would shift the next's
     # (by a fraction of a point), so each file is the same whichever process draws which format
     written = {fmt: [_save(fig, out / f"{stem}.{fmt}") for stem, fig in figures()] for fmt in formats}
     return [path for paths in zip(*written.values(), strict=True) for path in paths]
+
+
+def draw_folder(folder: str | os.PathLike, formats: tuple[str, ...] = ("png", "pdf")) -> list[Path]:
+    """``airl plot``: a sweep folder's figures (:func:`draw`), or a fit's run folder's convergence
+    figure (``figures/convergence.png`` and ``.pdf``); ValueError in one sentence for anything else."""
+    folder = Path(folder)
+    if not folder.is_dir():
+        raise ValueError(f"The folder {folder} does not exist." if not folder.exists() else f"{folder} is a file, not a folder.")
+    if (folder / "experiment.json").exists() or (folder / "results.csv").exists():
+        return draw(folder, formats)
+    if not is_fit_folder(folder):
+        raise ValueError(
+            f"{folder} is neither a fit's run folder (metrics.json and history.csv, from airl fit) "
+            "nor a sweep folder (experiment.json and results.csv, from airl sweep)."
+        )
+    read_fit(folder)  # read and check the files before making the figures folder
+    return _write(folder / "figures", lambda: fit_figures(folder), formats)

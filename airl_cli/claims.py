@@ -1,4 +1,4 @@
-"""The claims table of experiments/README.md: each claim of chapter 7, measured under each reading.
+"""The claims table of experiments/README.md (``airl report``): each claim of chapter 7, measured under each reading.
 
 A claim is the thesis's sentence about one figure and a rule that turns the learner's (method=airl)
 rows of a results table into a number and a verdict: "holds", "partly" or "does not hold". The

@@ -1,0 +1,113 @@
+"""airl report: the claims table, results.md and the figures from a folder of sweeps; and
+experiments/make_report.py, which runs the same code into experiments/."""
+
+from __future__ import annotations
+
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pandas as pd
+import pytest
+from typer.testing import CliRunner
+
+from airl_cli.cli import app
+
+runner = CliRunner()
+REPO = Path(__file__).resolve().parent.parent
+START, END = "<!-- claims table: written by make_report.py -->", "<!-- end of the claims table -->"
+
+
+def fig04_table(score: float) -> pd.DataFrame:
+    """fig04's results table: 10 runs, methods airl and mce, the dynamics tau and tau_1."""
+    rows = []
+    for seed in range(10):
+        for method, s in (("airl", score), ("mce", 0.9)):
+            for dynamics in ("tau", "tau_1"):
+                rows.append({"experiment": "fig04", "seed": seed, "method": method, "dynamics": dynamics, "x": 100,
+                             "learner_score": s, "demonstrator_score": 0.95, "cosine_similarity": 0.8, "seconds": 1.5})
+    return pd.DataFrame(rows)
+
+
+@pytest.fixture
+def sweeps(tmp_path) -> Path:
+    """A sweeps folder with fig04's full sweep (and its figure), a reading's variant, and a quick sweep."""
+    root = tmp_path / "sweeps"
+    for name, score in (("fig04-full", 0.995), ("fig04-full-mdp.transition=uniform", 0.5), ("fig04-quick", 0.7)):
+        (root / name / "figures").mkdir(parents=True)
+        fig04_table(score).to_csv(root / name / "results.csv", index=False)
+        (root / name / "figures" / "fig04_histogram.png").write_bytes(b"\x89PNG " + name.encode())
+    return root
+
+
+def test_airl_report_writes_the_claims_table_results_and_figures(sweeps, tmp_path):
+    out = tmp_path / "report"
+    result = runner.invoke(app, ["report", str(sweeps), "--out", str(out)])
+    assert result.exit_code == 0, result.output
+    results = (out / "results.md").read_text()
+    assert "## fig04:" in results and "| airl | 0.995 |" in results and "![fig04_histogram](figures/fig04_histogram.png)" in results
+    assert "## fig04 with mdp.transition=uniform" in results
+    claims = (out / "claims.md").read_text()
+    assert "| fig04 |" in claims and "**holds**" in claims and "**does not hold**: min 0.500" in claims  # the variant's reading
+    assert (out / "figures" / "fig04_histogram.png").read_bytes() == b"\x89PNG fig04-full"
+    assert (out / "figures" / "mdp.transition_uniform_fig04_histogram.png").is_file()
+    assert f"wrote {out / 'results.md'}" in result.output.replace("\n", "")
+    assert not [p for p in out.rglob(".*")]  # no temporary files left
+
+
+def test_the_claims_table_goes_between_the_markers_of_a_readme(sweeps, tmp_path):
+    out = tmp_path / "experiments"
+    out.mkdir()
+    (out / "README.md").write_text(f"# head\n\n{START}\nold table\n{END}\n\ntail\n")
+    result = runner.invoke(app, ["report", str(sweeps), "--out", str(out)])
+    assert result.exit_code == 0, result.output
+    text = (out / "README.md").read_text()
+    assert text.startswith(f"# head\n\n{START}\n| claim |") and text.endswith(f"{END}\n\ntail\n") and "old table" not in text
+    assert not (out / "claims.md").exists()
+
+
+def test_a_quick_profile_report(sweeps, tmp_path):
+    out = tmp_path / "quick"
+    result = runner.invoke(app, ["report", str(sweeps), "--out", str(out), "--profile", "quick"])
+    assert result.exit_code == 0, result.output
+    assert "| airl | 0.700 |" in (out / "results.md").read_text() and "quick" in (out / "results.md").read_text()
+
+
+def test_airl_report_help():
+    result = runner.invoke(app, ["report", "--help"])
+    assert result.exit_code == 0 and "--out" in result.output and "claims" in result.output
+
+
+def one_sentence(result) -> str:
+    lines = [line for line in result.output.splitlines() if line.strip()]
+    assert result.exit_code == 2 and "Traceback" not in result.output, result.output
+    assert len(lines) == 1 and lines[0].startswith("error: "), result.output
+    return lines[0]
+
+
+@pytest.mark.parametrize("damage, needle", [
+    (lambda root: shutil.rmtree(root), "does not exist"),
+    (lambda root: [shutil.rmtree(p) for p in root.glob("*-full*")], "no finished full-size sweep"),
+    (lambda root: (root / "fig04-full" / "results.csv").write_text(""), "results.csv"),
+    (lambda root: (root / "fig04-full" / "results.csv").write_bytes(b"\x00\xff garbage\n\x01"), "results.csv"),
+    (lambda root: fig04_table(0.9).drop(columns=["learner_score"]).to_csv(root / "fig04-full" / "results.csv"), "learner_score"),
+])
+def test_bad_input_gets_one_sentence_and_writes_nothing(sweeps, tmp_path, damage, needle):
+    damage(sweeps)
+    out = tmp_path / "report"
+    line = one_sentence(runner.invoke(app, ["report", str(sweeps), "--out", str(out)]))
+    assert needle in line
+    assert not out.exists()
+
+
+def test_make_report_script_still_writes_into_its_own_folder(sweeps, tmp_path):
+    """experiments/make_report.py (which the READMEs cite) runs airl report into the folder it sits in."""
+    here = tmp_path / "experiments"
+    here.mkdir()
+    shutil.copy(REPO / "experiments" / "make_report.py", here)
+    (here / "README.md").write_text(f"{START}\n{END}\n")
+    done = subprocess.run([sys.executable, str(here / "make_report.py"), str(sweeps)], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    assert "| fig04 |" in (here / "README.md").read_text() and (here / "figures" / "fig04_histogram.png").is_file()
+    assert "## fig04:" in (here / "results.md").read_text()
