@@ -25,14 +25,16 @@ from hydra.core.override_parser.overrides_parser import OverridesParser
 from hydra.errors import HydraException
 from omegaconf import DictConfig, OmegaConf
 from rich.console import Console
+from rich.markup import escape
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 
 from airl_cli import compose_memo
 from airl_cli.config import fit_settings, plain, problem_settings
-from airl_cli.errors import ConfigError
+from airl_cli.errors import ConfigError, ResultsUnwritable, interrupt_status, interrupted
 from airl_cli.launch import launcher_discoverable
 from airl_cli.paths import conf_dir
 from airl_cli.pool import WorkerDied, environment, kept, prestart, shutdown, workers
+from airl_cli.results import describe_os_error, is_unwritable, mark_complete, mark_incomplete
 from airl_cli.sweep_folder import ROWS, check_folder, claim, record_settings, shared_settings, unwritable
 from airl_cli.sweep_table import TABLE, collect, draw_figures, medians_text
 
@@ -265,6 +267,11 @@ def experiment_names() -> list[str]:
 
 
 INTERRUPTED = "interrupted: run the same command again to resume"
+#: What ``airl sweep`` says when its results cannot be written (a full disk, mostly).
+FULL = (
+    "cannot write the results ({}); the finished jobs are kept and the folder is marked INCOMPLETE: "
+    "make room and run the same command again, or choose another folder with hydra.sweep.dir=PATH"
+)
 
 
 def run(overrides: list[str], *, draw: bool, console: Console, out: Console) -> int:
@@ -278,10 +285,13 @@ def run(overrides: list[str], *, draw: bool, console: Console, out: Console) -> 
         ConfigError: bad overrides, a folder in use by another sweep, or a folder that holds
             another sweep's jobs.
     """
-    prestart(_expected_workers(overrides))  # their imports overlap the planning below
     try:
+        prestart(_expected_workers(overrides))  # their imports overlap the planning below
         sweep = plan(overrides)
         return _claim_and_run(sweep, overrides, draw=draw, console=console, out=out)
+    except KeyboardInterrupt:  # while it planned: nothing was run
+        console.print(f"[bold yellow]{INTERRUPTED}[/]", soft_wrap=True)
+        return interrupt_status()
     finally:
         shutdown(idle=True)  # workers left here run no job: warming up (bad input) or done (figures)
 
@@ -302,20 +312,31 @@ def _expected_workers(overrides: list[str]) -> int:
 
 
 def _claim_and_run(sweep: SweepPlan, overrides: list[str], *, draw: bool, console: Console, out: Console) -> int:
+    """Hold the folder, mark it ``INCOMPLETE`` until every job, the table and the figures are
+    written, and run; a stop (Ctrl-C, a dead worker, a full disk) is one sentence and a status."""
     with claim(sweep.folder):
         check_folder(sweep)
         try:
             record_settings(sweep)
+            mark_incomplete(sweep.folder)
         except OSError as err:
             raise ConfigError(unwritable(sweep.folder, err)) from None
         try:
             return _run(sweep, overrides, draw=draw, console=console, out=out)
-        except KeyboardInterrupt:
+        except (KeyboardInterrupt, SystemError) as err:
+            if not interrupted(err):
+                raise
             console.print(f"[bold yellow]{INTERRUPTED}[/]", soft_wrap=True)
-            return 130
+            return interrupt_status()
         except WorkerDied as died:
             console.print(f"[bold red]error:[/] {died}", soft_wrap=True)
             return 1
+        except (OSError, ResultsUnwritable) as err:
+            if not isinstance(err, ResultsUnwritable) and not is_unwritable(err):
+                raise
+            reason = err.reason if isinstance(err, ResultsUnwritable) else describe_os_error(err)
+            console.print(f"[bold red]error:[/] {escape(FULL.format(reason))}", soft_wrap=True)
+            return 2
 
 
 def _run(sweep: SweepPlan, overrides: list[str], *, draw: bool, console: Console, out: Console) -> int:
@@ -344,4 +365,6 @@ def _run(sweep: SweepPlan, overrides: list[str], *, draw: bool, console: Console
         job, message = next(iter(failed.items()))
         console.print(f"[bold red]error:[/] {len(failed)} job(s) stopped on bad input, for example {job}: {message}", soft_wrap=True)
         return 1
+    if len(sweep.done()) == len(sweep.jobs):
+        mark_complete(sweep.folder)  # every job, the table and the figures are written
     return 0
