@@ -13,7 +13,7 @@ import gc
 import typer
 from typer.core import TyperCommand
 
-from airl_cli.errors import AirlError
+from airl_cli.errors import AirlError, stop_on_sigterm
 from airl_cli.launch import check_group_choices, check_keys, config_groups, run_hydra
 
 PASS_THROUGH = {"allow_extra_args": True, "ignore_unknown_options": True}
@@ -228,6 +228,7 @@ def inspect(path: str = typer.Argument(..., help="A dataset file (.npz) of the s
 
 def main() -> None:
     """Console-script entry point."""
+    stop_on_sigterm()  # kill PID stops a run as Ctrl-C does: one sentence, no half run folder
     try:
         app()
     finally:

@@ -1,4 +1,12 @@
-"""User-facing errors: each carries one sentence that the CLI prints before exiting non-zero."""
+"""User-facing errors: each carries one sentence that the CLI prints before exiting non-zero.
+
+Also what a stopped run is: a Ctrl-C (or a SIGTERM, see ``stop_on_sigterm``) and a results
+folder that cannot be written are said in one sentence too, by the command that was running.
+"""
+
+from __future__ import annotations
+
+import signal
 
 
 class AirlError(Exception):
@@ -11,3 +19,51 @@ class DatasetError(AirlError):
 
 class ConfigError(AirlError):
     """A configuration value is out of range or inconsistent with another one."""
+
+
+class ResultsUnwritable(BaseException):  # noqa: N818 (named for what it says, like KeyboardInterrupt)
+    """A results file could not be written (a full disk, a read-only folder) where Hydra or a sweep's
+    worker would report an ``OSError`` with a traceback: a BaseException, like KeyboardInterrupt, so
+    that it passes their error reports and reaches the command, which says it in one sentence.
+
+    Args:
+        reason: what went wrong, e.g. ``no space left on device: results/fit/x/.hydra/hydra.yaml``.
+        folder: the run folder being written, if known.
+    """
+
+    def __init__(self, reason: str, folder: str | None = None) -> None:
+        super().__init__(reason, folder)
+        self.reason = reason
+        self.folder = folder
+
+
+#: The signal that stopped this process, for its exit status (128 + the signal's number).
+_received = {"signal": int(signal.SIGINT)}
+
+
+def interrupted(err: BaseException | None) -> bool:
+    """Whether ``err`` is a Ctrl-C: a KeyboardInterrupt, or the SystemError that wraps one.
+
+    A compiled (numba) kernel cannot be interrupted; Python raises the KeyboardInterrupt when the
+    kernel returns, wrapped in ``SystemError: CPUDispatcher(...) returned a result with an
+    exception set`` (possibly several times over).
+    """
+    while isinstance(err, SystemError):
+        err = err.__cause__ or err.__context__
+    return isinstance(err, KeyboardInterrupt)
+
+
+def interrupt_status() -> int:
+    """The exit status of a command stopped by a signal: 130 for Ctrl-C, 143 for SIGTERM."""
+    return 128 + _received["signal"]
+
+
+def stop_on_sigterm() -> None:
+    """Make SIGTERM (``kill PID``) stop this process as Ctrl-C does, through KeyboardInterrupt, so
+    that it cleans up (run folder, worker processes) instead of dying on the spot."""
+
+    def stop(signum: int, _frame: object) -> None:
+        _received["signal"] = signum
+        raise KeyboardInterrupt
+
+    signal.signal(signal.SIGTERM, stop)

@@ -8,13 +8,15 @@ import sys
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
+from typing import Any
 
 import typer
 import yaml
 from omegaconf import OmegaConf
 
+from airl_cli.errors import ResultsUnwritable, interrupted
 from airl_cli.paths import conf_dir
-from airl_cli.results import new_run_folder, writable_problem
+from airl_cli.results import claimed_folder, describe_os_error, holds_no_results, is_unwritable, new_run_folder, writable_problem, write_text
 
 
 def config_groups() -> dict[str, list[str]]:
@@ -186,7 +188,28 @@ def _print_config_app(job: str):
 
 
 def run_hydra(job: str, overrides: list[str], *, cfg: str | None = None, resolve: bool = False, multirun: bool = False) -> None:
-    """Run the Hydra app of ``airl_cli.jobs.<job>`` with these overrides."""
+    """Run the Hydra app of ``airl_cli.jobs.<job>`` with these overrides.
+
+    A Ctrl-C, or a run folder that cannot be written, before the job itself starts (its imports,
+    Hydra's records) is said in one sentence as in the job (``jobs.common.stop``); ``airl sweep``
+    (job ``sweep``) says it itself.
+    """
+    earlier = claimed_folder()
+    try:
+        _run_hydra(job, overrides, cfg=cfg, resolve=resolve, multirun=multirun)
+    except (KeyboardInterrupt, SystemError, ResultsUnwritable) as err:
+        if job == "sweep" or not (interrupted(err) or isinstance(err, ResultsUnwritable)):
+            raise
+        from airl_cli.jobs.common import stop
+
+        claimed = claimed_folder()  # the folder this run made, if it got that far
+        where = err.folder if isinstance(err, ResultsUnwritable) else (claimed if claimed != earlier else None)
+        folder = None if where is None else Path(where)
+        stop(err, folder, fresh=folder is not None and holds_no_results(folder))
+        raise
+
+
+def _run_hydra(job: str, overrides: list[str], *, cfg: str | None, resolve: bool, multirun: bool) -> None:
     check_group_choices(overrides)
     check_keys(overrides, "airl_plan" if job == "plan" else "airl")
     if cfg is None:
@@ -206,7 +229,7 @@ def run_hydra(job: str, overrides: list[str], *, cfg: str | None = None, resolve
     if claim:  # a folder of its own for this run, even if another started in the same second
         OmegaConf.register_new_resolver("airl.new_run_folder", new_run_folder, replace=True)
     try:
-        with _jobs_composed_once(multirun and cfg is None):
+        with _jobs_composed_once(multirun and cfg is None), hydra_records_atomic():
             main()
     finally:
         sys.argv = saved
@@ -260,3 +283,37 @@ def _jobs_composed_once(active: bool) -> Iterator[None]:
             yield
     finally:
         Sweeper.validate_batch_is_legal = saved  # type: ignore[method-assign]
+
+
+def save_hydra_record(cfg: Any, filename: str, output_dir: Path) -> None:
+    """Hydra's ``_save_config`` (``.hydra/config.yaml``, ``hydra.yaml``, ``overrides.yaml``), atomic.
+
+    Hydra writes its records with a plain ``open`` before the job starts: a full disk left a
+    0-byte ``overrides.yaml`` and a traceback. Here each file is whole or absent, and a folder that
+    cannot be written raises ``ResultsUnwritable``, which passes Hydra's error report to the command.
+    """
+    from hydra.core.hydra_config import HydraConfig
+
+    try:
+        write_text(Path(output_dir) / filename, OmegaConf.to_yaml(cfg))
+    except OSError as err:
+        if not is_unwritable(err):
+            raise
+        try:
+            folder = str(HydraConfig.get().runtime.output_dir)
+        except ValueError:
+            folder = None
+        raise ResultsUnwritable(describe_os_error(err), folder) from None
+
+
+@contextmanager
+def hydra_records_atomic() -> Iterator[None]:
+    """Within: Hydra writes its records through ``save_hydra_record``."""
+    import hydra.core.utils
+
+    saved = hydra.core.utils._save_config
+    hydra.core.utils._save_config = save_hydra_record
+    try:
+        yield
+    finally:
+        hydra.core.utils._save_config = saved

@@ -21,10 +21,11 @@ import hashlib
 import importlib
 import multiprocessing
 import os
+import signal
 import socket
 import warnings
 from collections.abc import Iterator, Sequence
-from concurrent.futures import Future, ProcessPoolExecutor
+from concurrent.futures import Future, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
 from contextlib import contextmanager
 from pathlib import Path
@@ -115,7 +116,9 @@ def prestart(n: int) -> bool:
     warnings.filterwarnings("ignore", message="resource_tracker: process died unexpectedly", category=UserWarning)
     pool = None
     try:
-        pool = ProcessPoolExecutor(max_workers=n, mp_context=multiprocessing.get_context("spawn"))
+        _start_resource_tracker()
+        context = multiprocessing.get_context("spawn")
+        pool = ProcessPoolExecutor(max_workers=n, mp_context=context, initializer=_leave_interrupts_to_the_sweep)
         with environment(n):  # each submit starts a worker, which copies the environment
             warming = [pool.submit(_warm) for _ in range(n)]
     except OSError:
@@ -126,18 +129,57 @@ def prestart(n: int) -> bool:
     return True
 
 
+def _leave_interrupts_to_the_sweep() -> None:
+    """A worker ignores Ctrl-C (the terminal sends it to every process of the sweep): the sweep
+    process stops it (``shutdown(idle=True)``) at once, where a worker's own KeyboardInterrupt
+    would wait for its compiled kernel to return and then end only its job, not its queue."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+def _start_resource_tracker() -> None:
+    """Start multiprocessing's resource tracker (it removes the pool's semaphores if this process
+    is killed) without its warning that it did so.
+
+    After a ``kill -9`` of the sweep the tracker removes the semaphores itself and prints
+    ``There appear to be 5 leaked semaphore objects to clean up at shutdown``: nothing is left
+    behind, so that line asks nothing of the user. The tracker reads its warning filters from the
+    environment when it starts; the workers, started later, do not get this one.
+    """
+    from multiprocessing import resource_tracker
+
+    quiet = "ignore::UserWarning:multiprocessing.resource_tracker"
+    saved = os.environ.get("PYTHONWARNINGS")
+    os.environ["PYTHONWARNINGS"] = f"{saved},{quiet}" if saved else quiet
+    try:
+        resource_tracker.ensure_running()
+    finally:
+        if saved is None:
+            os.environ.pop("PYTHONWARNINGS", None)
+        else:
+            os.environ["PYTHONWARNINGS"] = saved
+
+
 def shutdown(wait: bool = True, *, idle: bool = False) -> None:
     """Stop the warm workers, if any; ``wait=False`` lets them exit while this process goes on.
 
-    ``idle=True`` (for workers that run no job: still importing, or done) terminates them at
-    once: a sweep stopped by a bad value then answers in 0.6 s, not after the workers' imports.
+    ``idle=True`` terminates them at once, for workers that run no job (still importing, or done)
+    or whose jobs are given up (Ctrl-C): a sweep stopped by a bad value then answers in 0.6 s,
+    not after the workers' imports, and a Ctrl-C in a second, not after the jobs under way. The
+    call returns when they are gone (no semaphore or process is left behind).
     """
     pool = _pool.pop("pool", None)
     _pool.clear()
     if pool is None:
         return
-    for process in list((pool._processes or {}).values()) if idle else []:  # the executor's own table
-        process.terminate()
+    if idle:
+        # the executor's own objects: its result pipe loses this process's write end, so that a
+        # worker terminated while it sent a result leaves its manager thread at the end of the
+        # pipe instead of waiting forever for the rest of the message (seen on a Ctrl-C)
+        writer = getattr(getattr(pool, "_result_queue", None), "_writer", None)
+        if writer is not None:
+            writer.close()
+        for process in list((pool._processes or {}).values()):
+            process.terminate()
     pool.shutdown(wait=wait or idle, cancel_futures=True)  # its manager thread reaps them
 
 
@@ -178,6 +220,7 @@ def call(targets: Sequence[tuple[str, tuple]]) -> list[Any] | None:
         shutdown(wait=False)
         return None
     try:
+        wait(futures)  # all of them, even if one fails: a worker stopped mid-write leaves a temporary file
         return [f.result() for f in futures]
     except BrokenProcessPool:
         shutdown(wait=False)
@@ -191,15 +234,18 @@ def _start(state: bytes | tuple) -> None:
     ``hydra.main`` wrapped cannot be pickled by name).
     """
     import cloudpickle
+    import hydra.core.utils
     from hydra.core.singleton import Singleton
     from hydra.core.utils import setup_globals
 
     from airl_cli import compose_memo
+    from airl_cli.launch import save_hydra_record
 
     hydra_context, config, task_function, singleton_state = cloudpickle.loads(state) if isinstance(state, bytes) else state
     setup_globals()
     Singleton.set_state(singleton_state)
     compose_memo.install()
+    hydra.core.utils._save_config = save_hydra_record  # whole or absent, as in the sweep process
     _worker.update(hydra_context=hydra_context, config=config, task_function=task_function)
 
 
@@ -271,8 +317,7 @@ def launch(launcher: Any, job_overrides: Sequence[Sequence[str]], initial_job_id
     except BrokenProcessPool:
         raise WorkerDied(WORKER_DIED) from None
     except BaseException:
-        for f in futures:
-            f.cancel()
+        shutdown(idle=True)  # a Ctrl-C, or a job that stops the sweep: the jobs under way are given up
         raise
     finally:
         if not (done and _kept):

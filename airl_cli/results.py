@@ -5,6 +5,7 @@ from __future__ import annotations
 import errno
 import json
 import os
+import shutil
 import tempfile
 from collections.abc import Callable
 from pathlib import Path
@@ -36,11 +37,13 @@ def atomic_write(path: str | os.PathLike, write: Callable[[IO[bytes]], None]) ->
             handle.flush()
             os.fsync(handle.fileno())
         os.replace(tmp, path)
-    except BaseException:
+    except BaseException as err:
         try:
             os.unlink(tmp)
         except FileNotFoundError:
             pass
+        if isinstance(err, OSError) and err.filename is None:
+            err.filename = str(path)  # a failed write names the file it was for (a full disk)
         raise
     return path
 
@@ -86,6 +89,11 @@ def new_run_folder(path: str) -> str:
     return str(candidate)
 
 
+def claimed_folder() -> str | None:
+    """The run folder ``new_run_folder`` made in this process, if any (the last one)."""
+    return next(reversed(_claimed.values()), None)
+
+
 #: errno values that mean "this folder cannot be written here".
 UNWRITABLE = frozenset([errno.EACCES, errno.EPERM, errno.EROFS, errno.ENOSPC, errno.EDQUOT, errno.ENOTDIR, errno.EEXIST])
 
@@ -119,3 +127,42 @@ def describe_os_error(err: OSError, path: str | os.PathLike | None = None) -> st
     reason = (err.strerror or type(err).__name__).lower()
     where = err.filename if err.filename is not None else path
     return f"{reason}: {where}" if where is not None else reason
+
+
+#: The file a run folder holds while its run is under way: written before the run's first result,
+#: removed after its last. A folder that holds it did not finish (a killed run, or one whose
+#: folder held an earlier run's files, which were then neither all kept nor all replaced).
+INCOMPLETE = "INCOMPLETE"
+_INCOMPLETE_TEXT = (
+    "This run did not finish (it was interrupted, killed, or could not write its results): "
+    "the files beside this one may be partial or from an earlier run. Run the command again.\n"
+)
+#: What Hydra writes into a run folder before the job starts.
+HYDRA_RECORDS = ".hydra"
+
+
+def mark_incomplete(folder: str | os.PathLike) -> None:
+    """Put the ``INCOMPLETE`` marker into ``folder`` (before the run writes its first result)."""
+    write_text(Path(folder) / INCOMPLETE, _INCOMPLETE_TEXT)
+
+
+def mark_complete(folder: str | os.PathLike) -> None:
+    """Remove the ``INCOMPLETE`` marker from ``folder`` (after the run wrote its last result)."""
+    (Path(folder) / INCOMPLETE).unlink(missing_ok=True)
+
+
+def holds_no_results(folder: str | os.PathLike) -> bool:
+    """Whether ``folder`` is absent or holds nothing but Hydra's records and the marker."""
+    folder = Path(folder)
+    return not folder.is_dir() or {p.name for p in folder.iterdir()} <= {HYDRA_RECORDS, INCOMPLETE}
+
+
+def discard(folder: str | os.PathLike) -> bool:
+    """Remove a run folder and everything in it; whether it is gone (a read-only one stays)."""
+    shutil.rmtree(folder, ignore_errors=True)
+    return not Path(folder).exists()
+
+
+def is_unwritable(err: BaseException) -> bool:
+    """Whether ``err`` says that results cannot be written where they go (see ``UNWRITABLE``)."""
+    return isinstance(err, OSError) and err.errno in UNWRITABLE

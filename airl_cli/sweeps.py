@@ -25,16 +25,18 @@ from hydra.core.override_parser.overrides_parser import OverridesParser
 from hydra.errors import HydraException
 from omegaconf import DictConfig, OmegaConf
 from rich.console import Console
+from rich.markup import escape
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 
 from airl_cli import compose_memo
 from airl_cli.config import fit_settings, plain, problem_settings
-from airl_cli.errors import ConfigError
+from airl_cli.errors import ConfigError, ResultsUnwritable, interrupt_status, interrupted
 from airl_cli.job_files import FIT_COLUMNS, damaged_jobs, discard  # noqa: F401 (FIT_COLUMNS: part of the interface)
 from airl_cli.launch import launcher_discoverable
 from airl_cli.paths import conf_dir
 from airl_cli.plain_progress import PlainProgress
 from airl_cli.pool import WorkerDied, environment, kept, prestart, shutdown, workers
+from airl_cli.results import describe_os_error, is_unwritable, mark_complete, mark_incomplete
 from airl_cli.sweep_folder import ROWS, check_folder, claim, record_settings, shared_settings, unwritable
 from airl_cli.sweep_table import TABLE, collect, damaged_line, draw_figures, medians_text, write_partial
 
@@ -264,6 +266,11 @@ def experiment_names() -> list[str]:
 
 
 INTERRUPTED = "interrupted: run the same command again to resume (or add --partial for a table and figures of the finished jobs)"
+#: What ``airl sweep`` says when its results cannot be written (a full disk, mostly).
+FULL = (
+    "cannot write the results ({}); the finished jobs are kept and the folder is marked INCOMPLETE: "
+    "make room and run the same command again, or choose another folder with hydra.sweep.dir=PATH"
+)
 
 
 def run(overrides: list[str], *, draw: bool, console: Console, out: Console, partial: bool = False) -> int:
@@ -280,13 +287,16 @@ def run(overrides: list[str], *, draw: bool, console: Console, out: Console, par
         ConfigError: bad overrides, a folder in use by another sweep, or a folder that holds
             another sweep's jobs.
     """
-    if not partial:
-        prestart(_expected_workers(overrides))  # their imports overlap the planning below
     try:
+        if not partial:
+            prestart(_expected_workers(overrides))  # their imports overlap the planning below
         sweep = plan(overrides)
         if partial and (status := write_partial(sweep, draw=draw, console=console, out=out)) is not None:
             return status
         return _claim_and_run(sweep, overrides, draw=draw, console=console, out=out)
+    except KeyboardInterrupt:  # while it planned: nothing was run
+        console.print(f"[bold yellow]{INTERRUPTED}[/]", soft_wrap=True)
+        return interrupt_status()
     finally:
         shutdown(idle=True)  # workers left here run no job: warming up (bad input) or done (figures)
 
@@ -307,20 +317,31 @@ def _expected_workers(overrides: list[str]) -> int:
 
 
 def _claim_and_run(sweep: SweepPlan, overrides: list[str], *, draw: bool, console: Console, out: Console) -> int:
+    """Hold the folder, mark it ``INCOMPLETE`` until every job, the table and the figures are
+    written, and run; a stop (Ctrl-C, a dead worker, a full disk) is one sentence and a status."""
     with claim(sweep.folder):
         check_folder(sweep)
         try:
             record_settings(sweep)
+            mark_incomplete(sweep.folder)
         except OSError as err:
             raise ConfigError(unwritable(sweep.folder, err)) from None
         try:
             return _run(sweep, overrides, draw=draw, console=console, out=out)
-        except KeyboardInterrupt:
+        except (KeyboardInterrupt, SystemError) as err:
+            if not interrupted(err):
+                raise
             console.print(f"[bold yellow]{INTERRUPTED}[/]", soft_wrap=True)
-            return 130
+            return interrupt_status()
         except WorkerDied as died:
             console.print(f"[bold red]error:[/] {died}", soft_wrap=True)
             return 1
+        except (OSError, ResultsUnwritable) as err:
+            if not isinstance(err, ResultsUnwritable) and not is_unwritable(err):
+                raise
+            reason = err.reason if isinstance(err, ResultsUnwritable) else describe_os_error(err)
+            console.print(f"[bold red]error:[/] {escape(FULL.format(reason))}", soft_wrap=True)
+            return 2
 
 
 def _discard_damaged(sweep: SweepPlan, console: Console) -> None:
@@ -363,4 +384,6 @@ def _run(sweep: SweepPlan, overrides: list[str], *, draw: bool, console: Console
         job, message = next(iter(failed.items()))
         console.print(f"[bold red]error:[/] {len(failed)} job(s) stopped on bad input, for example {job}: {message}", soft_wrap=True)
         return 1
+    if len(sweep.done()) == len(sweep.jobs):
+        mark_complete(sweep.folder)  # every job, the table and the figures are written
     return 0

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import os
-import shutil
 from collections.abc import Callable
 from pathlib import Path
 
@@ -11,10 +10,11 @@ import numpy as np
 from hydra.core.hydra_config import HydraConfig
 from omegaconf import DictConfig, OmegaConf
 from rich.console import Console
+from rich.markup import escape
 
 from airl_cli.core.budget import Estimate, estimate_fit, refusal
-from airl_cli.errors import AirlError, ConfigError
-from airl_cli.results import UNWRITABLE, describe_os_error, write_text
+from airl_cli.errors import AirlError, ConfigError, ResultsUnwritable, interrupt_status, interrupted
+from airl_cli.results import INCOMPLETE, describe_os_error, discard, holds_no_results, is_unwritable, mark_complete, mark_incomplete, write_text
 
 
 #: Progress and errors go to stderr; the final "where it went" line to stdout.
@@ -33,27 +33,58 @@ def save_config(cfg: DictConfig, folder: Path) -> None:
 
 
 def run_job(main: Callable[[DictConfig], object], cfg: DictConfig) -> object:
-    """Run ``main(cfg)``; on bad input print one sentence and exit with status 2.
+    """Run ``main(cfg)`` into the run folder; a run that does not finish says why in one sentence.
 
-    A results folder that cannot be written (read-only, full disk) is bad input too. Nothing
-    half-written stays behind: a run folder that holds only Hydra's own records is
-    removed when the job fails on bad input.
+    The folder holds ``INCOMPLETE`` while the job runs (``results.mark_incomplete``). Bad input
+    and a results folder that cannot be written (read-only, a full disk) exit with status 2,
+    Ctrl-C with 130 (SIGTERM 143), after one sentence on stderr (``stop``). Other errors (a bug)
+    keep their traceback and the marker.
     """
     try:
-        return main(cfg)
-    except (AirlError, OSError) as err:
-        if isinstance(err, OSError):
-            if err.errno not in UNWRITABLE:
-                raise
-            err = AirlError(f"cannot write the results ({describe_os_error(err)}); choose a writable folder with hydra.run.dir=PATH")
-        err_console.print(f"[bold red]error:[/] {err}", soft_wrap=True)
-        try:
-            folder = output_dir()
-            if folder.is_dir() and {p.name for p in folder.iterdir()} <= {".hydra"}:
-                shutil.rmtree(folder)
-        except ValueError:  # no Hydra context (called directly)
-            pass
-        raise SystemExit(2) from None
+        folder: Path | None = output_dir()
+    except ValueError:  # no Hydra context (called directly)
+        folder = None
+    fresh = folder is not None and holds_no_results(folder)
+    try:
+        if folder is not None:
+            mark_incomplete(folder)
+        result = main(cfg)
+        if folder is not None:
+            mark_complete(folder)  # the last act: the folder is complete
+        return result
+    except BaseException as err:
+        stop(err, folder, fresh=fresh)
+        raise
+
+
+def stop(err: BaseException, folder: Path | None, *, fresh: bool) -> None:
+    """Say in one sentence why a run stopped and exit, if it is bad input, an unwritable folder or
+    an interrupt; return (for the caller to re-raise) otherwise.
+
+    Nothing half-written stays behind: the run folder is removed if this run made it (``fresh``:
+    it held nothing but Hydra's records when the job started); a folder that held an earlier
+    run's files keeps the ``INCOMPLETE`` marker instead, and the sentence says so.
+
+    Raises:
+        SystemExit: status 2 (bad input, unwritable), 130 (Ctrl-C) or 143 (SIGTERM).
+    """
+    if interrupted(err):
+        status, sentence = interrupt_status(), "[bold yellow]interrupted[/]"
+        removed, marked = ": nothing was kept (the run folder {} is removed)", ": {} is marked INCOMPLETE"
+    else:
+        if isinstance(err, ResultsUnwritable) or is_unwritable(err):
+            reason = err.reason if isinstance(err, ResultsUnwritable) else describe_os_error(err)  # type: ignore[arg-type]
+            err = AirlError(f"cannot write the results ({reason}); choose a writable folder with hydra.run.dir=PATH")
+        if not isinstance(err, AirlError):
+            return
+        status, sentence = 2, f"[bold red]error:[/] {escape(str(err))}"
+        removed, marked = "", "; {} is marked INCOMPLETE"
+    if folder is not None and fresh and discard(folder):
+        sentence += removed.format(escape(str(folder)))
+    elif folder is not None and (folder / INCOMPLETE).exists():
+        sentence += marked.format(escape(str(folder)))
+    err_console.print(sentence, soft_wrap=True)
+    raise SystemExit(status) from None
 
 
 def available_memory() -> int:

@@ -18,10 +18,10 @@ import hydra
 from omegaconf import DictConfig, OmegaConf
 
 from airl_cli import compose_memo, pool, sweep_folder, sweeps
-from airl_cli.errors import AirlError
+from airl_cli.errors import AirlError, ResultsUnwritable, interrupted
 from airl_cli.jobs.common import output_dir
 from airl_cli.paths import conf_dir
-from airl_cli.results import write_text
+from airl_cli.results import describe_os_error, is_unwritable, write_text
 
 
 _watching = False
@@ -122,4 +122,17 @@ def main(cfg: DictConfig) -> None:
 
 @hydra.main(version_base="1.3", config_path=conf_dir(), config_name="airl")
 def hydra_main(cfg: DictConfig) -> None:
-    main(cfg)
+    """One job; a Ctrl-C or a folder that cannot be written stops the sweep, not only this job.
+
+    Hydra would record the SystemError that wraps a Ctrl-C inside a compiled kernel, and an
+    ``OSError``, as a failed job and go on; they reach ``airl sweep`` as KeyboardInterrupt and
+    ``ResultsUnwritable``.
+    """
+    try:
+        main(cfg)
+    except (SystemError, OSError) as err:
+        if interrupted(err):
+            raise KeyboardInterrupt from None
+        if is_unwritable(err):
+            raise ResultsUnwritable(describe_os_error(err), str(output_dir())) from None
+        raise

@@ -1,0 +1,322 @@
+"""A run that does not finish (Ctrl-C, kill, a full disk) says why in one line and leaves no half
+run folder: the folder it made is removed, or (a folder that held an earlier run, a kill -9) it
+holds ``INCOMPLETE``. Issue 23, items 4 and 5.
+"""
+
+from __future__ import annotations
+
+import errno
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+from typer.testing import CliRunner
+
+from airl_cli.cli import app
+INCOMPLETE = "INCOMPLETE"  # the marker file a run folder holds while its run is under way (README)
+
+runner = CliRunner()
+SMALL = ["mdp.n_states=6", "mdp.n_actions=3", "mdp.horizon=5", "mdp.n_features=3", "demos.n=30", "pbvi.iterations=4"]
+AIRL = [sys.executable, "-m", "airl_cli"]
+PROC = Path("/proc/self/stat").exists()
+
+
+@pytest.fixture(autouse=True)
+def in_tmp(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+
+
+def one_line(text: str, start: str) -> bool:
+    text = text.strip()
+    return text.startswith(start) and "\n" not in text and "Traceback" not in text
+
+
+def cpu_seconds(pid: int) -> float:
+    """User + system CPU time of a process, from /proc."""
+    fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+def wait_for(condition, timeout: float, what: str) -> None:
+    deadline = time.time() + timeout
+    while not condition():
+        assert time.time() < deadline, f"timed out waiting for {what}"
+        time.sleep(0.05)
+
+
+def descendants(pid: int) -> set[int]:
+    out, todo = set(), [pid]
+    while todo:
+        parent = todo.pop()
+        for entry in os.listdir("/proc"):
+            if entry.isdigit():
+                try:
+                    stat = Path(f"/proc/{entry}/stat").read_text()
+                except OSError:
+                    continue
+                if int(stat.rsplit(")", 1)[1].split()[1]) == parent and int(entry) not in out:
+                    out.add(int(entry))
+                    todo.append(int(entry))
+    return out
+
+
+def alive(pid: int) -> bool:
+    try:
+        return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] != "Z"
+    except OSError:
+        return False
+
+
+# ------------------------------------------------------------------ 4. Ctrl-C and kill
+
+
+@pytest.mark.skipif(not PROC, reason="reads /proc")
+@pytest.mark.parametrize(("signum", "status"), [(signal.SIGINT, 130), (signal.SIGTERM, 143)])
+def test_a_fit_stopped_while_it_plans_says_one_line_and_leaves_no_run_folder(tmp_path, signum, status):
+    """S = 200: the planner's compiled kernels run for seconds; the signal arrives inside one."""
+    out = tmp_path / "run"
+    proc = subprocess.Popen([*AIRL, "fit", "mdp.n_states=200", f"hydra.run.dir={out}"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        wait_for(lambda: (out / ".hydra" / "overrides.yaml").exists(), 60, "the run to start")
+        start = cpu_seconds(proc.pid)
+        wait_for(lambda: cpu_seconds(proc.pid) > start + 2.5, 60, "the fit to work")  # past the warm-up, in the fit
+        assert proc.poll() is None, "the fit ended before it was interrupted"
+        proc.send_signal(signum)
+        _, err = proc.communicate(timeout=30)
+    finally:
+        proc.kill()
+    assert proc.returncode == status, err
+    assert one_line(err, "interrupted: nothing was kept"), err
+    assert not out.exists()
+
+
+def kernel_interrupt(*_args, **_kwargs):
+    """What Python raises when Ctrl-C arrives inside a numba kernel: the KeyboardInterrupt, wrapped."""
+    try:
+        raise KeyboardInterrupt
+    except KeyboardInterrupt as err:
+        raise SystemError("CPUDispatcher(<function backup_step>) returned a result with an exception set") from err
+
+
+def plan_input(tmp_path: Path) -> Path:
+    P = np.zeros((2, 2, 2, 2))
+    P[:, :, 0, :] = np.eye(2)
+    P[:, :, 1, :] = [[0.2, 0.8], [0.8, 0.2]]
+    path = tmp_path / "problem.npz"
+    np.savez(path, transitions=P, rewards=np.ones((2, 2, 2, 2)), initial=np.array([1.0, 0.0]))
+    return path
+
+
+@pytest.mark.parametrize("command", ["fit", "generate", "plan"])
+def test_an_interrupt_inside_a_kernel_is_one_line_and_exit_130_for_every_command(tmp_path, monkeypatch, command):
+    import airl_cli.jobs.fit
+    import airl_cli.jobs.generate
+    import airl_cli.jobs.plan
+
+    module, name = {"fit": (airl_cli.jobs.fit, "learn"), "generate": (airl_cli.jobs.generate, "expert_scores"), "plan": (airl_cli.jobs.plan, "run_plan")}[command]
+    monkeypatch.setattr(module, name, kernel_interrupt)
+    args = [f"plan.input={plan_input(tmp_path)}"] if command == "plan" else SMALL
+    result = runner.invoke(app, [command, *args])
+    assert result.exit_code == 130, result.output
+    assert one_line(result.output, "interrupted: nothing was kept (the run folder "), result.output
+    assert not any((tmp_path / "results" / command).iterdir())  # the folder it made is gone
+
+
+def test_an_interrupted_run_into_a_folder_of_an_earlier_run_marks_it_incomplete(tmp_path, monkeypatch):
+    import airl_cli.jobs.fit
+
+    out = tmp_path / "run"
+    assert runner.invoke(app, ["fit", f"hydra.run.dir={out}", *SMALL]).exit_code == 0
+    assert not (out / INCOMPLETE).exists()  # a finished run is not marked
+    monkeypatch.setattr(airl_cli.jobs.fit, "write_text", kernel_interrupt)  # after weights.json, before summary.txt
+    result = runner.invoke(app, ["fit", f"hydra.run.dir={out}", "seed=1", *SMALL])
+    assert result.exit_code == 130
+    assert one_line(result.output, f"interrupted: {out} is marked INCOMPLETE"), result.output
+    assert "did not finish" in (out / INCOMPLETE).read_text()
+
+
+SWEEP = [*AIRL, "sweep", "experiment=fig05", "profile=quick", "--no-plot", "hydra.launcher.n_jobs=2"]
+
+
+@pytest.mark.skipif(not PROC or (os.cpu_count() or 1) < 2, reason="reads /proc; two workers")
+def test_ctrl_c_stops_a_sweep_at_once_with_no_worker_and_no_semaphore_left(tmp_path):
+    """Jobs of seconds each (S = 150): a Ctrl-C (to the whole process group, as a terminal sends it)
+    used to wait 12 s for the workers to finish their jobs and the next ones."""
+    folder = tmp_path / "sweep"
+    proc = subprocess.Popen([*SWEEP, "mdp.n_states=150", f"hydra.sweep.dir={folder}"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
+    try:
+        wait_for(lambda: len(list(folder.glob("*/.hydra"))) >= 2, 90, "two jobs to start")
+        time.sleep(0.5)  # the jobs are computing
+        everything = descendants(proc.pid)
+        start = time.time()
+        os.killpg(proc.pid, signal.SIGINT)
+        proc.wait(timeout=30)
+        stopped = time.time() - start
+        _, err = proc.communicate(timeout=30)
+    finally:
+        try:
+            os.killpg(proc.pid, signal.SIGKILL)
+        except ProcessLookupError:
+            pass
+    assert proc.returncode == 130, err
+    assert stopped < 4, f"took {stopped:.1f} s to stop"
+    assert one_line(err, "interrupted: run the same command again to resume"), err
+    assert not [p for p in everything if alive(p)], "workers outlived the sweep"
+    assert (folder / INCOMPLETE).exists()
+
+
+@pytest.mark.skipif(not PROC, reason="reads /proc")
+def test_a_sweep_killed_outright_leaves_its_folder_marked_and_no_leak_warning(tmp_path):
+    folder = tmp_path / "sweep"
+    proc = subprocess.Popen([*SWEEP, f"hydra.sweep.dir={folder}"], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, start_new_session=True)
+    try:
+        wait_for(lambda: list(folder.glob("*/.hydra")), 90, "a job to start")
+        proc.kill()  # the sweep process only, as kill -9 PID
+        _, err = proc.communicate(timeout=30)  # stderr closes when the workers and the resource tracker are gone
+    finally:
+        try:
+            os.killpg(proc.pid, signal.SIGKILL)
+        except ProcessLookupError:
+            pass
+    assert "leaked" not in err and "Traceback" not in err, err
+    assert (folder / INCOMPLETE).exists()
+
+
+@pytest.mark.skipif(not PROC, reason="reads /proc")
+def test_a_sweep_interrupted_by_ctrl_c_resumes_to_the_table_of_an_uninterrupted_one(tmp_path):
+    folder, reference = tmp_path / "resumed", tmp_path / "reference"
+    cmd = [*AIRL, "sweep", "experiment=fig05", "profile=quick", "--no-plot"]
+    proc = subprocess.Popen([*cmd, f"hydra.sweep.dir={folder}"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
+    try:
+        wait_for(lambda: list(folder.glob("*/rows.csv")) or proc.poll() is not None, 90, "a job to finish")
+        os.killpg(proc.pid, signal.SIGINT)
+        _, err = proc.communicate(timeout=30)
+    finally:
+        try:
+            os.killpg(proc.pid, signal.SIGKILL)
+        except ProcessLookupError:
+            pass
+    assert proc.returncode == 130 and one_line(err, "interrupted"), err
+    assert (folder / INCOMPLETE).exists()
+    finished = len(list(folder.glob("*/rows.csv")))
+    resumed = subprocess.run([*cmd, f"hydra.sweep.dir={folder}"], capture_output=True, text=True, timeout=120)
+    assert resumed.returncode == 0, resumed.stderr
+    assert f"{finished} finished earlier" in resumed.stdout
+    assert not (folder / INCOMPLETE).exists()
+    subprocess.run([*cmd, f"hydra.sweep.dir={reference}"], capture_output=True, text=True, timeout=120, check=True)
+    # the same bytes but for the wall times (the seconds column)
+    ours, theirs = (pd.read_csv(f / "results.csv").drop(columns="seconds") for f in (folder, reference))
+    assert ours.to_csv(index=False) == theirs.to_csv(index=False)
+
+
+# ------------------------------------------------------------------ 5. a full disk
+
+
+def no_space(name: str):
+    """A writer that fails with ENOSPC for files called ``name`` (and writes the others)."""
+    from airl_cli.results import write_text
+
+    def write(path, text):
+        if Path(path).name == name:
+            raise OSError(errno.ENOSPC, "No space left on device", str(path))
+        return write_text(path, text)
+
+    return write
+
+
+def test_hydras_own_records_on_a_full_disk_are_one_sentence_and_no_folder(tmp_path, monkeypatch):
+    import airl_cli.launch
+
+    monkeypatch.setattr(airl_cli.launch, "write_text", no_space("overrides.yaml"), raising=False)
+    result = runner.invoke(app, ["fit", "hydra.run.dir=out", *SMALL])
+    assert result.exit_code == 2, result.output
+    assert one_line(result.output, "error: cannot write the results (no space left on device: "), result.output
+    assert "overrides.yaml" in result.output and not (tmp_path / "out").exists()
+
+
+def test_a_fit_whose_summary_does_not_fit_on_the_disk_leaves_no_run_folder(tmp_path, monkeypatch):
+    import airl_cli.jobs.fit
+
+    monkeypatch.setattr(airl_cli.jobs.fit, "write_text", no_space("summary.txt"))  # weights.json is written before
+    result = runner.invoke(app, ["fit", "hydra.run.dir=out", *SMALL])
+    assert result.exit_code == 2
+    assert one_line(result.output, "error: cannot write the results (no space left on device: "), result.output
+    assert not (tmp_path / "out").exists()
+    # into a folder of an earlier run: kept, and marked
+    monkeypatch.setattr(airl_cli.jobs.fit, "write_text", no_space("nothing"))
+    assert runner.invoke(app, ["fit", "hydra.run.dir=earlier", *SMALL]).exit_code == 0
+    monkeypatch.setattr(airl_cli.jobs.fit, "write_text", no_space("summary.txt"))
+    result = runner.invoke(app, ["fit", "hydra.run.dir=earlier", "seed=1", *SMALL])
+    assert result.exit_code == 2 and one_line(result.output, "error:") and "earlier is marked INCOMPLETE" in result.output
+    assert (tmp_path / "earlier" / INCOMPLETE).exists()
+
+
+def test_a_sweeps_figures_on_a_full_disk_are_one_sentence_and_the_folder_is_marked(tmp_path, monkeypatch):
+    import airl_cli.plotting
+
+    drawn = airl_cli.plotting.draw
+
+    def full(folder, *_args, **_kwargs):
+        (Path(folder) / "figures").mkdir(exist_ok=True)
+        (Path(folder) / "figures" / "first.png").write_bytes(b"drawn")
+        raise OSError(errno.ENOSPC, "No space left on device", str(Path(folder) / "figures" / "second.pdf"))
+
+    monkeypatch.setattr(airl_cli.plotting, "draw", full)
+    args = ["sweep", "experiment=fig13", "profile=quick", "hydra/launcher=basic", "hydra.sweep.dir=sweep"]
+    result = runner.invoke(app, args)
+    assert result.exit_code == 2, result.output
+    err = result.output.strip().splitlines()[-1]
+    assert one_line(err, "error: cannot write the results (no space left on device: ") and "INCOMPLETE" in err, result.output
+    assert "Traceback" not in result.output
+    assert (tmp_path / "sweep" / INCOMPLETE).exists()
+    monkeypatch.setattr(airl_cli.plotting, "draw", drawn)
+    again = runner.invoke(app, args)  # room again: the figures are drawn and the folder is complete
+    assert again.exit_code == 0, again.output
+    assert not (tmp_path / "sweep" / INCOMPLETE).exists()
+
+
+# ------------------------------------------------------------------ 5. a real full disk (root: a small tmpfs)
+
+
+@pytest.fixture
+def tmpfs(tmp_path):
+    """A 200 KB file system, mounted for the test, or a skip where mount is not permitted."""
+    mount = tmp_path / "small"
+    mount.mkdir()
+    done = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=200k", "tmpfs", str(mount)], capture_output=True)
+    if done.returncode != 0:
+        pytest.skip("cannot mount a tmpfs here (needs root)")
+    yield mount
+    subprocess.run(["umount", "-l", str(mount)], check=False)
+
+
+def fill(folder: Path, leave: int) -> None:
+    """Fill a file system but for about ``leave`` bytes."""
+    stat = os.statvfs(folder)
+    free = stat.f_bavail * stat.f_frsize
+    (folder / "filler").write_bytes(b"\0" * max(0, free - leave))
+
+
+@pytest.mark.parametrize("leave", [0, 12_000], ids=["full", "room-for-hydra-only"])
+def test_a_fit_on_a_full_file_system(tmpfs, leave):
+    fill(tmpfs, leave)
+    done = subprocess.run([*AIRL, "fit", f"hydra.run.dir={tmpfs / 'run'}", *SMALL], capture_output=True, text=True, timeout=120)
+    assert done.returncode == 2, done.stderr
+    assert one_line(done.stderr, "error: cannot write the results (no space left on device: "), done.stderr
+    assert not (tmpfs / "run").exists()
+
+
+def test_a_sweep_on_a_full_file_system(tmpfs):
+    """fig05 needs about 1 MB; the jobs stop on the full disk: one sentence, the folder marked."""
+    folder = tmpfs / "sweep"
+    done = subprocess.run([*AIRL, "sweep", "experiment=fig05", "profile=quick", f"hydra.sweep.dir={folder}"], capture_output=True, text=True, timeout=120)
+    assert done.returncode == 2, done.stderr
+    assert one_line(done.stderr, "error: cannot write the results (no space left on device: "), done.stderr
+    assert (folder / INCOMPLETE).exists()
+    assert not [p for p in folder.rglob("*") if p.is_file() and p.stat().st_size == 0 and p.name != ".lock"]
