@@ -63,7 +63,8 @@ def learn(
     callback: Callable[[dict], None] | None = None,
     planner_progress: Callable[[int, int], None] | None = None,
 ) -> Learned:
-    """Learn from ``dataset`` with ``settings.method``; ``callback`` gets each step of method=airl.
+    """Learn from ``dataset`` with ``settings.method``; ``callback`` gets each step of method=airl
+    (optim=gradient with optim.certify: each step, then each iteration of the certifying exact solve).
 
     ``planner_progress(done, total)`` follows the time steps inside each planner call (method=airl).
 
@@ -163,7 +164,7 @@ def _learn_airl(
         # the same objective minimised exactly, with the same oracle: how far did the steps stop?
         # f at the steps' w by double oracle to the certificate's tolerance: to 1e-6 instead it took
         # 445 s against 2 s on the default problem, for a value 5e-5 (relative) away
-        best = minimize(problem, targets, oracle, screen=screen, options=settings.certified)
+        best = minimize(problem, targets, oracle, screen=screen, options=settings.certified, callback=callback)
         f_last = objective_at(
             problem, targets, result.weights, oracle, lam=settings.options.lam, shared=result.shared,
             normalize_loss=settings.options.normalize_loss, game=result.game, threshold=settings.certified.tol,

@@ -288,8 +288,6 @@ def run(overrides: list[str], *, draw: bool, console: Console, out: Console, par
             another sweep's jobs.
     """
     try:
-        if not partial:
-            prestart(_expected_workers(overrides))  # their imports overlap the planning below
         sweep = plan(overrides)
         if partial and (status := write_partial(sweep, draw=draw, console=console, out=out)) is not None:
             return status
@@ -326,6 +324,10 @@ def _claim_and_run(sweep: SweepPlan, overrides: list[str], *, draw: bool, consol
             mark_incomplete(sweep.folder)
         except OSError as err:
             raise ConfigError(unwritable(sweep.folder, err)) from None
+        # the workers start once the folder is known to take the results: a sweep refused on its
+        # folder or its config starts no process (whose tracker, shut down at once under load,
+        # printed a BrokenPipeError before the sentence); their imports overlap the resume check
+        prestart(_expected_workers(overrides))
         try:
             return _run(sweep, overrides, draw=draw, console=console, out=out)
         except (KeyboardInterrupt, SystemError) as err:

@@ -19,6 +19,7 @@ import pytest
 from typer.testing import CliRunner
 
 from airl_cli.cli import app
+from output import without_progress
 INCOMPLETE = "INCOMPLETE"  # the marker file a run folder holds while its run is under way (README)
 
 runner = CliRunner()
@@ -33,7 +34,8 @@ def in_tmp(tmp_path, monkeypatch):
 
 
 def one_line(text: str, start: str) -> bool:
-    text = text.strip()
+    """One line starting with ``start`` (after the plain progress lines of a job that ran over 5 s)."""
+    text = without_progress(text)
     return text.startswith(start) and "\n" not in text and "Traceback" not in text
 
 

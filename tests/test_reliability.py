@@ -25,6 +25,7 @@ from airl_cli.cli import app
 from airl_cli.core.budget import estimate_fit, refusal
 from airl_cli.jobs.sweep import finished_earlier
 from airl_cli.results import new_run_folder
+from output import without_progress
 
 runner = CliRunner()
 SMALL = ["mdp.n_states=6", "mdp.n_actions=3", "mdp.horizon=5", "mdp.n_features=3", "demos.n=30", "pbvi.iterations=4"]
@@ -38,8 +39,7 @@ def in_tmp(tmp_path, monkeypatch):
 def one_sentence(output: str) -> bool:
     """The error is one sentence; before it, a job that ran over 5 s with stderr to a pipe or file
     may have printed its plain progress lines (``[0:00:05] sweep fig05: 0/8 jobs finished``)."""
-    lines = [line for line in output.strip().splitlines() if not re.match(r"\[\d+:\d\d:\d\d\] \S", line)]
-    text = "\n".join(lines)
+    text = without_progress(output)
     return text.startswith("error:") and "\n" not in text and "Traceback" not in text
 
 

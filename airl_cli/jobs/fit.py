@@ -186,14 +186,14 @@ def fit_with_progress(cfg: DictConfig, folder: Path, settings: FitSettings) -> F
         planner_task = bar.add_task("  planner", total=1, info="", visible=False)
 
         def on_step(row: dict) -> None:
-            if exact:
+            if "relative_gap" in row:  # an iteration of the exact solve (or of optim.certify's, after the steps)
                 info = (
-                    f"iteration {row['iteration']}  gap {row['relative_gap']:.2g} -> {tol:g}  "
+                    f"{'' if exact else 'certifying: '}iteration {row['iteration']}  gap {row['relative_gap']:.2g} -> {tol:g}  "
                     f"f in [{row['lower']:.6g}, {row['upper']:.6g}]"
                 )
             else:
                 info = f"step {int(row['step']) + 1}/{settings.options.max_steps}  objective {row['objective']:.5g}  |grad| {row['grad_norm']:.3g}"
-            bar.update(fit_task, advance=1, info=info)
+            bar.update(fit_task, advance=1 if exact or "step" in row else 0, info=info)
             last[0] = info
             plain.line(f"{name} {info}")
 

@@ -224,8 +224,8 @@ def draw_folder(folder: str | os.PathLike, formats: tuple[str, ...] = ("png", "p
     folder = Path(folder)
     if not folder.is_dir():
         raise ValueError(f"The folder {folder} does not exist." if not folder.exists() else f"{folder} is a file, not a folder.")
-    if (folder / "experiment.json").exists() or (folder / "results.csv").exists():
-        return draw(folder, formats)
+    if (folder / "experiment.json").exists() or (folder / "results.csv").exists() or _unfinished(folder):
+        return draw(folder, formats)  # (a sweep interrupted before its first table: draw says so)
     if not is_fit_folder(folder):
         raise ValueError(
             f"{folder} is neither a fit's run folder (metrics.json and history.csv, from airl fit) "
