@@ -1,8 +1,10 @@
-"""What a command printed on stderr, without the plain progress lines a job over 5 s prints first."""
+"""Helpers for tests of commands run as processes: what they printed, and stopping what is left of them."""
 
 from __future__ import annotations
 
+import os
 import re
+import signal
 
 #: A plain progress line (stderr not a terminal): ``[0:00:05] sweep fig05: 0/8 jobs finished``.
 PROGRESS_LINE = re.compile(r"\[\d+:\d\d:\d\d\] \S")
@@ -11,3 +13,11 @@ PROGRESS_LINE = re.compile(r"\[\d+:\d\d:\d\d\] \S")
 def without_progress(text: str) -> str:
     """``text`` stripped, less its plain progress lines."""
     return "\n".join(line for line in text.strip().splitlines() if not PROGRESS_LINE.match(line))
+
+
+def kill_group(pid: int) -> None:
+    """SIGKILL the process group of ``pid`` (a test's ``start_new_session`` child and its workers), if any is left."""
+    try:
+        os.killpg(pid, signal.SIGKILL)
+    except ProcessLookupError:
+        pass

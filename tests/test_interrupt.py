@@ -19,7 +19,7 @@ import pytest
 from typer.testing import CliRunner
 
 from airl_cli.cli import app
-from output import without_progress
+from output import kill_group, without_progress
 INCOMPLETE = "INCOMPLETE"  # the marker file a run folder holds while its run is under way (README)
 
 runner = CliRunner()
@@ -162,10 +162,7 @@ def test_ctrl_c_stops_a_sweep_at_once_with_no_worker_and_no_semaphore_left(tmp_p
         stopped = time.time() - start
         _, err = proc.communicate(timeout=30)
     finally:
-        try:
-            os.killpg(proc.pid, signal.SIGKILL)
-        except ProcessLookupError:
-            pass
+        kill_group(proc.pid)
     assert proc.returncode == 130, err
     assert stopped < 4, f"took {stopped:.1f} s to stop"
     assert one_line(err, "interrupted: run the same command again to resume"), err
@@ -182,10 +179,7 @@ def test_a_sweep_killed_outright_leaves_its_folder_marked_and_no_leak_warning(tm
         proc.kill()  # the sweep process only, as kill -9 PID
         _, err = proc.communicate(timeout=30)  # stderr closes when the workers and the resource tracker are gone
     finally:
-        try:
-            os.killpg(proc.pid, signal.SIGKILL)
-        except ProcessLookupError:
-            pass
+        kill_group(proc.pid)
     assert "leaked" not in err and "Traceback" not in err, err
     assert (folder / INCOMPLETE).exists()
 
@@ -200,10 +194,7 @@ def test_a_sweep_interrupted_by_ctrl_c_resumes_to_the_table_of_an_uninterrupted_
         os.killpg(proc.pid, signal.SIGINT)
         _, err = proc.communicate(timeout=30)
     finally:
-        try:
-            os.killpg(proc.pid, signal.SIGKILL)
-        except ProcessLookupError:
-            pass
+        kill_group(proc.pid)
     assert proc.returncode == 130 and one_line(err, "interrupted"), err
     assert (folder / INCOMPLETE).exists()
     finished = len(list(folder.glob("*/rows.csv")))

@@ -25,7 +25,7 @@ from airl_cli.cli import app
 from airl_cli.core.budget import estimate_fit, refusal
 from airl_cli.jobs.sweep import finished_earlier
 from airl_cli.results import new_run_folder
-from output import without_progress
+from output import kill_group, without_progress
 
 runner = CliRunner()
 SMALL = ["mdp.n_states=6", "mdp.n_actions=3", "mdp.horizon=5", "mdp.n_features=3", "demos.n=30", "pbvi.iterations=4"]
@@ -298,10 +298,7 @@ def test_a_busy_folder_refuses_and_no_worker_outlives_a_killed_sweep(tmp_path):
             time.sleep(0.1)
         assert not [p for p in everything if running(p)], "workers outlived the sweep"
     finally:
-        try:
-            os.killpg(proc.pid, signal.SIGKILL)
-        except ProcessLookupError:
-            pass
+        kill_group(proc.pid)
     # the lock died with its holder: the same command resumes
     resumed = subprocess.run(cmd, cwd=tmp_path, capture_output=True, text=True, timeout=300)
     assert resumed.returncode == 0, resumed.stderr
@@ -323,10 +320,7 @@ def test_a_worker_killed_mid_sweep_is_one_sentence_and_exit_1(tmp_path):
         os.kill(workers[0], signal.SIGKILL)
         _, err = proc.communicate(timeout=120)
     finally:
-        try:
-            os.killpg(proc.pid, signal.SIGKILL)
-        except ProcessLookupError:
-            pass
+        kill_group(proc.pid)
     assert proc.returncode == 1, err
     assert one_sentence(err) and "worker process died" in err and "Traceback" not in err, err
     gone_by = time.time() + 5
