@@ -211,6 +211,19 @@ def test_a_read_only_folder_gets_one_sentence_and_exit_2(readonly, args):
     assert "permission denied" in result.stderr and "PATH" in result.stderr
 
 
+@pytest.mark.parametrize("bad", ["mdp.n_statez=3", "hydra.sweep.dir=blocker/sweep"])
+def test_a_refused_sweep_starts_no_worker(tmp_path, monkeypatch, bad):
+    """A sweep refused on its config or its folder starts no process (the workers of one refused at
+    once, shut down under load, printed a BrokenPipeError before the sentence)."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "blocker").write_text("a file where the sweep folder's parent should be")
+    started = []
+    monkeypatch.setattr(sweeps, "prestart", lambda n: started.append(n))
+    result = runner.invoke(app, ["sweep", "experiment=fig13", "profile=quick", bad])
+    assert result.exit_code == 2 and "error:" in result.output, result.output
+    assert started == []
+
+
 def test_the_writer_failing_mid_run_is_one_sentence(tmp_path, monkeypatch):
     import airl_cli.jobs.fit as fit_job
 
