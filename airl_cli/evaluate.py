@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from airl_cli.core.planning import backward_induction
-from airl_cli.core.scores import cosine_similarity, mixture_performance, performance
+from airl_cli.core.scores import cosine_similarity, mixture_performance, performance, return_bounds
 from airl_cli.data import Dataset
 
 
@@ -54,10 +54,12 @@ def score_rows(
         row["equilibrium_score"] = None
         if w_star is not None:
             R = dataset.features @ w_star
-            row["learner_score"] = performance(P, R, policy, dataset.initial)
-            row["demonstrator_score"] = performance(P, R, expert, dataset.initial)
+            # r-bar and R-bar of this dynamics, once for every policy scored in it
+            bounds = return_bounds(P, R, dataset.initial, horizon=dataset.horizon)
+            row["learner_score"] = performance(P, R, policy, dataset.initial, bounds=bounds)
+            row["demonstrator_score"] = performance(P, R, expert, dataset.initial, bounds=bounds)
             if equilibrium is not None:
-                row["equilibrium_score"] = mixture_performance(P, R, equilibrium[0], equilibrium[1], dataset.initial)
+                row["equilibrium_score"] = mixture_performance(P, R, *equilibrium, dataset.initial, bounds=bounds)
             if weights is not None:
                 row["cosine_similarity"] = cosine_similarity(weights_for(weights, j), w_star)
         rows.append(row)

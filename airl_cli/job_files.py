@@ -49,10 +49,6 @@ _BOOLS = {"weight_sharing", "converged", "degenerate"}
 _PER_DYNAMICS = ("dynamics", "learner_score", "demonstrator_score", "cosine_similarity", "equilibrium_score")
 
 
-#: The line under a fit summary's scores when the game's own mixture p is scored beside them.
-EQUILIBRIUM_NOTE = "  (learner: the optimal policy of the learned reward; game p: the equilibrium's own mixture of policies)"
-
-
 class Damaged(Exception):
     """A job file is not what the job writes (the message says how)."""
 
@@ -257,8 +253,9 @@ def _check_outputs(folder: Path, header: list[str], rows: list[list[str]], metri
             except ValueError:
                 raise Damaged("history.csv holds cells that are not numbers") from None
     summary = _text(folder / "summary.txt").splitlines()
-    # a scored summary ends with the last dynamics' row, or with the note under it (method=airl, optim=exact)
-    ends = summary[-2:] if summary[-1] == EQUILIBRIUM_NOTE else summary[-1:]
+    # a scored summary ends with the last dynamics' row, or with a note in parentheses under it
+    # (method=airl, optim=exact: what its "game p" column is)
+    ends = summary[-2:] if summary[-1].startswith("  (") and summary[-1].endswith(")") else summary[-1:]
     if not summary[0].startswith("airl fit: method=") or (metrics["scored"] and not ends[0].startswith(f"  tau_{len(rows) - 1} ")):
         raise Damaged("summary.txt is cut short")
 

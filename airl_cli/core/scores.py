@@ -23,7 +23,9 @@ def return_bounds(P: np.ndarray, R: np.ndarray, p0: np.ndarray, *, horizon: int 
     return float(p0 @ V_min[0]), float(p0 @ V_max[0])
 
 
-def performance(P: np.ndarray, R: np.ndarray, policy: np.ndarray, p0: np.ndarray) -> float:
+def performance(
+    P: np.ndarray, R: np.ndarray, policy: np.ndarray, p0: np.ndarray, *, bounds: tuple[float, float] | None = None
+) -> float:
     """Normalised performance (E[R] - r-bar) / (R-bar - r-bar) of a policy, in [0, 1].
 
     Args:
@@ -31,14 +33,23 @@ def performance(P: np.ndarray, R: np.ndarray, policy: np.ndarray, p0: np.ndarray
         R: (S,) or (T, S) the true reward.
         policy: (T-1, S) int or (T-1, S, A) float.
         p0: (S,).
+        bounds: ``return_bounds(P, R, p0)`` if already known (several policies scored in one P and R).
 
     Returns:
         The share of the achievable range reached; 1.0 when every policy earns the same.
     """
-    return mixture_performance(P, R, np.asarray(policy)[None], np.ones(1), p0)
+    return mixture_performance(P, R, np.asarray(policy)[None], np.ones(1), p0, bounds=bounds)
 
 
-def mixture_performance(P: np.ndarray, R: np.ndarray, policies: np.ndarray, mix: np.ndarray, p0: np.ndarray) -> float:
+def mixture_performance(
+    P: np.ndarray,
+    R: np.ndarray,
+    policies: np.ndarray,
+    mix: np.ndarray,
+    p0: np.ndarray,
+    *,
+    bounds: tuple[float, float] | None = None,
+) -> float:
     """Normalised performance of a mixture of policies, one drawn by ``mix`` at the start of each episode.
 
     The game's learner (thesis eq. 5.9's p) is such a mixture; its expected return is the
@@ -50,10 +61,11 @@ def mixture_performance(P: np.ndarray, R: np.ndarray, policies: np.ndarray, mix:
         policies: (n, T-1, S) int or (n, T-1, S, A) float, policy i of the mixture.
         mix: (n,) the probabilities of the policies (summing to 1).
         p0: (S,).
+        bounds: ``return_bounds(P, R, p0)`` if already known.
     """
     policies = np.asarray(policies)
     R = per_time(R, policies.shape[1] + 1)
-    r_min, r_max = return_bounds(P, R, p0)
+    r_min, r_max = return_bounds(P, R, p0) if bounds is None else bounds
     value = sum(float(m) * expected_return(P, R, pi, p0) for m, pi in zip(mix, policies) if m > 0)
     span = r_max - r_min
     if span <= 1e-12 * max(1.0, abs(r_max)):

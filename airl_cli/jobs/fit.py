@@ -20,7 +20,6 @@ from airl_cli.core.multimodel import solve
 from airl_cli.data import Dataset, read_dataset, write_dataset
 from airl_cli.evaluate import score_learned
 from airl_cli.jobs.common import check_memory, err_console, out_console, output_dir, run_job, save_config, size_note
-from airl_cli.job_files import EQUILIBRIUM_NOTE
 from airl_cli.learners import Learned, learn
 from airl_cli.paths import conf_dir
 from airl_cli.plain_progress import PlainProgress
@@ -83,7 +82,7 @@ def summary_text(dataset: Dataset, settings: FitSettings, learned: Learned, rows
             p = f"{r['equilibrium_score']:>9.4f}" if mixed else ""
             lines.append(f"  {r['dynamics']:<10}{r['learner_score']:>9.4f}{r['demonstrator_score']:>14.4f}{cos:>12}{p}")
         if mixed:
-            lines.append(EQUILIBRIUM_NOTE)
+            lines.append("  (learner: the optimal policy of the learned reward; game p: the equilibrium's own mixture of policies)")
     else:
         lines += ["", "the dataset has no true weights: nothing to score against"]
     return "\n".join(lines) + "\n"
