@@ -12,7 +12,7 @@ from airl_cli.core.multimodel import exact_alpha_vectors, pbvi_graph, upper_enve
 from airl_cli.core.planning import backward_induction
 from airl_cli.core.sparse import sparse_dynamics
 from airl_cli.multimodel import expand_beliefs, solve
-from tiny import random_dynamics
+from tiny import random_dynamics, reference_backup
 
 
 def tiny_problem(seed, *, S=3, A=2, T=5, M=3, concentration=0.3):
@@ -119,31 +119,6 @@ def test_pbvi_is_at_least_the_mean_value_baseline(seed):
     pbvi = solve(P, R, p0, iterations=8, rng=np.random.default_rng(seed))
     mean = solve(P, R, p0, method="mean")
     assert pbvi.value >= mean.value - 1e-12
-
-
-def reference_backup(P, R_t, B, alpha_next, offsets_next):
-    """Table III written out plainly: for every state and belief, every action and next state.
-
-    R_t is (M, S, A): the rewards of taking a in s (state rewards repeat along a)."""
-    M, S, A, _ = P.shape
-    out = []
-    for s in range(S):
-        for b in B:
-            q, plans = [], []
-            for a in range(A):
-                value, kids = b @ R_t[:, s, a], []
-                for s2 in range(S):
-                    cands = alpha_next[offsets_next[s2] : offsets_next[s2 + 1]]
-                    scores = cands @ (b * P[:, s, a, s2])
-                    k = int(np.argmax(scores))
-                    value += scores[k]
-                    kids.append(offsets_next[s2] + k)
-                q.append(value)
-                plans.append(kids)
-            a = int(np.argmax(q))
-            alpha = R_t[:, s, a] + sum(P[:, s, a, s2] * alpha_next[plans[a][s2]] for s2 in range(S))
-            out.append((a, alpha))
-    return out
 
 
 @pytest.mark.parametrize("sparse", [False, True])

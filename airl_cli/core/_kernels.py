@@ -266,12 +266,13 @@ def _backup_state(s, PR, nxt, cnt, R_t, Bt, alpha_next, offsets_next, U, k_own, 
                 alpha[s, b, j] += PR[s, a_star, r, j] * alpha_next[k, j]
 
 
-@njit(cache=True)
+@njit(cache=True, parallel=True)
 def unique_nodes(action, succ, alpha):  # pragma: no cover - compiled
     """Remove duplicate alpha-vectors per state (Table III's pruning of repeated vectors).
 
     Two belief points that back up to bit-identical alpha-vectors yield one node; the first
-    occurrence (lowest belief index) is kept, so the node order is deterministic.
+    occurrence (lowest belief index) is kept, so the node order is deterministic. States are
+    deduplicated in parallel, then written out in state order.
 
     Args:
         action: (S, nb); succ: (S, nb, R); alpha: (S, nb, M) as returned by ``backup_step``.
@@ -281,15 +282,14 @@ def unique_nodes(action, succ, alpha):  # pragma: no cover - compiled
     """
     S, nb, M = alpha.shape
     Rm = succ.shape[2]
-    keep = np.empty(S * nb, np.int64)
-    offsets = np.empty(S + 1, np.int64)
-    n = 0
-    for s in range(S):
-        offsets[s] = n
+    kept = np.empty((S, nb), np.int64)  # kept[s, :count[s]] the beliefs whose vectors are new
+    count = np.empty(S, np.int64)
+    for s in prange(S):
+        n = 0
         for b in range(nb):
             dup = False
-            for u in range(offsets[s], n):
-                bu = keep[u] - s * nb
+            for u in range(n):
+                bu = kept[s, u]
                 same = True
                 for j in range(M):
                     if alpha[s, b, j] != alpha[s, bu, j]:
@@ -299,20 +299,26 @@ def unique_nodes(action, succ, alpha):  # pragma: no cover - compiled
                     dup = True
                     break
             if not dup:
-                keep[n] = s * nb + b
+                kept[s, n] = b
                 n += 1
-    offsets[S] = n
+        count[s] = n
+    offsets = np.empty(S + 1, np.int64)
+    offsets[0] = 0
+    for s in range(S):
+        offsets[s + 1] = offsets[s] + count[s]
+    n = offsets[S]
     node_state = np.empty(n, np.int64)
     node_action = np.empty(n, np.int64)
     node_succ = np.empty((n, Rm), np.int64)
     node_alpha = np.empty((n, M))
-    for u in range(n):
-        s = keep[u] // nb
-        b = keep[u] - s * nb
-        node_state[u] = s
-        node_action[u] = action[s, b]
-        for r in range(Rm):
-            node_succ[u, r] = succ[s, b, r]
-        for j in range(M):
-            node_alpha[u, j] = alpha[s, b, j]
+    for s in prange(S):
+        for i in range(count[s]):
+            u = offsets[s] + i
+            b = kept[s, i]
+            node_state[u] = s
+            node_action[u] = action[s, b]
+            for r in range(Rm):
+                node_succ[u, r] = succ[s, b, r]
+            for j in range(M):
+                node_alpha[u, j] = alpha[s, b, j]
     return node_state, node_action, node_succ, node_alpha, offsets

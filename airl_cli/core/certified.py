@@ -58,6 +58,7 @@ from airl_cli.core.game import (
 from airl_cli.core.planning import backward_induction, state_marginals
 from airl_cli.core.options import CertifiedOptions
 from airl_cli.core.qp import MasterQP
+from airl_cli.core.threads import blas_on_one_thread
 
 #: A screening best response is added without asking the full oracle if it raises the restricted
 #: value by more than this fraction of the current gap.
@@ -188,6 +189,7 @@ class _Sets:
         self.a_phi = np.vstack([self.a_phi, phi_k[None]])
 
 
+@blas_on_one_thread  # the planner's numba threads need both cores: spinning BLAS threads halved them
 def minimize(
     problem: GameProblem,
     targets: np.ndarray,
@@ -337,6 +339,7 @@ def minimize(
     )
 
 
+@blas_on_one_thread
 def objective_at(
     problem: GameProblem,
     targets: np.ndarray,

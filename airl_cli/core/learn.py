@@ -23,6 +23,7 @@ from airl_cli.core.game import AdversaryOracle, GameProblem, RestrictedGame, dou
 from airl_cli.core.multimodel import expand_beliefs, solve
 from airl_cli.core.options import SCHEDULES, FitOptions, PlannerOptions  # noqa: F401 (re-exported)
 from airl_cli.core.sparse import sparse_dynamics
+from airl_cli.core.threads import blas_on_one_thread
 
 HISTORY_COLUMNS = (
     "step",
@@ -145,6 +146,7 @@ def check_options(options: FitOptions) -> None:
         raise ValueError("lam, tol and threshold must be >= 0 and eta0 > 0")
 
 
+@blas_on_one_thread  # as certified.minimize: BLAS threads would spin against the planner's
 def fit(
     problem: GameProblem,
     targets: np.ndarray,

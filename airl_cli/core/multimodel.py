@@ -51,7 +51,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from airl_cli.core import _kernels, _walk_kernels
+from airl_cli.core import _column_kernels, _kernels, _walk_kernels
 from airl_cli.core.demos import _inverse_cdf
 from airl_cli.core.mdp import check_probabilities
 from airl_cli.core.mmdp_exact import exact_alpha_vectors, exact_graph, markov_graph, markov_values, mean_graph, upper_envelope_1d
@@ -157,8 +157,9 @@ def pbvi_graph(
     M, S, _, _ = dyn.shape
     L = _as_layered(P, R)
     T = L.horizon
-    PR, nxt, cnt = dyn.model_axis_last(), dyn.next_states, dyn.count
+    nxt = dyn.next_states
     Bt = np.ascontiguousarray(beliefs.T)
+    classes = _shared_columns(dyn)
     first = np.full((M, 1), 1.0 / M) if prior is None else np.ascontiguousarray(prior[:, None], dtype=np.float64)
     states, actions, succs, alphas, offsets = [None] * T, [None] * (T - 1), [None] * (T - 1), [None] * T, [None] * T
     states[T - 1] = np.arange(S)
@@ -167,12 +168,33 @@ def pbvi_graph(
     for t in range(T - 2, -1, -1):
         R_t = np.ascontiguousarray(L.step[:, t])
         points = first if t == 0 else Bt
-        action, succ, alpha = _kernels.backup_step(PR, nxt, cnt, R_t, points, alphas[t + 1], offsets[t + 1])
+        action, succ, alpha = _backup(dyn, classes, R_t, points, alphas[t + 1], offsets[t + 1])
         states[t], actions[t], succs[t], alphas[t], offsets[t] = _kernels.unique_nodes(action, succ, alpha)
         if progress is not None:
             progress(T - 1 - t, T - 1)
     start = _best_start_nodes(alphas[0], offsets[0], prior)
     return PolicyGraph(tuple(states), tuple(actions), tuple(succs), tuple(alphas), tuple(offsets), start, nxt)
+
+
+#: The successor search runs per column class (``_column_kernels``) when there are at most this
+#: share as many classes as nonzero columns; otherwise per column, with exact pruning (``_kernels``).
+CLASS_SHARE = 0.5
+
+
+def _shared_columns(dyn: SparseDynamics) -> tuple | None:
+    """``dyn.column_classes`` when few enough columns differ in direction to pay off, else None."""
+    cls, dirs, cls_state, scale = dyn.column_classes
+    return (cls, dirs, cls_state, scale) if len(dirs) <= CLASS_SHARE * np.count_nonzero(cls >= 0) else None
+
+
+def _backup(dyn: SparseDynamics, classes: tuple | None, R_t, Bt, alpha_next, offsets_next):
+    """One backup step (Table III): (action (S, nb), succ (S, nb, R), alpha (S, nb, M)), see ``_kernels.backup_step``."""
+    PR, nxt, cnt = dyn.model_axis_last(), dyn.next_states, dyn.count
+    if classes is None:
+        return _kernels.backup_step(PR, nxt, cnt, R_t, Bt, alpha_next, offsets_next)
+    cls, dirs, cls_state, scale = classes
+    kc, vc = _column_kernels.class_successors(dirs, cls_state, Bt, alpha_next, offsets_next)
+    return _column_kernels.backup_step_classes(PR, nxt, cnt, cls, scale, kc, vc, R_t, Bt, alpha_next, offsets_next)
 
 
 def _best_start_nodes(alpha0: np.ndarray, offsets0: np.ndarray, prior: np.ndarray | None = None) -> np.ndarray:

@@ -74,6 +74,34 @@ class SparseDynamics:
         """(S, A, R, M) the probabilities with the model axis last (the planner's layout; computed once)."""
         return self._model_last
 
+    @cached_property
+    def column_classes(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """The columns p = (P_j(s'|s, a))_j grouped by next state and direction (computed once).
+
+        Two columns into the same s' are in one class when p / max(p) agree to 1e-12; the
+        planner's successor search depends on a column only through that direction (see
+        ``_column_kernels``).
+
+        Returns:
+            cls: (S, A, R) int64, the class of column ``probs[:, s, a, r]``; -1 where it is zero
+                (the padding, or an action that reaches that next state under no model).
+            dirs: (C, M) each class's direction, a member column scaled to a largest entry of 1.
+            cls_state: (C,) int64, each class's next state.
+            scale: (S, A, R), each column's largest entry (the column is ``scale * dirs[cls]``).
+        """
+        M, S, A, Rm = self.probs.shape
+        cols = self._model_last.reshape(S * A * Rm, M)
+        top = cols.max(axis=1)
+        live = np.flatnonzero(top > 0)
+        d = cols[live] / top[live, None]
+        s2 = np.broadcast_to(self.next_states[:, None, :], (S, A, Rm)).reshape(-1)[live]
+        key = np.column_stack([s2.astype(np.float64), np.round(d, 12)])
+        _, first, inverse = np.unique(key, axis=0, return_index=True, return_inverse=True)
+        cls = np.full(S * A * Rm, -1, dtype=np.int64)
+        cls[live] = inverse.ravel()
+        scale = top.reshape(S, A, Rm).copy()
+        return cls.reshape(S, A, Rm), np.ascontiguousarray(d[first]), s2[first].astype(np.int64), scale
+
     def dense(self) -> np.ndarray:
         """(M, S, A, S) the dense dynamics."""
         M, S, A, _ = self.shape

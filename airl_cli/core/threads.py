@@ -4,7 +4,10 @@ The planner backs up the states on numba's threads, and numpy's BLAS calls aroun
 learner's products, the QP) must not start threads of their own meanwhile: with OpenBLAS's own
 threads left on (two on a 2-core machine), they kept spinning while numba's threads worked, and
 a certified fit at S=200 took 19.7 s instead of 6.1 s with one BLAS thread. The dense QP solver (``core.qp.solve_dense``) factorises
-166 x 166 matrices, which two OpenBLAS threads made 70 times slower. ``one_blas_thread`` holds
+166 x 166 matrices, which two OpenBLAS threads made 70 times slower. The learners
+(``certified.minimize``, ``learn.fit``) run whole on one BLAS thread: BLAS threads woken between
+planner calls still spun during them, and a certified fit on a 32 x 32 grid took 12.0 s instead of
+7.1 s. ``one_blas_thread`` holds
 every loaded BLAS (numpy's, scipy's) to one thread for the duration and restores it afterwards.
 """
 

@@ -1,0 +1,131 @@
+"""PBVI's backup with one successor search per probability-column class (numba, cached on disk).
+
+The backup of thesis Table III chooses, for belief b, state s, action a and next state s', the node
+k of s' at t+1 maximising sum_j b_j P_j(s'|s,a) alpha_next[k, j] (eq. 6.19-6.20). That maximiser
+depends on the column p = (P_j(s'|s,a))_j only through its direction: scaling p by c > 0 scales
+every candidate's value by c. On a grid whose dynamics differ by a slip probability, the columns
+into one cell take a handful of directions ("the intended move", "a slip", "a slip into a wall"…),
+while there are A * (reach) of them. So the search is done once per (class, belief), where a class
+is a next state s' together with one direction of column into it, and every (s, a, s') that
+shares it reuses the answer. The result is the same backup as ``_kernels.backup_step`` (same
+actions and alpha-vectors; successors may differ only between nodes of equal value within
+rounding): each node's alpha-vector is still its plan's exact value
+alpha_j = R_j(t, s, a) + sum_{s'} P_j(s'|s,a) alpha_next[k(s'), j].
+
+Layouts as in ``_kernels``; in addition (see ``SparseDynamics.column_classes``):
+
+* ``cls`` (S, A, R) int64: the class of column ``PR[s, a, r, :]``, -1 where it is zero.
+* ``dirs`` (C, M): class c's direction (a column of it, scaled to a largest entry of 1).
+* ``cls_state`` (C,) int64: the next state s' of class c.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit, prange
+
+from airl_cli.core._kernels import ACTION_RTOL, _scan
+
+#: Work is split into this many chunks over the threads, each with its scratch arrays allocated once.
+CHUNKS = 64
+
+
+@njit(cache=True, parallel=True)
+def class_successors(dirs, cls_state, Bt, alpha_next, offsets_next):  # pragma: no cover - compiled
+    """The node of class c's next state best at belief b under c's direction, and its value.
+
+    Args:
+        dirs: (C, M); cls_state: (C,); Bt: (M, nb) belief points as columns;
+        alpha_next: (n_next, M) the nodes at t+1 grouped by state with ``offsets_next`` (S+1,).
+
+    Returns:
+        kc: (C, nb) int64 global node indices at t+1 (ties go to the lowest node);
+        vc: (C, nb) their values sum_j b_j dirs[c, j] alpha_next[kc, j].
+    """
+    C, M = dirs.shape
+    nb = Bt.shape[1]
+    kc = np.empty((C, nb), np.int64)
+    vc = np.empty((C, nb))
+    for chunk in prange(CHUNKS):
+        X = np.empty((M, nb))  # scratch once per chunk: a small problem makes many calls
+        va, ia, vb, ib = np.empty(nb), np.empty(nb), np.empty(nb), np.empty(nb)
+        for c in range(chunk * C // CHUNKS, (chunk + 1) * C // CHUNKS):
+            s2 = cls_state[c]
+            k0, k1 = offsets_next[s2], offsets_next[s2 + 1]
+            for j in range(M):
+                for b in range(nb):
+                    X[j, b] = Bt[j, b] * dirs[c, j]
+            vbest, kbest = _scan(X, alpha_next[k0:k1], k1 - k0, va, ia, vb, ib)
+            for b in range(nb):
+                kc[c, b] = k0 + int(kbest[b])
+                vc[c, b] = vbest[b]
+    return kc, vc
+
+
+@njit(cache=True, parallel=True)
+def backup_step_classes(PR, nxt, cnt, cls, scale, kc, vc, R_t, Bt, alpha_next, offsets_next):  # pragma: no cover - compiled
+    """One modified value backup (Table III) at every belief and state, successors looked up per class.
+
+    The value of action a at belief b is b . R_t(s, a) + sum_r scale[s, a, r] * vc[cls[s, a, r], b]
+    (the column is ``scale`` times its class's direction); the chosen action's alpha-vector is then
+    summed exactly from its plan.
+
+    Args:
+        PR: (S, A, R, M), nxt: (S, R), cnt: (S,) the sparse dynamics (``_kernels.backup_step``).
+        cls, scale: (S, A, R) the column classes and each column's largest entry;
+        kc, vc: (C, nb) from ``class_successors``.
+        R_t: (M, S, A) rewards at this step; Bt: (M, nb); alpha_next: (n_next, M); offsets_next: (S+1,).
+
+    Returns:
+        action (S, nb), succ (S, nb, R) (-1 on the padding), alpha (S, nb, M), as ``_kernels.backup_step``.
+    """
+    S, A, Rm, M = PR.shape
+    nb = Bt.shape[1]
+    action = np.empty((S, nb), np.int64)
+    succ = np.full((S, nb, Rm), -1, np.int64)
+    alpha = np.empty((S, nb, M))
+    for chunk in prange(CHUNKS):
+        total = np.empty((A, nb))
+        for s in range(chunk * S // CHUNKS, (chunk + 1) * S // CHUNKS):
+            _backup_state(s, PR, nxt, cnt, cls, scale, kc, vc, R_t, Bt, alpha_next, offsets_next, total, action, succ, alpha)
+    return action, succ, alpha
+
+
+@njit(cache=True)
+def _backup_state(s, PR, nxt, cnt, cls, scale, kc, vc, R_t, Bt, alpha_next, offsets_next, total, action, succ, alpha):  # pragma: no cover
+    """The backup of ``backup_step_classes`` for one state s, with ``total`` (A, nb) as scratch."""
+    A, M = PR.shape[1], PR.shape[3]
+    nb = Bt.shape[1]
+    n_r = cnt[s]
+    total[:] = 0.0
+    for a in range(A):
+        row = total[a]
+        for j in range(M):
+            rj = R_t[j, s, a]
+            Bj = Bt[j]
+            for b in range(nb):
+                row[b] += Bj[b] * rj
+        for r in range(n_r):
+            c = cls[s, a, r]
+            if c < 0:
+                continue
+            lam = scale[s, a, r]
+            vrow = vc[c]
+            for b in range(nb):
+                row[b] += lam * vrow[b]
+    for b in range(nb):
+        top = total[0, b]
+        for a in range(1, A):
+            top = max(top, total[a, b])
+        a_star = 0
+        while total[a_star, b] < top - ACTION_RTOL * (1.0 + abs(top)):
+            a_star += 1
+        action[s, b] = a_star
+        for j in range(M):
+            alpha[s, b, j] = R_t[j, s, a_star]
+        for r in range(n_r):
+            c = cls[s, a_star, r]
+            k = offsets_next[nxt[s, r]] if c < 0 else kc[c, b]
+            succ[s, b, r] = k
+            for j in range(M):
+                alpha[s, b, j] += PR[s, a_star, r, j] * alpha_next[k, j]

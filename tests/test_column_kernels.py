@@ -1,0 +1,152 @@
+"""The planner's backup with one successor search per probability-column class (core._column_kernels).
+
+On a slip grid the columns (P_j(s'|s, a))_j into a cell take few directions, so the successor
+search runs per (next state, direction) and is reused. These tests hold it to the plain
+reference backup of Table III and to the per-column kernel, on grids and on random sparse
+dynamics, and check that a whole PBVI solve is the same either way.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from airl_cli.core import _column_kernels, _kernels, multimodel
+from airl_cli.core.objectworld import slip_sparse, uniform_initial
+from airl_cli.core.sparse import sparse_dynamics
+from airl_cli.multimodel import expand_beliefs, solve
+from tiny import random_dynamics, reference_backup
+
+SLIPS = (0.0, 0.1, 0.2, 0.3, 0.5)
+
+
+def slip_grid(size: int, M: int):
+    """Dense (M, S, A, S) slip dynamics of a size x size grid, slips 0, 0.1, ... (as dynamics=slip)."""
+    return slip_sparse(size, SLIPS[:M]).dense()
+
+
+def random_sparse(rng, S, A, M):
+    """Dense (M, S, A, S) random dynamics where each state reaches about a third of the states."""
+    P = np.stack([random_dynamics(rng, S, A, concentration=0.7) for _ in range(M)])
+    mask = rng.random((S, 1, S)) < 0.35
+    mask[np.arange(S), 0, rng.integers(0, S, size=S)] = True
+    P = P * mask[None]
+    return P / P.sum(-1, keepdims=True)
+
+
+@pytest.mark.parametrize("kind", ["grid", "random"])
+def test_every_column_is_its_scale_times_its_class_direction(kind):
+    rng = np.random.default_rng(3)
+    P = slip_grid(4, 4) if kind == "grid" else random_sparse(rng, 9, 3, 3)
+    dyn = sparse_dynamics(P)
+    cls, dirs, cls_state, scale = dyn.column_classes
+    PR = dyn.model_axis_last()  # (S, A, R, M)
+    S, A, Rm, M = PR.shape
+    assert cls.shape == scale.shape == (S, A, Rm) and dirs.shape == (len(cls_state), M)
+    for s, a, r in np.ndindex(S, A, Rm):
+        column = PR[s, a, r]
+        if not column.any():
+            assert cls[s, a, r] == -1 and scale[s, a, r] == 0.0
+            continue
+        c = cls[s, a, r]
+        assert cls_state[c] == dyn.next_states[s, r]
+        assert np.allclose(scale[s, a, r] * dirs[c], column, rtol=1e-12, atol=1e-15)
+        assert dirs[c].max() == 1.0
+    # two columns share a class only if they point the same way into the same state
+    used = np.unique(cls[cls >= 0])
+    assert np.array_equal(used, np.arange(len(dirs)))
+    if kind == "grid":  # 80 cells' worth of columns, a handful of directions per cell
+        assert len(dirs) <= 0.25 * np.count_nonzero(cls >= 0)
+        assert multimodel._shared_columns(dyn) is not None
+    else:
+        assert multimodel._shared_columns(dyn) is None  # nothing shared: the per-column kernel
+
+
+def class_backup(dyn, R_t, B, alpha_next, offsets):
+    cls, dirs, cls_state, scale = dyn.column_classes
+    Bt = np.ascontiguousarray(B.T)
+    kc, vc = _column_kernels.class_successors(dirs, cls_state, Bt, alpha_next, offsets)
+    out = _column_kernels.backup_step_classes(dyn.model_axis_last(), dyn.next_states, dyn.count, cls, scale, kc, vc, R_t, Bt, alpha_next, offsets)
+    return out, (kc, vc)
+
+
+@pytest.mark.parametrize("kind", ["grid", "random"])
+@pytest.mark.parametrize("M", [1, 2, 3, 4])
+def test_class_backup_equals_the_plain_reference(M, kind):
+    rng = np.random.default_rng(10 + M)
+    P = slip_grid(3, M) if kind == "grid" else random_sparse(rng, 7, 3, M)
+    _, S, A, _ = P.shape
+    nb = 9
+    B = rng.dirichlet(np.ones(M), size=nb)
+    counts = rng.integers(1, 5, size=S)
+    offsets = np.r_[0, np.cumsum(counts)]
+    alpha_next = rng.normal(size=(offsets[-1], M))
+    R_t = rng.normal(size=(M, S, A))
+    dyn = sparse_dynamics(P)
+    (action, succ, alpha), (kc, vc) = class_backup(dyn, R_t, B, alpha_next, offsets)
+    nxt, cnt = dyn.next_states, dyn.count
+    for i, (a, al) in enumerate(reference_backup(P, R_t, B, alpha_next, offsets)):
+        s, b = divmod(i, nb)
+        assert action[s, b] == a
+        assert np.allclose(alpha[s, b], al, rtol=1e-12, atol=1e-12)
+        reached = nxt[s, : cnt[s]]
+        k = succ[s, b, : cnt[s]]
+        assert np.all((k >= offsets[reached]) & (k < offsets[reached + 1]))
+        assert np.all(succ[s, b, cnt[s] :] == -1)
+        # each successor is a best node of its next state for this belief and column
+        for r, s2 in enumerate(reached):
+            scores = alpha_next[offsets[s2] : offsets[s2 + 1]] @ (B[b] * P[:, s, a, s2])
+            assert scores[k[r] - offsets[s2]] >= scores.max() - 1e-12 * (1 + abs(scores.max()))
+    # the per-class values are the best node's value in the class direction
+    cls, dirs, cls_state, _ = dyn.column_classes
+    for c in range(len(dirs)):
+        s2 = cls_state[c]
+        scores = (B * dirs[c]) @ alpha_next[offsets[s2] : offsets[s2 + 1]].T  # (nb, nodes)
+        assert np.allclose(vc[c], scores.max(axis=1), rtol=1e-12, atol=1e-12)
+    # and the per-column kernel (with its exact pruning) agrees
+    old = _kernels.backup_step(dyn.model_axis_last(), nxt, cnt, R_t, np.ascontiguousarray(B.T), alpha_next, offsets)
+    assert np.array_equal(old[0], action)
+    assert np.allclose(old[2], alpha, rtol=1e-12, atol=1e-12)
+
+
+def test_class_backup_is_the_same_on_one_thread_and_on_all():
+    import numba
+
+    rng = np.random.default_rng(5)
+    P = slip_grid(6, 4)
+    _, S, A, _ = P.shape
+    B = rng.dirichlet(np.ones(4), size=30)
+    offsets = np.r_[0, np.cumsum(rng.integers(1, 9, size=S))]
+    alpha_next = rng.normal(size=(offsets[-1], 4))
+    R_t = rng.normal(size=(4, S, A))
+    dyn = sparse_dynamics(P)
+    before = numba.get_num_threads()
+    try:
+        numba.set_num_threads(1)
+        one, _ = class_backup(dyn, R_t, B, alpha_next, offsets)
+        numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
+        many, _ = class_backup(dyn, R_t, B, alpha_next, offsets)
+    finally:
+        numba.set_num_threads(before)
+    for x, y in zip(one, many):
+        assert np.array_equal(x, y)
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_a_pbvi_solve_on_a_grid_is_the_same_with_and_without_classes(seed, monkeypatch):
+    rng = np.random.default_rng(seed)
+    size, M, T = 5, 4, 8
+    P = slip_sparse(size, SLIPS[:M])
+    R = rng.normal(size=(M, T, size * size))
+    p0 = uniform_initial(size)
+    B = expand_beliefs(P, iterations=6, rng=np.random.default_rng(seed))
+    assert multimodel._shared_columns(P) is not None
+    with_classes = solve(P, R, p0, beliefs=B)
+    monkeypatch.setattr(multimodel, "CLASS_SHARE", 0.0)  # never worth it: the per-column kernel
+    assert multimodel._shared_columns(P) is None
+    per_column = solve(P, R, p0, beliefs=B)
+    assert with_classes.value == pytest.approx(per_column.value, rel=1e-10, abs=1e-10)
+    assert np.allclose(with_classes.values, per_column.values, rtol=1e-10, atol=1e-10)
+    for t in range(T):  # the same nodes per state, in the same order
+        assert np.array_equal(with_classes.graph.offsets[t], per_column.graph.offsets[t])
+        assert np.allclose(with_classes.graph.alpha[t], per_column.graph.alpha[t], rtol=1e-10, atol=1e-10)
