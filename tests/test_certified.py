@@ -133,6 +133,35 @@ def test_certified_minimum_equals_brute_force(seed, S, shared):
         assert not np.allclose(res.weights[0], res.weights[1])
 
 
+@pytest.mark.parametrize("seed", [0, 2, 5])
+def test_with_a_weak_screen_the_minimum_is_still_the_brute_force_one(seed):
+    """A screen (here the best of a random fifth of the adversary's policies) adds rows, strong or weak; only the full oracle bounds f."""
+    problem, targets = tiny(seed, S=2)
+    lam = 0.05
+    L, Phi, C = enumerated_game(problem, targets, True)
+    _, f_star = brute_minimum(L, Phi, C, lam)
+    marginals = adversary_marginals(problem)
+    subset = marginals[np.random.default_rng(seed).random(len(marginals)) < 0.2]
+    screened = []
+
+    def screen(R):
+        values = np.einsum("mjts,jts->m", subset, R)
+        best = int(np.argmax(values))
+        screened.append(best)
+        return float(values[best]), subset[best]
+
+    rows = []
+    res = minimize(problem, targets, exact_oracle(problem), screen=screen, options=CertifiedOptions(lam=lam, tol=1e-12), callback=rows.append)
+    assert res.converged and screened
+    assert res.objective == pytest.approx(f_star, abs=1e-6)
+    assert res.lower <= f_star + 1e-7
+    # a weak screen's row joined the game in an iteration that also asked the full oracle
+    assert any(
+        r["adversary_strategies"] - a["adversary_strategies"] == 2 and r["planner_calls"] > a["planner_calls"]
+        for a, r in zip(rows, rows[1:])
+    )
+
+
 @pytest.mark.parametrize("seed", [5, 6])
 def test_bounds_bracket_the_minimum_at_every_iteration(seed):
     problem, targets = tiny(seed, S=3)

@@ -206,7 +206,8 @@ def minimize(
     oracle for a better row (which also refreshes the upper bound at the current w). A ``screen`` (a cheaper, weaker
     adversary oracle, e.g. PBVI on a few beliefs) is asked first: a strategy it finds is added
     without calling ``oracle`` if it raises the restricted value by more than ``SCREEN_FRACTION``
-    of the current gap. Only ``oracle`` yields upper bounds, so the certificate is ``oracle``'s.
+    of the current gap; one that raises it less is added too (a violated row), and ``oracle`` is
+    asked. Only ``oracle`` yields upper bounds, so the certificate is ``oracle``'s.
 
     Args:
         problem: the game's problem (dynamics with tau at index 0, phi, p0, loss, T).
@@ -274,7 +275,7 @@ def minimize(
         added_l = gap_l > tiny
         if added_l:
             sets.add_learner(br_policy, br)
-        added_a = False
+        added_a = weak = False
         # the adversary's side is asked unless the learner's side still accounts for most of the gap
         if not added_l or gap_l <= BALANCE * (best_upper - best_lower):
             rewards = adversary_rewards(problem, np.tensordot(p, sets.l_marg[: p.size], axes=1), per_dynamics(w))
@@ -285,6 +286,9 @@ def minimize(
                 if value_s - v > SCREEN_FRACTION * (best_upper - best_lower):
                     sets.add_adversary(marg_s)
                     added_a = True
+                elif value_s - v > tiny:  # too weak to skip the full oracle, but a violated row all the same
+                    sets.add_adversary(marg_s)
+                    weak = True
             if not added_a:
                 # the adversary's best response against (w, p): an upper bound on f(w)
                 value, marg = oracle(rewards)
@@ -293,7 +297,7 @@ def minimize(
                 if max(value, v) + reg < best_upper:
                     best_upper, best_w = max(value, v) + reg, w.copy()
                 added_a = value - v > tiny
-                if added_a:
+                if added_a and not (weak and np.array_equal(marg, marg_s)):
                     sets.add_adversary(marg)
         gap = best_upper - best_lower
         relative = gap / max(1.0, abs(best_upper)) if np.isfinite(gap) else np.inf
