@@ -17,13 +17,12 @@ from airl_cli.errors import ConfigError
 from airl_cli.job_files import damaged_jobs
 from airl_cli.pool import call
 from airl_cli.results import atomic_write, write_json, write_text
-from airl_cli.sweep_folder import ROWS, check_folder, unwritable
+from airl_cli.sweep_folder import check_folder, unwritable
+from airl_cli.sweep_spec import ROWS, SweepPlan
 
 if TYPE_CHECKING:
     import pandas as pd
     from rich.console import Console
-
-    from airl_cli.sweeps import SweepPlan
 
 TABLE = "results.csv"
 META = "experiment.json"
