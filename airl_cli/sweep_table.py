@@ -9,7 +9,6 @@ here only when a table is read, so that a sweep's start-up stays light.
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -119,10 +118,6 @@ def read_rows(paths: list[Path]) -> pd.DataFrame:
         bodies.setdefault(header, []).append(body if body.endswith("\n") or not body else body + "\n")
     frames = [pd.read_csv(io.StringIO(header + "\n" + "".join(group))) for header, group in bodies.items()]
     return pd.concat(frames, ignore_index=True) if frames else pd.DataFrame()
-
-
-def read_meta(folder: Path) -> dict:
-    return json.loads((folder / META).read_text())
 
 
 def draw_figures(folder: Path) -> list[Path]:
