@@ -11,7 +11,7 @@ from airl_cli.config import FitSettings
 from airl_cli.core import baselines, mmp
 from airl_cli.core.certified import minimize, objective_at
 from airl_cli.core.degeneracy import is_degenerate, reward_effect
-from airl_cli.core.game import GameProblem
+from airl_cli.core.game import GameProblem, scaled
 from airl_cli.core.learn import fit, make_oracles
 from airl_cli.data import Dataset
 from airl_cli.errors import ConfigError
@@ -113,8 +113,8 @@ def _learn_mmp(dataset: Dataset, settings: FitSettings, *_) -> Learned:
     # the margin is the loss: scaled like the thesis's method's (game.normalize_loss), or a grid's
     # squared distances (up to 32 a step) swamp any w that 100 subgradient steps can reach
     d, loss = dataset, dataset.loss
-    if settings.options.normalize_loss and loss is not None and np.max(loss) > 0:
-        loss = loss / np.max(loss)
+    if settings.options.normalize_loss and loss is not None:
+        loss = scaled(loss)
     res = mmp.max_margin_planning(
         d.transitions, d.features, d.initial, d.horizon, d.feature_targets(),
         demo_marginals=demo_marginals(d), loss=loss, **settings.method_options,

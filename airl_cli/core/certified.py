@@ -133,14 +133,6 @@ def check_options(options: CertifiedOptions) -> None:
         raise ValueError(f"max_iterations must be >= 1, got {options.max_iterations}")
 
 
-def scaled_loss(problem: GameProblem, normalize: bool) -> GameProblem:
-    """The problem with its loss divided by the largest entry (if ``normalize`` and the loss is not 0)."""
-    top = float(np.max(problem.loss))
-    if not normalize or top <= 0:
-        return problem
-    return GameProblem(problem.transitions, problem.features, problem.initial, problem.loss / top, problem.horizon)
-
-
 class _Sets:
     """The strategies found so far, as the marginals the QP's coefficients are built from.
 
@@ -223,7 +215,7 @@ def minimize(
     """
     check_options(options)
     start = time.perf_counter()  # each history row's seconds: the wall time since here
-    problem = scaled_loss(problem, options.normalize_loss)
+    problem = problem.with_scaled_loss(options.normalize_loss)
     targets = np.asarray(targets, dtype=np.float64)
     P, phi, p0, T = problem.transitions, problem.features, problem.initial, problem.horizon
     D, K, S = P.shape[0] - 1, phi.shape[1], P.shape[1]
@@ -367,7 +359,7 @@ def objective_at(
             need thousands of planner calls to reach the tight threshold. Grown in place.
     """
     if game is None:
-        game = RestrictedGame(scaled_loss(problem, normalize_loss))
+        game = RestrictedGame(problem.with_scaled_loss(normalize_loss))
     W = np.asarray(weights, dtype=np.float64)
     result = double_oracle(game, W, oracle, threshold=threshold, max_iterations=10_000)
     norm2 = float(W[0] @ W[0]) if shared else float(np.sum(W * W))
