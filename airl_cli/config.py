@@ -15,12 +15,7 @@ from typing import Any
 from omegaconf import DictConfig
 
 from airl_cli.config_reader import Cell, Reader, plain
-from airl_cli.core.options import (
-    SCHEDULES,
-    CertifiedOptions,
-    FitOptions,
-    PlannerOptions,
-)
+from airl_cli.core.options import SCHEDULES, CertifiedOptions, FitOptions, PlannerOptions
 from airl_cli.errors import ConfigError
 from airl_cli.methods import NAMES, REGISTRY
 

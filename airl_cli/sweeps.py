@@ -24,51 +24,20 @@ from hydra.core.override_parser.overrides_parser import OverridesParser
 from hydra.errors import HydraException
 from omegaconf import DictConfig, OmegaConf
 from rich.console import Console
-from rich.markup import escape
-from rich.progress import (
-    BarColumn,
-    MofNCompleteColumn,
-    Progress,
-    TextColumn,
-    TimeElapsedColumn,
-    TimeRemainingColumn,
-)
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 
 from airl_cli import compose_memo
 from airl_cli.config import fit_settings, plain, problem_settings
-from airl_cli.errors import (
-    ConfigError,
-    ResultsUnwritable,
-    interrupt_status,
-    interrupted,
-)
+from airl_cli.errors import ConfigError, ResultsUnwritable, interrupt_status, interrupted, say_error
 from airl_cli.job_files import FIT_COLUMNS, damaged_jobs, discard  # noqa: F401 (FIT_COLUMNS: part of the interface)
 from airl_cli.launch import launcher_discoverable
 from airl_cli.paths import conf_dir
 from airl_cli.plain_progress import PlainProgress
 from airl_cli.pool import WorkerDied, environment, kept, prestart, shutdown, workers
-from airl_cli.results import (
-    describe_os_error,
-    is_unwritable,
-    mark_complete,
-    mark_incomplete,
-)
-from airl_cli.sweep_folder import (
-    check_folder,
-    claim,
-    record_settings,
-    shared_settings,
-    unwritable,
-)
+from airl_cli.results import describe_os_error, is_unwritable, mark_complete, mark_incomplete
+from airl_cli.sweep_folder import check_folder, claim, record_settings, shared_settings, unwritable
 from airl_cli.sweep_spec import ERROR, QUICK_METHODS, QUICK_RUNS, ROWS, SweepPlan  # noqa: F401 (the interface)
-from airl_cli.sweep_table import (
-    TABLE,
-    collect,
-    damaged_line,
-    draw_figures,
-    medians_text,
-    write_partial,
-)
+from airl_cli.sweep_table import TABLE, collect, damaged_line, draw_figures, medians_text, write_partial
 
 #: What a sweep's warm workers import before their first job: the solvers and pandas, which the
 #: sweep process itself never imports (``tests/test_architecture.py``).
@@ -302,13 +271,13 @@ def _claim_and_run(sweep: SweepPlan, overrides: list[str], *, draw: bool, consol
             console.print(f"[bold yellow]{INTERRUPTED}[/]", soft_wrap=True)
             return interrupt_status()
         except WorkerDied as died:
-            console.print(f"[bold red]error:[/] {died}", soft_wrap=True)
+            say_error(died, console)
             return 1
         except (OSError, ResultsUnwritable) as err:
             if not isinstance(err, ResultsUnwritable) and not is_unwritable(err):
                 raise
             reason = err.reason if isinstance(err, ResultsUnwritable) else describe_os_error(err)
-            console.print(f"[bold red]error:[/] {escape(FULL.format(reason))}", soft_wrap=True)
+            say_error(FULL.format(reason), console)
             return 2
 
 
@@ -350,7 +319,7 @@ def _run(sweep: SweepPlan, overrides: list[str], *, draw: bool, console: Console
             out.print(f"figure {path}", soft_wrap=True)
     if failed:
         job, message = next(iter(failed.items()))
-        console.print(f"[bold red]error:[/] {len(failed)} job(s) stopped on bad input, for example {job}: {message}", soft_wrap=True)
+        say_error(f"{len(failed)} job(s) stopped on bad input, for example {job}: {message}", console)
         return 1
     if len(sweep.done()) == len(sweep.jobs):
         mark_complete(sweep.folder)  # every job, the table and the figures are written

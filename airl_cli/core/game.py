@@ -22,13 +22,11 @@ neither does or at an iteration cap (whose use is recorded).
 from __future__ import annotations
 
 import dataclasses
-
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
-import numpy as np
-
 import highspy
+import numpy as np
 
 from airl_cli.core.highs import quiet_highs
 from airl_cli.core.matrix_game import MatrixGameSolution, clean_mixture, solve_matrix_game  # noqa: F401 (re-exported)
