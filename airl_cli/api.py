@@ -22,7 +22,7 @@ import pandas as pd
 from hydra import compose, initialize_config_dir
 from omegaconf import DictConfig
 
-from airl_cli.build import build_dataset, streams, with_loss
+from airl_cli.build import build_dataset, learner_rng, with_loss
 from airl_cli.config import fit_settings, loss_and_seed, problem_settings
 from airl_cli.data import Dataset, read_dataset, write_dataset
 from airl_cli.evaluate import score_learned
@@ -73,7 +73,7 @@ def fit(dataset: Dataset, *overrides: str, callback=None, planner_progress=None)
     settings = fit_settings(cfg)
     loss, seed = loss_and_seed(cfg)
     dataset = with_loss(dataset, loss)
-    rng = streams(seed)["fit" if settings.method == "airl" else "method"]
+    rng = learner_rng(seed, settings.method)
     return learn(dataset, settings, rng, callback=callback, planner_progress=planner_progress)
 
 

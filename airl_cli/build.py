@@ -30,6 +30,12 @@ def streams(seed: int) -> dict[str, np.random.Generator]:
     return {name: np.random.default_rng(child) for name, child in zip(STREAMS, children)}
 
 
+def learner_rng(seed: int, method: str) -> np.random.Generator:
+    """The generator a fit with ``method`` draws from: the thesis's method its own stream, the
+    comparison methods another, so that adding one never changes the other's numbers."""
+    return streams(seed)["fit" if method == "airl" else "method"]
+
+
 @dataclass(frozen=True)
 class Problem:
     """A problem without demonstrations: shapes as in ``airl_cli.data``."""

@@ -17,6 +17,7 @@ from omegaconf import DictConfig
 from airl_cli.config_reader import Cell, Reader, plain
 from airl_cli.core.options import SCHEDULES, CertifiedOptions, FitOptions, PlannerOptions
 from airl_cli.errors import ConfigError
+from airl_cli.methods import NAMES, REGISTRY
 
 # --------------------------------------------------------------------------- problem
 
@@ -226,7 +227,7 @@ def problem_settings(cfg: DictConfig | Mapping) -> ProblemSettings:
 # --------------------------------------------------------------------------- learning
 
 
-METHODS = ("airl", "mce", "projection", "mmp", "bc")
+METHODS = NAMES  # the registrys names (airl_cli.methods)
 #: How the thesis's method minimises its objective: exactly with a certificate, or Table I's gradient steps.
 OPTIMIZERS = ("exact", "gradient")
 
@@ -251,17 +252,11 @@ class FitSettings:
 
 
 def _method_options(r: Reader, name: str) -> dict:
-    if name == "mce":
-        return {"lam": r.float("lam", lo=0.0), "max_iterations": r.int("max_iterations", lo=1)}
-    if name == "projection":
-        return {"max_iterations": r.int("max_iterations", lo=1), "tol": r.float("tol", lo=0.0)}
-    if name == "mmp":
-        return {
-            "lam": r.float("lam", lo=0.0),
-            "eta0": r.float("eta0", lo=0.0, open_lo=True),
-            "max_iterations": r.int("max_iterations", lo=1),
-        }
-    return {}
+    """The keyword options the registry lists for method ``name``, read and checked."""
+    out = {}
+    for o in REGISTRY[name].options:
+        out[o.key] = r.int(o.key, lo=o.lo) if o.kind == "int" else r.float(o.key, lo=o.lo, open_lo=o.open_lo)
+    return out
 
 
 def _planner(node: Any) -> PlannerOptions:

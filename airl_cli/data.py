@@ -200,6 +200,74 @@ def _sparse_dynamics(raw: dict[str, np.ndarray]) -> SparseDynamics:
     return SparseDynamics(nxt, probs)
 
 
+def _demonstrations(raw: dict, P, p0: np.ndarray, T: int) -> tuple[np.ndarray | None, np.ndarray | None]:
+    """(demo_states (D, N, T), demo_actions (D, N, T-1)) checked against the dynamics: in range,
+    starting where 'initial' is positive, every move possible (with its action, when given)."""
+    M, S, A, _ = P.shape
+    D = M - 1
+    states = actions = None
+    if "demo_states" in raw:
+        states = _numeric("demo_states", np.asarray(raw["demo_states"]), integer=True)
+        if states.ndim != 3 or states.shape[0] != D or states.shape[2] != T or states.shape[1] < 1:
+            _fail(
+                f"key 'demo_states' must have shape (D, N, T) = ({D}, N, {T}) with N >= 1 "
+                f"(D from 'transitions', T from 'horizon'), but has shape {states.shape}"
+            )
+        if states.min() < 0 or states.max() >= S:
+            idx = tuple(int(i) for i in np.argwhere((states < 0) | (states >= S))[0])
+            _fail(f"key 'demo_states' has state index {states[idx]} at {idx}, outside [0, {S})")
+        starts = states[:, :, 0]
+        if np.any(p0[starts] <= 0):
+            j, n = (int(i) for i in np.argwhere(p0[starts] <= 0)[0])
+            _fail(f"key 'demo_states' has demonstration ({j}, {n}) start in state {starts[j, n]}, which 'initial' gives probability 0")
+    if "demo_actions" in raw:
+        assert states is not None
+        actions = _numeric("demo_actions", np.asarray(raw["demo_actions"]), integer=True)
+        _shape("demo_actions", actions, (D, states.shape[1], T - 1), "(D, N, T-1)")
+        if actions.min() < 0 or actions.max() >= A:
+            idx = tuple(int(i) for i in np.argwhere((actions < 0) | (actions >= A))[0])
+            _fail(f"key 'demo_actions' has action index {actions[idx]} at {idx}, outside [0, {A})")
+    if states is None:
+        return None, None
+    j_idx = np.arange(1, M)[:, None, None]
+    s, s_next = states[:, :, :-1], states[:, :, 1:]
+    sparse = isinstance(P, SparseDynamics)
+    if actions is not None:
+        prob = P.probability(j_idx, s, actions, s_next) if sparse else P[j_idx, s, actions, s_next]
+        what = "with the recorded action"
+    else:
+        if sparse:
+            prob = np.max([P.probability(j_idx, s, a, s_next) for a in range(A)], axis=0)
+        else:
+            prob = P[j_idx, s, :, s_next].max(axis=-1)
+        what = "under any action"
+    if np.any(prob <= 0):
+        j, n, t = (int(i) for i in np.argwhere(prob <= 0)[0])
+        _fail(
+            f"key 'demo_states' has demonstration ({j}, {n}) move from state {s[j, n, t]} to {s_next[j, n, t]} "
+            f"at step {t}, which 'transitions'[{j + 1}] gives probability 0 {what}"
+        )
+    return states, actions
+
+
+def _optional_arrays(raw: dict, D: int, S: int, K: int) -> tuple:
+    """(feature_expectations (D, K), true_weights (K,), loss (S, S)), each None when absent."""
+    fexp = w_star = loss = None
+    if "feature_expectations" in raw:
+        fexp = _numeric("feature_expectations", np.asarray(raw["feature_expectations"]))
+        _shape("feature_expectations", fexp, (D, K), "(D, K)")
+    if "true_weights" in raw:
+        w_star = _numeric("true_weights", np.asarray(raw["true_weights"]))
+        _shape("true_weights", w_star, (K,), "(K,)")
+    if "loss" in raw:
+        loss = _numeric("loss", np.asarray(raw["loss"]))
+        _shape("loss", loss, (S, S), "(S, S)")
+        if np.any(loss < 0):
+            idx = tuple(int(i) for i in np.argwhere(loss < 0)[0])
+            _fail(f"key 'loss' must be non-negative, but has {loss[idx]:.3g} at {idx}")
+    return fexp, w_star, loss
+
+
 def validate(raw: dict[str, np.ndarray]) -> Dataset:
     """Check the arrays of a dataset file against the schema of the README and build a ``Dataset``.
 
@@ -240,59 +308,8 @@ def validate(raw: dict[str, np.ndarray]) -> Dataset:
     if T < 2:
         _fail(f"key 'horizon' must be at least 2 (a trajectory has T states), but is {T}")
 
-    states = actions = fexp = w_star = loss = None
-    if "demo_states" in raw:
-        states = _numeric("demo_states", np.asarray(raw["demo_states"]), integer=True)
-        if states.ndim != 3 or states.shape[0] != D or states.shape[2] != T or states.shape[1] < 1:
-            _fail(
-                f"key 'demo_states' must have shape (D, N, T) = ({D}, N, {T}) with N >= 1 "
-                f"(D from 'transitions', T from 'horizon'), but has shape {states.shape}"
-            )
-        if states.min() < 0 or states.max() >= S:
-            idx = tuple(int(i) for i in np.argwhere((states < 0) | (states >= S))[0])
-            _fail(f"key 'demo_states' has state index {states[idx]} at {idx}, outside [0, {S})")
-        starts = states[:, :, 0]
-        if np.any(p0[starts] <= 0):
-            j, n = (int(i) for i in np.argwhere(p0[starts] <= 0)[0])
-            _fail(f"key 'demo_states' has demonstration ({j}, {n}) start in state {starts[j, n]}, which 'initial' gives probability 0")
-    if "demo_actions" in raw:
-        assert states is not None
-        actions = _numeric("demo_actions", np.asarray(raw["demo_actions"]), integer=True)
-        _shape("demo_actions", actions, (D, states.shape[1], T - 1), "(D, N, T-1)")
-        if actions.min() < 0 or actions.max() >= A:
-            idx = tuple(int(i) for i in np.argwhere((actions < 0) | (actions >= A))[0])
-            _fail(f"key 'demo_actions' has action index {actions[idx]} at {idx}, outside [0, {A})")
-    if states is not None:
-        j_idx = np.arange(1, M)[:, None, None]
-        s, s_next = states[:, :, :-1], states[:, :, 1:]
-        sparse = isinstance(P, SparseDynamics)
-        if actions is not None:
-            prob = P.probability(j_idx, s, actions, s_next) if sparse else P[j_idx, s, actions, s_next]
-            what = "with the recorded action"
-        else:
-            if sparse:
-                prob = np.max([P.probability(j_idx, s, a, s_next) for a in range(A)], axis=0)
-            else:
-                prob = P[j_idx, s, :, s_next].max(axis=-1)
-            what = "under any action"
-        if np.any(prob <= 0):
-            j, n, t = (int(i) for i in np.argwhere(prob <= 0)[0])
-            _fail(
-                f"key 'demo_states' has demonstration ({j}, {n}) move from state {s[j, n, t]} to {s_next[j, n, t]} "
-                f"at step {t}, which 'transitions'[{j + 1}] gives probability 0 {what}"
-            )
-    if "feature_expectations" in raw:
-        fexp = _numeric("feature_expectations", np.asarray(raw["feature_expectations"]))
-        _shape("feature_expectations", fexp, (D, K), "(D, K)")
-    if "true_weights" in raw:
-        w_star = _numeric("true_weights", np.asarray(raw["true_weights"]))
-        _shape("true_weights", w_star, (K,), "(K,)")
-    if "loss" in raw:
-        loss = _numeric("loss", np.asarray(raw["loss"]))
-        _shape("loss", loss, (S, S), "(S, S)")
-        if np.any(loss < 0):
-            idx = tuple(int(i) for i in np.argwhere(loss < 0)[0])
-            _fail(f"key 'loss' must be non-negative, but has {loss[idx]:.3g} at {idx}")
+    states, actions = _demonstrations(raw, P, p0, T)
+    fexp, w_star, loss = _optional_arrays(raw, D, S, K)
     return Dataset(
         transitions=P,
         features=phi,

@@ -7,6 +7,24 @@ folder that cannot be written are said in one sentence too, by the command that 
 from __future__ import annotations
 
 import signal
+from typing import Any
+
+
+def error_line(sentence: object) -> str:
+    """The one line every command prints for bad input or a stopped run, as rich markup:
+    "error: SENTENCE", the sentence escaped (a value such as ``[0.1, 0.2]`` printed as it is)."""
+    from rich.markup import escape
+
+    return f"[bold red]error:[/] {escape(str(sentence))}"
+
+
+def say_error(sentence: object, console: Any = None) -> None:
+    """Print ``error_line(sentence)`` on standard error (``console``, or a new one), unwrapped."""
+    if console is None:
+        from rich.console import Console
+
+        console = Console(stderr=True, highlight=False)
+    console.print(error_line(sentence), soft_wrap=True)
 
 
 class AirlError(Exception):

@@ -25,7 +25,9 @@ from typing import Any
 
 import yaml
 
-from airl_cli.sweep_folder import ROWS, shared_settings
+from airl_cli.methods import REGISTRY
+from airl_cli.sweep_folder import shared_settings
+from airl_cli.sweep_spec import ROWS
 
 #: The first columns of the results table of a fit experiment, in order (one row per job x
 #: dynamics); every setting of the problem and learner groups follows (``setting_columns``).
@@ -200,7 +202,7 @@ def _check_fit(folder: Path, config: dict, header: list[str], rows: list[list[st
     empty = set() if method == "airl" else {"optimizer", "objective"}
     empty |= set() if exact else {"relative_gap", "converged", "degenerate", "equilibrium_score"}
     empty |= set() if metrics["scored"] else {"learner_score", "demonstrator_score", "cosine_similarity", "equilibrium_score"}
-    empty |= {"cosine_similarity"} if method == "bc" else set()  # a policy, no weights
+    empty |= set() if _learns_reward(method) else {"cosine_similarity"}  # a policy, no weights
     _check_types(ROWS, header, rows, empty | {k for k, v in settings.items() if v == ""})
     x_key = str(config["experiment"].get("x_key") or "seed")
     x = config
@@ -234,7 +236,7 @@ def _check_outputs(folder: Path, header: list[str], rows: list[list[str]], metri
         for column in _PER_DYNAMICS:
             if not isinstance(score, dict) or _cell(score.get(column)) != row[header.index(column)]:
                 raise Damaged(f"metrics.json's {column} differs from rows.csv's")
-    if rows[0][header.index("method")] == "bc":
+    if not _learns_reward(rows[0][header.index("method")]):
         _npy_shape(_bytes(folder / "policy.npy"), "policy.npy")
     else:
         w = _json(folder / "weights.json", ("shared", "weights"))["weights"]
@@ -316,3 +318,8 @@ def _npy_shape(data: bytes, name: str) -> tuple[int, ...]:
     if len(data) != start + int.from_bytes(data[8:start], "little") + count * itemsize:
         raise Damaged(f"{name} is cut short")
     return shape
+
+
+def _learns_reward(method: str) -> bool:
+    """Whether a method's job writes weights (most) or only a policy (behavioural cloning)."""
+    return REGISTRY[method].learns_reward if method in REGISTRY else True

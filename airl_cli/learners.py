@@ -9,12 +9,13 @@ import numpy as np
 
 from airl_cli.config import FitSettings
 from airl_cli.core import baselines, mmp
-from airl_cli.core.game import GameProblem
 from airl_cli.core.certified import minimize, objective_at
 from airl_cli.core.degeneracy import is_degenerate, reward_effect
+from airl_cli.core.game import GameProblem, scaled
 from airl_cli.core.learn import fit, make_oracles
 from airl_cli.data import Dataset
 from airl_cli.errors import ConfigError
+from airl_cli.methods import REGISTRY
 
 
 @dataclass(frozen=True)
@@ -71,31 +72,54 @@ def learn(
     Raises:
         ConfigError: if the method cannot use this dataset (behavioural cloning without actions).
     """
-    P, phi, p0, T = dataset.transitions, dataset.features, dataset.initial, dataset.horizon
-    targets = dataset.feature_targets()
-    name, opts = settings.method, settings.method_options
-    if name == "airl":
-        return _learn_airl(GameProblem(P, phi, p0, dataset.loss, T), targets, settings, rng, callback, planner_progress)
-    if name == "bc":
-        if dataset.demo_actions is None:
-            raise ConfigError(
-                "method=bc clones demonstrated actions, and this dataset has none ('demo_actions' is missing); "
-                "use demos=sampled or demos=optimal_path"
-            )
-        res = baselines.behavioral_cloning(dataset.demo_states, dataset.demo_actions, n_states=dataset.n_states, n_actions=dataset.n_actions)
-        return Learned(name, None, res.policy, res.history, {})
-    if name == "mce":
-        res = baselines.mce_irl(P, phi, p0, T, targets, **opts)
-    elif name == "projection":
-        res = baselines.projection(P, phi, p0, T, targets, **opts)
-    else:
-        # the margin is the loss: scaled like the thesis's method's (game.normalize_loss), or a grid's
-        # squared distances (up to 32 a step) swamp any w that 100 subgradient steps can reach
-        loss = dataset.loss
-        if settings.options.normalize_loss and loss is not None and np.max(loss) > 0:
-            loss = loss / np.max(loss)
-        res = mmp.max_margin_planning(P, phi, p0, T, targets, demo_marginals=demo_marginals(dataset), loss=loss, **opts)
+    return globals()[REGISTRY[settings.method].learner](dataset, settings, rng, callback, planner_progress)
+
+
+# Each method's learner (named in airl_cli.methods), called as learn(dataset, settings, rng,
+# callback, planner_progress); only method=airl uses the last three.
+
+
+def _learn_airl_method(dataset: Dataset, settings: FitSettings, rng: np.random.Generator, callback, planner_progress) -> Learned:
+    problem = GameProblem(dataset.transitions, dataset.features, dataset.initial, dataset.loss, dataset.horizon)
+    return _learn_airl(problem, dataset.feature_targets(), settings, rng, callback, planner_progress)
+
+
+def _learn_bc(dataset: Dataset, settings: FitSettings, *_) -> Learned:
+    if dataset.demo_actions is None:
+        raise ConfigError(
+            "method=bc clones demonstrated actions, and this dataset has none ('demo_actions' is missing); "
+            "use demos=sampled or demos=optimal_path"
+        )
+    res = baselines.behavioral_cloning(dataset.demo_states, dataset.demo_actions, n_states=dataset.n_states, n_actions=dataset.n_actions)
+    return Learned("bc", None, res.policy, res.history, {})
+
+
+def _weights_learned(name: str, res) -> Learned:
     return Learned(name, res.weights, None, res.history, {"iterations": int(len(next(iter(res.history.values()), [])))})
+
+
+def _learn_mce(dataset: Dataset, settings: FitSettings, *_) -> Learned:
+    d = dataset
+    return _weights_learned("mce", baselines.mce_irl(d.transitions, d.features, d.initial, d.horizon, d.feature_targets(), **settings.method_options))
+
+
+def _learn_projection(dataset: Dataset, settings: FitSettings, *_) -> Learned:
+    d = dataset
+    res = baselines.projection(d.transitions, d.features, d.initial, d.horizon, d.feature_targets(), **settings.method_options)
+    return _weights_learned("projection", res)
+
+
+def _learn_mmp(dataset: Dataset, settings: FitSettings, *_) -> Learned:
+    # the margin is the loss: scaled like the thesis's method's (game.normalize_loss), or a grid's
+    # squared distances (up to 32 a step) swamp any w that 100 subgradient steps can reach
+    d, loss = dataset, dataset.loss
+    if settings.options.normalize_loss and loss is not None:
+        loss = scaled(loss)
+    res = mmp.max_margin_planning(
+        d.transitions, d.features, d.initial, d.horizon, d.feature_targets(),
+        demo_marginals=demo_marginals(d), loss=loss, **settings.method_options,
+    )
+    return _weights_learned("mmp", res)
 
 
 def certificate(relative_gap: float, tol: float, converged: bool, oracle: str) -> str:

@@ -19,11 +19,12 @@ from omegaconf import OmegaConf
 
 from airl_cli.claims import claims_table, reading_of
 from airl_cli.errors import AirlError
+from airl_cli.methods import NAMES
 from airl_cli.paths import conf_dir
 from airl_cli.results import atomic_write, write_text
 
 START, END = "<!-- claims table: written by make_report.py -->", "<!-- end of the claims table -->"
-ORDER = ["airl", "mce", "projection", "mmp", "bc"]
+ORDER = list(NAMES)
 PROFILES = ("full", "quick")
 SCORE_COLUMNS = ("method", "dynamics", "x", "seed", "learner_score", "demonstrator_score", "seconds")
 ALPHA_COLUMNS = ("n_exact", "n_envelope", "n_pbvi", "n_beliefs", "max_value_gap")
@@ -66,7 +67,10 @@ def load(sweeps: Path, profile: str = "full") -> Tables:
     The metadata comes from the experiment's own config: two experiments may share one sweep
     (fig14 and fig15 are one study), whose experiment.json names only the last one run.
     """
-    from airl_cli.sweeps import experiment_names, plan  # composing the configs: only when reporting
+    from airl_cli.sweeps import (  # composing the configs: only when reporting
+        experiment_names,
+        plan,
+    )
 
     out = {}
     for name in experiment_names():

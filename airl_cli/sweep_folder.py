@@ -14,18 +14,14 @@ import socket
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 from omegaconf import OmegaConf
 
 from airl_cli.errors import ConfigError
 from airl_cli.results import write_json
+from airl_cli.sweep_spec import ROWS, SweepPlan  # noqa: F401 (ROWS: part of the interface)
 
-if TYPE_CHECKING:
-    from airl_cli.sweeps import SweepPlan
-
-#: A job's rows for the results table; written last, so its presence means the job is done.
-ROWS = "rows.csv"
 SETTINGS = "sweep.json"
 LOCK = ".lock"
 #: Keys of an experiment that only label it (titles, axes) or list what it sweeps (the swept values

@@ -9,7 +9,6 @@ here only when a table is read, so that a sweep's start-up stays light.
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -17,13 +16,12 @@ from airl_cli.errors import ConfigError
 from airl_cli.job_files import damaged_jobs
 from airl_cli.pool import call
 from airl_cli.results import atomic_write, write_json, write_text
-from airl_cli.sweep_folder import ROWS, check_folder, unwritable
+from airl_cli.sweep_folder import check_folder, unwritable
+from airl_cli.sweep_spec import ROWS, SweepPlan
 
 if TYPE_CHECKING:
     import pandas as pd
     from rich.console import Console
-
-    from airl_cli.sweeps import SweepPlan
 
 TABLE = "results.csv"
 META = "experiment.json"
@@ -120,10 +118,6 @@ def read_rows(paths: list[Path]) -> pd.DataFrame:
         bodies.setdefault(header, []).append(body if body.endswith("\n") or not body else body + "\n")
     frames = [pd.read_csv(io.StringIO(header + "\n" + "".join(group))) for header, group in bodies.items()]
     return pd.concat(frames, ignore_index=True) if frames else pd.DataFrame()
-
-
-def read_meta(folder: Path) -> dict:
-    return json.loads((folder / META).read_text())
 
 
 def draw_figures(folder: Path) -> list[Path]:

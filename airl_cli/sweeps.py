@@ -15,7 +15,6 @@ import importlib
 import threading
 from collections.abc import Iterator
 from contextlib import contextmanager
-from dataclasses import dataclass, field
 from pathlib import Path
 
 from hydra import compose, initialize_config_dir
@@ -25,88 +24,24 @@ from hydra.core.override_parser.overrides_parser import OverridesParser
 from hydra.errors import HydraException
 from omegaconf import DictConfig, OmegaConf
 from rich.console import Console
-from rich.markup import escape
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 
 from airl_cli import compose_memo
 from airl_cli.config import fit_settings, plain, problem_settings
-from airl_cli.errors import ConfigError, ResultsUnwritable, interrupt_status, interrupted
+from airl_cli.errors import ConfigError, ResultsUnwritable, interrupt_status, interrupted, say_error
 from airl_cli.job_files import FIT_COLUMNS, damaged_jobs, discard  # noqa: F401 (FIT_COLUMNS: part of the interface)
 from airl_cli.launch import launcher_discoverable
 from airl_cli.paths import conf_dir
 from airl_cli.plain_progress import PlainProgress
 from airl_cli.pool import WorkerDied, environment, kept, prestart, shutdown, workers
 from airl_cli.results import describe_os_error, is_unwritable, mark_complete, mark_incomplete
-from airl_cli.sweep_folder import ROWS, check_folder, claim, record_settings, shared_settings, unwritable
+from airl_cli.sweep_folder import check_folder, claim, record_settings, shared_settings, unwritable
+from airl_cli.sweep_spec import ERROR, QUICK_METHODS, QUICK_RUNS, ROWS, SweepPlan  # noqa: F401 (the interface)
 from airl_cli.sweep_table import TABLE, collect, damaged_line, draw_figures, medians_text, write_partial
 
-ERROR = "error.txt"
-
-#: Quick profile: this many runs at most, the first and last swept value (or the experiment's
-#: ``quick_values``), the first two methods.
-QUICK_RUNS = 2
-QUICK_METHODS = 2
-
-
-def _sweep_values(what: str, *, _root_: DictConfig) -> str:
-    """``${airl.sweep:runs|values|methods}``: the sweep of the experiment under the current profile."""
-    exp = _root_.experiment
-    quick = _root_.profile.name == "quick"
-    if what == "runs":
-        n = min(int(exp.runs), QUICK_RUNS) if quick else int(exp.runs)
-        return f"range(0,{n})"
-    if what == "values":
-        values = list(exp["values"])
-        if quick:
-            # an experiment whose swept values are the problem's size shrinks them (quick_values)
-            values = list(exp.get("quick_values") or dict.fromkeys([values[0], values[-1]]))
-        return ",".join(str(v) for v in values)
-    if what == "methods":
-        methods = list(exp.methods)
-        return ",".join(methods[:QUICK_METHODS] if quick else methods)
-    raise ValueError(f"airl.sweep takes runs, values or methods, not {what!r}")
-
-
-OmegaConf.register_new_resolver("airl.sweep", _sweep_values, replace=True)
-
-
-# --------------------------------------------------------------------------- planning
-
-
-@dataclass(frozen=True)
-class SweepPlan:
-    """What ``airl sweep`` will run.
-
-    Attributes:
-        experiment: the experiment's settings (the ``experiment`` node, plain).
-        folder: the sweep folder.
-        jobs: the job folder names, in launch order.
-        settings: every setting the jobs share (dotted key -> value), the swept keys left out:
-            what a resumed run must agree with (see ``check_folder``).
-        swept: the keys the sweep varies (they name the job folders).
-        workers: how many jobs the launcher runs at once on this machine.
-        job_overrides: each job's overrides (the swept values), in the order of ``jobs``.
-    """
-
-    experiment: dict
-    folder: Path
-    jobs: tuple[str, ...]
-    settings: dict = field(default_factory=dict)
-    swept: tuple[str, ...] = ()
-    workers: int = 1
-    job_overrides: tuple[tuple[str, ...], ...] = ()
-
-    def done(self) -> list[str]:
-        return [j for j in self.jobs if (self.folder / j / ROWS).exists()]
-
-    def failed(self) -> dict[str, str]:
-        """Job -> its error sentence, for jobs that stopped on bad input."""
-        out = {}
-        for j in self.jobs:
-            err = self.folder / j / ERROR
-            if not (self.folder / j / ROWS).exists() and err.exists():
-                out[j] = err.read_text().strip()
-        return out
+#: What a sweep's warm workers import before their first job: the solvers and pandas, which the
+#: sweep process itself never imports (``tests/test_architecture.py``).
+JOB_CODE = ("airl_cli.jobs.sweep_rows",)
 
 
 def _is_task_override(item: str) -> bool:
@@ -327,7 +262,7 @@ def _claim_and_run(sweep: SweepPlan, overrides: list[str], *, draw: bool, consol
         # the workers start once the folder is known to take the results: a sweep refused on its
         # folder or its config starts no process (whose tracker, shut down at once under load,
         # printed a BrokenPipeError before the sentence); their imports overlap the resume check
-        prestart(_expected_workers(overrides))
+        prestart(_expected_workers(overrides), JOB_CODE)
         try:
             return _run(sweep, overrides, draw=draw, console=console, out=out)
         except (KeyboardInterrupt, SystemError) as err:
@@ -336,13 +271,13 @@ def _claim_and_run(sweep: SweepPlan, overrides: list[str], *, draw: bool, consol
             console.print(f"[bold yellow]{INTERRUPTED}[/]", soft_wrap=True)
             return interrupt_status()
         except WorkerDied as died:
-            console.print(f"[bold red]error:[/] {died}", soft_wrap=True)
+            say_error(died, console)
             return 1
         except (OSError, ResultsUnwritable) as err:
             if not isinstance(err, ResultsUnwritable) and not is_unwritable(err):
                 raise
             reason = err.reason if isinstance(err, ResultsUnwritable) else describe_os_error(err)
-            console.print(f"[bold red]error:[/] {escape(FULL.format(reason))}", soft_wrap=True)
+            say_error(FULL.format(reason), console)
             return 2
 
 
@@ -370,7 +305,7 @@ def _run(sweep: SweepPlan, overrides: list[str], *, draw: bool, console: Console
         # an absolute folder: launcher workers may be reused processes with another working directory
         quoted = str(sweep.folder.resolve()).replace("\\", "\\\\").replace("'", "\\'")
         absolute = [*overrides, f"hydra.sweep.dir='{quoted}'"]  # quoted: folder names hold '=' and ','
-        # the jobs watch this process and stop when it dies (see jobs.sweep.watch_parent)
+        # the jobs watch this process and stop when it dies (see pool.watch_parent)
         # with figures to draw, the warm workers stay for them and import the plotting code
         with environment(sweep.workers), progress(sweep, console), kept(["airl_cli.plotting"] if draw else []):
             run_hydra("sweep", absolute, multirun=True)
@@ -384,7 +319,7 @@ def _run(sweep: SweepPlan, overrides: list[str], *, draw: bool, console: Console
             out.print(f"figure {path}", soft_wrap=True)
     if failed:
         job, message = next(iter(failed.items()))
-        console.print(f"[bold red]error:[/] {len(failed)} job(s) stopped on bad input, for example {job}: {message}", soft_wrap=True)
+        say_error(f"{len(failed)} job(s) stopped on bad input, for example {job}: {message}", console)
         return 1
     if len(sweep.done()) == len(sweep.jobs):
         mark_complete(sweep.folder)  # every job, the table and the figures are written

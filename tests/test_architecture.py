@@ -3,8 +3,11 @@
 from __future__ import annotations
 
 import ast
+import re
 import sys
 from pathlib import Path
+
+import pytest
 
 import airl_cli
 
@@ -58,3 +61,102 @@ def test_a_sweep_process_imports_no_solver_nor_table_code_before_its_jobs():
     )
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert done.stdout.strip() == ""
+
+
+# --------------------------------------------------------------------------- one-way layers
+
+#: The layers, bottom to top; a module may import its own layer and those below, never above.
+#: ``airl sweep``'s Hydra job (``jobs.sweep``) and its rows (``jobs.sweep_rows``) sit with the
+#: sweep machinery they serve, although Hydra finds them under ``jobs/``.
+LAYERS = (
+    ("core", "core.*"),
+    ("base", "errors paths results plain_progress compose_memo config_reader sweep_spec methods claims multimodel airl_cli"),
+    ("problems and methods", "config data mmdp_data build evaluate learners plotting plotting.*"),
+    ("jobs", "jobs jobs.common jobs.fit jobs.generate jobs.inspect jobs.plan api"),
+    ("sweeps", "launch pool sweep_folder job_files sweep_table sweeps jobs.sweep jobs.sweep_rows report hydra_plugins.*"),
+    ("command line", "cli __main__"),
+)
+
+
+def module_name(path: Path) -> str:
+    parts = ("airl_cli",) + path.relative_to(PACKAGE).with_suffix("").parts
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+def import_graph() -> dict[str, set[str]]:
+    """Module -> the airl_cli modules it imports: at the top, inside functions, under TYPE_CHECKING,
+    or by name in a string (``importlib.import_module("airl_cli.x")``, ``"airl_cli.x:function"``)."""
+    modules = {module_name(p): p for p in PACKAGE.rglob("*.py")}
+
+    def resolve(name: str) -> str | None:
+        while name and name not in modules:
+            name = name.rpartition(".")[0]
+        return name or None
+
+    graph = {}
+    for name, path in modules.items():
+        found = set()
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.Import):
+                found |= {resolve(a.name) for a in node.names if a.name.startswith("airl_cli")}
+            elif isinstance(node, ast.ImportFrom) and node.level == 0 and (node.module or "").startswith("airl_cli"):
+                found |= {f"{node.module}.{a.name}" if f"{node.module}.{a.name}" in modules else resolve(node.module) for a in node.names}
+            elif isinstance(node, ast.Constant) and isinstance(node.value, str) and re.fullmatch(r"airl_cli(\.\w+)+(:\w+)?", node.value):
+                found.add(resolve(node.value.split(":")[0]))
+        graph[name] = found - {None, name}
+    return graph
+
+
+def layer_of(module: str) -> int:
+    short = module.removeprefix("airl_cli.") if module != "airl_cli" else "airl_cli"
+    for i, (_, members) in enumerate(LAYERS):
+        for pattern in members.split():
+            if short == pattern or (pattern.endswith(".*") and short.startswith(pattern[:-1])):
+                return i
+    raise AssertionError(f"{module} is in no layer of tests/test_architecture.py: add it to LAYERS")
+
+
+def test_imports_only_run_down_the_layers():
+    graph = import_graph()
+    assert len(graph) > 40
+    upward = [
+        f"{m} ({LAYERS[layer_of(m)][0]}) imports {d} ({LAYERS[layer_of(d)][0]})"
+        for m, deps in graph.items()
+        for d in sorted(deps)
+        if layer_of(d) > layer_of(m)
+    ]
+    assert not upward, "\n".join(upward)
+
+
+def find_cycle(graph: dict[str, set[str]]) -> list[str] | None:
+    """One import cycle of ``graph`` (its modules in order, the first repeated at the end), or None."""
+    state: dict[str, int] = {}  # 1: on the current path, 2: done
+
+    def visit(m: str, path: list[str]) -> list[str] | None:
+        state[m] = 1
+        for d in sorted(graph.get(m, ())):
+            if state.get(d) == 1:
+                return path[path.index(d) :] + [d]
+            if d not in state and (cycle := visit(d, path + [d])):
+                return cycle
+        state[m] = 2
+        return None
+
+    for m in sorted(graph):
+        if m not in state and (cycle := visit(m, [m])):
+            return cycle
+    return None
+
+
+def test_no_import_cycle():
+    cycle = find_cycle(import_graph())
+    assert cycle is None, "import cycle: " + " -> ".join(cycle)
+
+
+def test_the_layering_checks_can_fail():
+    """The checks above on made-up graphs: a cycle is found, a module outside the layers is named."""
+    assert find_cycle({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}) == ["a", "b", "c", "a"]
+    assert find_cycle({"a": {"b", "c"}, "b": {"c"}, "c": set()}) is None
+    assert layer_of("airl_cli.core.game") < layer_of("airl_cli.sweeps") < layer_of("airl_cli.cli")
+    with pytest.raises(AssertionError):
+        layer_of("airl_cli.nowhere")

@@ -358,7 +358,7 @@ def test_bc_rows_with_empty_cosine_survive_the_csv(tmp_path):
 # the module's imports
 
 
-def test_plotting_imports_only_pandas_numpy_matplotlib_the_standard_library_and_results():
+def test_plotting_imports_only_pandas_numpy_matplotlib_the_standard_library_results_and_the_method_registry():
     files = sorted((Path(airl_cli.__file__).parent / "plotting").glob("*.py"))
     assert files
     names = set()
@@ -372,9 +372,10 @@ def test_plotting_imports_only_pandas_numpy_matplotlib_the_standard_library_and_
                 names.add(node.module)
     names = {n for n in names if not n.startswith("airl_cli.plotting")}
     assert not any(name.startswith("airl_cli.core") for name in names)
-    assert {n for n in names if n.startswith("airl_cli")} <= {"airl_cli.results"}  # plotting -> results only
+    # plotting -> results (atomic writes) and methods (each method's label and colour) only
+    assert {n for n in names if n.startswith("airl_cli")} <= {"airl_cli.results", "airl_cli.methods"}
     assert "matplotlib.pyplot" not in names
-    for name in names - {"airl_cli.results"}:
+    for name in names - {"airl_cli.results", "airl_cli.methods"}:
         top = name.split(".")[0]
         assert top in {"numpy", "pandas", "matplotlib"} or top in sys.stdlib_module_names, name
 

@@ -133,14 +133,6 @@ def check_options(options: CertifiedOptions) -> None:
         raise ValueError(f"max_iterations must be >= 1, got {options.max_iterations}")
 
 
-def scaled_loss(problem: GameProblem, normalize: bool) -> GameProblem:
-    """The problem with its loss divided by the largest entry (if ``normalize`` and the loss is not 0)."""
-    top = float(np.max(problem.loss))
-    if not normalize or top <= 0:
-        return problem
-    return GameProblem(problem.transitions, problem.features, problem.initial, problem.loss / top, problem.horizon)
-
-
 class _Sets:
     """The strategies found so far, as the marginals the QP's coefficients are built from.
 
@@ -223,10 +215,9 @@ def minimize(
     """
     check_options(options)
     start = time.perf_counter()  # each history row's seconds: the wall time since here
-    problem = scaled_loss(problem, options.normalize_loss)
+    problem = problem.with_scaled_loss(options.normalize_loss)
     targets = np.asarray(targets, dtype=np.float64)
-    P, phi, p0, T = problem.transitions, problem.features, problem.initial, problem.horizon
-    D, K, S = P.shape[0] - 1, phi.shape[1], P.shape[1]
+    D, K = problem.n_models - 1, problem.features.shape[1]
     if targets.shape != (D, K):
         raise ValueError(f"targets must have shape (D, K) = ({D}, {K}), got {targets.shape}")
     shared, lam = options.weight_sharing, options.lam
@@ -237,17 +228,8 @@ def minimize(
         return np.broadcast_to(w, (D, K)).copy() if shared else w.reshape(D, K).copy()
 
     qp = MasterQP(C, lam)
-    sets = _Sets(problem, qp, shared)
-    # Start: the learner plays the optimal policy of the demonstrations' mean features under tau,
-    # the adversary its best response to that at w = 0.
-    policy, _ = backward_induction(P[0], phi @ targets.mean(axis=0), horizon=T)
-    sets.add_learner(policy, state_marginals(P[0], policy, p0))
-    sets.add_adversary(oracle(adversary_rewards(problem, sets.l_marg[0], np.zeros((D, K))))[1])
-    planner_calls, screen_calls = 1, 0
-    last_full = 0  # the iteration of the last full oracle call
-
-    best_upper, best_lower = np.inf, -np.inf
-    best_w = np.zeros(C.size)
+    sets = _start(_Sets(problem, qp, shared), targets, oracle)
+    run = _Run(best_w=np.zeros(C.size))
     idle_l = np.zeros(0, dtype=np.int64)  # consecutive iterations each strategy has had weight 0
     idle_a = np.zeros(0, dtype=np.int64)
     rows: list[dict] = []
@@ -260,86 +242,131 @@ def minimize(
         idle_l, idle_a = idle_counters(idle_l, np.where(p > 1e-8, p, 0.0)), idle_counters(idle_a, np.where(q > 1e-8, q, 0.0))
         if it % PRUNE_AFTER == 0 and (np.any(idle_l >= PRUNE_AFTER) or np.any(idle_a >= PRUNE_AFTER)):
             keep_l, keep_a = np.flatnonzero(idle_l < PRUNE_AFTER), np.flatnonzero(idle_a < PRUNE_AFTER)
-            sets.keep(keep_l, keep_a)
+            sets.keep(keep_l, keep_a)  # the strategies out of the solution for PRUNE_AFTER iterations
             idle_l, idle_a, p, q = idle_l[keep_l], idle_a[keep_a], p[keep_l], q[keep_a]
-        reg = -float(w @ C) + 0.5 * lam * float(w @ w)
         tiny = 1e-9 * (1.0 + abs(v))
-        # the learner's best response against q: a lower bound, and maybe a new column
-        q_tau = q @ sets.a_tau
-        br_policy = learner_best_policy(problem, q_tau.reshape(T, S))
-        br = state_marginals(P[0], br_policy, p0)
-        br_loss = float((br @ problem.loss).reshape(-1) @ q_tau)
-        g = q @ sets.a_phi - C
-        best_lower = max(best_lower, br_loss - float(g @ g) / (2.0 * lam))
-        gap_l = float(np.min(sets.l_loss @ q_tau)) - br_loss
+        gap_l = _learner_side(sets, q, C, lam, tiny, run)
         added_l = gap_l > tiny
-        if added_l:
-            sets.add_learner(br_policy, br)
-        added_a = weak = False
+        added_a = False
         # the adversary's side is asked unless the learner's side still accounts for most of the gap
-        if not added_l or gap_l <= BALANCE * (best_upper - best_lower):
+        if not added_l or gap_l <= BALANCE * (run.upper - run.lower):
             rewards = adversary_rewards(problem, np.tensordot(p, sets.l_marg[: p.size], axes=1), per_dynamics(w))
-            stale = it - last_full >= REFRESH_AFTER  # the upper bound is from an old w: refresh it
-            if screen is not None and np.isfinite(best_upper) and not stale:
-                value_s, marg_s = screen(rewards)
-                screen_calls += 1
-                if value_s - v > SCREEN_FRACTION * (best_upper - best_lower):
-                    sets.add_adversary(marg_s)
-                    added_a = True
-                elif value_s - v > tiny:  # too weak to skip the full oracle, but a violated row all the same
-                    sets.add_adversary(marg_s)
-                    weak = True
-            if not added_a:
-                # the adversary's best response against (w, p): an upper bound on f(w)
-                value, marg = oracle(rewards)
-                planner_calls += 1
-                last_full = it
-                if max(value, v) + reg < best_upper:
-                    best_upper, best_w = max(value, v) + reg, w.copy()
-                added_a = value - v > tiny
-                if added_a and not (weak and np.array_equal(marg, marg_s)):
-                    sets.add_adversary(marg)
-        gap = best_upper - best_lower
-        relative = gap / max(1.0, abs(best_upper)) if np.isfinite(gap) else np.inf
-        row = dict(
-            iteration=it,
-            upper=best_upper,
-            lower=best_lower,
-            gap=gap,
-            relative_gap=relative,
-            objective=qp_objective,
-            learner_strategies=qp.n,
-            adversary_strategies=qp.m,
-            planner_calls=planner_calls,
-            screen_calls=screen_calls,
-            qp_seconds=qp_seconds,
-            seconds=time.perf_counter() - start,
-        )
-        rows.append(row)
+            reg = -float(w @ C) + 0.5 * lam * float(w @ w)
+            added_a = _adversary_side(sets, rewards, oracle, screen, w, v, reg, tiny, it, run)
+        rows.append(_row(it, run, qp_objective, qp, qp_seconds, start))
         if callback is not None:
-            callback(row)
-        if relative <= options.tol:
+            callback(rows[-1])
+        if rows[-1]["relative_gap"] <= options.tol:
             stopped = "tolerance"
             break
         if not (added_l or added_a):
             stopped = "no_improvement"
             break
-    history = {c: np.array([r[c] for r in rows]) for c in HISTORY_COLUMNS}
-    F_q = np.einsum("m,mjk->jk", q, sets.a_F[: q.size])
+    return _result(per_dynamics(run.best_w), run, rows, stopped, p, q, sets)
+
+
+def _result(weights: np.ndarray, run: _Run, rows: list[dict], stopped: str, p: np.ndarray, q: np.ndarray, sets: _Sets) -> CertifiedResult:
+    """The ``CertifiedResult`` of a finished run: ``weights`` (D, K), the last QP's mixtures p and q."""
     return CertifiedResult(
-        weights=per_dynamics(best_w),
-        objective=float(best_upper),
-        lower=float(best_lower),
-        gap=float(best_upper - best_lower),
+        weights=weights,
+        objective=float(run.upper),
+        lower=float(run.lower),
+        gap=float(run.upper - run.lower),
         relative_gap=float(rows[-1]["relative_gap"]),
         converged=stopped != "max_iterations",
         stopped=stopped,
-        history=history,
-        adversary_features=F_q,
+        history={c: np.array([r[c] for r in rows]) for c in HISTORY_COLUMNS},
+        adversary_features=np.einsum("m,mjk->jk", q, sets.a_F[: q.size]),
         learner_mix=p,
         adversary_mix=q,
         learner_policies=sets.l_policy[: p.size].copy(),
-        qp_fallbacks=qp.fallbacks,
+        qp_fallbacks=sets.qp.fallbacks,
+    )
+
+
+def _start(sets: _Sets, targets: np.ndarray, oracle: AdversaryOracle) -> _Sets:
+    """The first strategies: the learner plays the optimal policy under tau of the demonstrations'
+    mean features, the adversary its best response to that at w = 0."""
+    problem = sets.problem
+    P, phi, p0, T = problem.transitions, problem.features, problem.initial, problem.horizon
+    policy, _ = backward_induction(P[0], phi @ targets.mean(axis=0), horizon=T)
+    sets.add_learner(policy, state_marginals(P[0], policy, p0))
+    sets.add_adversary(oracle(adversary_rewards(problem, sets.l_marg[0], np.zeros(targets.shape)))[1])
+    return sets
+
+
+@dataclass
+class _Run:
+    """The bounds and counters of one ``minimize`` run (the best upper bound's w with it)."""
+
+    best_w: np.ndarray
+    upper: float = np.inf
+    lower: float = -np.inf
+    planner_calls: int = 1  # the start's
+    screen_calls: int = 0
+    last_full: int = 0  # the iteration of the last full oracle call
+
+
+def _learner_side(sets: _Sets, q: np.ndarray, C: np.ndarray, lam: float, tiny: float, run: _Run) -> float:
+    """The learner's best response against q: raises ``run.lower`` and, if it beats every known
+    learner strategy by more than ``tiny``, adds it as a column. Returns that improvement."""
+    problem = sets.problem
+    T, S = problem.horizon, problem.transitions.shape[1]
+    q_tau = q @ sets.a_tau
+    br_policy = learner_best_policy(problem, q_tau.reshape(T, S))
+    br = state_marginals(problem.transitions[0], br_policy, problem.initial)
+    br_loss = float((br @ problem.loss).reshape(-1) @ q_tau)
+    g = q @ sets.a_phi - C
+    run.lower = max(run.lower, br_loss - float(g @ g) / (2.0 * lam))
+    gap_l = float(np.min(sets.l_loss @ q_tau)) - br_loss
+    if gap_l > tiny:
+        sets.add_learner(br_policy, br)
+    return gap_l
+
+
+def _adversary_side(sets: _Sets, rewards, oracle, screen, w, v: float, reg: float, tiny: float, it: int, run: _Run) -> bool:
+    """The adversary's best response against (w, p), ``rewards`` (M, T, S): the screen first (its
+    strategy is added if it raises the restricted value v at all; if by more than
+    ``SCREEN_FRACTION`` of the gap, the full oracle is not asked), else the full oracle, whose
+    value at w is an upper bound on f(w). Returns whether a row was added."""
+    added = weak = False
+    stale = it - run.last_full >= REFRESH_AFTER  # the upper bound is from an old w: refresh it
+    if screen is not None and np.isfinite(run.upper) and not stale:
+        value_s, marg_s = screen(rewards)
+        run.screen_calls += 1
+        if value_s - v > SCREEN_FRACTION * (run.upper - run.lower):
+            sets.add_adversary(marg_s)
+            return True
+        if value_s - v > tiny:  # too weak to skip the full oracle, but a violated row all the same
+            sets.add_adversary(marg_s)
+            weak = True
+    value, marg = oracle(rewards)
+    run.planner_calls += 1
+    run.last_full = it
+    if max(value, v) + reg < run.upper:
+        run.upper, run.best_w = max(value, v) + reg, w.copy()
+    added = value - v > tiny
+    if added and not (weak and np.array_equal(marg, marg_s)):
+        sets.add_adversary(marg)
+    return added
+
+
+def _row(it: int, run: _Run, qp_objective: float, qp: MasterQP, qp_seconds: float, start: float) -> dict:
+    """One row of the history (``HISTORY_COLUMNS``)."""
+    gap = run.upper - run.lower
+    return dict(
+        iteration=it,
+        upper=run.upper,
+        lower=run.lower,
+        gap=gap,
+        relative_gap=gap / max(1.0, abs(run.upper)) if np.isfinite(gap) else np.inf,
+        objective=qp_objective,
+        learner_strategies=qp.n,
+        adversary_strategies=qp.m,
+        planner_calls=run.planner_calls,
+        screen_calls=run.screen_calls,
+        qp_seconds=qp_seconds,
+        seconds=time.perf_counter() - start,
     )
 
 
@@ -367,7 +394,7 @@ def objective_at(
             need thousands of planner calls to reach the tight threshold. Grown in place.
     """
     if game is None:
-        game = RestrictedGame(scaled_loss(problem, normalize_loss))
+        game = RestrictedGame(problem.with_scaled_loss(normalize_loss))
     W = np.asarray(weights, dtype=np.float64)
     result = double_oracle(game, W, oracle, threshold=threshold, max_iterations=10_000)
     norm2 = float(W[0] @ W[0]) if shared else float(np.sum(W * W))

@@ -21,12 +21,12 @@ neither does or at an iteration cap (whose use is recorded).
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
-import numpy as np
-
 import highspy
+import numpy as np
 
 from airl_cli.core.highs import quiet_highs
 from airl_cli.core.matrix_game import MatrixGameSolution, clean_mixture, solve_matrix_game  # noqa: F401 (re-exported)
@@ -58,6 +58,18 @@ class GameProblem:
     @property
     def n_models(self) -> int:
         return int(self.transitions.shape[0])
+
+    def with_scaled_loss(self, normalize: bool = True) -> GameProblem:
+        """This problem with its loss divided by its largest entry (``game.normalize_loss``; the
+        minimiser's direction is unchanged); itself if not ``normalize`` or the loss is 0."""
+        loss = scaled(self.loss) if normalize else self.loss
+        return self if loss is self.loss else dataclasses.replace(self, loss=loss)
+
+
+def scaled(loss: np.ndarray) -> np.ndarray:
+    """(S, S) the loss divided by its largest entry; the same array if that entry is not positive."""
+    top = float(np.max(loss))
+    return loss / top if top > 0 else loss
 
 
 #: The adversary's best response: rewards (M, T, S) -> (its exact value, its marginals (M, T, S)).

@@ -12,7 +12,6 @@ f(w) = value(w) - sum_j w_j . c~_j + lambda/2 |w|^2, value(w) being the inner ga
 
 from __future__ import annotations
 
-import dataclasses
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -146,6 +145,25 @@ def check_options(options: FitOptions) -> None:
         raise ValueError("lam, tol and threshold must be >= 0 and eta0 > 0")
 
 
+def _step_row(step: int, objective: float, grad_norm: float, feature_gap: float, eta: float, result, game: RestrictedGame, start: float) -> dict:
+    """One row of the gradient fit's history (``HISTORY_COLUMNS``)."""
+    n_l, n_a = game.sizes
+    return dict(
+        step=step,
+        objective=objective,
+        grad_norm=grad_norm,
+        feature_gap=feature_gap,
+        game_value=result.value,
+        eta=eta,
+        oracle_iterations=result.iterations,
+        adversary_calls=result.adversary_calls,
+        oracle_capped=int(result.capped),
+        learner_strategies=n_l,
+        adversary_strategies=n_a,
+        seconds=time.perf_counter() - start,
+    )
+
+
 @blas_on_one_thread  # as certified.minimize: BLAS threads would spin against the planner's
 def fit(
     problem: GameProblem,
@@ -171,8 +189,7 @@ def fit(
     """
     check_options(options)
     start = time.perf_counter()  # each history row's seconds: the wall time since here
-    if options.normalize_loss and np.max(problem.loss) > 0:
-        problem = dataclasses.replace(problem, loss=problem.loss / np.max(problem.loss))
+    problem = problem.with_scaled_loss(options.normalize_loss)
     targets = np.asarray(targets, dtype=np.float64)
     D, K = problem.n_models - 1, problem.features.shape[1]
     if targets.shape != (D, K):
@@ -200,21 +217,7 @@ def fit(
         objective = result.value - float(np.sum(W * targets)) + 0.5 * options.lam * float(np.sum(w * w))
         grad_norm = float(np.mean(np.abs(grad)))
         eta = step_size(options, step)
-        n_l, n_a = game.sizes
-        row = dict(
-            step=step,
-            objective=objective,
-            grad_norm=grad_norm,
-            feature_gap=float(np.mean(np.abs(F - targets))),
-            game_value=result.value,
-            eta=eta,
-            oracle_iterations=result.iterations,
-            adversary_calls=result.adversary_calls,
-            oracle_capped=int(result.capped),
-            learner_strategies=n_l,
-            adversary_strategies=n_a,
-            seconds=time.perf_counter() - start,
-        )
+        row = _step_row(step, objective, grad_norm, float(np.mean(np.abs(F - targets))), eta, result, game, start)
         rows.append(row)
         if callback is not None:
             callback(row)

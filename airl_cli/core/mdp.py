@@ -74,22 +74,6 @@ def check_transitions(P: np.ndarray, *, name: str = "transitions") -> tuple[int,
     return S, A
 
 
-def check_policy(policy: np.ndarray, *, n_states: int, n_actions: int, horizon: int) -> None:
-    """Check a deterministic (T-1, S) int or stochastic (T-1, S, A) policy."""
-    policy = np.asarray(policy)
-    if np.issubdtype(policy.dtype, np.integer):
-        if policy.shape != (horizon - 1, n_states):
-            raise ValueError(f"a deterministic policy must have shape (T-1, S) = {(horizon - 1, n_states)}, got {policy.shape}")
-        if policy.size and (policy.min() < 0 or policy.max() >= n_actions):
-            raise ValueError(f"policy actions must lie in [0, {n_actions}), got range [{policy.min()}, {policy.max()}]")
-    else:
-        if policy.shape != (horizon - 1, n_states, n_actions):
-            raise ValueError(
-                f"a stochastic policy must have shape (T-1, S, A) = {(horizon - 1, n_states, n_actions)}, got {policy.shape}"
-            )
-        check_probabilities(policy, name="policy")
-
-
 def per_time(R: np.ndarray, horizon: int) -> np.ndarray:
     """Broadcast state rewards R (S,) to per-time rewards (T, S); pass (T, S) through.
 

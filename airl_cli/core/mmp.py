@@ -13,6 +13,26 @@ from airl_cli.core.mdp import check_probabilities
 from airl_cli.core.planning import backward_induction
 
 
+def loss_augmentation(demo_marginals: np.ndarray | None, loss: np.ndarray | None, *, D: int, T: int, S: int) -> np.ndarray:
+    """(D, T, S) l_j(t, s) = sum_{s'} loss[s, s'] d~_j(t, s'), zeros when either input is None.
+
+    Args:
+        demo_marginals: (D, T, S) d~_j(t, s) or None; loss: (S, S) or None.
+    """
+    if demo_marginals is None or loss is None:
+        return np.zeros((D, T, S))
+    d = np.asarray(demo_marginals, dtype=np.float64)
+    if d.shape != (D, T, S):
+        raise ValueError(f"demo_marginals must have shape (D, T, S) = {(D, T, S)}, got {d.shape}")
+    check_probabilities(d, name="demo_marginals")
+    L = np.asarray(loss, dtype=np.float64)
+    if L.shape != (S, S):
+        raise ValueError(f"loss must have shape (S, S) = {(S, S)}, got {L.shape}")
+    if not np.all(np.isfinite(L)):
+        raise ValueError("loss must be finite")
+    return d @ L.T
+
+
 def max_margin_planning(
     transitions: np.ndarray,
     features: np.ndarray,
@@ -63,19 +83,8 @@ def max_margin_planning(
     P, phi, p0, c = check_problem(transitions, features, initial, horizon, targets)
     if lam < 0 or eta0 <= 0 or max_iterations < 1:
         raise ValueError(f"need lam >= 0, eta0 > 0 and max_iterations >= 1, got {lam}, {eta0}, {max_iterations}")
-    D, S = P.shape[0] - 1, P.shape[1]
-    augment = np.zeros((D, horizon, S))
-    if demo_marginals is not None and loss is not None:
-        d = np.asarray(demo_marginals, dtype=np.float64)
-        if d.shape != (D, horizon, S):
-            raise ValueError(f"demo_marginals must have shape (D, T, S) = {(D, horizon, S)}, got {d.shape}")
-        check_probabilities(d, name="demo_marginals")
-        L = np.asarray(loss, dtype=np.float64)
-        if L.shape != (S, S):
-            raise ValueError(f"loss must have shape (S, S) = {(S, S)}, got {L.shape}")
-        if not np.all(np.isfinite(L)):
-            raise ValueError("loss must be finite")
-        augment = d @ L.T  # (D, T, S): l_j(t, s) = sum_{s'} loss[s, s'] d~_j(t, s')
+    D = P.shape[0] - 1
+    augment = loss_augmentation(demo_marginals, loss, D=D, T=horizon, S=P.shape[1])
     target_sum = c.sum(axis=0)
     w = np.zeros(phi.shape[1])
     best_w, best_f = w, np.inf

@@ -265,21 +265,8 @@ def solve(
     Raises:
         ValueError: on bad shapes or options.
     """
-    if isinstance(transitions, SparseDynamics):
-        dyn = transitions
-        check_probabilities(dyn.probs, name="transitions")
-        P = dyn if method == "pbvi" else dyn.dense()  # the other methods are for small problems
-    else:
-        P = np.asarray(transitions, dtype=np.float64)
-        if P.ndim != 4 or P.shape[1] != P.shape[3] or min(P.shape) < 1:
-            raise ValueError(f"transitions must have shape (M, S, A, S), got {P.shape}")
-        check_probabilities(P, name="transitions")
-        dyn = sparse_dynamics(P)
-    p0 = np.asarray(initial, dtype=np.float64)
-    M, S = dyn.shape[0], dyn.shape[1]
-    if p0.shape != (S,):
-        raise ValueError(f"initial must have shape (S,) = ({S},), got {p0.shape}")
-    check_probabilities(p0, name="initial")
+    P, dyn, p0 = _checked_inputs(transitions, initial, method)
+    M = dyn.shape[0]
     L = layered_rewards(P, rewards, horizon=horizon, discount=discount)
     w = check_prior(prior, M)
     if method not in METHODS:
@@ -299,17 +286,40 @@ def solve(
     else:
         graph = exact_graph(P, L, w)
     values = graph.values(p0)
-    if expectations == "exact":
-        marginals = graph.marginals(dyn, p0)
-    else:
-        if n_samples < 1:
-            raise ValueError(f"n_samples must be >= 1, got {n_samples}")
-        states = graph.sample(rng, dyn, p0, n_samples)
-        marginals = np.stack(
-            [np.stack([np.bincount(states[j, :, t], minlength=S) for t in range(graph.horizon)]) for j in range(M)]
-        ) / n_samples
+    marginals = graph.marginals(dyn, p0) if expectations == "exact" else _sampled_marginals(graph, dyn, p0, rng, n_samples)
     value = float(values.sum()) if w is None else float(w @ values)
     return Solution(value, values, marginals, graph, B)
+
+
+def _checked_inputs(transitions, initial, method: str) -> tuple:
+    """(P for the chosen method, its sparse form, p0 (S,)) after checking shapes and probabilities."""
+    if isinstance(transitions, SparseDynamics):
+        dyn = transitions
+        check_probabilities(dyn.probs, name="transitions")
+        P = dyn if method == "pbvi" else dyn.dense()  # the other methods are for small problems
+    else:
+        P = np.asarray(transitions, dtype=np.float64)
+        if P.ndim != 4 or P.shape[1] != P.shape[3] or min(P.shape) < 1:
+            raise ValueError(f"transitions must have shape (M, S, A, S), got {P.shape}")
+        check_probabilities(P, name="transitions")
+        dyn = sparse_dynamics(P)
+    S = dyn.shape[1]
+    p0 = np.asarray(initial, dtype=np.float64)
+    if p0.shape != (S,):
+        raise ValueError(f"initial must have shape (S,) = ({S},), got {p0.shape}")
+    check_probabilities(p0, name="initial")
+    return P, dyn, p0
+
+
+def _sampled_marginals(graph: PolicyGraph, dyn: SparseDynamics, p0: np.ndarray, rng: np.random.Generator, n_samples: int) -> np.ndarray:
+    """(M, T, S) the thesis's Monte Carlo estimate of the state marginals, ``n_samples`` trajectories per model."""
+    if n_samples < 1:
+        raise ValueError(f"n_samples must be >= 1, got {n_samples}")
+    M, S = dyn.shape[0], dyn.shape[1]
+    states = graph.sample(rng, dyn, p0, n_samples)
+    return np.stack(
+        [np.stack([np.bincount(states[j, :, t], minlength=S) for t in range(graph.horizon)]) for j in range(M)]
+    ) / n_samples
 
 
 __all__ = [

@@ -94,8 +94,6 @@ def gaussian_perturbations(
 #: Actions of the grid world, in index order.
 GRID_ACTIONS = ("UP", "RIGHT", "DOWN", "LEFT")
 _MOVES = ((-1, 0), (0, 1), (1, 0), (0, -1))
-#: Feature names of the grid world (eq. 7.4), in column order of ``grid_features``.
-GRID_FEATURE_NAMES = ("START", "NORMAL", "DANGER", "GOAL")
 #: True weights w* of the grid world (eq. 7.5).
 GRID_TRUE_WEIGHTS = (-8.0, 0.1, -5.0, 10.0)
 GRID_SIZE = 5

@@ -13,9 +13,8 @@ from rich.console import Console
 from rich.markup import escape
 
 from airl_cli.core.budget import Estimate, estimate_fit, refusal
-from airl_cli.errors import AirlError, ConfigError, ResultsUnwritable, interrupt_status, interrupted
+from airl_cli.errors import AirlError, ConfigError, ResultsUnwritable, error_line, interrupt_status, interrupted
 from airl_cli.results import INCOMPLETE, describe_os_error, discard, holds_no_results, is_unwritable, mark_complete, mark_incomplete, write_text
-
 
 #: Progress and errors go to stderr; the final "where it went" line to stdout.
 err_console = Console(stderr=True, highlight=False)
@@ -77,7 +76,7 @@ def stop(err: BaseException, folder: Path | None, *, fresh: bool) -> None:
             err = AirlError(f"cannot write the results ({reason}); choose a writable folder with hydra.run.dir=PATH")
         if not isinstance(err, AirlError):
             return
-        status, sentence = 2, f"[bold red]error:[/] {escape(str(err))}"
+        status, sentence = 2, error_line(err)
         removed, marked = "", "; {} is marked INCOMPLETE"
     if folder is not None and fresh and discard(folder):
         sentence += removed.format(escape(str(folder)))

@@ -14,7 +14,7 @@ import pandas as pd
 from omegaconf import DictConfig
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
-from airl_cli.build import build_dataset, streams, with_loss
+from airl_cli.build import build_dataset, learner_rng, with_loss
 from airl_cli.config import FitSettings, fit_settings, loss_and_seed, problem_settings
 from airl_cli.core.multimodel import solve
 from airl_cli.data import Dataset, read_dataset, write_dataset
@@ -147,7 +147,7 @@ def fit_and_write(
     settings = fit_settings(cfg)
     check_memory(cfg)  # before any work: refuse, in one sentence, what will not fit in memory
     dataset, seed, generated = load_dataset(cfg, settings)
-    rng = streams(seed)["fit" if settings.method == "airl" else "method"]
+    rng = learner_rng(seed, settings.method)
     start = time.perf_counter()
     learned = learn(dataset, settings, rng, callback=on_step, planner_progress=on_planner)
     seconds = time.perf_counter() - start

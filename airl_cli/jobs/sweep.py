@@ -9,62 +9,16 @@ Bad input stops the job with ``error.txt`` (one sentence) instead of rows.
 from __future__ import annotations
 
 import os
-import signal
-import socket
-import threading
-import time
 
 import hydra
 from omegaconf import DictConfig, OmegaConf
 
-from airl_cli import compose_memo, pool, sweep_folder, sweeps
+from airl_cli import compose_memo, pool, sweep_folder
 from airl_cli.errors import AirlError, ResultsUnwritable, interrupted
 from airl_cli.jobs.common import output_dir
 from airl_cli.paths import conf_dir
 from airl_cli.results import describe_os_error, is_unwritable, write_text
-
-
-_watching = False
-
-
-def watch_parent(poll: float = 0.5) -> None:
-    """Stop this process when the ``airl sweep`` that launched it dies, even by SIGKILL.
-
-    Launcher workers (joblib's loky processes, submitit's local jobs) would otherwise go on
-    computing for minutes with no one to collect their rows. ``pool.PARENT_ENV`` names the
-    launching process; a worker on the same host runs a daemon thread that checks every ``poll``
-    seconds whether that process is gone (or this one was re-parented) and then kills itself. In
-    the launching process itself (hydra/launcher=basic) and on other hosts (SLURM) it does nothing.
-    """
-    global _watching
-    parent = os.environ.get(pool.PARENT_ENV, "")
-    host, _, pid_text = parent.rpartition(":")
-    if _watching or not pid_text.isdigit() or host != socket.gethostname() or int(pid_text) == os.getpid():
-        return
-    pid, ppid = int(pid_text), os.getppid()
-
-    def alive() -> bool:
-        if ppid == pid and os.getppid() != pid:
-            return False  # re-parented: the sweep process has ended (maybe not yet reaped)
-        try:
-            os.kill(pid, 0)
-        except ProcessLookupError:
-            return False
-        except PermissionError:
-            return True
-        try:
-            with open(f"/proc/{pid}/stat") as f:
-                return f.read().rsplit(")", 1)[1].split()[0] != "Z"
-        except OSError:
-            return True
-
-    def watch() -> None:
-        while alive():
-            time.sleep(poll)
-        os.kill(os.getpid(), signal.SIGKILL)
-
-    threading.Thread(target=watch, name="airl-watch-parent", daemon=True).start()
-    _watching = True
+from airl_cli.sweep_spec import ERROR, ROWS
 
 
 def finished_earlier(cfg: DictConfig, folder) -> bool:
@@ -75,7 +29,7 @@ def finished_earlier(cfg: DictConfig, folder) -> bool:
     the other experiment of the same study (fig15 in fig14's folder) differs only in its labels
     and reuses them.
     """
-    if not (folder / sweeps.ROWS).exists():
+    if not (folder / ROWS).exists():
         return False
     saved = folder / "config.yaml"
     if saved.exists():
@@ -88,7 +42,7 @@ def finished_earlier(cfg: DictConfig, folder) -> bool:
             before = None
         if isinstance(before, dict) and sweep_folder.same_job(before, OmegaConf.to_container(cfg, resolve=True)):
             return True
-    (folder / sweeps.ROWS).unlink()
+    (folder / ROWS).unlink()
     return False
 
 
@@ -103,21 +57,25 @@ def share_cores() -> None:
 
 
 def main(cfg: DictConfig) -> None:
-    watch_parent()
+    pool.watch_parent()
     share_cores()
     compose_memo.install()  # this worker's next jobs compose from what this one loaded
     folder = output_dir()
     if finished_earlier(cfg, folder):
         return
-    (folder / sweeps.ERROR).unlink(missing_ok=True)
-    from airl_cli.jobs.sweep_rows import alpha_rows, fit_rows, rows_csv  # the solvers: in the job only
+    (folder / ERROR).unlink(missing_ok=True)
+    from airl_cli.jobs.sweep_rows import (  # the solvers: in the job only
+        alpha_rows,
+        fit_rows,
+        rows_csv,
+    )
 
     try:
         rows = alpha_rows(cfg, folder) if cfg.experiment.kind == "alphas" else fit_rows(cfg, folder)
     except AirlError as err:
-        write_text(folder / sweeps.ERROR, f"{err}\n")
+        write_text(folder / ERROR, f"{err}\n")
         return
-    write_text(folder / sweeps.ROWS, rows_csv(rows))
+    write_text(folder / ROWS, rows_csv(rows))
 
 
 @hydra.main(version_base="1.3", config_path=conf_dir(), config_name="airl")

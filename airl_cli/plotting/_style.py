@@ -15,23 +15,14 @@ from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
 from matplotlib.ticker import FixedLocator, FuncFormatter, NullLocator
 
-# One colour per method, the same in every figure; this thesis's method in a strong red.
-METHOD_COLOURS: dict[str, str] = {
-    "airl": "#c8102e",
-    "mce": "#1f77b4",
-    "projection": "#2ca02c",
-    "mmp": "#9467bd",
-    "bc": "#8c564b",
-}
+from airl_cli.methods import REGISTRY
+
+# One colour and one label per method, the same in every figure (airl_cli.methods); this thesis's
+# method in a strong red.
+METHOD_COLOURS: dict[str, str] = {m.name: m.colour for m in REGISTRY.values()}
 # Colours for methods outside the list above, handed out in sorted order of their names.
 _SPARE_COLOURS = ("#17becf", "#bcbd22", "#e377c2", "#7f7f7f", "#393b79", "#637939")
-METHOD_LABELS: dict[str, str] = {
-    "airl": "AIRL (this thesis)",
-    "mce": "MCE IRL",
-    "projection": "projection",
-    "mmp": "MMP",
-    "bc": "BC",
-}
+METHOD_LABELS: dict[str, str] = {m.name: m.label for m in REGISTRY.values()}
 _METHOD_ORDER = tuple(METHOD_COLOURS)
 
 DEMONSTRATOR_COLOUR = "black"
