@@ -158,7 +158,7 @@ class _Sets:
 
     def add_learner(self, policy: np.ndarray, marginals: np.ndarray) -> None:
         """A learner strategy: the deterministic Markov policy (T-1, S) and its marginals (T, S) under tau."""
-        row = (marginals @ self.problem.loss).reshape(-1)
+        row = self.problem.loss_times(marginals).reshape(-1)
         self.qp.add_learner(self.a_tau @ row)
         self.l_loss = np.vstack([self.l_loss, row[None]])
         self.l_marg = np.concatenate([self.l_marg, marginals[None]])
@@ -315,7 +315,7 @@ def _learner_side(sets: _Sets, q: np.ndarray, C: np.ndarray, lam: float, tiny: f
     q_tau = q @ sets.a_tau
     br_policy = learner_best_policy(problem, q_tau.reshape(T, S))
     br = state_marginals(problem.transitions[0], br_policy, problem.initial)
-    br_loss = float((br @ problem.loss).reshape(-1) @ q_tau)
+    br_loss = float(problem.loss_times(br).reshape(-1) @ q_tau)
     g = q @ sets.a_phi - C
     run.lower = max(run.lower, br_loss - float(g @ g) / (2.0 * lam))
     gap_l = float(np.min(sets.l_loss @ q_tau)) - br_loss

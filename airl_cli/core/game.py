@@ -24,10 +24,12 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import highspy
 import numpy as np
 
+from airl_cli.core import lowrank
 from airl_cli.core.highs import quiet_highs
 from airl_cli.core.matrix_game import MatrixGameSolution, clean_mixture, solve_matrix_game  # noqa: F401 (re-exported)
 from airl_cli.core.planning import backward_induction, state_marginals
@@ -58,6 +60,18 @@ class GameProblem:
     @property
     def n_models(self) -> int:
         return int(self.transitions.shape[0])
+
+    @cached_property
+    def _loss_factors(self) -> tuple[np.ndarray, np.ndarray] | None:
+        return lowrank.factor(self.loss)
+
+    def loss_times(self, X: np.ndarray) -> np.ndarray:
+        """X @ loss for marginals X (..., S): (..., S), in O(S r) when the loss has low rank r."""
+        return lowrank.times(X, self.loss, self._loss_factors)
+
+    def loss_times_transposed(self, X: np.ndarray) -> np.ndarray:
+        """X @ loss.T for marginals X (..., S): (..., S)."""
+        return lowrank.times_transposed(X, self.loss, self._loss_factors)
 
     def with_scaled_loss(self, normalize: bool = True) -> GameProblem:
         """This problem with its loss divided by its largest entry (``game.normalize_loss``; the
@@ -136,7 +150,7 @@ class RestrictedGame:
 
     def add_learner(self, marginals: np.ndarray) -> None:
         """Add a learner strategy from its state marginals (T, S) under tau."""
-        row_loss = (marginals @ self.problem.loss).reshape(1, -1)
+        row_loss = self.problem.loss_times(marginals).reshape(1, -1)
         L_row = row_loss @ self.adversary_tau.T  # (1, m)
         self.learner_loss = np.vstack([self.learner_loss, row_loss])
         self.learner_marginals = np.concatenate([self.learner_marginals, marginals[None]])
@@ -203,7 +217,7 @@ def learner_best_policy(problem: GameProblem, adversary_tau: np.ndarray) -> np.n
     Returns:
         (T-1, S) the deterministic Markov policy, action per (time step, state).
     """
-    R = -(adversary_tau @ problem.loss.T)
+    R = -problem.loss_times_transposed(adversary_tau)
     policy, _ = backward_induction(problem.transitions[0], R)
     return policy
 
@@ -225,7 +239,7 @@ def adversary_rewards(problem: GameProblem, learner_tau: np.ndarray, w: np.ndarr
     """
     T = problem.horizon
     R = np.empty((problem.n_models, T, problem.transitions.shape[1]))
-    R[0] = learner_tau @ problem.loss
+    R[0] = problem.loss_times(learner_tau)
     R[1:] = (problem.features @ w.T).T[:, None, :]
     return R
 
@@ -329,7 +343,7 @@ def double_oracle(
         tol = threshold * (1.0 + abs(v))
         # the learner's best response to the adversary's mixture (cheap)
         l_marg = learner_best_response(problem, (q @ game.adversary_tau).reshape(T, S))
-        l_row = (l_marg @ problem.loss).reshape(-1) @ game.adversary_tau.T
+        l_row = problem.loss_times(l_marg).reshape(-1) @ game.adversary_tau.T
         v_learner = float((l_row + game.feature_part()) @ q)
         # a strategy already in the game cannot lower its value: a gap then is the LP's tolerance
         # (with a tight threshold, re-adding it loops until the iteration cap)
