@@ -15,7 +15,7 @@ from airl_cli.core import _column_kernels, _kernels, multimodel
 from airl_cli.core.objectworld import slip_sparse, uniform_initial
 from airl_cli.core.sparse import sparse_dynamics
 from airl_cli.multimodel import expand_beliefs, solve
-from tiny import random_dynamics, reference_backup
+from tiny import random_backup_inputs, random_dynamics, reference_backup
 
 SLIPS = (0.0, 0.1, 0.2, 0.3, 0.5)
 
@@ -77,11 +77,7 @@ def test_class_backup_equals_the_plain_reference(M, kind):
     P = slip_grid(3, M) if kind == "grid" else random_sparse(rng, 7, 3, M)
     _, S, A, _ = P.shape
     nb = 9
-    B = rng.dirichlet(np.ones(M), size=nb)
-    counts = rng.integers(1, 5, size=S)
-    offsets = np.r_[0, np.cumsum(counts)]
-    alpha_next = rng.normal(size=(offsets[-1], M))
-    R_t = rng.normal(size=(M, S, A))
+    B, offsets, alpha_next, R_t = random_backup_inputs(rng, S, A, M, nb, 5)
     dyn = sparse_dynamics(P)
     (action, succ, alpha), (kc, vc) = class_backup(dyn, R_t, B, alpha_next, offsets)
     nxt, cnt = dyn.next_states, dyn.count
@@ -115,10 +111,7 @@ def test_class_backup_is_the_same_on_one_thread_and_on_all():
     rng = np.random.default_rng(5)
     P = slip_grid(6, 4)
     _, S, A, _ = P.shape
-    B = rng.dirichlet(np.ones(4), size=30)
-    offsets = np.r_[0, np.cumsum(rng.integers(1, 9, size=S))]
-    alpha_next = rng.normal(size=(offsets[-1], 4))
-    R_t = rng.normal(size=(4, S, A))
+    B, offsets, alpha_next, R_t = random_backup_inputs(rng, S, A, 4, 30, 9)
     dyn = sparse_dynamics(P)
     before = numba.get_num_threads()
     try:

@@ -12,7 +12,7 @@ from airl_cli.core.multimodel import exact_alpha_vectors, pbvi_graph, upper_enve
 from airl_cli.core.planning import backward_induction
 from airl_cli.core.sparse import sparse_dynamics
 from airl_cli.multimodel import expand_beliefs, solve
-from tiny import random_dynamics, reference_backup
+from tiny import random_backup_inputs, random_dynamics, reference_backup
 
 
 def tiny_problem(seed, *, S=3, A=2, T=5, M=3, concentration=0.3):
@@ -133,11 +133,7 @@ def test_compiled_backup_equals_the_plain_reference(M, sparse):
         P = P * mask[None]
         P /= P.sum(-1, keepdims=True)
         assert (P.sum(axis=(0, 2)) == 0).any()
-    B = rng.dirichlet(np.ones(M), size=nb)
-    counts = rng.integers(1, 5, size=S)
-    offsets = np.r_[0, np.cumsum(counts)]
-    alpha_next = rng.normal(size=(offsets[-1], M))
-    R_t = rng.normal(size=(M, S, A))  # action rewards; the thesis's state rewards are constant along a
+    B, offsets, alpha_next, R_t = random_backup_inputs(rng, S, A, M, nb, 5)  # action rewards R_t (M, S, A)
     dyn = sparse_dynamics(P)
     nxt, cnt = dyn.next_states, dyn.count
     action, succ, alpha = _kernels.backup_step(dyn.model_axis_last(), nxt, cnt, R_t, np.ascontiguousarray(B.T), alpha_next, offsets)
@@ -163,11 +159,7 @@ def test_backup_is_the_same_on_one_thread_and_on_all():
     rng = np.random.default_rng(7)
     S, A, M, nb = 30, 4, 3, 40
     P = np.stack([random_dynamics(rng, S, A, concentration=0.3) for _ in range(M)])
-    B = rng.dirichlet(np.ones(M), size=nb)
-    counts = rng.integers(1, 12, size=S)
-    offsets = np.r_[0, np.cumsum(counts)]
-    alpha_next = rng.normal(size=(offsets[-1], M))
-    R_t = rng.normal(size=(M, S, A))
+    B, offsets, alpha_next, R_t = random_backup_inputs(rng, S, A, M, nb, 12)
     dyn = sparse_dynamics(P)
     args = (dyn.model_axis_last(), dyn.next_states, dyn.count, R_t, np.ascontiguousarray(B.T), alpha_next, offsets)
     before = numba.get_num_threads()

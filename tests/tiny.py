@@ -33,3 +33,13 @@ def reference_backup(P, R_t, B, alpha_next, offsets_next):
             alpha = R_t[:, s, a] + sum(P[:, s, a, s2] * alpha_next[plans[a][s2]] for s2 in range(S))
             out.append((a, alpha))
     return out
+
+
+def random_backup_inputs(rng: np.random.Generator, S: int, A: int, M: int, nb: int, max_nodes: int):
+    """Random inputs of one backup step: beliefs B (nb, M), node ranges per next state ``offsets``
+    (S+1,) with 1..max_nodes-1 nodes each, their alpha-vectors (n, M) and rewards R_t (M, S, A)."""
+    B = rng.dirichlet(np.ones(M), size=nb)
+    offsets = np.r_[0, np.cumsum(rng.integers(1, max_nodes, size=S))]
+    alpha_next = rng.normal(size=(offsets[-1], M))
+    R_t = rng.normal(size=(M, S, A))
+    return B, offsets, alpha_next, R_t
