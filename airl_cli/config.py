@@ -70,7 +70,22 @@ class ObjectworldSettings:
     name: str = "objectworld"
 
 
-MDPSettings = RandomMDPSettings | GridMDPSettings | ObjectworldSettings
+@dataclass(frozen=True)
+class EnvMDPSettings:
+    """``mdp=gymnasium`` and ``mdp=seals``: a tabular environment of another package
+    (``airl_cli.envs``); ``value`` is tau's parameter value (see ``airl_cli.envs.PARAMETERS``)."""
+
+    name: str  # the package: gymnasium | seals
+    env: str
+    value: bool | float
+    features: str  # tile | state
+    horizon: int
+    map_name: str = "4x4"  # FrozenLake
+    width: int = 15  # seals' CliffWorld
+    height: int = 6
+
+
+MDPSettings = RandomMDPSettings | GridMDPSettings | ObjectworldSettings | EnvMDPSettings
 
 
 @dataclass(frozen=True)
@@ -83,6 +98,7 @@ class DynamicsSettings:
     sigma: float = 0.0
     layouts: tuple[tuple[Cell, ...], ...] = ()
     slips: tuple[float, ...] = ()  # kind=slip: the objectworld's slip of each tau_j
+    values: tuple[bool | float, ...] = ()  # kind=env_values: each tau_j's parameter value (mdp=gymnasium, seals)
 
 
 @dataclass(frozen=True)
@@ -110,9 +126,11 @@ TRANSITIONS = ("uniform", "dirichlet", "sparse")
 
 def _mdp(node: Any) -> MDPSettings:
     r = Reader(node, "mdp")
-    name = r.choice("name", ("random", "grid", "objectworld"))
+    name = r.choice("name", ("random", "grid", "objectworld", "gymnasium", "seals"))
     if name == "objectworld":
         return _objectworld(r)
+    if name in ("gymnasium", "seals"):
+        return _env_mdp(r, name)
     if name == "random":
         n_states = r.int("n_states", lo=1)
         return RandomMDPSettings(
@@ -172,10 +190,54 @@ def _objectworld(r: Reader) -> ObjectworldSettings:
     )
 
 
+def env_value(r: Reader, key: str, env: str, value: Any) -> bool | float:
+    """One parameter value of an environment: true/false for its switch, or a number in its range."""
+    from airl_cli.envs import PARAMETERS
+
+    p = PARAMETERS[env]
+    ok_bool = isinstance(value, bool) and p.switch is not None
+    ok_number = not isinstance(value, bool) and isinstance(value, (int, float)) and p.number is not None and p.lo <= value <= p.hi
+    if not (ok_bool or ok_number):
+        kinds = [f"true or false ({p.switch})"] if p.switch else []
+        kinds += [f"a number between {p.lo:g} and {p.hi:g} ({p.number})"] if p.number else []
+        raise ConfigError(f"'{r._name(key)}' must be {' or '.join(kinds)} for {env}, got {value!r}")
+    return value if isinstance(value, bool) else float(value)
+
+
+def _env_mdp(r: Reader, package: str) -> EnvMDPSettings:
+    from airl_cli.envs import ENVS
+
+    env = r.choice("env", ENVS[package])
+    kwargs: dict = {}
+    if env == "FrozenLake":
+        kwargs["map_name"] = r.choice("map_name", ("4x4", "8x8"))
+    if env == "CliffWorld":
+        kwargs = dict(width=r.int("width", lo=3), height=r.int("height", lo=2))
+    return EnvMDPSettings(
+        name=package,
+        env=env,
+        value=env_value(r, "value", env, r.raw("value")),
+        features=r.choice("features", ("tile", "state")),
+        horizon=r.int("horizon", lo=2),
+        **kwargs,
+    )
+
+
 def _dynamics(node: Any, mdp: MDPSettings) -> DynamicsSettings:
     r = Reader(node, "dynamics")
-    kind = r.choice("kind", ("gaussian", "same", "grid_layouts", "slip"))
+    kind = r.choice("kind", ("gaussian", "same", "grid_layouts", "slip", "env_values"))
     name = str(r.raw("name", kind))
+    if kind == "env_values":
+        if not isinstance(mdp, EnvMDPSettings):
+            raise ConfigError(f"'dynamics={name}' sets a parameter of a gymnasium or seals environment; use it with mdp=gymnasium or mdp=seals")
+        from airl_cli.envs import DEFAULT_VALUES
+
+        values = r.raw("values", DEFAULT_VALUES[mdp.env])
+        if not isinstance(values, (list, tuple)) or not values:
+            raise ConfigError(f"'dynamics.values' must be a non-empty list of {mdp.env}'s parameter values, got {values!r}")
+        return DynamicsSettings(name, kind, len(values), values=tuple(env_value(r, "values", mdp.env, v) for v in values))
+    if isinstance(mdp, EnvMDPSettings) and kind != "same":
+        raise ConfigError(f"'dynamics={name}' does not apply to mdp={mdp.name}; use dynamics=env_values (one dynamics per value of {mdp.env}'s parameter) or dynamics=same")
     if kind == "gaussian":
         if mdp.name != "random":
             instead = "dynamics=same or dynamics=slip" if mdp.name == "objectworld" else "dynamics=same"
