@@ -205,7 +205,7 @@ def env_value(r: Reader, key: str, env: str, value: Any) -> bool | float:
 
 
 def _env_mdp(r: Reader, package: str) -> EnvMDPSettings:
-    from airl_cli.envs import ENVS
+    from airl_cli.envs import DEFAULT_VALUE, ENVS
 
     env = r.choice("env", ENVS[package])
     kwargs: dict = {}
@@ -216,7 +216,7 @@ def _env_mdp(r: Reader, package: str) -> EnvMDPSettings:
     return EnvMDPSettings(
         name=package,
         env=env,
-        value=env_value(r, "value", env, r.raw("value")),
+        value=env_value(r, "value", env, r.raw("value", DEFAULT_VALUE[env])),
         features=r.choice("features", ("tile", "state")),
         horizon=r.int("horizon", lo=2),
         **kwargs,
@@ -280,8 +280,8 @@ def problem_settings(cfg: DictConfig | Mapping) -> ProblemSettings:
     kind = d.choice("kind", ("sampled", "exact", "optimal_path"))
     demos = DemoSettings(kind, d.int("n", lo=1) if kind == "sampled" else 0)
     loss = Reader(top.raw("loss"), "loss").choice("kind", LOSSES)
-    if loss == "squared_euclidean" and mdp.name == "random":
-        raise ConfigError("'loss=squared_euclidean' measures distances between grid cells; use it with mdp=grid or mdp=objectworld")
+    if loss == "squared_euclidean" and mdp.name in ("random", "gymnasium", "seals"):
+        raise ConfigError(f"'loss=squared_euclidean' measures distances between grid cells, which mdp={mdp.name} does not give; use it with mdp=grid or mdp=objectworld")
     seed = top.int("seed", lo=0)
     return ProblemSettings(mdp=mdp, dynamics=dynamics, demos=demos, loss=loss, seed=seed)
 

@@ -45,6 +45,9 @@ PARAMETERS = {
     "CliffWorld": Parameter(None, "fail_p"),
 }
 
+#: tau's value when ``mdp.value`` is null: the environment's own default.
+DEFAULT_VALUE = {"FrozenLake": 1.0 / 3.0, "CliffWalking": False, "Taxi": False, "CliffWorld": 0.3}
+
 #: The demonstration dynamics' values when ``dynamics.values`` is null (tau's is ``mdp.value``).
 DEFAULT_VALUES = {
     "FrozenLake": (0.5, 0.75, 1.0),

@@ -213,6 +213,7 @@ def test_seals_cliffworld_is_its_transition_matrix_and_agrees_with_its_step():
         (["mdp=seals", "dynamics=env_values", "mdp.value=true"], "a number between 0 and 1 \\(fail_p\\)"),
         (["mdp=gymnasium"], "use dynamics=env_values"),
         (["mdp=random", "dynamics=env_values"], "use it with mdp=gymnasium or mdp=seals"),
+        (["mdp=seals", "dynamics=env_values", "loss=squared_euclidean"], "distances between grid cells"),
     ],
 )
 def test_bad_values_are_one_sentence(overrides, match):
@@ -220,9 +221,15 @@ def test_bad_values_are_one_sentence(overrides, match):
         problem_settings(_compose(*overrides))
 
 
-def test_default_dynamics_values():
+def test_default_values_are_each_envs_own():
     s = problem_settings(_compose("mdp=gymnasium", "dynamics=env_values"))
-    assert s.dynamics.values == (0.5, 0.75, 1.0) and s.mdp.value == pytest.approx(1 / 3)
+    assert s.dynamics.values == (0.5, 0.75, 1.0) and s.mdp.value == pytest.approx(1 / 3)  # gymnasium's success_rate
+    s = problem_settings(_compose("mdp=gymnasium", "dynamics=env_values", "mdp.env=Taxi"))
+    assert s.mdp.value is False and s.dynamics.values == (0.6, 0.8, 1.0)
+    s = problem_settings(_compose("mdp=gymnasium", "dynamics=env_values", "mdp.env=CliffWalking"))
+    assert s.mdp.value is False and s.dynamics.values == (True,)
+    s = problem_settings(_compose("mdp=seals", "dynamics=env_values"))
+    assert s.mdp.value == 0.3 and s.dynamics.values == (0.1, 0.2, 0.4)  # seals' fail_p
 
 
 def test_the_missing_extra_is_one_sentence(monkeypatch, tmp_path):
