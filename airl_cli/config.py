@@ -16,6 +16,7 @@ from omegaconf import DictConfig
 
 from airl_cli.config_reader import Cell, Reader, plain
 from airl_cli.core.options import SCHEDULES, CertifiedOptions, FitOptions, PlannerOptions
+from airl_cli.envs import DEFAULT_VALUES, EnvMDPSettings, env_settings, env_value
 from airl_cli.errors import ConfigError
 from airl_cli.methods import NAMES, REGISTRY
 
@@ -70,21 +71,6 @@ class ObjectworldSettings:
     name: str = "objectworld"
 
 
-@dataclass(frozen=True)
-class EnvMDPSettings:
-    """``mdp=gymnasium`` and ``mdp=seals``: a tabular environment of another package
-    (``airl_cli.envs``); ``value`` is tau's parameter value (see ``airl_cli.envs.PARAMETERS``)."""
-
-    name: str  # the package: gymnasium | seals
-    env: str
-    value: bool | float
-    features: str  # tile | state
-    horizon: int
-    map_name: str = "4x4"  # FrozenLake
-    width: int = 15  # seals' CliffWorld
-    height: int = 6
-
-
 MDPSettings = RandomMDPSettings | GridMDPSettings | ObjectworldSettings | EnvMDPSettings
 
 
@@ -130,7 +116,7 @@ def _mdp(node: Any) -> MDPSettings:
     if name == "objectworld":
         return _objectworld(r)
     if name in ("gymnasium", "seals"):
-        return _env_mdp(r, name)
+        return env_settings(r, name)
     if name == "random":
         n_states = r.int("n_states", lo=1)
         return RandomMDPSettings(
@@ -190,39 +176,6 @@ def _objectworld(r: Reader) -> ObjectworldSettings:
     )
 
 
-def env_value(r: Reader, key: str, env: str, value: Any) -> bool | float:
-    """One parameter value of an environment: true/false for its switch, or a number in its range."""
-    from airl_cli.envs import PARAMETERS
-
-    p = PARAMETERS[env]
-    ok_bool = isinstance(value, bool) and p.switch is not None
-    ok_number = not isinstance(value, bool) and isinstance(value, (int, float)) and p.number is not None and p.lo <= value <= p.hi
-    if not (ok_bool or ok_number):
-        kinds = [f"true or false ({p.switch})"] if p.switch else []
-        kinds += [f"a number between {p.lo:g} and {p.hi:g} ({p.number})"] if p.number else []
-        raise ConfigError(f"'{r._name(key)}' must be {' or '.join(kinds)} for {env}, got {value!r}")
-    return value if isinstance(value, bool) else float(value)
-
-
-def _env_mdp(r: Reader, package: str) -> EnvMDPSettings:
-    from airl_cli.envs import DEFAULT_VALUE, ENVS
-
-    env = r.choice("env", ENVS[package])
-    kwargs: dict = {}
-    if env == "FrozenLake":
-        kwargs["map_name"] = r.choice("map_name", ("4x4", "8x8"))
-    if env == "CliffWorld":
-        kwargs = dict(width=r.int("width", lo=3), height=r.int("height", lo=2))
-    return EnvMDPSettings(
-        name=package,
-        env=env,
-        value=env_value(r, "value", env, r.raw("value", DEFAULT_VALUE[env])),
-        features=r.choice("features", ("tile", "state")),
-        horizon=r.int("horizon", lo=2),
-        **kwargs,
-    )
-
-
 def _dynamics(node: Any, mdp: MDPSettings) -> DynamicsSettings:
     r = Reader(node, "dynamics")
     kind = r.choice("kind", ("gaussian", "same", "grid_layouts", "slip", "env_values"))
@@ -230,8 +183,6 @@ def _dynamics(node: Any, mdp: MDPSettings) -> DynamicsSettings:
     if kind == "env_values":
         if not isinstance(mdp, EnvMDPSettings):
             raise ConfigError(f"'dynamics={name}' sets a parameter of a gymnasium or seals environment; use it with mdp=gymnasium or mdp=seals")
-        from airl_cli.envs import DEFAULT_VALUES
-
         values = r.raw("values", DEFAULT_VALUES[mdp.env])
         if not isinstance(values, (list, tuple)) or not values:
             raise ConfigError(f"'dynamics.values' must be a non-empty list of {mdp.env}'s parameter values, got {values!r}")

@@ -19,6 +19,7 @@ from typing import Any
 
 import numpy as np
 
+from airl_cli.config_reader import Reader
 from airl_cli.core import tabular
 from airl_cli.errors import ConfigError
 
@@ -69,6 +70,51 @@ TILES = {
 CLIFF_WALKING_WEIGHTS = (-1.0, -1.0, -100.0, 0.0)
 
 MISSING = "'mdp={package}' needs the optional extra: pip install 'airl-cli[envs]' (it installs gymnasium and seals)"
+
+
+@dataclass(frozen=True)
+class EnvMDPSettings:
+    """``mdp=gymnasium`` and ``mdp=seals``: a tabular environment of another package
+    (``airl_cli.envs``); ``value`` is tau's parameter value (see ``airl_cli.envs.PARAMETERS``)."""
+
+    name: str  # the package: gymnasium | seals
+    env: str
+    value: bool | float
+    features: str  # tile | state
+    horizon: int
+    map_name: str = "4x4"  # FrozenLake
+    width: int = 15  # seals' CliffWorld
+    height: int = 6
+
+
+def env_value(r: Reader, key: str, env: str, value: Any) -> bool | float:
+    """One parameter value of an environment: true/false for its switch, or a number in its range."""
+    p = PARAMETERS[env]
+    ok_bool = isinstance(value, bool) and p.switch is not None
+    ok_number = not isinstance(value, bool) and isinstance(value, (int, float)) and p.number is not None and p.lo <= value <= p.hi
+    if not (ok_bool or ok_number):
+        kinds = [f"true or false ({p.switch})"] if p.switch else []
+        kinds += [f"a number between {p.lo:g} and {p.hi:g} ({p.number})"] if p.number else []
+        raise ConfigError(f"'{r._name(key)}' must be {' or '.join(kinds)} for {env}, got {value!r}")
+    return value if isinstance(value, bool) else float(value)
+
+
+def env_settings(r: Reader, package: str) -> EnvMDPSettings:
+    """The settings of ``mdp=gymnasium`` or ``mdp=seals``, read and checked (one sentence, ConfigError)."""
+    env = r.choice("env", ENVS[package])
+    kwargs: dict = {}
+    if env == "FrozenLake":
+        kwargs["map_name"] = r.choice("map_name", ("4x4", "8x8"))
+    if env == "CliffWorld":
+        kwargs = dict(width=r.int("width", lo=3), height=r.int("height", lo=2))
+    return EnvMDPSettings(
+        name=package,
+        env=env,
+        value=env_value(r, "value", env, r.raw("value", DEFAULT_VALUE[env])),
+        features=r.choice("features", ("tile", "state")),
+        horizon=r.int("horizon", lo=2),
+        **kwargs,
+    )
 
 
 @dataclass(frozen=True)
