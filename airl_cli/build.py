@@ -11,6 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from airl_cli import envs
 from airl_cli.config import EnvMDPSettings, GridMDPSettings, MDPSettings, ObjectworldSettings, ProblemSettings
 from airl_cli.core import demos as core_demos
 from airl_cli.core import objectworld, problems
@@ -146,8 +147,6 @@ def build_problem(settings: ProblemSettings) -> Problem:
 def env_problem(settings: ProblemSettings) -> Problem:
     """A gymnasium or seals environment (``airl_cli.envs``): tau from ``mdp.value``, tau_j from
     ``dynamics.values`` (or D copies of tau under ``dynamics=same``); no randomness."""
-    from airl_cli import envs
-
     mdp, dyn = settings.mdp, settings.dynamics
     assert isinstance(mdp, EnvMDPSettings)
     values = dyn.values if dyn.kind == "env_values" else (mdp.value,) * dyn.n_dynamics
