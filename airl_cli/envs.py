@@ -14,6 +14,7 @@ such a problem is built, and their absence is one sentence (``ConfigError``).
 from __future__ import annotations
 
 import importlib
+import re
 from dataclasses import dataclass
 from typing import Any
 
@@ -148,6 +149,10 @@ def require(package: str) -> Any:
             importlib.import_module("seals.diagnostics.cliff_world")
     except ImportError:
         raise ConfigError(MISSING.format(package=package)) from None
+    version = tuple(int(x) for x in re.findall(r"\d+", getattr(module, "__version__", "0"))[:2])
+    if package == "gymnasium" and version < (1, 3):
+        # FrozenLake's success_rate, Taxi's rainy_probability and its fixed is_rainy came in gymnasium 1.3
+        raise ConfigError(f"'mdp=gymnasium' needs gymnasium 1.3 or later, but {module.__version__} is installed: pip install -U 'airl-cli[envs]'")
     return module
 
 

@@ -244,6 +244,15 @@ def test_the_missing_extra_is_one_sentence(monkeypatch, tmp_path):
     assert result.output.strip().splitlines() == [f"error: {envs.MISSING.format(package='gymnasium')}"]
 
 
+def test_an_old_gymnasium_is_one_sentence(monkeypatch):
+    gymnasium = pytest.importorskip("gymnasium", reason="mdp=gymnasium needs the extra: pip install '.[envs]'")
+    from airl_cli import envs
+
+    monkeypatch.setattr(gymnasium, "__version__", "1.2.2")
+    with pytest.raises(ConfigError, match=r"needs gymnasium 1.3 or later, but 1.2.2 is installed"):
+        envs.require("gymnasium")
+
+
 # --------------------------------------------------------------------------- command line
 
 
