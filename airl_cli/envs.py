@@ -151,7 +151,7 @@ def require(package: str) -> Any:
         raise ConfigError(MISSING.format(package=package)) from None
     version = tuple(int(x) for x in re.findall(r"\d+", getattr(module, "__version__", "0"))[:2])
     if package == "gymnasium" and version < (1, 3):
-        # FrozenLake's success_rate, Taxi's rainy_probability and its fixed is_rainy came in gymnasium 1.3
+        # Taxi's rainy_probability and its fixed is_rainy came in gymnasium 1.3 (its version history)
         raise ConfigError(f"'mdp=gymnasium' needs gymnasium 1.3 or later, but {module.__version__} is installed: pip install -U 'airl-cli[envs]'")
     return module
 
