@@ -9,7 +9,7 @@ call ``problem_settings(cfg)`` and friends and never read the raw config again.
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 from omegaconf import DictConfig
@@ -118,6 +118,8 @@ class ProblemSettings:
     seed: int
 
 
+#: game.adversary: the thesis's history-dependent adversary, or the Markov variant (core.markov_adversary).
+ADVERSARIES = ("history", "markov")
 LOSSES = ("auto", "zero_one", "squared_features", "squared_euclidean")
 TRANSITIONS = ("uniform", "dirichlet", "sparse")
 
@@ -315,7 +317,7 @@ def fit_settings(cfg: DictConfig | Mapping) -> FitSettings:
     g = Reader(top.raw("game"), "game")
     o = Reader(top.raw("optim"), "optim")
     optimizer = o.choice("name", OPTIMIZERS)
-    planner = _planner(top.raw("pbvi"))
+    planner = replace(_planner(top.raw("pbvi")), adversary=g.choice("adversary", ADVERSARIES))
     sharing, normalize_loss = _bool(o, "weight_sharing"), _bool(g, "normalize_loss")
     # double oracle's settings (used by optim=gradient) are checked whatever the optimiser
     game = dict(

@@ -163,8 +163,9 @@ def _learn_airl(
             "gap": res.gap,
             "relative_gap": res.relative_gap,
             "tol": settings.certified.tol,
-            "oracle": settings.options.planner.method,
-            "certificate": certificate(res.relative_gap, settings.certified.tol, res.converged, settings.options.planner.method),
+            "oracle": _oracle_name(settings),
+            "adversary": settings.options.planner.adversary,
+            "certificate": certificate(res.relative_gap, settings.certified.tol, res.converged, _oracle_name(settings)),
             "iterations": int(h["iteration"][-1]),
             "planner_calls": int(h["planner_calls"][-1]),
             "screen_calls": int(h["screen_calls"][-1]),
@@ -203,6 +204,13 @@ def _learn_airl(
         }
         history["above_optimum"] = history["objective"] - best.objective
     return Learned("airl", result.weights, None, history, info)
+
+
+def _oracle_name(settings: FitSettings) -> str:
+    """The adversary's best response as the certificate names it: the planner's method, or for the
+    Markov adversary (``core.markov_adversary``) "cadp" (exact enumeration keeps "exact")."""
+    planner = settings.options.planner
+    return "cadp" if planner.adversary == "markov" and planner.method != "exact" else planner.method
 
 
 def _degeneracy(problem: GameProblem, targets: np.ndarray, weights: np.ndarray, objective: float, tol: float) -> dict:

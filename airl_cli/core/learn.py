@@ -19,6 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from airl_cli.core.game import AdversaryOracle, GameProblem, RestrictedGame, double_oracle, idle_counters
+from airl_cli.core.markov_adversary import markov_oracle
 from airl_cli.core.multimodel import expand_beliefs, solve
 from airl_cli.core.options import SCHEDULES, FitOptions, PlannerOptions  # noqa: F401 (re-exported)
 from airl_cli.core.sparse import sparse_dynamics
@@ -83,6 +84,8 @@ def make_oracles(
     ``screen_beliefs`` beliefs of that set (None if there is nothing to screen with).
     """
     p0 = problem.initial
+    if options.adversary == "markov":  # the variant of core.markov_adversary: no beliefs, no screen
+        return markov_oracle(problem.transitions, p0, exact=options.method == "exact"), None, 0
     # PBVI works over the reachable next states; found once here, not in every call
     P = sparse_dynamics(problem.transitions) if options.method == "pbvi" else problem.transitions
     beliefs = None

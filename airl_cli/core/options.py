@@ -26,6 +26,9 @@ class PlannerOptions:
         a function of the data alone; None draws it from the fit's generator instead.
     screen_beliefs: the certified learner first asks PBVI restricted to the first this many
         beliefs (a cheap, weaker best response; 0 turns screening off).
+    adversary: "history" (thesis Def. 5.3.1: one history-dependent policy over every dynamics)
+        or "markov" (a Markov policy, ``airl_cli.core.markov_adversary``: CADP, or enumeration
+        with method "exact").
     """
 
     method: str = "pbvi"
@@ -36,6 +39,7 @@ class PlannerOptions:
     reuse_beliefs: bool = True
     belief_seed: int | None = 0
     screen_beliefs: int = 8
+    adversary: str = "history"
 
 
 @dataclass(frozen=True)

@@ -51,7 +51,10 @@ def summary_text(dataset: Dataset, settings: FitSettings, learned: Learned, rows
             how += f"exact solve of eq. 5.9: {info['iterations']} iterations, {info['planner_calls']} planner calls, "
         else:
             how += f"gradient descent (Table I): {info['steps']} steps (stopped: {info['stopped']}), "
-        how += f"PBVI {o.planner.iterations} iterations ({info['n_beliefs']} beliefs)"
+        if o.planner.adversary == "markov":
+            how += "Markov adversary (" + ("every Markov policy enumerated" if o.planner.method == "exact" else "CADP best responses") + ")"
+        else:
+            how += f"PBVI {o.planner.iterations} iterations ({info['n_beliefs']} beliefs)"
     elif learned.method == "bc":
         how = "action frequencies of the demonstrations"
     else:
