@@ -255,7 +255,12 @@ def _method_options(r: Reader, name: str) -> dict:
     """The keyword options the registry lists for method ``name``, read and checked."""
     out = {}
     for o in REGISTRY[name].options:
-        out[o.key] = r.int(o.key, lo=o.lo) if o.kind == "int" else r.float(o.key, lo=o.lo, open_lo=o.open_lo)
+        if o.kind == "choice":
+            out[o.key] = r.choice(o.key, o.choices)
+        elif o.kind == "int":
+            out[o.key] = r.int(o.key, lo=o.lo, hi=o.hi)
+        else:
+            out[o.key] = r.float(o.key, lo=o.lo, hi=o.hi, open_lo=o.open_lo)
     return out
 
 

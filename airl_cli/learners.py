@@ -8,7 +8,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from airl_cli.config import FitSettings
-from airl_cli.core import baselines, mmp
+from airl_cli.core import baselines, mmp, robust_mce
 from airl_cli.core.certified import minimize, objective_at
 from airl_cli.core.degeneracy import is_degenerate, reward_effect
 from airl_cli.core.game import GameProblem, scaled
@@ -101,6 +101,15 @@ def _weights_learned(name: str, res) -> Learned:
 def _learn_mce(dataset: Dataset, settings: FitSettings, *_) -> Learned:
     d = dataset
     return _weights_learned("mce", baselines.mce_irl(d.transitions, d.features, d.initial, d.horizon, d.feature_targets(), **settings.method_options))
+
+
+def _learn_robust_mce(dataset: Dataset, settings: FitSettings, *_) -> Learned:
+    d, o = dataset, settings.method_options
+    try:
+        res = robust_mce.robust_mce_irl(d.transitions, d.features, d.initial, d.horizon, d.feature_targets(), **o)
+    except ValueError as e:  # a combination the config check cannot see (form=infinite without a discount)
+        raise ConfigError(f"method=robust_mce cannot run: {e}") from None
+    return _weights_learned("robust_mce", res)
 
 
 def _learn_projection(dataset: Dataset, settings: FitSettings, *_) -> Learned:
