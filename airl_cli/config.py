@@ -102,6 +102,7 @@ class ProblemSettings:
     demos: DemoSettings
     loss: str  # one of LOSSES
     seed: int
+    discount: float = 1.0  # mdp.discount: gamma in (0, 1], step t weighted by gamma^t (1 in the thesis)
 
 
 LOSSES = ("auto", "zero_one", "squared_features", "squared_euclidean")
@@ -221,7 +222,8 @@ def problem_settings(cfg: DictConfig | Mapping) -> ProblemSettings:
     if loss == "squared_euclidean" and mdp.name == "random":
         raise ConfigError("'loss=squared_euclidean' measures distances between grid cells; use it with mdp=grid or mdp=objectworld")
     seed = top.int("seed", lo=0)
-    return ProblemSettings(mdp=mdp, dynamics=dynamics, demos=demos, loss=loss, seed=seed)
+    discount = Reader(top.raw("mdp"), "mdp").float("discount", lo=0.0, hi=1.0, open_lo=True, default=1.0)
+    return ProblemSettings(mdp=mdp, dynamics=dynamics, demos=demos, loss=loss, seed=seed, discount=discount)
 
 
 # --------------------------------------------------------------------------- learning

@@ -46,6 +46,8 @@ from airl_cli.core.baselines import BaselineResult, check_problem
 from airl_cli.core.sparse import SparseModel
 
 OPTIMIZERS = ("lbfgs", "adam")
+#: soft policy-iteration steps of the infinite form before plain value iteration takes over
+POLICY_STEPS = 50
 FORMS = ("finite", "infinite")
 
 
@@ -106,7 +108,7 @@ def robust_soft_backup(
 
 def robust_soft_value_iteration(
     P, r: np.ndarray, *, alpha: float, discount: float, tol: float = 1e-10, allowed: np.ndarray | None = None,
-    V0: np.ndarray | None = None, max_iterations: int = 1_000_000,
+    V0: np.ndarray | None = None, max_iterations: int = 100_000,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The infinite-horizon form: iterate the backup until |V - V_old| < ``tol`` (Euclidean, as the paper;
     or 1e3 machine epsilons times |V|, rounding's floor). On dense P each backup is followed by the
@@ -122,14 +124,16 @@ def robust_soft_value_iteration(
     if not 0.0 < discount < 1.0:
         raise ValueError(f"the infinite-horizon form needs a discount in (0, 1), got {discount}")
     V = np.zeros(r.shape[0]) if V0 is None else np.array(V0, dtype=np.float64)
-    for _ in range(max_iterations):
+    for iteration in range(max_iterations):
         player, opponent, V_new = _softmax_step(r, _expect(P, V), alpha, discount, allowed)
         # the tolerance, or rounding's floor (a solve's values are exact only to ~1e-16 |V|)
         if np.linalg.norm(V_new - V) < max(tol, 1e3 * np.finfo(float).eps * np.linalg.norm(V_new)):
             return player, opponent, V_new
         # dense P: jump to the value of the current pair (soft policy iteration; the same fixed
-        # point, reached in a few steps instead of thousands at gamma = 0.99)
-        V = V_new if isinstance(P, SparseModel) else _pair_value(P, r, player, opponent, alpha, discount)
+        # point, reached in a few steps instead of thousands at gamma = 0.99); if near-ties make
+        # it cycle, plain value iteration (a contraction) finishes
+        pair = not isinstance(P, SparseModel) and iteration < POLICY_STEPS
+        V = _pair_value(P, r, player, opponent, alpha, discount) if pair else V_new
     return player, opponent, V
 
 
