@@ -136,6 +136,8 @@ def draw_figures(folder: Path) -> list[Path]:
 def medians_text(experiment: dict, table: pd.DataFrame) -> str:
     """A short table for the terminal: the median score per method and swept value, over runs
     and the experiment's dynamics, the demonstrator's beside it, and the thesis's claim."""
+    if experiment.get("kind") == "viano" and "total_return" in table:
+        return viano_text(experiment, table)
     if experiment.get("kind") == "alphas" or "learner_score" not in table:
         return ""
     rows = table[table["dynamics"].isin(experiment.get("dynamics") or table["dynamics"].unique())]
@@ -151,4 +153,27 @@ def medians_text(experiment: dict, table: pd.DataFrame) -> str:
         lines.append(f"{x:>12g}" + "".join(f"{v:>13.4f}" for v in r))
     if experiment.get("thesis"):
         lines.append(f"thesis: {experiment['thesis']}")
+    return "\n".join(lines) + "\n\n"
+
+
+def viano_text(experiment: dict, table: pd.DataFrame) -> str:
+    """Viano et al.'s GridWorld: ours per alpha and eps_E, the published number in brackets."""
+    lines = ["", "total return of the deployed player (eps_L = 0), ours (published, difference):"]
+    xs = sorted(table["x"].unique())
+    lines.append(f"{'alpha':>8}" + "".join(f"{'eps_E=' + format(x, 'g'):>26}" for x in xs))
+    for alpha, rows in sorted(table.groupby("alpha"), key=lambda kv: -kv[0]):
+        cells = []
+        for x in xs:
+            row = rows[rows["x"] == x]
+            if row.empty:
+                cells.append(f"{'':>26}")
+                continue
+            ours, theirs, diff = (float(row[c].iloc[0]) for c in ("total_return", "published", "relative_difference"))
+            text = f"{ours:.1f}" if theirs != theirs else f"{ours:.1f} ({theirs:.1f}, {100 * diff:+.1f}%)"
+            cells.append(f"{text:>26}")
+        lines.append(f"{alpha:>8g}" + "".join(cells))
+    expert = table["expert_return"].iloc[0]
+    lines.append(f"expert (optimal policy): {expert:.1f} (published {table['published_expert'].iloc[0]:.1f})")
+    if experiment.get("thesis"):
+        lines.append(experiment["thesis"])
     return "\n".join(lines) + "\n\n"
