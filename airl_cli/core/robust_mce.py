@@ -44,6 +44,7 @@ from scipy.optimize import minimize
 
 from airl_cli.core.baselines import BaselineResult, check_problem
 from airl_cli.core.sparse import SparseModel
+from airl_cli.core.threads import blas_on_one_thread
 
 OPTIMIZERS = ("lbfgs", "adam")
 #: soft policy-iteration steps of the infinite form before plain value iteration takes over
@@ -224,6 +225,7 @@ def _check(alpha, discount, form, optimizer, lam, max_iterations, lr, allowed, S
         raise ValueError(f"allowed must be (S, A) = ({S}, {A}) with an allowed action in every state, got {allowed.shape}")
 
 
+@blas_on_one_thread  # hundreds of small solves: two OpenBLAS threads on a busy 2-core machine made a fit 0.08 -> 20 s
 def robust_mce_irl(
     transitions, features: np.ndarray, initial: np.ndarray, horizon: int, targets: np.ndarray, *,
     alpha: float = 0.8, discount: float = 1.0, form: str = "finite", optimizer: str = "lbfgs", lam: float = 1e-3,
