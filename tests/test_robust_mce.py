@@ -149,3 +149,13 @@ def test_a_bad_alpha_is_one_sentence(tmp_path, monkeypatch, alpha):
     result = runner.invoke(app, ["fit", "method=robust_mce", f"method.alpha={alpha}", f"hydra.run.dir={tmp_path / 'r'}"])
     assert result.exit_code == 2
     assert result.output.strip() == f"error: 'method.alpha' must be > 0.0 and <= 1.0, got {float(alpha):g}"
+
+
+def test_method_robust_mce_with_alpha_one_is_method_mce():
+    from airl_cli import api
+
+    small = ("mdp.n_states=6", "mdp.horizon=4", "demos.n=20", "dynamics.n_dynamics=2")
+    dataset = api.make_dataset(*small)
+    mce = api.fit(dataset, "method=mce", *small)
+    robust = api.fit(dataset, "method=robust_mce", "method.alpha=1", *small)  # lam 1e-3, 200 L-BFGS-B iterations: mce's defaults
+    np.testing.assert_allclose(robust.weights, mce.weights, rtol=0, atol=1e-6)
