@@ -44,7 +44,7 @@ VIANO_COLUMNS = (
     "experiment", "method", "alpha", "x", "x_name", "learner_epsilon", "corner", "total_return", "published",
     "relative_difference", "expert_return", "published_expert", "seconds",
 )  # fmt: skip
-_VIANO_FLOATS = ("alpha", "x", "learner_epsilon", "total_return", "expert_return", "published_expert", "seconds")
+_VIANO_FLOATS = ("x", "learner_epsilon", "total_return", "expert_return", "seconds")
 #: The arrays of the alpha-vector experiment's ``alphas.npz``.
 ALPHA_ARRAYS = ("exact", "exact_envelope", "pbvi", "t", "s")
 #: The config groups whose every setting becomes a column of the results table.
@@ -296,8 +296,11 @@ def _check_viano(config: dict, header: list[str], rows: list[list[str]]) -> None
         raise Damaged(f"{ROWS} has a cell that is not a number") from None
     if not all(math.isfinite(v) for v in numbers.values()):
         raise Damaged(f"{ROWS} has a cell that is not a finite number")
-    if numbers["alpha"] != float(config["method"]["alpha"]) or numbers["x"] != float(config["experiment"]["epsilon"]):
-        raise Damaged(f"{ROWS} is of alpha={row['alpha']}, eps_E={row['x']}, not the job's")
+    exp, method = config["experiment"], config["method"]
+    x = exp["horizon"] if exp.get("horizon") is not None else exp["epsilon"]
+    alpha_ok = method.get("name") != "robust_mce" or float(row["alpha"]) == float(method["alpha"])
+    if row["method"] != method.get("name") or not alpha_ok or numbers["x"] != float(x):
+        raise Damaged(f"{ROWS} is of method={row['method']}, alpha={row['alpha']}, x={row['x']}, not the job's")
 
 
 def _check_npz(path: Path, arrays: tuple[str, ...], *, checksums: bool = False) -> dict[str, tuple[int, ...]]:

@@ -158,10 +158,11 @@ def medians_text(experiment: dict, table: pd.DataFrame) -> str:
 
 def viano_text(experiment: dict, table: pd.DataFrame) -> str:
     """Viano et al.'s GridWorld: ours per alpha and eps_E, the published number in brackets."""
-    lines = ["", "total return of the deployed player (eps_L = 0), ours (published, difference):"]
+    lines = ["", "total return (eps_L = 0) from every start state, ours (published, difference):"]
     xs = sorted(table["x"].unique())
-    lines.append(f"{'alpha':>8}" + "".join(f"{'eps_E=' + format(x, 'g'):>26}" for x in xs))
-    for alpha, rows in sorted(table.groupby("alpha"), key=lambda kv: -kv[0]):
+    lines.append(f"{'':>12}" + "".join(f"{experiment.get('x', 'x') + '=' + format(x, 'g'):>26}" for x in xs))
+    labels = [m if m != "robust_mce" else f"alpha={a:g}" for m, a in zip(table["method"], table["alpha"])]
+    for label, rows in sorted(table.assign(label=labels).groupby("label", sort=False), key=lambda kv: -kv[1]["alpha"].fillna(2).iloc[0]):
         cells = []
         for x in xs:
             row = rows[rows["x"] == x]
@@ -171,9 +172,10 @@ def viano_text(experiment: dict, table: pd.DataFrame) -> str:
             ours, theirs, diff = (float(row[c].iloc[0]) for c in ("total_return", "published", "relative_difference"))
             text = f"{ours:.1f}" if theirs != theirs else f"{ours:.1f} ({theirs:.1f}, {100 * diff:+.1f}%)"
             cells.append(f"{text:>26}")
-        lines.append(f"{alpha:>8g}" + "".join(cells))
+        lines.append(f"{label:>12}" + "".join(cells))
     expert = table["expert_return"].iloc[0]
-    lines.append(f"expert (optimal policy): {expert:.1f} (published {table['published_expert'].iloc[0]:.1f})")
+    theirs = table["published_expert"].iloc[0]
+    lines.append(f"expert (optimal policy): {expert:.1f}" + ("" if theirs != theirs else f" (published {theirs:.1f})"))
     if experiment.get("thesis"):
         lines.append(experiment["thesis"])
     return "\n".join(lines) + "\n\n"

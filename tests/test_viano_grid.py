@@ -95,3 +95,31 @@ def test_the_sweep_reproduces_the_table_small_and_resumes(tmp_path, monkeypatch)
     # the report of chapter 7 leaves this sweep out instead of failing on it
     report = runner.invoke(app, ["report", "--profile", "quick"])
     assert "viano" not in report.output and "lacks the column" not in report.output
+
+
+def test_finite_total_return_by_hand():
+    # the 2 x 2 grid of test_total_return_by_hand on T = 2 states: cell 3 is cut off after one move
+    P, _, _, w_star, _ = viano_grid(size=2, epsilon=0.0, corner="stay")
+    from airl_cli.core.viano_grid import finite_total_return
+
+    policy = np.array([[3, 3, 0, 3]])  # (T-1, S): left, left, up, left
+    assert finite_total_return(P, policy, w_star) == pytest.approx((0 - 1 - 1 - 2) / 4)
+
+
+def test_the_thesiss_method_runs_on_the_finite_grid(tmp_path, monkeypatch):
+    """`airl sweep experiment=viano_finite profile=quick`: T = 10, the thesis's method and MCE IRL."""
+    import pandas as pd
+    from typer.testing import CliRunner
+
+    from airl_cli.cli import app
+    from airl_cli.job_files import damaged_jobs
+
+    monkeypatch.chdir(tmp_path)
+    result = CliRunner().invoke(app, ["sweep", "experiment=viano_finite", "profile=quick", "hydra/launcher=basic"])
+    assert result.exit_code == 0, result.output
+    folder = tmp_path / "results" / "sweeps" / "viano_finite-quick"
+    table = pd.read_csv(folder / "results.csv")
+    assert sorted(table["method"]) == ["airl", "mce"] and (table["x"] == 10).all()
+    # no policy beats the optimal one; the expert's return on T = 10 states, by the metric
+    assert (table["total_return"] <= table["expert_return"] + 1e-9).all()
+    assert damaged_jobs(folder, [p.parent.name for p in folder.glob("*/rows.csv")]) == {}

@@ -110,3 +110,23 @@ def total_return(P: np.ndarray, policy: np.ndarray, r: np.ndarray, *, goal: int 
     v[goal] = r[goal]
     starts = np.arange(S) if starts is None else np.asarray(starts)
     return float(v[starts].mean())
+
+
+def finite_total_return(P: np.ndarray, policy: np.ndarray, r: np.ndarray, *, goal: int = 0) -> float:
+    """The metric on a finite horizon: the expected undiscounted return of the T states of a
+    non-stationary policy from every grid state (stopping at the goal), averaged over them.
+
+    Args:
+        P: (S', A, S') the learner's dynamics; policy: (T-1, S') int or (T-1, S', A) float;
+        r: (S,) the true rewards of the S <= S' grid states (0 at the goal).
+    """
+    S = r.size
+    policy = np.asarray(policy)
+    v = r.astype(np.float64).copy()
+    for t in range(policy.shape[0] - 1, -1, -1):
+        rule = policy[t][:S] if policy.ndim == 3 else np.eye(P.shape[1])[policy[t][:S]]
+        M = np.einsum("sa,sax->sx", rule, P[:S, :, :S])
+        M[goal] = 0.0
+        v = r + M @ v
+    v[goal] = r[goal]
+    return float(v.mean())

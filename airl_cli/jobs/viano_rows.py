@@ -12,11 +12,17 @@ import time
 import numpy as np
 from omegaconf import DictConfig
 
+from airl_cli.build import learner_rng, loss_matrix
 from airl_cli.config import fit_settings, plain
+from airl_cli.core.demos import expected_feature_sums
+from airl_cli.core.planning import backward_induction
 from airl_cli.core.robust_mce import discounted_feature_sum, robust_mce_irl, robust_soft_value_iteration
-from airl_cli.core.viano_grid import total_return, viano_grid
+from airl_cli.core.viano_grid import finite_total_return, total_return, viano_grid
+from airl_cli.data import Dataset
 from airl_cli.errors import ConfigError
+from airl_cli.evaluate import learner_policy
 from airl_cli.jobs.common import save_config
+from airl_cli.learners import learn
 
 
 def published(exp: dict, alpha: float, epsilon: float) -> float:
@@ -40,8 +46,11 @@ def expert_return(P: np.ndarray, allowed: np.ndarray, r: np.ndarray, w_star: np.
 
 
 def viano_rows(cfg: DictConfig, folder) -> list[dict]:
-    """Fit robust MCE IRL with method.alpha to the eps_E expert; one row: ours, theirs, the expert's."""
+    """Fit robust MCE IRL with method.alpha to the eps_E expert; one row: ours, theirs, the expert's.
+    With ``experiment.horizon`` set: any method on the finite-horizon grid (``finite_rows``)."""
     exp = plain(cfg)["experiment"]
+    if exp.get("horizon") is not None:
+        return finite_rows(cfg, folder)
     options = fit_settings(cfg).method_options
     if fit_settings(cfg).method != "robust_mce":
         raise ConfigError("experiment=viano_gridworld runs method=robust_mce (method.alpha=1 is MCE IRL)")
@@ -73,6 +82,50 @@ def viano_rows(cfg: DictConfig, folder) -> list[dict]:
             "relative_difference": (ours - theirs) / abs(theirs) if np.isfinite(theirs) else float("nan"),
             "expert_return": expert_return(P_L, allowed, phi @ w_star, w_star, gamma),
             "published_expert": float(exp["published_expert"]),
+            "seconds": seconds,
+        }
+    ]
+
+
+def finite_dataset(exp: dict) -> Dataset:
+    """The grid on a finite horizon T, undiscounted, every move existing (off the grid: stay), rows
+    summing to 1 (corner "stay"): tau = the learner's noise eps_L, tau_j = the demonstrations' eps_j;
+    the thesis's expert (optimal under tau, run in every tau_j), exact feature sums, squared-feature loss."""
+    size, T = int(exp["size"]), int(exp["horizon"])
+    P0, _, phi, w_star, p0 = viano_grid(size=size, epsilon=float(exp["learner_epsilon"]), corner="stay")
+    P = np.stack([P0, *(viano_grid(size=size, epsilon=float(e), corner="stay")[0] for e in exp["demo_epsilons"])])
+    expert, _ = backward_induction(P0, phi @ w_star, horizon=T)
+    targets = expected_feature_sums(P[1:], expert, p0, phi)
+    return Dataset(P, phi, p0, T, feature_expectations=targets, true_weights=w_star, loss=loss_matrix("squared_features", phi))
+
+
+def finite_rows(cfg: DictConfig, folder) -> list[dict]:
+    """Any method (the thesis's too) on ``finite_dataset``; scored by the finite-horizon metric of the
+    optimal policy of its learned reward in tau (eps_L), the thesis's convention for every method."""
+    exp, c = plain(cfg)["experiment"], plain(cfg)
+    settings = fit_settings(cfg)
+    dataset = finite_dataset(exp)
+    start = time.perf_counter()
+    learned = learn(dataset, settings, learner_rng(int(c["seed"]), settings.method))
+    seconds = time.perf_counter() - start
+    r = dataset.features @ dataset.true_weights  # (S,): corner "stay" has no extra state
+    policy = learned.policy if learned.weights is None else learner_policy(dataset, learned.weights, 0)
+    expert, _ = backward_induction(dataset.transitions[0], dataset.features @ dataset.true_weights, horizon=dataset.horizon)
+    save_config(cfg, folder)
+    return [
+        {
+            "experiment": exp["name"],
+            "method": settings.method,
+            "alpha": float(settings.method_options.get("alpha", 1.0 if settings.method == "mce" else float("nan"))),
+            "x": float(exp["horizon"]),
+            "x_name": exp["x"],
+            "learner_epsilon": float(exp["learner_epsilon"]),
+            "corner": "stay",
+            "total_return": finite_total_return(dataset.transitions[0], policy, r),
+            "published": float("nan"),
+            "relative_difference": float("nan"),
+            "expert_return": finite_total_return(dataset.transitions[0], expert, r),
+            "published_expert": float("nan"),
             "seconds": seconds,
         }
     ]

@@ -12,7 +12,7 @@ from matplotlib.figure import Figure
 
 from airl_cli.plotting._style import _require
 
-RETURNS_COLUMNS = ("alpha", "x", "total_return", "published", "expert_return")
+RETURNS_COLUMNS = ("method", "alpha", "x", "total_return", "published", "expert_return")
 _COLOURS = ("#1f77b4", "#2ca02c", "#e377c2", "#9467bd", "#8c564b")
 
 
@@ -20,14 +20,18 @@ def returns(df: pd.DataFrame, meta: Mapping[str, Any]) -> Figure:
     """Ours (lines, one per alpha) and the published returns (crosses), the expert dotted."""
     _require(df, RETURNS_COLUMNS, "returns")
     df = df.copy()
-    for column in RETURNS_COLUMNS:
+    for column in RETURNS_COLUMNS[1:]:
         df[column] = pd.to_numeric(df[column], errors="coerce")
+    # robust MCE by its alpha (alpha = 1 is MCE IRL), any other method by its name
+    df["label"] = [
+        m if m != "robust_mce" else ("MCE IRL (alpha = 1)" if a == 1.0 else f"alpha = {a:g}") for m, a in zip(df["method"].astype(str), df["alpha"])
+    ]
     fig = Figure(figsize=(6.4, 4.6))
     ax = fig.add_subplot()
-    for i, (alpha, rows) in enumerate(sorted(df.groupby("alpha"), key=lambda kv: -kv[0])):
+    groups = sorted(df.groupby("label", sort=False), key=lambda kv: -kv[1]["alpha"].fillna(2.0).iloc[0])
+    for i, (name, rows) in enumerate(groups):
         rows = rows.sort_values("x")
         colour = _COLOURS[i % len(_COLOURS)]
-        name = "MCE IRL (alpha = 1)" if alpha == 1.0 else f"alpha = {alpha:g}"
         ax.plot(rows["x"], rows["total_return"], "-o", color=colour, label=f"{name}, ours")
         published = rows.dropna(subset=["published"])
         if not published.empty:
