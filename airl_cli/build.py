@@ -11,7 +11,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from airl_cli.config import GridMDPSettings, MDPSettings, ObjectworldSettings, ProblemSettings
+from airl_cli import envs
+from airl_cli.config import EnvMDPSettings, GridMDPSettings, MDPSettings, ObjectworldSettings, ProblemSettings, noise
 from airl_cli.core import demos as core_demos
 from airl_cli.core import objectworld, problems
 from airl_cli.core.mdp import discounted
@@ -124,6 +125,8 @@ def build_problem(settings: ProblemSettings) -> Problem:
     """The MDP, its dynamics tau_0..tau_D, features, true weights and loss (thesis §7.2-7.3)."""
     rng = streams(settings.seed)
     mdp, dyn = settings.mdp, settings.dynamics
+    if isinstance(mdp, EnvMDPSettings):
+        return env_problem(settings)
     tau, phi, w_star, p0, coords = base_problem(mdp, rng["mdp"])
     loss = loss_matrix(resolved_loss(settings), phi, coords)
     if isinstance(mdp, ObjectworldSettings):
@@ -131,7 +134,8 @@ def build_problem(settings: ProblemSettings) -> Problem:
         slips = dyn.slips if dyn.kind == "slip" else (mdp.slip,) * dyn.n_dynamics
         return Problem(objectworld.slip_sparse(mdp.size, (mdp.slip, *slips)), phi, p0, mdp.horizon, w_star, loss, coords, settings.discount)
     if dyn.kind == "gaussian":
-        others = problems.gaussian_perturbations(rng["dynamics"], tau, sigma=dyn.sigma, n_dynamics=dyn.n_dynamics)
+        sigma = noise(dyn.sigma, dyn.sigma_states, tau.shape[0])
+        others = problems.gaussian_perturbations(rng["dynamics"], tau, sigma=sigma, n_dynamics=dyn.n_dynamics)
     elif dyn.kind == "same":
         others = np.broadcast_to(tau, (dyn.n_dynamics,) + tau.shape)
     else:
@@ -141,6 +145,23 @@ def build_problem(settings: ProblemSettings) -> Problem:
         )
     transitions = np.concatenate([tau[None], others], axis=0)
     return Problem(transitions, phi, p0, mdp.horizon, w_star, loss, coords, settings.discount)
+
+
+def env_problem(settings: ProblemSettings) -> Problem:
+    """A gymnasium or seals environment (``airl_cli.envs``): tau from ``mdp.value``, tau_j from
+    ``dynamics.values`` (or D copies of tau under ``dynamics=same``); no randomness."""
+    mdp, dyn = settings.mdp, settings.dynamics
+    assert isinstance(mdp, EnvMDPSettings)
+    values = dyn.values if dyn.kind == "env_values" else (mdp.value,) * dyn.n_dynamics
+    sizes = dict(map_name=mdp.map_name) if mdp.env == "FrozenLake" else {}
+    if mdp.name == "seals":
+        sizes = dict(width=mdp.width, height=mdp.height, horizon=mdp.horizon - 1)
+    try:
+        env = envs.env_problem(mdp.name, mdp.env, (mdp.value, *values), features=mdp.features, **sizes)
+    except ValueError as e:  # the table breaks an assumption of airl_cli.core.tabular
+        raise ConfigError(f"{mdp.env}'s transition table cannot be read as a problem: {e}") from None
+    loss = loss_matrix(resolved_loss(settings), env.features)
+    return Problem(env.transitions, env.features, env.initial, mdp.horizon, env.true_weights, loss, discount=settings.discount)
 
 
 def expert_policy(problem: Problem) -> np.ndarray:

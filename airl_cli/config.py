@@ -16,6 +16,7 @@ from omegaconf import DictConfig
 
 from airl_cli.config_reader import Cell, Reader, plain
 from airl_cli.core.options import SCHEDULES, CertifiedOptions, FitOptions, PlannerOptions
+from airl_cli.envs import DEFAULT_VALUES, EnvMDPSettings, env_settings, env_value
 from airl_cli.errors import ConfigError
 from airl_cli.methods import NAMES, REGISTRY
 
@@ -70,7 +71,7 @@ class ObjectworldSettings:
     name: str = "objectworld"
 
 
-MDPSettings = RandomMDPSettings | GridMDPSettings | ObjectworldSettings
+MDPSettings = RandomMDPSettings | GridMDPSettings | ObjectworldSettings | EnvMDPSettings
 
 
 @dataclass(frozen=True)
@@ -81,8 +82,21 @@ class DynamicsSettings:
     kind: str  # gaussian | same | grid_layouts | slip
     n_dynamics: int
     sigma: float = 0.0
+    sigma_states: int | None = None  # kind=gaussian: sigma is the noise at this many states (``noise``)
     layouts: tuple[tuple[Cell, ...], ...] = ()
     slips: tuple[float, ...] = ()  # kind=slip: the objectworld's slip of each tau_j
+    values: tuple[bool | float, ...] = ()  # kind=env_values: each tau_j's parameter value (mdp=gymnasium, seals)
+
+
+def noise(sigma: float, sigma_states: int | None, n_states: int) -> float:
+    """The standard deviation of eq. 7.3's perturbation at ``n_states`` states.
+
+    ``sigma_states`` None: ``sigma`` as it is (the thesis). Else ``sigma`` is the noise at
+    ``sigma_states`` states and scales as 1/S, so that it keeps its size beside a row's mean entry
+    1/S: an absolute sigma = 0.1 makes tau_j nearly unrelated to tau from S = 50 on (mean total
+    variation 0.39 at S = 20, 0.71 at S = 100), where the certified optimum degenerates.
+    """
+    return sigma if sigma_states is None else sigma * sigma_states / n_states
 
 
 @dataclass(frozen=True)
@@ -111,9 +125,11 @@ TRANSITIONS = ("uniform", "dirichlet", "sparse")
 
 def _mdp(node: Any) -> MDPSettings:
     r = Reader(node, "mdp")
-    name = r.choice("name", ("random", "grid", "objectworld"))
+    name = r.choice("name", ("random", "grid", "objectworld", "gymnasium", "seals"))
     if name == "objectworld":
         return _objectworld(r)
+    if name in ("gymnasium", "seals"):
+        return env_settings(r, name)
     if name == "random":
         n_states = r.int("n_states", lo=1)
         return RandomMDPSettings(
@@ -175,13 +191,23 @@ def _objectworld(r: Reader) -> ObjectworldSettings:
 
 def _dynamics(node: Any, mdp: MDPSettings) -> DynamicsSettings:
     r = Reader(node, "dynamics")
-    kind = r.choice("kind", ("gaussian", "same", "grid_layouts", "slip"))
+    kind = r.choice("kind", ("gaussian", "same", "grid_layouts", "slip", "env_values"))
     name = str(r.raw("name", kind))
+    if kind == "env_values":
+        if not isinstance(mdp, EnvMDPSettings):
+            raise ConfigError(f"'dynamics={name}' sets a parameter of a gymnasium or seals environment; use it with mdp=gymnasium or mdp=seals")
+        values = r.raw("values", DEFAULT_VALUES[mdp.env])
+        if not isinstance(values, (list, tuple)) or not values:
+            raise ConfigError(f"'dynamics.values' must be a non-empty list of {mdp.env}'s parameter values, got {values!r}")
+        return DynamicsSettings(name, kind, len(values), values=tuple(env_value(r, "values", mdp.env, v) for v in values))
+    if isinstance(mdp, EnvMDPSettings) and kind != "same":
+        raise ConfigError(f"'dynamics={name}' does not apply to mdp={mdp.name}; use dynamics=env_values (one dynamics per value of {mdp.env}'s parameter) or dynamics=same")
     if kind == "gaussian":
         if mdp.name != "random":
             instead = "dynamics=same or dynamics=slip" if mdp.name == "objectworld" else "dynamics=same"
             raise ConfigError(f"'dynamics={name}' perturbs a random MDP; use it with mdp=random (or use {instead})")
-        return DynamicsSettings(name, kind, r.int("n_dynamics", lo=1), sigma=r.float("sigma", lo=0.0))
+        states = None if r.raw("sigma_states", None) is None else r.int("sigma_states", lo=1)
+        return DynamicsSettings(name, kind, r.int("n_dynamics", lo=1), sigma=r.float("sigma", lo=0.0), sigma_states=states)
     if kind == "same":
         return DynamicsSettings(name, kind, r.int("n_dynamics", lo=1))
     if kind == "slip":
@@ -219,8 +245,8 @@ def problem_settings(cfg: DictConfig | Mapping) -> ProblemSettings:
     kind = d.choice("kind", ("sampled", "exact", "optimal_path"))
     demos = DemoSettings(kind, d.int("n", lo=1) if kind == "sampled" else 0)
     loss = Reader(top.raw("loss"), "loss").choice("kind", LOSSES)
-    if loss == "squared_euclidean" and mdp.name == "random":
-        raise ConfigError("'loss=squared_euclidean' measures distances between grid cells; use it with mdp=grid or mdp=objectworld")
+    if loss == "squared_euclidean" and mdp.name in ("random", "gymnasium", "seals"):
+        raise ConfigError(f"'loss=squared_euclidean' measures distances between grid cells, which mdp={mdp.name} does not give; use it with mdp=grid or mdp=objectworld")
     seed = top.int("seed", lo=0)
     discount = Reader(top.raw("mdp"), "mdp").float("discount", lo=0.0, hi=1.0, open_lo=True, default=1.0)
     return ProblemSettings(mdp=mdp, dynamics=dynamics, demos=demos, loss=loss, seed=seed, discount=discount)

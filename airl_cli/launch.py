@@ -76,11 +76,20 @@ def _known_keys(overrides: list[str], primary_name: str = "airl") -> tuple[dict[
                 if not key.startswith("override "):
                     chosen[key] = value
     groups = config_groups()
+    on_command_line = {}
     for item in overrides:
         key, sep, value = item.partition("=")
         name = key.lstrip("+~")
         if sep and name in groups:
-            chosen[name] = value.split(",")[0]
+            on_command_line[name] = value.split(",")[0]
+    # an experiment picks its own options (``override /mdp: gymnasium``); the command line's win
+    experiment = root / "experiment" / f"{on_command_line.get('experiment', chosen.get('experiment'))}.yaml"
+    if experiment.is_file():
+        for entry in _yaml(experiment)[0].get("defaults", []):
+            for key, value in (entry.items() if isinstance(entry, dict) else ()):
+                if key.startswith("override /"):
+                    chosen[key.removeprefix("override /")] = value
+    chosen.update(on_command_line)
     known: dict[str, tuple[str, list[str] | None]] = {}
     for group, option in chosen.items():
         path = root / group / f"{option}.yaml"

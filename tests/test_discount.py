@@ -99,3 +99,15 @@ def test_the_comparison_methods_fit_with_a_discount(tmp_path, monkeypatch, metho
     result = runner.invoke(app, ["fit", f"method={method}", "mdp.discount=0.9", f"hydra.run.dir={tmp_path / 'r'}", *small])
     assert result.exit_code == 0, result.output
     assert read_dataset(tmp_path / "r" / "dataset.npz").discount == 0.9
+
+
+@pytest.mark.parametrize("mdp", ["random", "grid", "objectworld", "gymnasium", "seals"])
+def test_every_problem_takes_the_discount(mdp):
+    """mdp.discount is a key of every mdp group and reaches the dataset (none ignores it)."""
+    if mdp in ("gymnasium", "seals"):
+        pytest.importorskip(mdp)
+    from airl_cli import api
+
+    extra = {"grid": ["dynamics=grid_suboptimal"], "objectworld": ["dynamics=slip", "mdp.size=4"], "gymnasium": ["dynamics=env_values"], "seals": ["dynamics=env_values"]}
+    dataset = api.make_dataset(f"mdp={mdp}", "mdp.discount=0.9", *extra.get(mdp, []))
+    assert dataset.discount == 0.9

@@ -114,3 +114,17 @@ def test_soft_backward_induction():
     pi_cold, _ = soft_backward_induction(P, 200.0 * R)
     greedy, _ = backward_induction(P, R)
     assert np.array_equal(pi_cold.argmax(axis=-1), greedy)
+
+
+def test_openmp_threads_wait_passively_unless_the_user_chose():
+    """Importing airl sets OMP_WAIT_POLICY=PASSIVE before numba loads OpenMP (spinning threads slowed
+    the planner threefold on a busy machine); a value already in the environment is kept."""
+    import os
+    import subprocess
+    import sys
+
+    code = "import os, airl_cli; print(os.environ['OMP_WAIT_POLICY'])"
+    env = {k: v for k, v in os.environ.items() if k != "OMP_WAIT_POLICY"}
+    assert subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True).stdout.strip() == "PASSIVE"
+    env["OMP_WAIT_POLICY"] = "ACTIVE"
+    assert subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True).stdout.strip() == "ACTIVE"

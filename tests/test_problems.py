@@ -207,3 +207,24 @@ def test_every_tau_generator_gives_rows_with_the_promised_support(transition):
 def test_sparse_generator_bad_n_next():
     with pytest.raises(ValueError, match="n_next"):
         random_mdp(np.random.default_rng(0), n_states=4, transition="sparse", n_next=5)
+
+
+def test_sigma_states_scales_the_perturbation_as_one_over_s():
+    """dynamics.sigma_states=S0: the noise of eq. 7.3 is sigma * S0 / S, the same draws scaled; at
+    S = S0 it is the thesis's sigma; the summary and a bad value say so in one sentence."""
+    from airl_cli import api
+    from airl_cli.config import ConfigError, noise, problem_settings
+
+    assert noise(0.1, None, 100) == 0.1 and noise(0.1, 20, 100) == pytest.approx(0.02) and noise(0.1, 20, 20) == 0.1
+    scaled = api.make_dataset("mdp.n_states=100", "dynamics.sigma_states=20", "demos.n=5", "seed=4")
+    given = api.make_dataset("mdp.n_states=100", "dynamics.sigma=0.02", "demos.n=5", "seed=4")
+    assert np.array_equal(scaled.transitions, given.transitions)
+    thesis = api.make_dataset("dynamics.sigma_states=20", "demos.n=5", "seed=4")  # S = 20
+    assert np.array_equal(thesis.transitions, api.make_dataset("demos.n=5", "seed=4").transitions)
+    # closer to tau than the absolute sigma: mean total variation of the rows
+    absolute = api.make_dataset("mdp.n_states=100", "demos.n=5", "seed=4")
+    tv = lambda d: 0.5 * np.abs(d.transitions[1:] - d.transitions[0][None]).sum(-1).mean()  # noqa: E731
+    assert tv(scaled) < 0.5 < tv(absolute)
+    for bad in ("0", "1.5", "x"):
+        with pytest.raises(ConfigError, match="dynamics.sigma_states"):
+            problem_settings(api.config(f"dynamics.sigma_states={bad}"))

@@ -168,6 +168,20 @@ def test_a_misspelt_key_gets_one_sentence(command, override, needles):
     assert not Path("results").exists()
 
 
+def test_a_key_of_the_group_an_experiment_picks_is_accepted(capsys):
+    """`experiment=size` picks mdp=objectworld (``override /mdp``): its keys are known, the random MDP's are not."""
+    import typer
+
+    from airl_cli.launch import check_keys
+
+    check_keys(["experiment=size", "mdp.features=thresholded"])
+    check_keys(["experiment=frozenlake", "mdp.features=state", "dynamics.values=[0.5]"])
+    with pytest.raises(typer.Exit):
+        check_keys(["experiment=frozenlake", "mdp.n_states=3"])
+    assert "(mdp=gymnasium)" in capsys.readouterr().err
+    check_keys(["experiment=size", "mdp=random", "mdp.n_states=30"])  # the command line's group wins
+
+
 # ------------------------------------------------------------------ 6. unwritable folders, wrong paths
 
 

@@ -19,7 +19,9 @@ from airl_cli.job_files import damaged_jobs
 from airl_cli.sweeps import FIT_COLUMNS, experiment_names, plan
 
 runner = CliRunner()
-EXPERIMENTS = ["fig02_03", "fig04", "fig05", "fig06", "fig07", "fig08", "fig09", "fig12", "fig13", "fig14", "fig15", "fig17", "fig18", "size", "size_random"]
+EXPERIMENTS = ["cliffworld", "fig02_03", "fig04", "fig05", "fig06", "fig07", "fig08", "fig09", "fig12", "fig13", "fig14", "fig15", "fig17", "fig18", "frozenlake", "size", "size_random", "size_random_scaled"]
+#: Experiments on the gymnasium and seals environments: they need the optional extra (pip install ".[envs]").
+ENV_EXPERIMENTS = {"cliffworld": "seals", "frozenlake": "gymnasium"}
 
 
 @pytest.fixture(autouse=True)
@@ -43,17 +45,17 @@ def test_every_experiment_composes_and_plans(name, profile):
         assert len(sweep.jobs) <= 8
 
 
-RANDOM_MDP = {"fig04", "fig05", "fig06", "fig07", "fig08", "fig09", "size_random"}
+RANDOM_MDP = {"fig04", "fig05", "fig06", "fig07", "fig08", "fig09", "size_random", "size_random_scaled"}
 
 
-@pytest.mark.parametrize("name", EXPERIMENTS[1:])
+@pytest.mark.parametrize("name", [e for e in EXPERIMENTS if e != "fig02_03"])
 @pytest.mark.parametrize("loss", ["auto", "zero_one", "squared_features", "squared_euclidean"])
 def test_every_experiment_composes_with_every_loss_and_generator(name, loss):
     """Every reading is one override away: each loss, and on the random MDP each tau generator."""
     transitions = [["mdp.transition=uniform"], ["mdp.transition=dirichlet", "mdp.dirichlet_alpha=0.1"], ["mdp.transition=sparse", "mdp.n_next=3"]]
     for extra in transitions if name in RANDOM_MDP else [[]]:
         overrides = [f"experiment={name}", "profile=quick", f"loss={loss}", *extra]
-        if loss == "squared_euclidean" and name in RANDOM_MDP:
+        if loss == "squared_euclidean" and (name in RANDOM_MDP or name in ENV_EXPERIMENTS):
             with pytest.raises(ConfigError, match="grid"):
                 plan(overrides)
             continue
@@ -80,6 +82,8 @@ def test_full_sizes_follow_the_thesis():
 @pytest.mark.parametrize("name", EXPERIMENTS)
 def test_every_experiment_runs_small_in_process(tmp_path, name):
     """Each experiment at the quick size, through the in-process launcher, to a table and figures."""
+    if name in ENV_EXPERIMENTS:
+        pytest.importorskip(ENV_EXPERIMENTS[name], reason=f"experiment={name} needs the extra: pip install '.[envs]'")
     result = runner.invoke(app, ["sweep", f"experiment={name}", "profile=quick", "hydra/launcher=basic", "method=airl"])
     assert result.exit_code == 0, result.output
     folder = next((tmp_path / "results" / "sweeps").iterdir())

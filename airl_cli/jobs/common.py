@@ -124,6 +124,10 @@ def fit_sizes(cfg: DictConfig) -> dict | None:
         mdp = problem.mdp
         if mdp.name == "random":
             S, A = mdp.n_states, mdp.n_actions
+        elif mdp.name in ("gymnasium", "seals"):
+            from airl_cli.envs import env_sizes
+
+            S, A = env_sizes(mdp.name, mdp.env, map_name=mdp.map_name, width=mdp.width, height=mdp.height)
         else:  # the grid world and the objectworld: size x size cells
             from airl_cli.core.objectworld import OBJECTWORLD_ACTIONS
             from airl_cli.core.problems import GRID_ACTIONS
@@ -131,7 +135,7 @@ def fit_sizes(cfg: DictConfig) -> dict | None:
             S, A = mdp.size**2, len(OBJECTWORLD_ACTIONS if mdp.name == "objectworld" else GRID_ACTIONS)
         n = problem.demos.n if problem.demos.kind == "sampled" else 1
         # the most next states a state reaches: a grid cell its neighbours and itself
-        R = None if mdp.name == "random" else 5
+        R = None if mdp.name in ("random", "gymnasium", "seals") else 5
         if mdp.name == "random" and mdp.transition == "sparse":
             R = mdp.n_next * mdp.n_actions * (problem.dynamics.n_dynamics + 1)
         return {"n_states": S, "n_actions": A, "horizon": mdp.horizon, "n_dynamics": problem.dynamics.n_dynamics, "n_demos": n, "n_next": R}

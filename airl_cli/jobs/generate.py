@@ -8,8 +8,9 @@ from omegaconf import DictConfig
 from rich.progress import Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
 
 from airl_cli.build import build_dataset, expert_scores, resolved_loss
-from airl_cli.config import ProblemSettings, problem_settings
+from airl_cli.config import EnvMDPSettings, ProblemSettings, noise, problem_settings
 from airl_cli.data import Dataset, write_dataset
+from airl_cli.envs import env_parameter
 from airl_cli.jobs.common import err_console, out_console, output_dir, run_job, save_config
 from airl_cli.paths import conf_dir
 from airl_cli.plain_progress import PlainProgress
@@ -24,12 +25,21 @@ def describe(settings: ProblemSettings, dataset: Dataset) -> list[tuple[str, str
         problem = f"random MDP ({sizes})"
     elif mdp.name == "grid":
         problem = f"grid world {mdp.size}x{mdp.size}, epsilon={mdp.epsilon:g} ({sizes})"
+    elif isinstance(mdp, EnvMDPSettings):
+        where = f" {mdp.map_name}" if mdp.env == "FrozenLake" else (f" {mdp.width}x{mdp.height}" if mdp.name == "seals" else "")
+        problem = f"{mdp.name} {mdp.env}{where}, {env_parameter(mdp.env, mdp.value)}, features={mdp.features} ({sizes})"
     else:
         problem = (
             f"objectworld {mdp.size}x{mdp.size}, {mdp.n_objects} objects of {mdp.n_colours} colours, "
             f"features={mdp.features}, slip={mdp.slip:g} ({sizes})"
         )
-    dynamics = f"{dyn.name}, D={dataset.n_dynamics}" + (f", sigma={dyn.sigma:g}" if dyn.kind == "gaussian" else "")
+    dynamics = f"{dyn.name}, D={dataset.n_dynamics}"
+    if dyn.kind == "gaussian":
+        sigma = noise(dyn.sigma, dyn.sigma_states, dataset.n_states)
+        dynamics += f", sigma={sigma:g}" + ("" if dyn.sigma_states is None else f" ({dyn.sigma:g} at {dyn.sigma_states} states, scaled as 1/S)")
+    if dyn.kind == "env_values":
+        assert isinstance(mdp, EnvMDPSettings)
+        dynamics += "; " + ", ".join(f"tau_{j + 1}: {env_parameter(mdp.env, v)}" for j, v in enumerate(dyn.values))
     if dyn.kind == "slip":
         dynamics += "; slips " + ", ".join(f"tau_{j + 1}: {slip:g}" for j, slip in enumerate(dyn.slips))
     if dyn.kind == "grid_layouts":

@@ -14,7 +14,7 @@ import numpy as np
 from omegaconf import DictConfig, OmegaConf
 
 from airl_cli.build import resolved_loss, streams
-from airl_cli.config import plain, problem_settings
+from airl_cli.config import noise, plain, problem_settings
 from airl_cli.core.multimodel import exact_alpha_vectors, expand_beliefs, pbvi_graph, upper_envelope_1d
 from airl_cli.job_files import setting_columns
 from airl_cli.jobs.common import save_config
@@ -48,7 +48,7 @@ def fit_rows(cfg: DictConfig, folder) -> list[dict]:
         "n_features": ds.n_features,
         "n_demos": ds.n_demos if ds.feature_expectations is None else 0,
         "demos": c["demos"]["kind"],
-        "sigma": float(c["dynamics"].get("sigma", 0.0)),
+        "sigma": noise(float(c["dynamics"].get("sigma", 0.0)), c["dynamics"].get("sigma_states"), ds.n_states),
         "weight_sharing": run.settings.options.weight_sharing,
         "loss": resolved_loss(problem_settings(cfg)),
     }

@@ -1,0 +1,280 @@
+"""mdp=gymnasium and mdp=seals: the transition table's conversion on tiny hand-made tables, then the
+problems built from the installed packages against the environments' own tables and their own
+``step`` on sampled transitions, the features and w* as the README documents them, config errors,
+the missing extra, and `airl generate` + `airl fit` through Typer's test runner. The package tests
+skip, saying why, when the extra (pip install ".[envs]") is absent."""
+
+from __future__ import annotations
+
+import json
+import sys
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from airl_cli.cli import app
+from airl_cli.config import problem_settings
+from airl_cli.core import tabular
+from airl_cli.errors import ConfigError
+
+runner = CliRunner()
+
+
+def _compose(*overrides):
+    from airl_cli import api
+
+    return api.config(*overrides)
+
+
+# --------------------------------------------------------------------------- core.tabular, by hand
+
+
+def test_repeated_outcomes_are_summed():
+    # state 0, action 0: two outcomes to state 1 (0.25 each) and one to 0; state 1 loops.
+    P = tabular.outcome_table([0, 0, 0, 1], [0, 0, 0, 0], [1, 1, 0, 1], [0.25, 0.25, 0.5, 1.0], n_states=2, n_actions=1)
+    assert P.tolist() == [[[0.5, 0.5]], [[0.0, 1.0]]]
+
+
+def test_an_outcome_table_that_does_not_sum_to_one_is_refused():
+    with pytest.raises(ValueError, match="sum to"):
+        tabular.outcome_table([0, 1], [0, 0], [1, 1], [0.5, 1.0], n_states=2, n_actions=1)
+
+
+def test_terminal_states_are_those_entered_by_an_ending_outcome_from_the_start():
+    # 0 -> 1 (goes on), 1 -> 2 (ends), 2 -> 0 (the table goes on from the terminal state: ignored),
+    # 3 -> 2 (goes on, but 3 is never reached from the start 0: ignored)
+    live, ends = tabular.episode_states([0, 1, 2, 3], [1, 2, 0, 2], [False, True, False, False], initial=np.array([1.0, 0, 0, 0]))
+    assert live.tolist() == [True, True, False, False]
+    assert ends.tolist() == [False, False, True, False]
+
+
+def test_a_state_entered_both_ending_and_not_is_refused():
+    with pytest.raises(ValueError, match="state 1 is entered both"):
+        tabular.episode_states([0, 0], [1, 1], [True, False], initial=np.array([1.0, 0.0]))
+
+
+def test_absorbing_rows_and_no_change_to_the_input():
+    P = np.full((3, 2, 3), 1 / 3)
+    out = tabular.absorbing(P, np.array([False, True, False]))
+    assert np.all(out[1, :, 1] == 1.0) and out[1].sum() == 2.0
+    assert np.array_equal(out[[0, 2]], P[[0, 2]]) and np.all(P == 1 / 3)
+
+
+def test_entering_reward_is_a_function_of_the_state_or_refused():
+    R = tabular.entering_reward([1, 1, 2], [5.0, 5.0, -1.0], np.array([True, True, True]), n_states=4)
+    assert R[1] == 5.0 and R[2] == -1.0 and np.isnan(R[0]) and np.isnan(R[3])
+    with pytest.raises(ValueError, match="not a function of the state"):
+        tabular.entering_reward([1, 1], [5.0, 4.0], np.array([True, True]), n_states=2)
+
+
+def test_one_hot():
+    assert tabular.one_hot(np.array([2, 0]), 3).tolist() == [[0, 0, 1], [1, 0, 0]]
+
+
+# --------------------------------------------------------------------------- gymnasium
+
+GYM_CASES = [
+    ("FrozenLake", (1 / 3, 0.8, False)),
+    ("CliffWalking", (False, True)),
+    ("Taxi", (False, 0.8)),
+]
+
+
+def _env_table(env):
+    """P (S, A, S) summed from env.P, with no terminal state made absorbing: the reference."""
+    S, A = env.observation_space.n, env.action_space.n
+    P = np.zeros((S, A, S))
+    for s in range(S):
+        for a in range(A):
+            for p, t, _r, _d in env.P[s][a]:
+                P[s, a, t] += p
+    return P
+
+
+@pytest.mark.parametrize(("name", "values"), GYM_CASES)
+def test_gymnasium_dynamics_are_the_env_table_with_terminal_states_absorbing(name, values):
+    pytest.importorskip("gymnasium", reason="mdp=gymnasium needs the extra: pip install '.[envs]'")
+    from airl_cli import envs
+
+    problem = envs.env_problem("gymnasium", name, values, features="tile")
+    assert problem.terminal.any()
+    for j, value in enumerate(values):
+        env = envs.make_env("gymnasium", name, value)
+        reference = _env_table(env)
+        keep = ~problem.terminal
+        assert np.array_equal(problem.transitions[j][keep], reference[keep])
+        # a terminal state is absorbing under every action
+        idx = np.flatnonzero(problem.terminal)
+        assert np.all(problem.transitions[j][idx, :, idx] == 1.0)
+        # every transition a terminating outcome ends on is a terminal state, from a reached state
+        for s in np.flatnonzero(problem.initial > 0):
+            for a in range(env.action_space.n):
+                for _p, t, _r, done in env.P[s][a]:
+                    assert problem.terminal[t] == done
+
+
+@pytest.mark.parametrize(("name", "values"), GYM_CASES)
+def test_gymnasium_dynamics_agree_with_the_env_step_on_sampled_transitions(name, values):
+    pytest.importorskip("gymnasium", reason="mdp=gymnasium needs the extra: pip install '.[envs]'")
+    from airl_cli import envs
+
+    problem = envs.env_problem("gymnasium", name, values, features="tile")
+    rng = np.random.default_rng(0)
+    n = 400
+    for j, value in enumerate(values):
+        env = envs.make_env("gymnasium", name, value)
+        env.reset(seed=j)
+        S, A = problem.transitions.shape[1:3]
+        live = np.flatnonzero(~problem.terminal)
+        for s, a in zip(rng.choice(live, 8), rng.integers(0, A, 8)):
+            counts = np.zeros(S)
+            for _ in range(n):
+                env.unwrapped.s = int(s)
+                t, *_ = env.step(int(a))
+                counts[t] += 1
+            p = problem.transitions[j, s, a]
+            # every state stepped to is possible; frequencies within 5 binomial standard deviations
+            assert np.all(p[counts > 0] > 0), (name, value, s, a)
+            assert np.all(np.abs(counts / n - p) <= 5 * np.sqrt(p * (1 - p) / n) + 1e-12), (name, value, s, a)
+
+
+def test_frozenlake_tiles_reward_and_state_features():
+    pytest.importorskip("gymnasium", reason="mdp=gymnasium needs the extra: pip install '.[envs]'")
+    from airl_cli import envs
+
+    tile = envs.env_problem("gymnasium", "FrozenLake", (1 / 3, 1.0), features="tile", map_name="4x4")
+    # SFFF / FHFH / FFFH / HFFG: start 0, holes 5 7 11 12, goal 15 (terminal: holes and goal)
+    assert tile.tiles.tolist() == [0, 1, 1, 1, 1, 2, 1, 2, 1, 1, 1, 2, 2, 1, 1, 3]
+    assert np.flatnonzero(tile.terminal).tolist() == [5, 7, 11, 12, 15]
+    assert np.array_equal(tile.features, np.eye(4)[tile.tiles])
+    assert tile.true_weights.tolist() == [0.0, 0.0, 0.0, 1.0]  # gymnasium's reward_schedule (1, 0, 0)
+    assert tile.initial.tolist() == [1.0] + [0.0] * 15
+    state = envs.env_problem("gymnasium", "FrozenLake", (1 / 3, 1.0), features="state", map_name="4x4")
+    assert np.array_equal(state.features, np.eye(16)) and state.true_weights.tolist() == [0.0] * 15 + [1.0]
+    # success_rate 1 is gymnasium's is_slippery=False
+    assert np.array_equal(tile.transitions[1], envs.env_problem("gymnasium", "FrozenLake", (False,), features="tile").transitions[0])
+
+
+def test_cliffwalking_and_taxi_rewards_as_documented():
+    pytest.importorskip("gymnasium", reason="mdp=gymnasium needs the extra: pip install '.[envs]'")
+    from airl_cli import envs
+
+    cliff = envs.env_problem("gymnasium", "CliffWalking", (False,), features="tile")
+    assert cliff.true_weights.tolist() == list(envs.CLIFF_WALKING_WEIGHTS)
+    assert np.flatnonzero(cliff.terminal).tolist() == [47] and cliff.tiles[36] == 0 and np.all(cliff.tiles[37:47] == 2)
+    # no trajectory occupies a cliff cell: the env puts a fall back on start
+    assert cliff.transitions[0][:, :, 37:47].sum() == 0.0
+    taxi = envs.env_problem("gymnasium", "Taxi", (False,), features="tile")
+    assert taxi.true_weights.tolist() == [-1.0, 20.0] and taxi.terminal.sum() == 4
+    assert np.array_equal(taxi.features[:, 1], taxi.terminal.astype(float))
+
+
+# --------------------------------------------------------------------------- seals
+
+
+def test_seals_cliffworld_is_its_transition_matrix_and_agrees_with_its_step():
+    pytest.importorskip("seals", reason="mdp=seals needs the extra: pip install '.[envs]'")
+    from airl_cli import envs
+
+    values = (0.3, 0.1, 0.0)
+    problem = envs.env_problem("seals", "CliffWorld", values, features="tile", width=15, height=6, horizon=18)
+    assert problem.transitions.shape == (3, 90, 4, 90) and not problem.terminal.any()
+    rng = np.random.default_rng(1)
+    n = 300
+    for j, fail_p in enumerate(values):
+        env = envs.make_env("seals", "CliffWorld", fail_p, width=15, height=6, horizon=18)
+        assert np.array_equal(problem.transitions[j], env.transition_matrix)
+        env.reset(seed=j)
+        for s, a in zip(rng.integers(0, 90, 6), rng.integers(0, 4, 6)):
+            counts = np.zeros(90)
+            for _ in range(n):
+                env.reset()
+                env.state = int(s)
+                *_, info = env.step(int(a))
+                counts[info["new_state"]] += 1
+            p = problem.transitions[j, s, a]
+            assert np.all(p[counts > 0] > 0) and np.all(np.abs(counts / n - p) <= 5 * np.sqrt(p * (1 - p) / n) + 1e-12)
+    # tiles: row 0 holds start (ground), the cliff and the goal; w* is seals' reward per tile
+    assert problem.true_weights.tolist() == [-1.0, -10.0, 10.0]
+    assert np.array_equal(problem.features @ problem.true_weights, env.reward_matrix)
+    assert problem.initial[0] == 1.0
+
+
+# --------------------------------------------------------------------------- config
+
+
+@pytest.mark.parametrize(
+    ("overrides", "match"),
+    [
+        (["mdp=gymnasium", "dynamics=env_values", "mdp.env=CliffWalking", "mdp.value=0.5"], "'mdp.value' must be true or false"),
+        (["mdp=gymnasium", "dynamics=env_values", "dynamics.values=[0.5,1.5]"], "'dynamics.values' must be true or false"),
+        (["mdp=gymnasium", "dynamics=env_values", "mdp.env=Blackjack"], "'mdp.env' must be one of FrozenLake, CliffWalking, Taxi"),
+        (["mdp=seals", "dynamics=env_values", "mdp.value=true"], "a number between 0 and 1 \\(fail_p\\)"),
+        (["mdp=gymnasium"], "use dynamics=env_values"),
+        (["mdp=random", "dynamics=env_values"], "use it with mdp=gymnasium or mdp=seals"),
+        (["mdp=seals", "dynamics=env_values", "loss=squared_euclidean"], "distances between grid cells"),
+    ],
+)
+def test_bad_values_are_one_sentence(overrides, match):
+    with pytest.raises(ConfigError, match=match):
+        problem_settings(_compose(*overrides))
+
+
+def test_default_values_are_each_envs_own():
+    s = problem_settings(_compose("mdp=gymnasium", "dynamics=env_values"))
+    assert s.dynamics.values == (0.5, 0.75, 1.0) and s.mdp.value == pytest.approx(1 / 3)  # gymnasium's success_rate
+    s = problem_settings(_compose("mdp=gymnasium", "dynamics=env_values", "mdp.env=Taxi"))
+    assert s.mdp.value is False and s.dynamics.values == (0.6, 0.8, 1.0)
+    s = problem_settings(_compose("mdp=gymnasium", "dynamics=env_values", "mdp.env=CliffWalking"))
+    assert s.mdp.value is False and s.dynamics.values == (True,)
+    s = problem_settings(_compose("mdp=seals", "dynamics=env_values"))
+    assert s.mdp.value == 0.3 and s.dynamics.values == (0.1, 0.2, 0.4)  # seals' fail_p
+
+
+def test_the_missing_extra_is_one_sentence(monkeypatch, tmp_path):
+    from airl_cli import envs
+
+    monkeypatch.setitem(sys.modules, "gymnasium", None)  # import gymnasium now raises ImportError
+    with pytest.raises(ConfigError, match=r"^'mdp=gymnasium' needs the optional extra: pip install 'airl-cli\[envs\]'"):
+        envs.require("gymnasium")
+    monkeypatch.chdir(tmp_path)
+    result = runner.invoke(app, ["fit", "mdp=gymnasium", "dynamics=env_values", f"hydra.run.dir={tmp_path / 'r'}"])
+    assert result.exit_code == 2, result.output
+    assert result.output.strip().splitlines() == [f"error: {envs.MISSING.format(package='gymnasium')}"]
+
+
+def test_an_old_gymnasium_is_one_sentence(monkeypatch):
+    gymnasium = pytest.importorskip("gymnasium", reason="mdp=gymnasium needs the extra: pip install '.[envs]'")
+    from airl_cli import envs
+
+    monkeypatch.setattr(gymnasium, "__version__", "1.2.2")
+    with pytest.raises(ConfigError, match=r"needs gymnasium 1.3 or later, but 1.2.2 is installed"):
+        envs.require("gymnasium")
+
+
+# --------------------------------------------------------------------------- command line
+
+
+def test_generate_and_fit_on_frozenlake_and_cliffworld(tmp_path, monkeypatch):
+    pytest.importorskip("gymnasium", reason="mdp=gymnasium needs the extra: pip install '.[envs]'")
+    pytest.importorskip("seals", reason="mdp=seals needs the extra: pip install '.[envs]'")
+    monkeypatch.chdir(tmp_path)
+    gen = tmp_path / "gen"
+    result = runner.invoke(app, ["generate", "mdp=gymnasium", "dynamics=env_values", "demos.n=20", "mdp.horizon=8", f"hydra.run.dir={gen}"])
+    assert result.exit_code == 0, result.output
+    summary = (gen / "summary.txt").read_text()
+    assert "gymnasium FrozenLake 4x4, is_slippery=True, success_rate=0.333333" in summary and "tau_3: is_slippery=True, success_rate=1" in summary
+    for method in ("airl", "mce"):
+        out = tmp_path / f"fit_{method}"
+        result = runner.invoke(app, ["fit", f"data={gen / 'dataset.npz'}", f"method={method}", f"hydra.run.dir={out}"])
+        assert result.exit_code == 0, result.output
+        rows = json.loads((out / "metrics.json").read_text())["dynamics"]
+        assert [r["dynamics"] for r in rows] == ["tau", "tau_1", "tau_2", "tau_3"]
+        assert all(0.0 <= r["learner_score"] <= 1.0 + 1e-9 for r in rows)
+    out = tmp_path / "seals"
+    args = ["fit", "mdp=seals", "dynamics=env_values", "method=mce", "demos.n=20", "mdp.width=7", "mdp.height=4", "mdp.horizon=10", f"hydra.run.dir={out}"]
+    result = runner.invoke(app, args)
+    assert result.exit_code == 0, result.output
+    rows = json.loads((out / "metrics.json").read_text())["dynamics"]
+    assert [r["dynamics"] for r in rows] == ["tau", "tau_1", "tau_2", "tau_3"]
