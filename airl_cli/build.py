@@ -15,6 +15,7 @@ from airl_cli import envs
 from airl_cli.config import EnvMDPSettings, GridMDPSettings, MDPSettings, ObjectworldSettings, ProblemSettings, noise
 from airl_cli.core import demos as core_demos
 from airl_cli.core import objectworld, problems
+from airl_cli.core.mdp import discounted
 from airl_cli.core.planning import backward_induction
 from airl_cli.core.scores import performance
 from airl_cli.core.sparse import SparseDynamics
@@ -48,6 +49,7 @@ class Problem:
     true_weights: np.ndarray  # (K,)
     loss: np.ndarray  # (S, S)
     coordinates: np.ndarray | None = None  # (S, 2) grid cells (row, col), or None
+    discount: float = 1.0  # gamma: step t weighted by gamma^t
 
 
 def resolved_loss(settings: ProblemSettings) -> str:
@@ -130,7 +132,7 @@ def build_problem(settings: ProblemSettings) -> Problem:
     if isinstance(mdp, ObjectworldSettings):
         # a cell reaches at most 5 cells: the dynamics stay sparse (core.sparse), even at S = 4,096
         slips = dyn.slips if dyn.kind == "slip" else (mdp.slip,) * dyn.n_dynamics
-        return Problem(objectworld.slip_sparse(mdp.size, (mdp.slip, *slips)), phi, p0, mdp.horizon, w_star, loss, coords)
+        return Problem(objectworld.slip_sparse(mdp.size, (mdp.slip, *slips)), phi, p0, mdp.horizon, w_star, loss, coords, settings.discount)
     if dyn.kind == "gaussian":
         sigma = noise(dyn.sigma, dyn.sigma_states, tau.shape[0])
         others = problems.gaussian_perturbations(rng["dynamics"], tau, sigma=sigma, n_dynamics=dyn.n_dynamics)
@@ -142,7 +144,7 @@ def build_problem(settings: ProblemSettings) -> Problem:
             [problems.grid_world(epsilon=mdp.epsilon, crosses=layout, size=mdp.size, start=mdp.start) for layout in dyn.layouts]
         )
     transitions = np.concatenate([tau[None], others], axis=0)
-    return Problem(transitions, phi, p0, mdp.horizon, w_star, loss, coords)
+    return Problem(transitions, phi, p0, mdp.horizon, w_star, loss, coords, settings.discount)
 
 
 def env_problem(settings: ProblemSettings) -> Problem:
@@ -159,12 +161,13 @@ def env_problem(settings: ProblemSettings) -> Problem:
     except ValueError as e:  # the table breaks an assumption of airl_cli.core.tabular
         raise ConfigError(f"{mdp.env}'s transition table cannot be read as a problem: {e}") from None
     loss = loss_matrix(resolved_loss(settings), env.features)
-    return Problem(env.transitions, env.features, env.initial, mdp.horizon, env.true_weights, loss)
+    return Problem(env.transitions, env.features, env.initial, mdp.horizon, env.true_weights, loss, discount=settings.discount)
 
 
 def expert_policy(problem: Problem) -> np.ndarray:
-    """The demonstrator: the optimal policy (T-1, S) of w* . phi under tau (thesis §4.1)."""
-    policy, _ = backward_induction(problem.transitions[0], problem.features @ problem.true_weights, horizon=problem.horizon)
+    """The demonstrator: the optimal policy (T-1, S) of w* . phi (discounted) under tau (thesis §4.1)."""
+    R = discounted(problem.features @ problem.true_weights, problem.horizon, problem.discount)
+    policy, _ = backward_induction(problem.transitions[0], R)
     return policy
 
 
@@ -178,7 +181,7 @@ def build_dataset(settings: ProblemSettings) -> tuple[Dataset, np.ndarray]:
         states, actions = core_demos.sample_trajectories(streams(settings.seed)["demos"], P[1:], policy, p0, settings.demos.n)
         fields = dict(demo_states=states, demo_actions=actions)
     elif settings.demos.kind == "exact":
-        fields = dict(feature_expectations=core_demos.expected_feature_sums(P[1:], policy, p0, phi))
+        fields = dict(feature_expectations=core_demos.expected_feature_sums(P[1:], policy, p0, phi, discount=problem.discount))
     else:
         states, actions = core_demos.most_likely_trajectory(P[0], policy, p0)
         for j in range(1, P.shape[0]):
@@ -200,6 +203,7 @@ def build_dataset(settings: ProblemSettings) -> tuple[Dataset, np.ndarray]:
         horizon=problem.horizon,
         true_weights=problem.true_weights,
         loss=problem.loss,
+        discount=problem.discount,
         **fields,
     )
     return dataset, policy
@@ -209,4 +213,4 @@ def expert_scores(dataset: Dataset, policy: np.ndarray) -> np.ndarray:
     """The demonstrator's normalised performance (M,) under tau_0..tau_D (thesis §7.2)."""
     assert dataset.true_weights is not None
     R = dataset.features @ dataset.true_weights
-    return np.array([performance(Pj, R, policy, dataset.initial) for Pj in dataset.transitions])
+    return np.array([performance(Pj, R, policy, dataset.initial, discount=dataset.discount) for Pj in dataset.transitions])

@@ -116,6 +116,7 @@ class ProblemSettings:
     demos: DemoSettings
     loss: str  # one of LOSSES
     seed: int
+    discount: float = 1.0  # mdp.discount: gamma in (0, 1], step t weighted by gamma^t (1 in the thesis)
 
 
 #: game.adversary: the thesis's history-dependent adversary, or the Markov variant (core.markov_adversary).
@@ -249,7 +250,8 @@ def problem_settings(cfg: DictConfig | Mapping) -> ProblemSettings:
     if loss == "squared_euclidean" and mdp.name in ("random", "gymnasium", "seals"):
         raise ConfigError(f"'loss=squared_euclidean' measures distances between grid cells, which mdp={mdp.name} does not give; use it with mdp=grid or mdp=objectworld")
     seed = top.int("seed", lo=0)
-    return ProblemSettings(mdp=mdp, dynamics=dynamics, demos=demos, loss=loss, seed=seed)
+    discount = Reader(top.raw("mdp"), "mdp").float("discount", lo=0.0, hi=1.0, open_lo=True, default=1.0)
+    return ProblemSettings(mdp=mdp, dynamics=dynamics, demos=demos, loss=loss, seed=seed, discount=discount)
 
 
 # --------------------------------------------------------------------------- learning
@@ -283,7 +285,12 @@ def _method_options(r: Reader, name: str) -> dict:
     """The keyword options the registry lists for method ``name``, read and checked."""
     out = {}
     for o in REGISTRY[name].options:
-        out[o.key] = r.int(o.key, lo=o.lo) if o.kind == "int" else r.float(o.key, lo=o.lo, open_lo=o.open_lo)
+        if o.kind == "choice":
+            out[o.key] = r.choice(o.key, o.choices)
+        elif o.kind == "int":
+            out[o.key] = r.int(o.key, lo=o.lo, hi=o.hi)
+        else:
+            out[o.key] = r.float(o.key, lo=o.lo, hi=o.hi, open_lo=o.open_lo)
     return out
 
 

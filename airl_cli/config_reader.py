@@ -87,7 +87,7 @@ class Reader:
 
 def _range(lo: Any, hi: Any, open_lo: bool = False) -> str:
     if lo is not None and hi is not None:
-        return f"between {lo} and {hi}"
+        return f"> {lo} and <= {hi}" if open_lo else f"between {lo} and {hi}"
     if lo is not None:
         return f"> {lo}" if open_lo else f">= {lo}"
     return f"<= {hi}"

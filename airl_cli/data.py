@@ -16,6 +16,10 @@ demo_actions             (D, N, T-1) int        optional
 feature_expectations     (D, K) float           optional; used instead of the demos' mean
 true_weights             (K,) float             optional; w*, enables scoring
 loss                     (S, S) float           optional; else the config's loss
+discount                 () float               optional; gamma in (0, 1], step t weighted by
+                                                gamma^t in feature sums and returns (absent: 1)
+allowed_actions          (S, A) bool            optional; the actions that exist in each state
+                                                (absent: all); only method=robust_mce takes it
 =======================  =====================  ==============================================
 
 Reading validates everything and raises ``DatasetError`` with one sentence naming the key.
@@ -53,6 +57,8 @@ KEYS = (
     "feature_expectations",
     "true_weights",
     "loss",
+    "discount",
+    "allowed_actions",
 )
 REQUIRED = ("features", "initial", "horizon")  # and the dynamics, in one of their two forms
 SPARSE_KEYS = ("transition_next", "transition_probs")
@@ -73,6 +79,8 @@ class Dataset:
     feature_expectations: np.ndarray | None = None
     true_weights: np.ndarray | None = None
     loss: np.ndarray | None = None
+    discount: float = 1.0
+    allowed_actions: np.ndarray | None = None
 
     @property
     def n_states(self) -> int:
@@ -97,11 +105,12 @@ class Dataset:
         return 0 if self.demo_states is None else int(self.demo_states.shape[1])
 
     def feature_targets(self) -> np.ndarray:
-        """c~_j (D, K): the exact feature expectations if given, else the demos' mean feature sum (eq. 4.5)."""
+        """c~_j (D, K): the exact feature expectations if given, else the demos' mean feature sum
+        (eq. 4.5), step t weighted by gamma^t."""
         if self.feature_expectations is not None:
             return self.feature_expectations
         assert self.demo_states is not None
-        return feature_sums(self.demo_states, self.features).mean(axis=1)
+        return feature_sums(self.demo_states, self.features, discount=self.discount).mean(axis=1)
 
     def arrays(self) -> dict[str, np.ndarray]:
         """The keys present, in the README's order, as arrays (sparse dynamics as their two keys)."""
@@ -110,6 +119,8 @@ class Dataset:
             value = getattr(self, f.name)
             if isinstance(value, SparseDynamics):
                 out["transition_next"], out["transition_probs"] = value.next_states, value.probs
+            elif f.name == "discount" and value == 1.0:
+                continue  # the thesis's setting, written as files before the key had it: absent
             elif value is not None:
                 out[f.name] = np.asarray(value)
         return out
@@ -310,6 +321,7 @@ def validate(raw: dict[str, np.ndarray]) -> Dataset:
 
     states, actions = _demonstrations(raw, P, p0, T)
     fexp, w_star, loss = _optional_arrays(raw, D, S, K)
+    discount, allowed = _discount_and_actions(raw, S, A)
     return Dataset(
         transitions=P,
         features=phi,
@@ -320,7 +332,28 @@ def validate(raw: dict[str, np.ndarray]) -> Dataset:
         feature_expectations=fexp,
         true_weights=w_star,
         loss=loss,
+        discount=discount,
+        allowed_actions=allowed,
     )
+
+
+def _discount_and_actions(raw: dict, S: int, A: int) -> tuple[float, np.ndarray | None]:
+    """gamma (1 when absent) and the (S, A) bool allowed actions (None when absent)."""
+    discount = 1.0
+    if "discount" in raw:
+        g = _numeric("discount", np.asarray(raw["discount"]))
+        if g.shape != () or not 0.0 < float(g) <= 1.0:
+            _fail(f"key 'discount' must be one number in (0, 1], but is {g.tolist()!r}")
+        discount = float(g)
+    allowed = None
+    if "allowed_actions" in raw:
+        allowed = np.asarray(raw["allowed_actions"])
+        if allowed.dtype != bool:
+            _fail(f"key 'allowed_actions' must be a bool array, but is {allowed.dtype}")
+        _shape("allowed_actions", allowed, (S, A), "(S, A)")
+        if not allowed.any(axis=1).all():
+            _fail(f"key 'allowed_actions' leaves state {int(np.argmin(allowed.any(axis=1)))} without an action")
+    return discount, allowed
 
 
 # --------------------------------------------------------------------------- file I/O

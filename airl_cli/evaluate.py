@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from airl_cli.core.mdp import discounted
 from airl_cli.core.planning import backward_induction
 from airl_cli.core.scores import cosine_similarity, mixture_performance, performance, return_bounds
 from airl_cli.data import Dataset
@@ -21,9 +22,9 @@ def weights_for(weights: np.ndarray, j: int) -> np.ndarray:
 
 
 def learner_policy(dataset: Dataset, weights: np.ndarray, j: int) -> np.ndarray:
-    """The learner's policy (T-1, S) for dynamics j: optimal for its w . phi under tau_j."""
-    R = dataset.features @ weights_for(weights, j)
-    policy, _ = backward_induction(dataset.transitions[j], R, horizon=dataset.horizon)
+    """The learner's policy (T-1, S) for dynamics j: optimal for its w . phi (discounted) under tau_j."""
+    R = discounted(dataset.features @ weights_for(weights, j), dataset.horizon, dataset.discount)
+    policy, _ = backward_induction(dataset.transitions[j], R)
     return policy
 
 
@@ -46,16 +47,17 @@ def score_rows(
     w_star = dataset.true_weights
     expert = None
     if w_star is not None:
-        expert, _ = backward_induction(dataset.transitions[0], dataset.features @ w_star, horizon=dataset.horizon)
+        expert, _ = backward_induction(dataset.transitions[0], discounted(dataset.features @ w_star, dataset.horizon, dataset.discount))
     for j in range(dataset.transitions.shape[0]):
         P = dataset.transitions[j]
         policy = policies[j] if policies is not None else learner_policy(dataset, weights, j)
         row = {"dynamics": dynamics_name(j), "learner_score": None, "demonstrator_score": None, "cosine_similarity": None}
         row["equilibrium_score"] = None
         if w_star is not None:
-            R = dataset.features @ w_star
+            # step t's reward weighted by gamma^t (mdp.discount; 1 in the thesis)
+            R = discounted(dataset.features @ w_star, dataset.horizon, dataset.discount)
             # r-bar and R-bar of this dynamics, once for every policy scored in it
-            bounds = return_bounds(P, R, dataset.initial, horizon=dataset.horizon)
+            bounds = return_bounds(P, R, dataset.initial)
             row["learner_score"] = performance(P, R, policy, dataset.initial, bounds=bounds)
             row["demonstrator_score"] = performance(P, R, expert, dataset.initial, bounds=bounds)
             if equilibrium is not None:

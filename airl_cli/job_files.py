@@ -39,6 +39,12 @@ FIT_COLUMNS = (
 )  # fmt: skip
 #: The columns of the alpha-vector experiment's one row (thesis Figs. 2-3).
 ALPHA_COLUMNS = ("experiment", "seed", "n_exact", "n_envelope", "n_pbvi", "n_beliefs", "max_value_gap", "seconds")
+#: The columns of the Viano et al. GridWorld experiment's one row (``jobs.viano_rows``).
+VIANO_COLUMNS = (
+    "experiment", "method", "alpha", "x", "x_name", "learner_epsilon", "corner", "total_return", "published",
+    "relative_difference", "expert_return", "published_expert", "seconds",
+)  # fmt: skip
+_VIANO_FLOATS = ("x", "learner_epsilon", "total_return", "expert_return", "seconds")
 #: The arrays of the alpha-vector experiment's ``alphas.npz``.
 ALPHA_ARRAYS = ("exact", "exact_envelope", "pbvi", "t", "s")
 #: The config groups whose every setting becomes a column of the results table.
@@ -73,8 +79,11 @@ def problem(folder: Path) -> str | None:
     try:
         config = _config(folder)
         header, rows = _csv(folder / ROWS, what="rows")
-        if config.get("experiment", {}).get("kind") == "alphas":
+        kind = config.get("experiment", {}).get("kind")
+        if kind == "alphas":
             _check_alphas(folder, config, header, rows)
+        elif kind == "viano":
+            _check_viano(config, header, rows)
         else:
             _check_fit(folder, config, header, rows)
     except Damaged as damage:
@@ -275,6 +284,23 @@ def _check_alphas(folder: Path, config: dict, header: list[str], rows: list[list
     shapes = _check_npz(folder / "alphas.npz", ALPHA_ARRAYS, checksums=True)  # drawn as it is
     if [shapes["exact"][0], shapes["exact_envelope"][0], shapes["pbvi"][0]] != [int(row[c]) for c in ("n_exact", "n_envelope", "n_pbvi")]:
         raise Damaged("alphas.npz does not hold the vectors rows.csv counts")
+
+
+def _check_viano(config: dict, header: list[str], rows: list[list[str]]) -> None:
+    if header != list(VIANO_COLUMNS) or len(rows) != 1:
+        raise Damaged(f"{ROWS} is not the job's one row of {len(VIANO_COLUMNS)} columns")
+    row = dict(zip(header, rows[0], strict=True))
+    try:
+        numbers = {c: float(row[c]) for c in _VIANO_FLOATS}
+    except ValueError:
+        raise Damaged(f"{ROWS} has a cell that is not a number") from None
+    if not all(math.isfinite(v) for v in numbers.values()):
+        raise Damaged(f"{ROWS} has a cell that is not a finite number")
+    exp, method = config["experiment"], config["method"]
+    x = exp["horizon"] if exp.get("horizon") is not None else exp["epsilon"]
+    alpha_ok = method.get("name") != "robust_mce" or float(row["alpha"]) == float(method["alpha"])
+    if row["method"] != method.get("name") or not alpha_ok or numbers["x"] != float(x):
+        raise Damaged(f"{ROWS} is of method={row['method']}, alpha={row['alpha']}, x={row['x']}, not the job's")
 
 
 def _check_npz(path: Path, arrays: tuple[str, ...], *, checksums: bool = False) -> dict[str, tuple[int, ...]]:

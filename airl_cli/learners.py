@@ -2,13 +2,14 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from airl_cli.config import FitSettings
-from airl_cli.core import baselines, mmp
+from airl_cli.core import baselines, mmp, robust_mce
 from airl_cli.core.certified import minimize, objective_at
 from airl_cli.core.degeneracy import is_degenerate, reward_effect
 from airl_cli.core.game import GameProblem, scaled
@@ -72,7 +73,22 @@ def learn(
     Raises:
         ConfigError: if the method cannot use this dataset (behavioural cloning without actions).
     """
+    _check_supported(dataset, settings.method)
     return globals()[REGISTRY[settings.method].learner](dataset, settings, rng, callback, planner_progress)
+
+
+def _check_supported(dataset: Dataset, method: str) -> None:
+    """One sentence for what a method cannot take: a discount (the thesis's method) or action sets."""
+    if method == "airl" and dataset.discount < 1.0:
+        raise ConfigError(
+            f"method=airl solves the thesis's undiscounted game and does not take a discount (mdp.discount = "
+            f"{dataset.discount:g}); use mdp.discount=1, or a comparison method (mce, robust_mce, projection, mmp)"
+        )
+    if method != "robust_mce" and dataset.allowed_actions is not None:
+        raise ConfigError(
+            f"method={method} assumes every action exists in every state, and this dataset restricts them "
+            "('allowed_actions'); use method=robust_mce (method.alpha=1 is MCE IRL)"
+        )
 
 
 # Each method's learner (named in airl_cli.methods), called as learn(dataset, settings, rng,
@@ -100,12 +116,31 @@ def _weights_learned(name: str, res) -> Learned:
 
 def _learn_mce(dataset: Dataset, settings: FitSettings, *_) -> Learned:
     d = dataset
-    return _weights_learned("mce", baselines.mce_irl(d.transitions, d.features, d.initial, d.horizon, d.feature_targets(), **settings.method_options))
+    res = baselines.mce_irl(d.transitions, d.features, d.initial, d.horizon, d.feature_targets(), discount=d.discount, **settings.method_options)
+    return _weights_learned("mce", res)
+
+
+def _learn_robust_mce(dataset: Dataset, settings: FitSettings, *_) -> Learned:
+    d, o = dataset, settings.method_options
+    if o.get("form") == "infinite" and 0.0 < d.discount < 1.0 and d.discount**d.horizon > 1e-6:
+        need = math.ceil(math.log(1e-6) / math.log(d.discount))
+        raise ConfigError(
+            f"method.form=infinite matches infinite discounted feature sums, but the demonstrations stop after "
+            f"T = {d.horizon} states, which leaves out gamma^T = {d.discount**d.horizon:.2g} of the weight; "
+            f"use mdp.horizon={need} or more, or method.form=finite"
+        )
+    try:
+        res = robust_mce.robust_mce_irl(
+            d.transitions, d.features, d.initial, d.horizon, d.feature_targets(), discount=d.discount, allowed=d.allowed_actions, **o
+        )
+    except ValueError as e:  # a combination the config check cannot see (form=infinite without a discount)
+        raise ConfigError(f"method=robust_mce cannot run: {e} (set mdp.discount below 1, or method.form=finite)") from None
+    return _weights_learned("robust_mce", res)
 
 
 def _learn_projection(dataset: Dataset, settings: FitSettings, *_) -> Learned:
     d = dataset
-    res = baselines.projection(d.transitions, d.features, d.initial, d.horizon, d.feature_targets(), **settings.method_options)
+    res = baselines.projection(d.transitions, d.features, d.initial, d.horizon, d.feature_targets(), discount=d.discount, **settings.method_options)
     return _weights_learned("projection", res)
 
 
@@ -117,7 +152,7 @@ def _learn_mmp(dataset: Dataset, settings: FitSettings, *_) -> Learned:
         loss = scaled(loss)
     res = mmp.max_margin_planning(
         d.transitions, d.features, d.initial, d.horizon, d.feature_targets(),
-        demo_marginals=demo_marginals(d), loss=loss, **settings.method_options,
+        demo_marginals=demo_marginals(d), loss=loss, discount=d.discount, **settings.method_options,
     )
     return _weights_learned("mmp", res)
 

@@ -15,12 +15,15 @@ from dataclasses import dataclass
 
 @dataclass(frozen=True)
 class Option:
-    """One keyword option of a method: ``kind`` "int" or "float", with bounds (``open_lo``: lo excluded)."""
+    """One keyword option of a method: ``kind`` "int" or "float", with bounds (``open_lo``: lo
+    excluded; ``hi`` included), or "choice" among ``choices``."""
 
     key: str
     kind: str
     lo: float | None = None
     open_lo: bool = False
+    hi: float | None = None
+    choices: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -59,6 +62,17 @@ REGISTRY: dict[str, Method] = {
         Method(
             "mmp", "MMP", "#9467bd", "_learn_mmp",
             (Option("lam", "float", lo=0.0), Option("eta0", "float", lo=0.0, open_lo=True), Option("max_iterations", "int", lo=1)),
+        ),
+        Method(
+            "robust_mce", "robust MCE IRL", "#e377c2", "_learn_robust_mce",
+            (
+                Option("alpha", "float", lo=0.0, open_lo=True, hi=1.0),
+                Option("form", "choice", choices=("finite", "infinite")),
+                Option("optimizer", "choice", choices=("lbfgs", "adam")),
+                Option("lam", "float", lo=0.0),
+                Option("max_iterations", "int", lo=1),
+                Option("lr", "float", lo=0.0, open_lo=True),
+            ),
         ),
         Method("bc", "BC", "#8c564b", "_learn_bc", learns_reward=False),
     )

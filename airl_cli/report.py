@@ -78,6 +78,8 @@ def load(sweeps: Path, profile: str = "full") -> Tables:
         if not (folder / "results.csv").is_file():
             continue
         meta = plan([f"experiment={name}"]).experiment
+        if meta["kind"] == "viano":  # another paper's table, not a claim of chapter 7: its sweep shows it
+            continue
         meta = {**meta, "folder": str(folder)}
         out[name] = (meta, read_table(folder, meta))
     return out

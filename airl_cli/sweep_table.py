@@ -136,6 +136,8 @@ def draw_figures(folder: Path) -> list[Path]:
 def medians_text(experiment: dict, table: pd.DataFrame) -> str:
     """A short table for the terminal: the median score per method and swept value, over runs
     and the experiment's dynamics, the demonstrator's beside it, and the thesis's claim."""
+    if experiment.get("kind") == "viano" and "total_return" in table:
+        return viano_text(experiment, table)
     if experiment.get("kind") == "alphas" or "learner_score" not in table:
         return ""
     rows = table[table["dynamics"].isin(experiment.get("dynamics") or table["dynamics"].unique())]
@@ -151,4 +153,29 @@ def medians_text(experiment: dict, table: pd.DataFrame) -> str:
         lines.append(f"{x:>12g}" + "".join(f"{v:>13.4f}" for v in r))
     if experiment.get("thesis"):
         lines.append(f"thesis: {experiment['thesis']}")
+    return "\n".join(lines) + "\n\n"
+
+
+def viano_text(experiment: dict, table: pd.DataFrame) -> str:
+    """Viano et al.'s GridWorld: ours per alpha and eps_E, the published number in brackets."""
+    lines = ["", "total return (eps_L = 0) from every start state, ours (published, difference):"]
+    xs = sorted(table["x"].unique())
+    lines.append(f"{'':>12}" + "".join(f"{experiment.get('x', 'x') + '=' + format(x, 'g'):>26}" for x in xs))
+    labels = [m if m != "robust_mce" else f"alpha={a:g}" for m, a in zip(table["method"], table["alpha"])]
+    for label, rows in sorted(table.assign(label=labels).groupby("label", sort=False), key=lambda kv: -kv[1]["alpha"].fillna(2).iloc[0]):
+        cells = []
+        for x in xs:
+            row = rows[rows["x"] == x]
+            if row.empty:
+                cells.append(f"{'':>26}")
+                continue
+            ours, theirs, diff = (float(row[c].iloc[0]) for c in ("total_return", "published", "relative_difference"))
+            text = f"{ours:.1f}" if theirs != theirs else f"{ours:.1f} ({theirs:.1f}, {100 * diff:+.1f}%)"
+            cells.append(f"{text:>26}")
+        lines.append(f"{label:>12}" + "".join(cells))
+    expert = table["expert_return"].iloc[0]
+    theirs = table["published_expert"].iloc[0]
+    lines.append(f"expert (optimal policy): {expert:.1f}" + ("" if theirs != theirs else f" (published {theirs:.1f})"))
+    if experiment.get("thesis"):
+        lines.append(experiment["thesis"])
     return "\n".join(lines) + "\n\n"

@@ -66,7 +66,7 @@ def test_a_sweep_process_imports_no_solver_nor_table_code_before_its_jobs():
 # --------------------------------------------------------------------------- one-way layers
 
 #: The layers, bottom to top; a module may import its own layer and those below, never above.
-#: ``airl sweep``'s Hydra job (``jobs.sweep``) and its rows (``jobs.sweep_rows``) sit with the
+#: ``airl sweep``'s Hydra job (``jobs.sweep``) and its rows (``jobs.sweep_rows``, ``jobs.viano_rows``) sit with the
 #: sweep machinery they serve, although Hydra finds them under ``jobs/``.
 #: ``conf`` is the Hydra configs' package: it holds no code, but an installed (non-editable) airl
 #: ships it as ``airl_cli.conf`` with an ``__init__.py``, so the walk over the package finds it.
@@ -75,7 +75,7 @@ LAYERS = (
     ("base", "errors paths results plain_progress compose_memo config_reader sweep_spec methods claims multimodel airl_cli conf conf.*"),
     ("problems and methods", "config data mmdp_data envs build evaluate learners plotting plotting.*"),
     ("jobs", "jobs jobs.common jobs.fit jobs.generate jobs.inspect jobs.plan api"),
-    ("sweeps", "launch pool sweep_folder job_files sweep_table sweeps jobs.sweep jobs.sweep_rows report hydra_plugins.*"),
+    ("sweeps", "launch pool sweep_folder job_files sweep_table sweeps jobs.sweep jobs.sweep_rows jobs.viano_rows report hydra_plugins.*"),
     ("command line", "cli __main__"),
 )
 

@@ -196,7 +196,7 @@ def test_a_sparse_file_reads_as_the_dense_one_and_fits_the_same(tmp_path):
     assert np.array_equal(dense.transitions, sparse.transitions.dense())
     # the same weights (to the certificate's tolerance) and scores whichever form the file has;
     # every method runs on the sparse form
-    for method in ("airl", "mce", "projection", "mmp", "bc"):
+    for method in ("airl", "mce", "robust_mce", "projection", "mmp", "bc"):
         a = api.fit(dense, f"method={method}", "pbvi.iterations=4")
         b = api.fit(sparse, f"method={method}", "pbvi.iterations=4")
         if a.weights is not None:

@@ -25,7 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import minimize
 
-from airl_cli.core.mdp import check_probabilities, check_transitions
+from airl_cli.core.mdp import check_probabilities, check_transitions, discounted
 from airl_cli.core.planning import backward_induction, soft_backward_induction, state_marginals
 from airl_cli.core.sparse import SparseDynamics
 
@@ -88,9 +88,10 @@ def _check_weights(w: np.ndarray, K: int) -> np.ndarray:
     return w
 
 
-def feature_sum(P: np.ndarray, policy: np.ndarray, p0: np.ndarray, phi: np.ndarray) -> np.ndarray:
-    """Expected feature sum E[sum_t phi(s_t)] (K,) of a (T-1, S) or (T-1, S, A) policy under P (S, A, S)."""
-    return state_marginals(P, policy, p0).sum(axis=0) @ phi
+def feature_sum(P: np.ndarray, policy: np.ndarray, p0: np.ndarray, phi: np.ndarray, discount: float = 1.0) -> np.ndarray:
+    """Expected feature sum E[sum_t gamma^t phi(s_t)] (K,) of a (T-1, S) or (T-1, S, A) policy under P (S, A, S)."""
+    d = state_marginals(P, policy, p0)
+    return (discount ** np.arange(d.shape[0])) @ d @ phi
 
 
 def expected_features_per_dynamics(
@@ -138,16 +139,17 @@ def expected_features_per_dynamics(
 
 
 def _mce_value_and_grad(
-    w: np.ndarray, P: np.ndarray, phi: np.ndarray, p0: np.ndarray, horizon: int, targets: np.ndarray, lam: float
+    w: np.ndarray, P: np.ndarray, phi: np.ndarray, p0: np.ndarray, horizon: int, targets: np.ndarray, lam: float,
+    discount: float = 1.0,
 ) -> tuple[float, np.ndarray]:
     """g(w) and its gradient on validated inputs (see ``mce_objective``)."""
     R = np.broadcast_to(phi @ w, (horizon, phi.shape[0]))
     value = float(w @ targets.sum(axis=0)) - 0.5 * lam * float(w @ w)
     grad = targets.sum(axis=0) - lam * w
     for Pj in P[1:]:
-        policy, V = soft_backward_induction(Pj, R)
+        policy, V = soft_backward_induction(Pj, R, discount=discount)
         value -= float(p0 @ V[0])
-        grad = grad - feature_sum(Pj, policy, p0, phi)
+        grad = grad - feature_sum(Pj, policy, p0, phi, discount)
     return value, grad
 
 
@@ -160,6 +162,7 @@ def mce_objective(
     targets: np.ndarray,
     *,
     lam: float = 1e-3,
+    discount: float = 1.0,
 ) -> tuple[float, np.ndarray]:
     """The MCE IRL dual with several dynamics and its gradient (to be maximised).
 
@@ -167,7 +170,8 @@ def mce_objective(
         grad g(w) = sum_j (c~_j - F_j(w)) - lam w
 
     V_j (T, S) is the soft value of ``soft_backward_induction`` under tau_j with reward w . phi
-    at every time, and F_j (K,) the expected feature sum of its soft policy under tau_j.
+    at every time, and F_j (K,) the expected feature sum of its soft policy under tau_j; with a
+    discount gamma < 1 the soft backup is Q = r + gamma E[V'] and F_j = E[sum_t gamma^t phi(s_t)].
 
     Args:
         w: (K,) shared reward weights.
@@ -184,7 +188,7 @@ def mce_objective(
     P, phi, p0, c = check_problem(transitions, features, initial, horizon, targets)
     if lam < 0:
         raise ValueError(f"lam must be >= 0, got {lam}")
-    return _mce_value_and_grad(_check_weights(w, phi.shape[1]), P, phi, p0, horizon, c, lam)
+    return _mce_value_and_grad(_check_weights(w, phi.shape[1]), P, phi, p0, horizon, c, lam, discount)
 
 
 def mce_irl(
@@ -197,6 +201,7 @@ def mce_irl(
     lam: float = 1e-3,
     max_iterations: int = 200,
     tol: float = 1e-8,
+    discount: float = 1.0,
 ) -> BaselineResult:
     """Maximum causal entropy IRL (Ziebart et al.) with one w shared by all dynamics.
 
@@ -211,6 +216,7 @@ def mce_irl(
         lam: L2 regularisation strength >= 0.
         max_iterations: L-BFGS-B iterations, >= 1.
         tol: scipy's ``tol`` for L-BFGS-B (its gradient and relative-decrease tolerances).
+        discount: gamma in (0, 1] (see ``mce_objective``); the targets are discounted alike.
 
     Returns:
         ``BaselineResult`` with weights (D, K) (identical rows) and history columns "step",
@@ -224,14 +230,14 @@ def mce_irl(
     last: dict[str, object] = {}
 
     def negative(w: np.ndarray) -> tuple[float, np.ndarray]:
-        value, grad = _mce_value_and_grad(w, P, phi, p0, horizon, c, lam)
+        value, grad = _mce_value_and_grad(w, P, phi, p0, horizon, c, lam, discount)
         last.update(w=w.copy(), value=value, grad=grad)
         return -value, -grad
 
     def evaluated(w: np.ndarray) -> tuple[float, np.ndarray]:
         if "w" in last and np.array_equal(last["w"], w):
             return last["value"], last["grad"]
-        return _mce_value_and_grad(w, P, phi, p0, horizon, c, lam)
+        return _mce_value_and_grad(w, P, phi, p0, horizon, c, lam, discount)
 
     objective, grad_norm = [], []
 
@@ -241,7 +247,7 @@ def mce_irl(
         grad_norm.append(float(np.linalg.norm(grad)))
 
     w0 = np.zeros(K)
-    value0, grad0 = _mce_value_and_grad(w0, P, phi, p0, horizon, c, lam)
+    value0, grad0 = _mce_value_and_grad(w0, P, phi, p0, horizon, c, lam, discount)
     objective.append(value0)
     grad_norm.append(float(np.linalg.norm(grad0)))
     result = minimize(
@@ -256,10 +262,10 @@ def mce_irl(
     return BaselineResult(np.tile(result.x, (D, 1)), None, history)
 
 
-def _optimal_features(P: np.ndarray, phi: np.ndarray, p0: np.ndarray, horizon: int, w: np.ndarray) -> np.ndarray:
-    """mu(w) = sum_j F_j(pi_{w,j}) (K,), pi_{w,j} optimal for w . phi under tau_j, j = 1..D."""
-    R = phi @ w
-    return sum(feature_sum(Pj, backward_induction(Pj, R, horizon=horizon)[0], p0, phi) for Pj in P[1:])
+def _optimal_features(P: np.ndarray, phi: np.ndarray, p0: np.ndarray, horizon: int, w: np.ndarray, discount: float = 1.0) -> np.ndarray:
+    """mu(w) = sum_j F_j(pi_{w,j}) (K,), pi_{w,j} optimal for w . phi (discounted) under tau_j, j = 1..D."""
+    R = discounted(phi @ w, horizon, discount)
+    return sum(feature_sum(Pj, backward_induction(Pj, R)[0], p0, phi, discount) for Pj in P[1:])
 
 
 def projection(
@@ -271,6 +277,7 @@ def projection(
     *,
     max_iterations: int = 50,
     tol: float = 1e-6,
+    discount: float = 1.0,
 ) -> BaselineResult:
     """Abbeel & Ng's projection method with one w shared by all dynamics.
 
@@ -297,6 +304,7 @@ def projection(
         targets: (D, K) c~_j.
         max_iterations: number of w updates after step 0, >= 1.
         tol: margin below which to stop, >= 0.
+        discount: gamma in (0, 1]: features and returns sum gamma^t per step.
 
     Returns:
         ``BaselineResult`` with weights (D, K), identical rows holding the chosen w; the learner's
@@ -309,7 +317,7 @@ def projection(
         raise ValueError(f"need max_iterations >= 1 and tol >= 0, got {max_iterations}, {tol}")
     mu_E = c.sum(axis=0)
     w = np.zeros(phi.shape[1])
-    mu_bar = _optimal_features(P, phi, p0, horizon, w)
+    mu_bar = _optimal_features(P, phi, p0, horizon, w, discount)
     margins = [float(np.linalg.norm(mu_E - mu_bar))]
     gaps = list(margins)
     best_w = w
@@ -317,7 +325,7 @@ def projection(
         if margins[-1] < tol:
             break
         w = mu_E - mu_bar
-        mu = _optimal_features(P, phi, p0, horizon, w)
+        mu = _optimal_features(P, phi, p0, horizon, w, discount)
         step = mu - mu_bar
         denom = float(step @ step)
         if denom <= 1e-24 * max(1.0, float(mu_bar @ mu_bar)):

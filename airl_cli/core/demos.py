@@ -111,32 +111,42 @@ def most_likely_trajectory(
     return states, actions
 
 
-def feature_sums(states: np.ndarray, phi: np.ndarray) -> np.ndarray:
-    """Feature sum of each trajectory, c~_{i,j} = sum_t phi(s_t) (eq. 4.4).
+def feature_sums(states: np.ndarray, phi: np.ndarray, *, discount: float = 1.0) -> np.ndarray:
+    """Feature sum of each trajectory, c~_{i,j} = sum_t gamma^t phi(s_t) (eq. 4.4; gamma = 1 in the thesis).
 
     Args:
         states: (..., T) int.
         phi: (S, K).
+        discount: gamma in (0, 1].
 
     Returns:
         (..., K).
     """
-    return phi[states].sum(axis=-2)
+    if discount == 1.0:
+        return phi[states].sum(axis=-2)
+    weights = discount ** np.arange(np.shape(states)[-1])
+    return np.einsum("...tk,t->...k", phi[states], weights)
 
 
-def expected_feature_sums(P: np.ndarray, policy: np.ndarray, p0: np.ndarray, phi: np.ndarray) -> np.ndarray:
-    """Exact expected feature sum E[sum_t phi(s_t)] of a policy under each dynamics.
+def expected_feature_sums(P: np.ndarray, policy: np.ndarray, p0: np.ndarray, phi: np.ndarray, *, discount: float = 1.0) -> np.ndarray:
+    """Exact expected feature sum E[sum_t gamma^t phi(s_t)] of a policy under each dynamics.
 
-    The "infinitely many demonstrations" input of thesis §7.3.2.
+    The "infinitely many demonstrations" input of thesis §7.3.2 (gamma = 1 there).
 
     Args:
-        P: (S, A, S) or (D, S, A, S); policy: (T-1, S) int or (T-1, S, A); p0: (S,); phi: (S, K).
+        P: (S, A, S) or (D, S, A, S); policy: (T-1, S) int or (T-1, S, A); p0: (S,); phi: (S, K);
+        discount: gamma in (0, 1].
 
     Returns:
         (K,) or (D, K).
     """
     if not isinstance(P, (SparseDynamics, SparseModel)):
         P = np.asarray(P, dtype=np.float64)
+
+    def one(Pj) -> np.ndarray:
+        d = state_marginals(Pj, policy, p0)
+        return (discount ** np.arange(d.shape[0])) @ d @ phi
+
     if P.ndim == 3:
-        return state_marginals(P, policy, p0).sum(axis=0) @ phi
-    return np.stack([state_marginals(Pj, policy, p0).sum(axis=0) @ phi for Pj in P])
+        return one(P)
+    return np.stack([one(Pj) for Pj in P])

@@ -74,6 +74,15 @@ def check_transitions(P: np.ndarray, *, name: str = "transitions") -> tuple[int,
     return S, A
 
 
+def discounted(R: np.ndarray, horizon: int, discount: float = 1.0) -> np.ndarray:
+    """Per-time rewards (T, S) gamma^t R[t, s] of rewards R (S,) or (T, S): a return of these is the
+    discounted return sum_t gamma^t R(s_t) (exact for planning and evaluation, not for soft values)."""
+    R = per_time(R, horizon)
+    if discount == 1.0:
+        return R
+    return R * (discount ** np.arange(horizon))[:, None]
+
+
 def per_time(R: np.ndarray, horizon: int) -> np.ndarray:
     """Broadcast state rewards R (S,) to per-time rewards (T, S); pass (T, S) through.
 

@@ -10,6 +10,7 @@ import numpy as np
 
 from airl_cli.core.baselines import BaselineResult, check_problem, feature_sum
 from airl_cli.core.mdp import check_probabilities
+from airl_cli.core.mdp import discounted
 from airl_cli.core.planning import backward_induction
 
 
@@ -45,6 +46,7 @@ def max_margin_planning(
     lam: float = 1e-3,
     eta0: float = 0.1,
     max_iterations: int = 100,
+    discount: float = 1.0,
 ) -> BaselineResult:
     """Ratliff et al.'s maximum margin planning by subgradient descent, one MDP per dynamics.
 
@@ -74,6 +76,7 @@ def max_margin_planning(
         lam: L2 regularisation strength >= 0.
         eta0: initial step size > 0.
         max_iterations: number of subgradient evaluations, >= 1.
+        discount: gamma in (0, 1]: step t's reward, loss and features weighted by gamma^t.
 
     Returns:
         ``BaselineResult`` with weights (D, K), identical rows holding the w of the lowest
@@ -93,9 +96,9 @@ def max_margin_planning(
         f = 0.5 * lam * float(w @ w) - float(w @ target_sum)
         g = lam * w - target_sum
         for j in range(D):
-            policy, V = backward_induction(P[j + 1], phi @ w + augment[j])
+            policy, V = backward_induction(P[j + 1], discounted(phi @ w + augment[j], horizon, discount))
             f += float(p0 @ V[0])
-            g = g + feature_sum(P[j + 1], policy, p0, phi)
+            g = g + feature_sum(P[j + 1], policy, p0, phi, discount)
         if f < best_f:
             best_w, best_f = w, f
         eta = eta0 / np.sqrt(1.0 + t)

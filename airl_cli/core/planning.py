@@ -16,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.special import logsumexp
 
-from airl_cli.core.mdp import argmax_lowest, per_time
+from airl_cli.core.mdp import argmax_lowest, discounted, per_time
 from airl_cli.core.sparse import SparseModel
 
 
@@ -61,12 +61,14 @@ def backward_induction(
     return policy, V
 
 
-def soft_backward_induction(P: np.ndarray, R: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def soft_backward_induction(P: np.ndarray, R: np.ndarray, *, discount: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
     """Soft value iteration of maximum causal entropy IRL (thesis eq. 3.6-3.9), finite horizon.
 
     Args:
         P: dynamics (S, A, S).
         R: per-time state rewards (T, S).
+        discount: gamma in (0, 1]: Q[t] = R[t] + gamma E[V[t+1]] (the soft values of the
+            discounted problem; not the same as rewards gamma^t R, whose soft policy differs).
 
     Returns:
         policy: (T-1, S, A) float, ``pi[t, s, a] = exp(Q[t, s, a] - V[t, s])``.
@@ -81,7 +83,7 @@ def soft_backward_induction(P: np.ndarray, R: np.ndarray) -> tuple[np.ndarray, n
     policy = np.empty((T - 1, S, A))
     V[T - 1] = R[T - 1]
     for t in range(T - 2, -1, -1):
-        Q = R[t][:, None] + _expect(P, V[t + 1])
+        Q = R[t][:, None] + discount * _expect(P, V[t + 1])
         V[t] = logsumexp(Q, axis=1)
         policy[t] = np.exp(Q - V[t][:, None])
     return policy, V
@@ -146,11 +148,12 @@ def state_marginals(P: np.ndarray, policy: np.ndarray, p0: np.ndarray) -> np.nda
     return d
 
 
-def expected_return(P: np.ndarray, R: np.ndarray, policy: np.ndarray, p0: np.ndarray) -> float:
-    """Expected sum of per-time rewards E[sum_t R[t, s_t]] under a policy (eq. 2.19).
+def expected_return(P: np.ndarray, R: np.ndarray, policy: np.ndarray, p0: np.ndarray, *, discount: float = 1.0) -> float:
+    """Expected sum of per-time rewards E[sum_t gamma^t R[t, s_t]] under a policy (eq. 2.19).
 
     Args:
-        P: dynamics (S, A, S); R: (T, S) or (S,); policy: (T-1, S) or (T-1, S, A); p0: (S,).
+        P: dynamics (S, A, S); R: (T, S) or (S,); policy: (T-1, S) or (T-1, S, A); p0: (S,);
+        discount: gamma in (0, 1].
     """
     d = state_marginals(P, policy, p0)
-    return float(np.sum(d * per_time(R, d.shape[0])))
+    return float(np.sum(d * discounted(R, d.shape[0], discount)))

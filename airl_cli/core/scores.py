@@ -4,27 +4,31 @@ from __future__ import annotations
 
 import numpy as np
 
-from airl_cli.core.mdp import per_time
+from airl_cli.core.mdp import discounted
 from airl_cli.core.planning import backward_induction, expected_return
 
 
-def return_bounds(P: np.ndarray, R: np.ndarray, p0: np.ndarray, *, horizon: int | None = None) -> tuple[float, float]:
+def return_bounds(
+    P: np.ndarray, R: np.ndarray, p0: np.ndarray, *, horizon: int | None = None, discount: float = 1.0
+) -> tuple[float, float]:
     """Worst and best achievable expected returns (r-bar, R-bar) of thesis §7.2.
 
     Args:
-        P: (S, A, S); R: (T, S), or (S,) with ``horizon``; p0: (S,).
+        P: (S, A, S); R: (T, S), or (S,) with ``horizon``; p0: (S,); discount: gamma in (0, 1],
+            step t's reward weighted by gamma^t.
 
     Returns:
         (r_min, r_max): expected returns of the minimising and maximising policies.
     """
-    R = per_time(R, horizon if horizon is not None else np.asarray(R).shape[0])
+    R = discounted(R, horizon if horizon is not None else np.asarray(R).shape[0], discount)
     _, V_max = backward_induction(P, R, maximize=True)
     _, V_min = backward_induction(P, R, maximize=False)
     return float(p0 @ V_min[0]), float(p0 @ V_max[0])
 
 
 def performance(
-    P: np.ndarray, R: np.ndarray, policy: np.ndarray, p0: np.ndarray, *, bounds: tuple[float, float] | None = None
+    P: np.ndarray, R: np.ndarray, policy: np.ndarray, p0: np.ndarray, *, bounds: tuple[float, float] | None = None,
+    discount: float = 1.0,
 ) -> float:
     """Normalised performance (E[R] - r-bar) / (R-bar - r-bar) of a policy, in [0, 1].
 
@@ -34,11 +38,12 @@ def performance(
         policy: (T-1, S) int or (T-1, S, A) float.
         p0: (S,).
         bounds: ``return_bounds(P, R, p0)`` if already known (several policies scored in one P and R).
+        discount: gamma in (0, 1]: the returns weight step t by gamma^t.
 
     Returns:
         The share of the achievable range reached; 1.0 when every policy earns the same.
     """
-    return mixture_performance(P, R, np.asarray(policy)[None], np.ones(1), p0, bounds=bounds)
+    return mixture_performance(P, R, np.asarray(policy)[None], np.ones(1), p0, bounds=bounds, discount=discount)
 
 
 def mixture_performance(
@@ -49,6 +54,7 @@ def mixture_performance(
     p0: np.ndarray,
     *,
     bounds: tuple[float, float] | None = None,
+    discount: float = 1.0,
 ) -> float:
     """Normalised performance of a mixture of policies, one drawn by ``mix`` at the start of each episode.
 
@@ -64,7 +70,7 @@ def mixture_performance(
         bounds: ``return_bounds(P, R, p0)`` if already known.
     """
     policies = np.asarray(policies)
-    R = per_time(R, policies.shape[1] + 1)
+    R = discounted(R, policies.shape[1] + 1, discount)
     r_min, r_max = return_bounds(P, R, p0) if bounds is None else bounds
     value = sum(float(m) * expected_return(P, R, pi, p0) for m, pi in zip(mix, policies) if m > 0)
     span = r_max - r_min

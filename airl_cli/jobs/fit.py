@@ -60,6 +60,7 @@ def summary_text(dataset: Dataset, settings: FitSettings, learned: Learned, rows
     else:
         how = f"one shared w, {info['iterations']} iterations"
     given = f", N={dataset.n_demos}" if dataset.feature_expectations is None else ", exact feature expectations"
+    given += f", discount {dataset.discount:g}" if dataset.discount < 1.0 else ""
     lines = [
         f"airl fit: method={learned.method}",
         f"problem   S={dataset.n_states}, A={dataset.n_actions}, K={dataset.n_features}, T={dataset.horizon}, D={dataset.n_dynamics}{given}",

@@ -31,6 +31,10 @@ def describe(path: str) -> str:
         lines.append("  feature expectations: given (used instead of the demonstrations' mean)")
     lines.append("  true weights: " + ("given, runs will be scored" if ds.true_weights is not None else "absent, runs cannot be scored"))
     lines.append("  loss: " + ("given (S, S)" if ds.loss is not None else "absent, the config's loss will be used"))
+    if ds.discount < 1.0:
+        lines.append(f"  discount: gamma = {ds.discount:g}, step t weighted by gamma^t (method=airl refuses it)")
+    if ds.allowed_actions is not None:
+        lines.append(f"  actions: {int(ds.allowed_actions.sum())} of {ds.allowed_actions.size} (state, action) pairs exist (method=robust_mce only)")
     lines.append("  feature sums c~_j:")
     for j, row in enumerate(ds.feature_targets(), start=1):
         lines.append(f"    tau_{j}: " + np.array2string(row, precision=4, separator=", "))

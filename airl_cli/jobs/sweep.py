@@ -71,7 +71,12 @@ def main(cfg: DictConfig) -> None:
     )
 
     try:
-        rows = alpha_rows(cfg, folder) if cfg.experiment.kind == "alphas" else fit_rows(cfg, folder)
+        if cfg.experiment.kind == "viano":
+            from airl_cli.jobs.viano_rows import viano_rows
+
+            rows = viano_rows(cfg, folder)
+        else:
+            rows = alpha_rows(cfg, folder) if cfg.experiment.kind == "alphas" else fit_rows(cfg, folder)
     except AirlError as err:
         write_text(folder / ERROR, f"{err}\n")
         return

@@ -51,6 +51,7 @@ from airl_cli.plotting.scores import (
     run_bars,
     times,
 )
+from airl_cli.plotting.viano import RETURNS_COLUMNS, returns
 from airl_cli.results import atomic_write
 
 __all__ = [
@@ -71,8 +72,8 @@ __all__ = [
 # the sweep folder
 
 
-_DRAWERS = {"histogram": histogram, "curves": curves, "run_bars": run_bars, "cosine": cosine, "times": times}
-_NEEDS = {"histogram": HISTOGRAM_COLUMNS, "curves": CURVES_COLUMNS, "run_bars": RUN_BARS_COLUMNS, "times": TIMES_COLUMNS}
+_DRAWERS = {"histogram": histogram, "curves": curves, "run_bars": run_bars, "cosine": cosine, "times": times, "returns": returns}
+_NEEDS = {"histogram": HISTOGRAM_COLUMNS, "curves": CURVES_COLUMNS, "run_bars": RUN_BARS_COLUMNS, "times": TIMES_COLUMNS, "returns": RETURNS_COLUMNS}
 
 
 def _unfinished(folder: Path) -> str:

@@ -21,7 +21,7 @@ from airl_cli.methods import REGISTRY
 # method in a strong red.
 METHOD_COLOURS: dict[str, str] = {m.name: m.colour for m in REGISTRY.values()}
 # Colours for methods outside the list above, handed out in sorted order of their names.
-_SPARE_COLOURS = ("#17becf", "#bcbd22", "#e377c2", "#7f7f7f", "#393b79", "#637939")
+_SPARE_COLOURS = ("#17becf", "#bcbd22", "#7f7f7f", "#393b79", "#637939")
 METHOD_LABELS: dict[str, str] = {m.name: m.label for m in REGISTRY.values()}
 _METHOD_ORDER = tuple(METHOD_COLOURS)
 
@@ -37,7 +37,7 @@ DPI = 150
 PNG_METADATA = {"Software": None}
 PDF_METADATA = {"CreationDate": None, "Producer": None, "Creator": None}
 
-KINDS = ("histogram", "curves", "run_bars", "cosine", "alphas", "times")
+KINDS = ("histogram", "curves", "run_bars", "cosine", "alphas", "times", "returns")
 _ALPHA_KEYS = ("exact", "exact_envelope", "pbvi", "t", "s")
 _NUMERIC = ("x", "seed", "run", "learner_score", "demonstrator_score", "cosine_similarity", "seconds")
 

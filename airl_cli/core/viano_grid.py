@@ -1,0 +1,132 @@
+"""The GridWorld of Viano et al. (NeurIPS 2021, "mode 1"; their code lviano/RobustMCE_IRL,
+``robustIRLcode/src/environment.py``) and its metric.
+
+An n x n grid, cells (row, col) numbered s = n row + col, actions 0 up, 1 right, 2 down, 3 left.
+A move off the grid does not exist: ``allowed[s, a]`` is False (their reward -inf). Reward -1
+everywhere, -100 on the interior cells, 0 on the goal (0, 0), which is absorbing. Noise epsilon:
+with probability epsilon a uniformly random action's move is made instead, a move off the grid
+leaving the agent where it is. One-hot state features, uniform start.
+
+Their code spreads the noise with a fancy-index ``+=``, which adds a repeated next state once: in
+the three corners other than the goal, where two of the four moves leave the agent in place, the
+row sums to 1 - epsilon/4. ``corner`` chooses what happens to that mass:
+
+* "lost" (their dynamics): it leaves the grid for an absorbing extra state (the last, index n^2)
+  with zero features and p0 = 0: the grid states' visitation is exactly that of their
+  sub-stochastic rows, and the rows sum to 1 as our dataset file requires;
+* "stay": it stays in the corner (rows sum to 1 on n^2 states: the plain reading of the text).
+
+The metric (their ``CompareAlphas.py``): the undiscounted return of a policy in the learner's
+dynamics from every start state, the start state's reward included, until the goal or 1000
+steps, averaged over the start states. ``total_return`` computes its expectation exactly
+(their number is a Monte-Carlo estimate with 1000 runs per start).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+MOVES = np.array([[-1, 0], [0, 1], [1, 0], [0, -1]])  # up, right, down, left
+CORNERS = ("lost", "stay")
+
+
+def viano_grid(*, size: int = 10, epsilon: float = 0.0, corner: str = "lost") -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The mode-1 GridWorld.
+
+    Args:
+        size: n, the grid's side (S = n^2 grid states).
+        epsilon: the noise in [0, 1].
+        corner: "lost" or "stay" (module docstring).
+
+    Returns:
+        P: (S', 4, S') dynamics, S' = n^2 + 1 for corner="lost" (the extra state last), else n^2.
+        allowed: (S', 4) bool, the moves that stay on the grid (action 0 alone at the extra state).
+        phi: (S', n^2) one-hot features of the grid states (a zero row for the extra state).
+        w_star: (n^2,) the true reward weights.
+        p0: (S',) uniform over the grid states.
+    """
+    if corner not in CORNERS or not 0.0 <= epsilon <= 1.0 or size < 2:
+        raise ValueError(f"need corner in {CORNERS}, epsilon in [0, 1] and size >= 2, got {corner!r}, {epsilon}, {size}")
+    n = size
+    S = n * n
+    extra = corner == "lost"
+    total = S + int(extra)
+    P = np.zeros((total, 4, total))
+    allowed = np.ones((total, 4), dtype=bool)
+    for s in range(S):
+        r, c = divmod(s, n)
+        target = []
+        for a, (dr, dc) in enumerate(MOVES):
+            inside = 0 <= r + dr < n and 0 <= c + dc < n
+            allowed[s, a] = inside
+            target.append((r + dr) * n + c + dc if inside else s)
+        for a in range(4):
+            P[s, a, target[a]] += 1.0 - epsilon
+            for t in target:
+                P[s, a, t] += epsilon / 4
+            repeats = len(target) - len(set(target))  # their += adds a repeated next state once
+            if extra and repeats:
+                P[s, a, s] -= repeats * epsilon / 4
+                P[s, a, S] += repeats * epsilon / 4
+    P[0] = 0.0
+    P[0, :, 0] = 1.0  # the goal is absorbing
+    if extra:
+        P[S, :, S] = 1.0
+        # one action only: the extra state's soft value is then 0 (reward 0, no entropy), as
+        # their lost mass is worth; with four it would be log 4 / (1 - gamma), a lure
+        allowed[S, 1:] = False
+    w_star = -np.ones((n, n))
+    w_star[1:-1, 1:-1] = -100.0
+    w_star = w_star.ravel()
+    w_star[0] = 0.0
+    phi = np.zeros((total, S))
+    phi[np.arange(S), np.arange(S)] = 1.0
+    p0 = np.zeros(total)
+    p0[:S] = 1.0 / S
+    return P, allowed, phi, w_star, p0
+
+
+def total_return(P: np.ndarray, policy: np.ndarray, r: np.ndarray, *, goal: int = 0, starts: np.ndarray | None = None, limit: int = 1000) -> float:
+    """Viano et al.'s metric, exactly: the expected undiscounted return from each start state,
+    averaged over ``starts``.
+
+    Args:
+        P: (S, A, S) the learner's dynamics.
+        policy: (S, A) a stationary policy.
+        r: (S,) the true state rewards (0 at the goal).
+        goal: the absorbing goal, where a run stops.
+        starts: the start states (default: every grid state 0..len(r)-1).
+        limit: the most steps after the start (their 1000).
+
+    Returns:
+        mean over starts s of E[r(s_0) + ... + r(s_k)], s_0 = s, stopping at the goal or k = limit.
+    """
+    S = r.size
+    M = np.einsum("sa,sax->sx", policy[:S], P[:S, :, :S])
+    M[goal] = 0.0
+    v = r.astype(np.float64).copy()
+    for _ in range(limit):
+        v = r + M @ v
+    v[goal] = r[goal]
+    starts = np.arange(S) if starts is None else np.asarray(starts)
+    return float(v[starts].mean())
+
+
+def finite_total_return(P: np.ndarray, policy: np.ndarray, r: np.ndarray, *, goal: int = 0) -> float:
+    """The metric on a finite horizon: the expected undiscounted return of the T states of a
+    non-stationary policy from every grid state (stopping at the goal), averaged over them.
+
+    Args:
+        P: (S', A, S') the learner's dynamics; policy: (T-1, S') int or (T-1, S', A) float;
+        r: (S,) the true rewards of the S <= S' grid states (0 at the goal).
+    """
+    S = r.size
+    policy = np.asarray(policy)
+    v = r.astype(np.float64).copy()
+    for t in range(policy.shape[0] - 1, -1, -1):
+        rule = policy[t][:S] if policy.ndim == 3 else np.eye(P.shape[1])[policy[t][:S]]
+        M = np.einsum("sa,sax->sx", rule, P[:S, :, :S])
+        M[goal] = 0.0
+        v = r + M @ v
+    v[goal] = r[goal]
+    return float(v.mean())

@@ -1,0 +1,131 @@
+"""The job of ``airl sweep experiment=viano_gridworld``: robust MCE IRL on Viano et al.'s GridWorld,
+scored in their metric, one row with the published number beside ours.
+
+The problem is built from the experiment's own keys (``airl_cli.core.viano_grid``), the learner
+from ``method.*`` (checked as for ``airl fit``); see experiments/README.md for the conventions.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+from omegaconf import DictConfig
+
+from airl_cli.build import learner_rng, loss_matrix
+from airl_cli.config import fit_settings, plain
+from airl_cli.core.demos import expected_feature_sums
+from airl_cli.core.planning import backward_induction
+from airl_cli.core.robust_mce import discounted_feature_sum, robust_mce_irl, robust_soft_value_iteration
+from airl_cli.core.viano_grid import finite_total_return, total_return, viano_grid
+from airl_cli.data import Dataset
+from airl_cli.errors import ConfigError
+from airl_cli.evaluate import learner_policy
+from airl_cli.jobs.common import save_config
+from airl_cli.learners import learn
+
+
+def published(exp: dict, alpha: float, epsilon: float) -> float:
+    """The published return for (alpha, eps_E), NaN where the experiment quotes none."""
+    values = list(exp["values"])
+    row = (exp.get("published") or {}).get(f"{alpha:.1f}")
+    if row is None or epsilon not in values:
+        return float("nan")
+    return float(row[values.index(epsilon)])
+
+
+def expert_return(P: np.ndarray, allowed: np.ndarray, r: np.ndarray, w_star: np.ndarray, gamma: float) -> float:
+    """Their "expert" line: the optimal (hard) policy of the true reward, value iteration to convergence."""
+    V = np.zeros(r.size)
+    while True:
+        Q = np.where(allowed, r[:, None] + gamma * (P @ V), -np.inf)
+        V_new = Q.max(axis=1)
+        if np.linalg.norm(V_new - V) < 1e-10:
+            return total_return(P, np.eye(P.shape[1])[np.argmax(Q, axis=1)], w_star)
+        V = V_new
+
+
+def viano_rows(cfg: DictConfig, folder) -> list[dict]:
+    """Fit robust MCE IRL with method.alpha to the eps_E expert; one row: ours, theirs, the expert's.
+    With ``experiment.horizon`` set: any method on the finite-horizon grid (``finite_rows``)."""
+    exp = plain(cfg)["experiment"]
+    if exp.get("horizon") is not None:
+        return finite_rows(cfg, folder)
+    options = fit_settings(cfg).method_options
+    if fit_settings(cfg).method != "robust_mce":
+        raise ConfigError("experiment=viano_gridworld runs method=robust_mce (method.alpha=1 is MCE IRL)")
+    eps_E, eps_L, gamma = float(exp["epsilon"]), float(exp["learner_epsilon"]), float(exp["discount"])
+    start = time.perf_counter()
+    P_E, allowed, phi, w_star, p0 = viano_grid(size=int(exp["size"]), epsilon=eps_E, corner=exp["corner"])
+    P_L = viano_grid(size=int(exp["size"]), epsilon=eps_L, corner=exp["corner"])[0]
+    expert = robust_soft_value_iteration(P_E, phi @ w_star, alpha=1.0, discount=gamma, allowed=allowed)[0]
+    target = discounted_feature_sum(P_E, expert, p0, phi, gamma)
+    # transitions[1] is the learner's dynamics for the demonstrations c~_1 (index 0 is not used)
+    fit = robust_mce_irl(np.stack([P_E, P_L]), phi, p0, 2, target[None], discount=gamma, allowed=allowed, **options)
+    alpha = options["alpha"]
+    player = robust_soft_value_iteration(P_L, phi @ fit.weights[0], alpha=alpha, discount=gamma, allowed=allowed, tol=1e-10)[0]
+    ours = total_return(P_L, player, w_star)
+    seconds = time.perf_counter() - start
+    save_config(cfg, folder)
+    theirs = published(exp, alpha, eps_E)
+    return [
+        {
+            "experiment": exp["name"],
+            "method": "robust_mce",
+            "alpha": alpha,
+            "x": eps_E,
+            "x_name": exp["x"],
+            "learner_epsilon": eps_L,
+            "corner": exp["corner"],
+            "total_return": ours,
+            "published": theirs,
+            "relative_difference": (ours - theirs) / abs(theirs) if np.isfinite(theirs) else float("nan"),
+            "expert_return": expert_return(P_L, allowed, phi @ w_star, w_star, gamma),
+            "published_expert": float(exp["published_expert"]),
+            "seconds": seconds,
+        }
+    ]
+
+
+def finite_dataset(exp: dict) -> Dataset:
+    """The grid on a finite horizon T, undiscounted, every move existing (off the grid: stay), rows
+    summing to 1 (corner "stay"): tau = the learner's noise eps_L, tau_j = the demonstrations' eps_j;
+    the thesis's expert (optimal under tau, run in every tau_j), exact feature sums, squared-feature loss."""
+    size, T = int(exp["size"]), int(exp["horizon"])
+    P0, _, phi, w_star, p0 = viano_grid(size=size, epsilon=float(exp["learner_epsilon"]), corner="stay")
+    P = np.stack([P0, *(viano_grid(size=size, epsilon=float(e), corner="stay")[0] for e in exp["demo_epsilons"])])
+    expert, _ = backward_induction(P0, phi @ w_star, horizon=T)
+    targets = expected_feature_sums(P[1:], expert, p0, phi)
+    return Dataset(P, phi, p0, T, feature_expectations=targets, true_weights=w_star, loss=loss_matrix("squared_features", phi))
+
+
+def finite_rows(cfg: DictConfig, folder) -> list[dict]:
+    """Any method (the thesis's too) on ``finite_dataset``; scored by the finite-horizon metric of the
+    optimal policy of its learned reward in tau (eps_L), the thesis's convention for every method."""
+    exp, c = plain(cfg)["experiment"], plain(cfg)
+    settings = fit_settings(cfg)
+    dataset = finite_dataset(exp)
+    start = time.perf_counter()
+    learned = learn(dataset, settings, learner_rng(int(c["seed"]), settings.method))
+    seconds = time.perf_counter() - start
+    r = dataset.features @ dataset.true_weights  # (S,): corner "stay" has no extra state
+    policy = learned.policy if learned.weights is None else learner_policy(dataset, learned.weights, 0)
+    expert, _ = backward_induction(dataset.transitions[0], dataset.features @ dataset.true_weights, horizon=dataset.horizon)
+    save_config(cfg, folder)
+    return [
+        {
+            "experiment": exp["name"],
+            "method": settings.method,
+            "alpha": float(settings.method_options.get("alpha", 1.0 if settings.method == "mce" else float("nan"))),
+            "x": float(exp["horizon"]),
+            "x_name": exp["x"],
+            "learner_epsilon": float(exp["learner_epsilon"]),
+            "corner": "stay",
+            "total_return": finite_total_return(dataset.transitions[0], policy, r),
+            "published": float("nan"),
+            "relative_difference": float("nan"),
+            "expert_return": finite_total_return(dataset.transitions[0], expert, r),
+            "published_expert": float("nan"),
+            "seconds": seconds,
+        }
+    ]
