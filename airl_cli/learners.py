@@ -73,16 +73,17 @@ def learn(
     Raises:
         ConfigError: if the method cannot use this dataset (behavioural cloning without actions).
     """
-    _check_supported(dataset, settings.method)
+    _check_supported(dataset, settings)
     return globals()[REGISTRY[settings.method].learner](dataset, settings, rng, callback, planner_progress)
 
 
-def _check_supported(dataset: Dataset, method: str) -> None:
-    """One sentence for what a method cannot take: a discount (the thesis's method) or action sets."""
-    if method == "airl" and dataset.discount < 1.0:
+def _check_supported(dataset: Dataset, settings: FitSettings) -> None:
+    """One sentence for what a method cannot take: a discount (the thesis's gradient steps) or action sets."""
+    method = settings.method
+    if method == "airl" and dataset.discount < 1.0 and settings.optimizer != "exact":
         raise ConfigError(
-            f"method=airl solves the thesis's undiscounted game and does not take a discount (mdp.discount = "
-            f"{dataset.discount:g}); use mdp.discount=1, or a comparison method (mce, robust_mce, projection, mmp)"
+            f"optim=gradient plays the thesis's undiscounted game and does not take a discount (mdp.discount = "
+            f"{dataset.discount:g}); use optim=exact (the certified learner takes it), or mdp.discount=1"
         )
     if method != "robust_mce" and dataset.allowed_actions is not None:
         raise ConfigError(
@@ -96,7 +97,7 @@ def _check_supported(dataset: Dataset, method: str) -> None:
 
 
 def _learn_airl_method(dataset: Dataset, settings: FitSettings, rng: np.random.Generator, callback, planner_progress) -> Learned:
-    problem = GameProblem(dataset.transitions, dataset.features, dataset.initial, dataset.loss, dataset.horizon)
+    problem = GameProblem(dataset.transitions, dataset.features, dataset.initial, dataset.loss, dataset.horizon, dataset.discount)
     return _learn_airl(problem, dataset.feature_targets(), settings, rng, callback, planner_progress)
 
 
@@ -253,5 +254,5 @@ def _degeneracy(problem: GameProblem, targets: np.ndarray, weights: np.ndarray, 
 
     ``objective`` is f at ``weights`` in the certificate's units (the loss scaled as the solve scaled it).
     """
-    effect = reward_effect(problem.transitions[1:], problem.features, problem.initial, problem.horizon, weights, targets)
+    effect = reward_effect(problem.transitions[1:], problem.features, problem.initial, problem.horizon, weights, targets, discount=problem.discount)
     return {"reward_effect": effect, "degenerate": is_degenerate(effect, objective, tol)}

@@ -85,11 +85,47 @@ def test_the_dataset_file_carries_the_discount_and_old_files_mean_one(tmp_path):
         write_dataset(tmp_path / "bad.npz", small_dataset(discount=1.5))
 
 
-def test_the_thesiss_method_refuses_a_discount_in_one_sentence(tmp_path, monkeypatch):
+def test_the_thesiss_gradient_steps_refuse_a_discount_in_one_sentence(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
-    result = runner.invoke(app, ["fit", "mdp.discount=0.9", f"hydra.run.dir={tmp_path / 'r'}"])
+    result = runner.invoke(app, ["fit", "optim=gradient", "mdp.discount=0.9", f"hydra.run.dir={tmp_path / 'r'}"])
     assert result.exit_code == 2 and "Traceback" not in result.output
-    assert result.output.strip().startswith("error: method=airl solves the thesis's undiscounted game")
+    assert result.output.strip().splitlines()[-1].startswith("error: optim=gradient plays the thesis's undiscounted game")
+
+
+@pytest.mark.parametrize("seed,shared,gamma", [(0, True, 0.5), (1, False, 0.8), (2, True, 0.9)])
+def test_the_certified_learner_with_a_discount_equals_brute_force(seed, shared, gamma):
+    """Step t counts gamma^t in the loss and the feature sums: the certified minimum equals the
+    minimum of the enumerated discounted game (every learner and adversary policy of a tiny problem)."""
+    import dataclasses
+
+    from test_certified import adversary_marginals, brute_minimum, exact_oracle, f_brute, learner_marginals, tiny
+
+    from airl_cli.core.certified import CertifiedOptions, minimize
+
+    problem, targets = tiny(seed, S=2)
+    problem = dataclasses.replace(problem, discount=gamma)
+    g = gamma ** np.arange(problem.horizon)
+    loss = problem.loss / problem.loss.max()
+    lm, am = learner_marginals(problem), adversary_marginals(problem)
+    L = np.einsum("nts,su,mtu,t->nm", lm, loss, am[:, 0], g)
+    F = np.einsum("t,mjts->mjs", g, am[:, 1:]) @ problem.features
+    Phi = F.sum(axis=1) if shared else F.reshape(len(F), -1)
+    C = targets.sum(axis=0) if shared else targets.reshape(-1)
+    w_brute, f_star = brute_minimum(L, Phi, C, 0.05)
+    res = minimize(problem, targets, exact_oracle(problem), options=CertifiedOptions(weight_sharing=shared, lam=0.05, tol=1e-12))
+    w = res.weights[0] if shared else res.weights.reshape(-1)
+    assert res.converged and res.objective == pytest.approx(f_star, abs=1e-6)
+    assert np.allclose(w, w_brute, atol=1e-6) and f_brute(w, L, Phi, C, 0.05) == pytest.approx(f_star, abs=1e-6)
+    undiscounted = minimize(dataclasses.replace(problem, discount=1.0), targets, exact_oracle(problem), options=CertifiedOptions(weight_sharing=shared, lam=0.05, tol=1e-12))
+    assert not np.allclose(undiscounted.weights, res.weights, atol=1e-4)  # the discount changes the game
+
+
+def test_airl_fit_takes_a_discount(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    small = ["mdp.n_states=6", "mdp.n_actions=3", "mdp.horizon=5", "mdp.n_features=3", "demos.n=30"]
+    result = runner.invoke(app, ["fit", "mdp.discount=0.9", f"hydra.run.dir={tmp_path / 'r'}", *small])
+    assert result.exit_code == 0, result.output
+    assert "discount" in (tmp_path / "r" / "summary.txt").read_text()
 
 
 @pytest.mark.parametrize("method", ["mce", "projection", "mmp", "robust_mce", "bc"])

@@ -34,6 +34,9 @@ size, no random start: the answer depends only on the data and the oracles. The 
 exact when the adversary's oracle is exact (pbvi.method=exact); with PBVI it holds against the
 best responses PBVI finds at its belief set.
 
+With a discount gamma (``GameProblem.discount``) step t counts gamma^t in L and Phi alike: the
+adversary's marginals are weighed by gamma^t where they enter, and its planner's rewards too.
+
 The QP is kept in one HiGHS model for the whole fit, with a dense interior-point method for the
 solves after HiGHS fails (``airl_cli.core.qp``).
 """
@@ -140,8 +143,8 @@ class _Sets:
         l_loss: (n, T*S) p_hat_i(t) @ loss, flattened, so L = l_loss @ a_tau.T.
         l_marg: (n, T, S) learner marginals under tau.
         l_policy: (n, T-1, S) the learner strategies themselves (deterministic Markov policies).
-        a_tau: (m, T*S) adversary marginals under tau, flattened.
-        a_F: (m, D, K) F_k[j], adversary feature sums under tau_1..tau_D.
+        a_tau: (m, T*S) adversary marginals under tau, flattened (times gamma^t with a discount).
+        a_F: (m, D, K) F_k[j], adversary feature sums under tau_1..tau_D (step t counting gamma^t).
         a_phi: (m, d) Phi[:, k].
     """
 
@@ -172,8 +175,13 @@ class _Sets:
 
     def add_adversary(self, marginals: np.ndarray) -> None:
         """An adversary strategy from its marginals (M, T, S) under tau_0..tau_D."""
-        tau = marginals[0].reshape(-1)
-        F = marginals[1:].sum(axis=1) @ self.problem.features  # (D, K)
+        if self.problem.discount == 1.0:
+            tau = marginals[0].reshape(-1)
+            F = marginals[1:].sum(axis=1) @ self.problem.features  # (D, K)
+        else:  # step t counts gamma^t: weigh the adversary's marginals, the learner's stay as they are
+            g = self.problem.step_weights
+            tau = (marginals[0] * g[:, None]).reshape(-1)
+            F = np.einsum("t,jts->js", g, marginals[1:]) @ self.problem.features
         phi_k = F.sum(axis=0) if self.shared else F.reshape(-1)
         self.qp.add_adversary(self.l_loss @ tau, phi_k)
         self.a_tau = np.vstack([self.a_tau, tau[None]])

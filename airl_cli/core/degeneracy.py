@@ -27,7 +27,9 @@ import numpy as np
 from airl_cli.core.scores import return_bounds
 
 
-def reward_effect(transitions, phi: np.ndarray, p0: np.ndarray, horizon: int, weights: np.ndarray, targets: np.ndarray) -> float:
+def reward_effect(
+    transitions, phi: np.ndarray, p0: np.ndarray, horizon: int, weights: np.ndarray, targets: np.ndarray, *, discount: float = 1.0
+) -> float:
     """B(w) of eq. (1) above: the most the weights can move any adversary's payoff.
 
     Args:
@@ -37,7 +39,8 @@ def reward_effect(transitions, phi: np.ndarray, p0: np.ndarray, horizon: int, we
         p0: (S,) the initial distribution.
         horizon: T, the number of states visited (features are summed over t = 0..T-1).
         weights: (D, K) w_j per demonstration dynamics (identical rows with weight sharing).
-        targets: (D, K) c~_j, the demonstrations' feature sums.
+        targets: (D, K) c~_j, the demonstrations' feature sums (step t counting gamma^t).
+        discount: gamma in (0, 1]; returns weight step t by gamma^t as the targets do.
 
     Returns:
         B(w) >= 0, in the objective's units; 0 for w = 0.
@@ -46,7 +49,7 @@ def reward_effect(transitions, phi: np.ndarray, p0: np.ndarray, horizon: int, we
     total = 0.0
     for j in range(W.shape[0]):
         c = float(np.asarray(targets[j], dtype=np.float64) @ W[j])
-        worst, best = return_bounds(transitions[j], phi @ W[j], p0, horizon=horizon)
+        worst, best = return_bounds(transitions[j], phi @ W[j], p0, horizon=horizon, discount=discount)
         total += max(abs(best - c), abs(worst - c))
     return total
 

@@ -49,6 +49,7 @@ class GameProblem:
         initial: (S,) p0.
         loss: (S, S) loss(s_hat, s_check) >= 0.
         horizon: T.
+        discount: gamma in (0, 1]: the loss and the features of step t count gamma^t (1: the thesis).
     """
 
     transitions: np.ndarray
@@ -56,10 +57,16 @@ class GameProblem:
     initial: np.ndarray
     loss: np.ndarray
     horizon: int
+    discount: float = 1.0
 
     @property
     def n_models(self) -> int:
         return int(self.transitions.shape[0])
+
+    @cached_property
+    def step_weights(self) -> np.ndarray:
+        """(T,) gamma^t, the weight of step t in the payoff (all ones without a discount)."""
+        return self.discount ** np.arange(self.horizon, dtype=np.float64)
 
     @cached_property
     def _loss_factors(self) -> tuple[np.ndarray, np.ndarray] | None:
@@ -231,7 +238,7 @@ def adversary_rewards(problem: GameProblem, learner_tau: np.ndarray, w: np.ndarr
     """Rewards (M, T, S) of the adversary's multiple-MDP best response (eq. 6.26-6.28).
 
     MDP 0 (tau): R_0(t, s) = E[loss(S_hat_t, s)] under the learner's mixture; MDP j (tau_j):
-    R_j(t, s) = w_j . phi(s).
+    R_j(t, s) = w_j . phi(s); both times gamma^t with a discount.
 
     Args:
         learner_tau: (T, S) the learner mixture's state marginals under tau.
@@ -241,6 +248,8 @@ def adversary_rewards(problem: GameProblem, learner_tau: np.ndarray, w: np.ndarr
     R = np.empty((problem.n_models, T, problem.transitions.shape[1]))
     R[0] = problem.loss_times(learner_tau)
     R[1:] = (problem.features @ w.T).T[:, None, :]
+    if problem.discount != 1.0:  # step t counts gamma^t in both the loss and the features
+        R *= problem.step_weights[None, :, None]
     return R
 
 
