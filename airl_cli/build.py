@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from airl_cli import envs
-from airl_cli.config import EnvMDPSettings, GridMDPSettings, MDPSettings, ObjectworldSettings, ProblemSettings, noise
+from airl_cli.config import EnvMDPSettings, GridMDPSettings, MDPSettings, ObjectworldSettings, ProblemSettings
 from airl_cli.core import demos as core_demos
 from airl_cli.core import objectworld, problems
 from airl_cli.core.mdp import discounted
@@ -134,7 +134,7 @@ def build_problem(settings: ProblemSettings) -> Problem:
         slips = dyn.slips if dyn.kind == "slip" else (mdp.slip,) * dyn.n_dynamics
         return Problem(objectworld.slip_sparse(mdp.size, (mdp.slip, *slips)), phi, p0, mdp.horizon, w_star, loss, coords, settings.discount)
     if dyn.kind == "gaussian":
-        sigma = noise(dyn.sigma, dyn.sigma_states, tau.shape[0])
+        sigma = problems.noise(dyn.sigma, dyn.sigma_states, tau.shape[0])
         others = problems.gaussian_perturbations(rng["dynamics"], tau, sigma=sigma, n_dynamics=dyn.n_dynamics)
     elif dyn.kind == "same":
         others = np.broadcast_to(tau, (dyn.n_dynamics,) + tau.shape)

@@ -61,6 +61,7 @@ from airl_cli.core.game import (
 from airl_cli.core.planning import backward_induction, state_marginals
 from airl_cli.core.options import CertifiedOptions
 from airl_cli.core.qp import MasterQP
+from airl_cli.core.strategy_sets import StrategySets
 from airl_cli.core.threads import blas_on_one_thread
 
 #: A screening best response is added without asking the full oracle if it raises the restricted
@@ -136,59 +137,6 @@ def check_options(options: CertifiedOptions) -> None:
         raise ValueError(f"max_iterations must be >= 1, got {options.max_iterations}")
 
 
-class _Sets:
-    """The strategies found so far, as the marginals the QP's coefficients are built from.
-
-    Attributes (i: learner strategy, k: adversary strategy, d = K with sharing, D*K without):
-        l_loss: (n, T*S) p_hat_i(t) @ loss, flattened, so L = l_loss @ a_tau.T.
-        l_marg: (n, T, S) learner marginals under tau.
-        l_policy: (n, T-1, S) the learner strategies themselves (deterministic Markov policies).
-        a_tau: (m, T*S) adversary marginals under tau, flattened (times gamma^t with a discount).
-        a_F: (m, D, K) F_k[j], adversary feature sums under tau_1..tau_D (step t counting gamma^t).
-        a_phi: (m, d) Phi[:, k].
-    """
-
-    def __init__(self, problem: GameProblem, qp: MasterQP, shared: bool):
-        T, S = problem.horizon, problem.transitions.shape[1]
-        D, K = problem.n_models - 1, problem.features.shape[1]
-        self.problem, self.qp, self.shared = problem, qp, shared
-        self.l_loss = np.empty((0, T * S))
-        self.l_marg = np.empty((0, T, S))
-        self.l_policy = np.empty((0, T - 1, S), dtype=np.int64)
-        self.a_tau = np.empty((0, T * S))
-        self.a_F = np.empty((0, D, K))
-        self.a_phi = np.empty((0, qp.d))
-
-    def add_learner(self, policy: np.ndarray, marginals: np.ndarray) -> None:
-        """A learner strategy: the deterministic Markov policy (T-1, S) and its marginals (T, S) under tau."""
-        row = self.problem.loss_times(marginals).reshape(-1)
-        self.qp.add_learner(self.a_tau @ row)
-        self.l_loss = np.vstack([self.l_loss, row[None]])
-        self.l_marg = np.concatenate([self.l_marg, marginals[None]])
-        self.l_policy = np.concatenate([self.l_policy, np.asarray(policy, dtype=np.int64)[None]])
-
-    def keep(self, learner: np.ndarray, adversary: np.ndarray) -> None:
-        """Keep only these strategies (sorted index arrays), here and in the QP."""
-        self.qp.keep(learner, adversary)
-        self.l_loss, self.l_marg, self.l_policy = self.l_loss[learner], self.l_marg[learner], self.l_policy[learner]
-        self.a_tau, self.a_F, self.a_phi = self.a_tau[adversary], self.a_F[adversary], self.a_phi[adversary]
-
-    def add_adversary(self, marginals: np.ndarray) -> None:
-        """An adversary strategy from its marginals (M, T, S) under tau_0..tau_D."""
-        if self.problem.discount == 1.0:
-            tau = marginals[0].reshape(-1)
-            F = marginals[1:].sum(axis=1) @ self.problem.features  # (D, K)
-        else:  # step t counts gamma^t: weigh the adversary's marginals, the learner's stay as they are
-            g = self.problem.step_weights
-            tau = (marginals[0] * g[:, None]).reshape(-1)
-            F = np.einsum("t,jts->js", g, marginals[1:]) @ self.problem.features
-        phi_k = F.sum(axis=0) if self.shared else F.reshape(-1)
-        self.qp.add_adversary(self.l_loss @ tau, phi_k)
-        self.a_tau = np.vstack([self.a_tau, tau[None]])
-        self.a_F = np.concatenate([self.a_F, F[None]])
-        self.a_phi = np.vstack([self.a_phi, phi_k[None]])
-
-
 @blas_on_one_thread  # the planner's numba threads need both cores: spinning BLAS threads halved them
 def minimize(
     problem: GameProblem,
@@ -236,7 +184,7 @@ def minimize(
         return np.broadcast_to(w, (D, K)).copy() if shared else w.reshape(D, K).copy()
 
     qp = MasterQP(C, lam)
-    sets = _start(_Sets(problem, qp, shared), targets, oracle)
+    sets = _start(StrategySets(problem, qp, shared), targets, oracle)
     run = _Run(best_w=np.zeros(C.size))
     idle_l = np.zeros(0, dtype=np.int64)  # consecutive iterations each strategy has had weight 0
     idle_a = np.zeros(0, dtype=np.int64)
@@ -273,7 +221,7 @@ def minimize(
     return _result(per_dynamics(run.best_w), run, rows, stopped, p, q, sets)
 
 
-def _result(weights: np.ndarray, run: _Run, rows: list[dict], stopped: str, p: np.ndarray, q: np.ndarray, sets: _Sets) -> CertifiedResult:
+def _result(weights: np.ndarray, run: _Run, rows: list[dict], stopped: str, p: np.ndarray, q: np.ndarray, sets: StrategySets) -> CertifiedResult:
     """The ``CertifiedResult`` of a finished run: ``weights`` (D, K), the last QP's mixtures p and q."""
     return CertifiedResult(
         weights=weights,
@@ -292,7 +240,7 @@ def _result(weights: np.ndarray, run: _Run, rows: list[dict], stopped: str, p: n
     )
 
 
-def _start(sets: _Sets, targets: np.ndarray, oracle: AdversaryOracle) -> _Sets:
+def _start(sets: StrategySets, targets: np.ndarray, oracle: AdversaryOracle) -> StrategySets:
     """The first strategies: the learner plays the optimal policy under tau of the demonstrations'
     mean features, the adversary its best response to that at w = 0."""
     problem = sets.problem
@@ -315,7 +263,7 @@ class _Run:
     last_full: int = 0  # the iteration of the last full oracle call
 
 
-def _learner_side(sets: _Sets, q: np.ndarray, C: np.ndarray, lam: float, tiny: float, run: _Run) -> float:
+def _learner_side(sets: StrategySets, q: np.ndarray, C: np.ndarray, lam: float, tiny: float, run: _Run) -> float:
     """The learner's best response against q: raises ``run.lower`` and, if it beats every known
     learner strategy by more than ``tiny``, adds it as a column. Returns that improvement."""
     problem = sets.problem
@@ -332,7 +280,7 @@ def _learner_side(sets: _Sets, q: np.ndarray, C: np.ndarray, lam: float, tiny: f
     return gap_l
 
 
-def _adversary_side(sets: _Sets, rewards, oracle, screen, w, v: float, reg: float, tiny: float, it: int, run: _Run) -> bool:
+def _adversary_side(sets: StrategySets, rewards, oracle, screen, w, v: float, reg: float, tiny: float, it: int, run: _Run) -> bool:
     """The adversary's best response against (w, p), ``rewards`` (M, T, S): the screen first (its
     strategy is added if it raises the restricted value v at all; if by more than
     ``SCREEN_FRACTION`` of the gap, the full oracle is not asked), else the full oracle, whose
