@@ -91,6 +91,8 @@ def _check_weights(w: np.ndarray, K: int) -> np.ndarray:
 def feature_sum(P: np.ndarray, policy: np.ndarray, p0: np.ndarray, phi: np.ndarray, discount: float = 1.0) -> np.ndarray:
     """Expected feature sum E[sum_t gamma^t phi(s_t)] (K,) of a (T-1, S) or (T-1, S, A) policy under P (S, A, S)."""
     d = state_marginals(P, policy, p0)
+    if discount == 1.0:  # the thesis's sums, added in the order they always were (same bits)
+        return d.sum(axis=0) @ phi
     return (discount ** np.arange(d.shape[0])) @ d @ phi
 
 
