@@ -228,40 +228,47 @@ def mce_irl(
     P, phi, p0, c = check_problem(transitions, features, initial, horizon, targets)
     if lam < 0 or max_iterations < 1 or tol < 0:
         raise ValueError(f"need lam >= 0, max_iterations >= 1 and tol >= 0, got {lam}, {max_iterations}, {tol}")
-    K = phi.shape[1]
-    last: dict[str, object] = {}
-
-    def negative(w: np.ndarray) -> tuple[float, np.ndarray]:
-        value, grad = _mce_value_and_grad(w, P, phi, p0, horizon, c, lam, discount)
-        last.update(w=w.copy(), value=value, grad=grad)
-        return -value, -grad
-
-    def evaluated(w: np.ndarray) -> tuple[float, np.ndarray]:
-        if "w" in last and np.array_equal(last["w"], w):
-            return last["value"], last["grad"]
-        return _mce_value_and_grad(w, P, phi, p0, horizon, c, lam, discount)
-
-    objective, grad_norm = [], []
-
-    def record(intermediate_result) -> None:
-        value, grad = evaluated(intermediate_result.x)
-        objective.append(value)
-        grad_norm.append(float(np.linalg.norm(grad)))
-
-    w0 = np.zeros(K)
-    value0, grad0 = _mce_value_and_grad(w0, P, phi, p0, horizon, c, lam, discount)
-    objective.append(value0)
-    grad_norm.append(float(np.linalg.norm(grad0)))
-    result = minimize(
-        negative, w0, jac=True, method="L-BFGS-B", tol=tol, callback=record, options={"maxiter": max_iterations}
-    )
+    w, objective, grad_norm = lbfgs_ascent(lambda w: _mce_value_and_grad(w, P, phi, p0, horizon, c, lam, discount), phi.shape[1], max_iterations, tol=tol)
     history = {
         "step": np.arange(len(objective)),
         "objective": np.array(objective),
         "grad_norm": np.array(grad_norm),
     }
     D = P.shape[0] - 1
-    return BaselineResult(np.tile(result.x, (D, 1)), None, history)
+    return BaselineResult(np.tile(w, (D, 1)), None, history)
+
+
+def lbfgs_ascent(evaluate, K: int, max_iterations: int, *, tol: float) -> tuple[np.ndarray, list[float], list[float]]:
+    """Maximise a concave g by L-BFGS-B from w = 0 (MCE IRL and robust MCE IRL).
+
+    Args:
+        evaluate: w (K,) -> (g(w), its gradient (K,)).
+        K: the number of weights; max_iterations: L-BFGS-B iterations; tol: scipy's ``tol``.
+
+    Returns:
+        (w (K,), g at w = 0 and after each iteration, |gradient| at the same points).
+    """
+    last: dict[str, object] = {}
+
+    def negative(w: np.ndarray) -> tuple[float, np.ndarray]:
+        value, grad = evaluate(w)
+        last.update(w=w.copy(), value=value, grad=grad)
+        return -value, -grad
+
+    objective, grad_norm = [], []
+
+    def record(intermediate_result) -> None:
+        x = intermediate_result.x
+        value, grad = (last["value"], last["grad"]) if "w" in last and np.array_equal(last["w"], x) else evaluate(x)
+        objective.append(value)
+        grad_norm.append(float(np.linalg.norm(grad)))
+
+    w0 = np.zeros(K)
+    value0, grad0 = evaluate(w0)
+    objective.append(value0)
+    grad_norm.append(float(np.linalg.norm(grad0)))
+    result = minimize(negative, w0, jac=True, method="L-BFGS-B", tol=tol, callback=record, options={"maxiter": max_iterations})
+    return result.x, objective, grad_norm
 
 
 def _optimal_features(P: np.ndarray, phi: np.ndarray, p0: np.ndarray, horizon: int, w: np.ndarray, discount: float = 1.0) -> np.ndarray:

@@ -24,8 +24,8 @@ def _dynamics(P) -> np.ndarray | SparseModel:
     return P if isinstance(P, SparseModel) else np.asarray(P, dtype=np.float64)
 
 
-def _expect(P, V: np.ndarray) -> np.ndarray:
-    """(S, A) E[V(s') | s, a]."""
+def expect_next(P, V: np.ndarray) -> np.ndarray:
+    """(S, A) E[V(s') | s, a] under one dynamics P (S, A, S), dense or ``SparseModel``."""
     return P.expect(V) if isinstance(P, SparseModel) else P @ V
 
 
@@ -54,7 +54,7 @@ def backward_induction(
     V[T - 1] = R[T - 1]
     sign = 1.0 if maximize else -1.0
     for t in range(T - 2, -1, -1):
-        Q = R[t][:, None] + _expect(P, V[t + 1])  # (S, A)
+        Q = R[t][:, None] + expect_next(P, V[t + 1])  # (S, A)
         a = argmax_lowest(sign * Q, axis=1)
         policy[t] = a
         V[t] = Q[np.arange(S), a]
@@ -83,7 +83,7 @@ def soft_backward_induction(P: np.ndarray, R: np.ndarray, *, discount: float = 1
     policy = np.empty((T - 1, S, A))
     V[T - 1] = R[T - 1]
     for t in range(T - 2, -1, -1):
-        Q = R[t][:, None] + discount * _expect(P, V[t + 1])
+        Q = R[t][:, None] + discount * expect_next(P, V[t + 1])
         V[t] = logsumexp(Q, axis=1)
         policy[t] = np.exp(Q - V[t][:, None])
     return policy, V

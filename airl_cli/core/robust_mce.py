@@ -40,9 +40,9 @@ Shapes: transitions (M, S, A, S), index 0 = tau (unused), 1..D the learner's dyn
 from __future__ import annotations
 
 import numpy as np
-from scipy.optimize import minimize
 
-from airl_cli.core.baselines import BaselineResult, check_problem
+from airl_cli.core.baselines import BaselineResult, check_problem, feature_sum, lbfgs_ascent
+from airl_cli.core.planning import expect_next
 from airl_cli.core.sparse import SparseModel
 from airl_cli.core.threads import blas_on_one_thread
 
@@ -50,16 +50,6 @@ OPTIMIZERS = ("lbfgs", "adam")
 #: soft policy-iteration steps of the infinite form before plain value iteration takes over
 POLICY_STEPS = 50
 FORMS = ("finite", "infinite")
-
-
-def _expect(P, V: np.ndarray) -> np.ndarray:
-    """(S, A) E[V(s') | s, a] under one dynamics P (S, A, S) dense or sparse."""
-    return P.expect(V) if isinstance(P, SparseModel) else P @ V
-
-
-def _push(P, weights: np.ndarray) -> np.ndarray:
-    """(S,) sum_{s, a} weights[s, a] P(s' | s, a) for weights (S, A)."""
-    return P.push(weights) if isinstance(P, SparseModel) else np.einsum("sa,sax->x", weights, P)
 
 
 def _softmax_step(R_t: np.ndarray, E: np.ndarray, alpha: float, discount: float, allowed: np.ndarray | None):
@@ -103,7 +93,7 @@ def robust_soft_backup(
     opponent = np.empty((T - 1, S), dtype=np.int64)
     V[T - 1] = R[T - 1]
     for t in range(T - 2, -1, -1):
-        player[t], opponent[t], V[t] = _softmax_step(R[t], _expect(P, V[t + 1]), alpha, discount, allowed)
+        player[t], opponent[t], V[t] = _softmax_step(R[t], expect_next(P, V[t + 1]), alpha, discount, allowed)
     return player, opponent, V
 
 
@@ -128,7 +118,7 @@ def robust_soft_value_iteration(
         raise ValueError(f"the infinite-horizon form needs a discount in (0, 1), got {discount}")
     V = np.zeros(r.shape[0]) if V0 is None else np.array(V0, dtype=np.float64)
     for iteration in range(max_iterations):
-        player, opponent, V_new = _softmax_step(r, _expect(P, V), alpha, discount, allowed)
+        player, opponent, V_new = _softmax_step(r, expect_next(P, V), alpha, discount, allowed)
         # the tolerance, or rounding's floor (a solve's values are exact only to ~1e-16 |V|)
         if np.linalg.norm(V_new - V) < max(tol, 1e3 * np.finfo(float).eps * np.linalg.norm(V_new)):
             return player, opponent, V_new
@@ -161,19 +151,14 @@ def discounted_feature_sum(P, policy: np.ndarray, p0: np.ndarray, phi: np.ndarra
     x = p0 + gamma P_pi^T x until |x - x_old| < ``tol``.
     """
     if policy.ndim == 3:
-        d, total = np.array(p0, dtype=np.float64), np.zeros_like(p0, dtype=np.float64)
-        for t in range(policy.shape[0] + 1):
-            total += discount**t * d
-            if t < policy.shape[0]:
-                d = _push(P, d[:, None] * policy[t])
-        return total @ phi
+        return feature_sum(P, policy, p0, phi, discount)
     if not isinstance(P, SparseModel):
         M = np.einsum("sa,sax->sx", policy, P)
         x = np.linalg.solve(np.eye(M.shape[0]) - discount * M.T, p0)
         return x @ phi
     x = np.array(p0, dtype=np.float64)
     while True:
-        x_new = p0 + discount * _push(P, x[:, None] * policy)
+        x_new = p0 + discount * P.push(x[:, None] * policy)
         if np.linalg.norm(x_new - x) < tol:
             return x_new @ phi
         x = x_new
@@ -257,37 +242,15 @@ def robust_mce_irl(
     def evaluate(w: np.ndarray) -> tuple[float, np.ndarray]:
         return _value_and_grad(w, P, phi, p0, horizon, c, lam, alpha, discount, form, allowed, warm)
 
-    run = _lbfgs if optimizer == "lbfgs" else _adam
-    w, objective, grad_norm = run(evaluate, phi.shape[1], max_iterations, tol=tol, lr=lr)
+    if optimizer == "lbfgs":
+        w, objective, grad_norm = lbfgs_ascent(evaluate, phi.shape[1], max_iterations, tol=tol)
+    else:
+        w, objective, grad_norm = _adam(evaluate, phi.shape[1], max_iterations, lr=lr)
     history = {"step": np.arange(len(objective)), "objective": np.array(objective), "grad_norm": np.array(grad_norm)}
     return BaselineResult(np.tile(w, (P.shape[0] - 1, 1)), None, history)
 
 
-def _lbfgs(evaluate, K: int, max_iterations: int, *, tol: float, lr: float):
-    """Maximise by L-BFGS-B from w = 0, recording g and |grad| at w = 0 and after each iteration."""
-    last: dict = {}
-
-    def negative(w):
-        value, grad = evaluate(w)
-        last.update(w=w.copy(), value=value, grad=grad)
-        return -value, -grad
-
-    objective, grad_norm = [], []
-
-    def record(intermediate_result) -> None:
-        x = intermediate_result.x
-        value, grad = (last["value"], last["grad"]) if np.array_equal(last.get("w"), x) else evaluate(x)
-        objective.append(value)
-        grad_norm.append(float(np.linalg.norm(grad)))
-
-    value0, grad0 = evaluate(np.zeros(K))
-    objective.append(value0)
-    grad_norm.append(float(np.linalg.norm(grad0)))
-    result = minimize(negative, np.zeros(K), jac=True, method="L-BFGS-B", tol=tol, callback=record, options={"maxiter": max_iterations})
-    return result.x, objective, grad_norm
-
-
-def _adam(evaluate, K: int, max_iterations: int, *, tol: float, lr: float, betas=(0.9, 0.99), eps: float = 1e-7):
+def _adam(evaluate, K: int, max_iterations: int, *, lr: float, betas=(0.9, 0.99), eps: float = 1e-7):
     """The paper's ascent: ``max_iterations`` Adam steps w += lr m_hat / (sqrt(v_hat) + eps) from w = 0."""
     w, m, v = np.zeros(K), np.zeros(K), np.zeros(K)
     value, grad = evaluate(w)
