@@ -173,7 +173,7 @@ def minimize(
     start = time.perf_counter()  # each history row's seconds: the wall time since here
     problem = problem.with_scaled_loss(options.normalize_loss)
     targets = np.asarray(targets, dtype=np.float64)
-    D, K = problem.n_models - 1, problem.features.shape[1]
+    D, K = problem.n_models - 1, problem.n_features
     if targets.shape != (D, K):
         raise ValueError(f"targets must have shape (D, K) = ({D}, {K}), got {targets.shape}")
     shared, lam = options.weight_sharing, options.lam
@@ -244,8 +244,8 @@ def _start(sets: StrategySets, targets: np.ndarray, oracle: AdversaryOracle) -> 
     """The first strategies: the learner plays the optimal policy under tau of the demonstrations'
     mean features, the adversary its best response to that at w = 0."""
     problem = sets.problem
-    P, phi, p0, T = problem.transitions, problem.features, problem.initial, problem.horizon
-    policy, _ = backward_induction(P[0], phi @ targets.mean(axis=0), horizon=T)
+    P, p0, T = problem.transitions, problem.initial, problem.horizon
+    policy, _ = backward_induction(P[0], problem.features @ targets.mean(axis=0), horizon=T)
     sets.add_learner(policy, state_marginals(P[0], policy, p0))
     sets.add_adversary(oracle(adversary_rewards(problem, sets.l_marg[0], np.zeros(targets.shape)))[1])
     return sets

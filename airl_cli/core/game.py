@@ -9,6 +9,7 @@ of a pure pair (learner i, adversary k) is
     G[i, k] = L[i, k] + sum_j w_j . F_k[j],
     L[i, k] = sum_t sum_{s, s'} p_hat_i(t, s) loss(s, s') p_check_k(t, s')     (both under tau)
     F_k[j]  = sum_t sum_s p_check_k^{(j)}(t, s) phi(s)                         (under tau_j)
+With time-dependent features phi_t(s) (features (T, S, K), e.g. ``airl_cli.core.per_step``'s) F_k[j] sums phi_t(s).
 
 Only state marginals are needed, so a strategy is stored as its marginals: the learner's (T, S)
 under tau, the adversary's (M, T, S) under tau_0..tau_D. The loss part L does not depend on w,
@@ -45,7 +46,7 @@ class GameProblem:
 
     Attributes:
         transitions: (M, S, A, S), index 0 = tau (both players' loss is measured under tau).
-        features: (S, K) phi.
+        features: (S, K) phi, or (T, S, K) time-dependent features phi_t(s).
         initial: (S,) p0.
         loss: (S, S) loss(s_hat, s_check) >= 0.
         horizon: T.
@@ -62,6 +63,20 @@ class GameProblem:
     @property
     def n_models(self) -> int:
         return int(self.transitions.shape[0])
+
+    n_features = property(lambda self: int(self.features.shape[-1]), doc="K, the length of a feature vector.")
+
+    def feature_sums(self, marginals: np.ndarray) -> np.ndarray:
+        """(..., K) sum_t sum_s marginals(t, s) phi_t(s) for marginals (..., T, S)."""
+        if self.features.ndim == 2:
+            return marginals.sum(axis=-2) @ self.features
+        return np.einsum("...ts,tsk->...k", marginals, self.features)
+
+    def feature_rewards(self, w: np.ndarray) -> np.ndarray:
+        """(D, T, S) rewards R_j(t, s) = w_j . phi_t(s) for weights w (D, K) (no discount)."""
+        if self.features.ndim == 2:
+            return np.broadcast_to((self.features @ w.T).T[:, None, :], (w.shape[0], self.horizon, self.features.shape[0]))
+        return np.einsum("tsk,jk->jts", self.features, w)
 
     @cached_property
     def step_weights(self) -> np.ndarray:
@@ -120,7 +135,7 @@ class RestrictedGame:
 
     def __init__(self, problem: GameProblem):
         T, S = problem.horizon, problem.transitions.shape[1]
-        D, K = problem.n_models - 1, problem.features.shape[1]
+        D, K = problem.n_models - 1, problem.n_features
         self.problem = problem
         self.learner_loss = np.empty((0, T * S))
         self.learner_marginals = np.empty((0, T, S))
@@ -169,7 +184,7 @@ class RestrictedGame:
     def add_adversary(self, marginals: np.ndarray) -> None:
         """Add an adversary strategy from its state marginals (M, T, S) under tau_0..tau_D."""
         tau_flat = marginals[0].reshape(1, -1)
-        feats = marginals[1:].sum(axis=1) @ self.problem.features  # (D, K)
+        feats = self.problem.feature_sums(marginals[1:])  # (D, K)
         L_col = self.learner_loss @ tau_flat.T  # (n, 1)
         self.adversary_tau = np.vstack([self.adversary_tau, tau_flat])
         self.adversary_features = np.concatenate([self.adversary_features, feats[None]])
@@ -238,7 +253,7 @@ def adversary_rewards(problem: GameProblem, learner_tau: np.ndarray, w: np.ndarr
     """Rewards (M, T, S) of the adversary's multiple-MDP best response (eq. 6.26-6.28).
 
     MDP 0 (tau): R_0(t, s) = E[loss(S_hat_t, s)] under the learner's mixture; MDP j (tau_j):
-    R_j(t, s) = w_j . phi(s); both times gamma^t with a discount.
+    R_j(t, s) = w_j . phi_t(s); both times gamma^t with a discount.
 
     Args:
         learner_tau: (T, S) the learner mixture's state marginals under tau.
@@ -247,7 +262,7 @@ def adversary_rewards(problem: GameProblem, learner_tau: np.ndarray, w: np.ndarr
     T = problem.horizon
     R = np.empty((problem.n_models, T, problem.transitions.shape[1]))
     R[0] = problem.loss_times(learner_tau)
-    R[1:] = (problem.features @ w.T).T[:, None, :]
+    R[1:] = problem.feature_rewards(w)
     if problem.discount != 1.0:  # step t counts gamma^t in both the loss and the features
         R *= problem.step_weights[None, :, None]
     return R
@@ -366,7 +381,7 @@ def double_oracle(
             v_best, a_marg = oracle(adversary_rewards(problem, l_tau, game.w))
             calls += 1
             v_adv = max(v_best, v)
-            feats = (a_marg[1:].sum(axis=1) @ problem.features)[None]  # what the game sees of it
+            feats = problem.feature_sums(a_marg[1:])[None]  # what the game sees of it
             known = _known(game.adversary_tau, a_marg[0]) and _known(game.adversary_features, feats)
             add_a = v_best - v > tol and not known
             if add_a:

@@ -30,7 +30,7 @@ class StrategySets:
 
     def __init__(self, problem: GameProblem, qp: MasterQP, shared: bool):
         T, S = problem.horizon, problem.transitions.shape[1]
-        D, K = problem.n_models - 1, problem.features.shape[1]
+        D, K = problem.n_models - 1, problem.n_features
         self.problem, self.qp, self.shared = problem, qp, shared
         self.l_loss = np.empty((0, T * S))
         self.l_marg = np.empty((0, T, S))
@@ -57,11 +57,14 @@ class StrategySets:
         """An adversary strategy from its marginals (M, T, S) under tau_0..tau_D."""
         if self.problem.discount == 1.0:
             tau = marginals[0].reshape(-1)
-            F = marginals[1:].sum(axis=1) @ self.problem.features  # (D, K)
+            F = self.problem.feature_sums(marginals[1:])  # (D, K)
         else:  # step t counts gamma^t: weigh the adversary's marginals, the learner's stay as they are
             g = self.problem.step_weights
             tau = (marginals[0] * g[:, None]).reshape(-1)
-            F = np.einsum("t,jts->js", g, marginals[1:]) @ self.problem.features
+            if self.problem.features.ndim == 2:
+                F = np.einsum("t,jts->js", g, marginals[1:]) @ self.problem.features
+            else:
+                F = self.problem.feature_sums(marginals[1:] * g[:, None])
         phi_k = F.sum(axis=0) if self.shared else F.reshape(-1)
         self.qp.add_adversary(self.l_loss @ tau, phi_k)
         self.a_tau = np.vstack([self.a_tau, tau[None]])
