@@ -108,8 +108,9 @@ class ProblemSettings:
     discount: float = 1.0  # mdp.discount: gamma in (0, 1], step t weighted by gamma^t (1 in the thesis)
 
 
-#: game.adversary: the thesis's history-dependent adversary, or the Markov variant (core.markov_adversary).
-ADVERSARIES = ("history", "markov")
+#: game.adversary: the thesis's history-dependent adversary, or the Markov variant (core.markov_adversary);
+#: game.matching: the feature sums (eq. 5.3-5.4) or the features at every step apart (core.per_step).
+ADVERSARIES, MATCHINGS = ("history", "markov"), ("total", "per_step")
 LOSSES = ("auto", "zero_one", "squared_features", "squared_euclidean")
 TRANSITIONS = ("uniform", "dirichlet", "sparse")
 
@@ -238,15 +239,13 @@ def problem_settings(cfg: DictConfig | Mapping) -> ProblemSettings:
     loss = Reader(top.raw("loss"), "loss").choice("kind", LOSSES)
     if loss == "squared_euclidean" and mdp.name in ("random", "gymnasium", "seals"):
         raise ConfigError(f"'loss=squared_euclidean' measures distances between grid cells, which mdp={mdp.name} does not give; use it with mdp=grid or mdp=objectworld")
-    seed = top.int("seed", lo=0)
     discount = Reader(top.raw("mdp"), "mdp").float("discount", lo=0.0, hi=1.0, open_lo=True, default=1.0)
-    return ProblemSettings(mdp=mdp, dynamics=dynamics, demos=demos, loss=loss, seed=seed, discount=discount)
+    return ProblemSettings(mdp=mdp, dynamics=dynamics, demos=demos, loss=loss, seed=top.int("seed", lo=0), discount=discount)
 
 
 # --------------------------------------------------------------------------- learning
 
 
-METHODS = NAMES  # the registrys names (airl_cli.methods)
 #: How the thesis's method minimises its objective: exactly with a certificate, or Table I's gradient steps.
 OPTIMIZERS = ("exact", "gradient")
 
@@ -268,6 +267,7 @@ class FitSettings:
     optimizer: str = "exact"
     certified: CertifiedOptions = field(default_factory=CertifiedOptions)
     certify: bool = False
+    matching: str = "total"  # game.matching, one of MATCHINGS
 
 
 def _method_options(r: Reader, name: str) -> dict:
@@ -309,7 +309,7 @@ def fit_settings(cfg: DictConfig | Mapping) -> FitSettings:
     c = plain(cfg)
     top = Reader(c, "")
     m = Reader(top.raw("method"), "method")
-    method = m.choice("name", METHODS)
+    method = m.choice("name", NAMES)
     g = Reader(top.raw("game"), "game")
     o = Reader(top.raw("optim"), "optim")
     optimizer = o.choice("name", OPTIMIZERS)
@@ -357,6 +357,7 @@ def fit_settings(cfg: DictConfig | Mapping) -> FitSettings:
         optimizer=optimizer,
         certified=certified,
         certify=certify,
+        matching=g.choice("matching", MATCHINGS, default="total"),
     )
 
 

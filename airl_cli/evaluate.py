@@ -22,9 +22,13 @@ def weights_for(weights: np.ndarray, j: int) -> np.ndarray:
 
 
 def learner_policy(dataset: Dataset, weights: np.ndarray, j: int) -> np.ndarray:
-    """The learner's policy (T-1, S) for dynamics j: optimal for its w . phi (discounted) under tau_j."""
-    R = discounted(dataset.features @ weights_for(weights, j), dataset.horizon, dataset.discount)
-    policy, _ = backward_induction(dataset.transitions[j], R)
+    """The learner's policy (T-1, S) for dynamics j: optimal for its w . phi (discounted) under tau_j.
+
+    ``weights`` (D, K), or (D, T, K) for a time-dependent reward r_t(s) = w_{j,t} . phi(s)
+    (game.matching=per_step)."""
+    w = weights_for(weights, j)
+    R = dataset.features @ w if w.ndim == 1 else (dataset.features @ w.T).T
+    policy, _ = backward_induction(dataset.transitions[j], discounted(R, dataset.horizon, dataset.discount))
     return policy
 
 
@@ -70,5 +74,8 @@ def score_rows(
 
 def score_learned(dataset: Dataset, learned) -> list[dict]:
     """``score_rows`` for a ``learners.Learned``: its weights, or its one policy for every dynamics, and its equilibrium."""
-    policies = None if learned.policy is None else [learned.policy] * dataset.transitions.shape[0]
+    n = dataset.transitions.shape[0]
+    policies = None if learned.policy is None else [learned.policy] * n
+    if learned.step_weights is not None:  # a time-dependent reward: its own policies
+        policies = [learner_policy(dataset, learned.step_weights, j) for j in range(n)]
     return score_rows(dataset, learned.weights, policies, learned.equilibrium)

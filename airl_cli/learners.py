@@ -14,6 +14,7 @@ from airl_cli.core.certified import minimize, objective_at
 from airl_cli.core.degeneracy import is_degenerate, reward_effect
 from airl_cli.core.game import GameProblem, scaled
 from airl_cli.core.learn import fit, make_oracles
+from airl_cli.core.per_step import step_blocks, step_features, step_targets
 from airl_cli.data import Dataset
 from airl_cli.errors import ConfigError
 from airl_cli.methods import REGISTRY
@@ -32,6 +33,9 @@ class Learned:
         equilibrium: for method=airl with optim=exact, the game's own learner: (policies (n, T-1, S)
             int, deterministic Markov policies under any dynamics; mix (n,) their probabilities p,
             eq. 5.9), else None.
+        step_weights: with game.matching=per_step, (D, T, K) the time-dependent reward's weights
+            w_{j,t}, block 0 zero (``airl_cli.core.per_step``); ``weights`` is then the mean of blocks
+            1..T-1. Else None.
     """
 
     method: str
@@ -40,6 +44,7 @@ class Learned:
     history: dict[str, np.ndarray]
     info: dict = field(default_factory=dict)
     equilibrium: tuple[np.ndarray, np.ndarray] | None = None
+    step_weights: np.ndarray | None = None
 
     @property
     def shared(self) -> bool:
@@ -80,6 +85,13 @@ def learn(
 def _check_supported(dataset: Dataset, settings: FitSettings) -> None:
     """One sentence for what a method cannot take: a discount (the thesis's gradient steps) or action sets."""
     method = settings.method
+    if method == "airl" and settings.matching == "per_step" and settings.optimizer != "exact":
+        raise ConfigError("game.matching=per_step is a variant of the certified learner: use optim=exact")
+    if method == "airl" and settings.matching == "per_step" and dataset.demo_states is None:
+        raise ConfigError(
+            "game.matching=per_step matches the demonstrations' features at every step, and this dataset "
+            "gives only their sums ('feature_expectations'); use demonstrated trajectories (demos=sampled)"
+        )
     if method == "airl" and dataset.discount < 1.0 and settings.optimizer != "exact":
         raise ConfigError(
             f"optim=gradient plays the thesis's undiscounted game and does not take a discount (mdp.discount = "
@@ -97,8 +109,15 @@ def _check_supported(dataset: Dataset, settings: FitSettings) -> None:
 
 
 def _learn_airl_method(dataset: Dataset, settings: FitSettings, rng: np.random.Generator, callback, planner_progress) -> Learned:
-    problem = GameProblem(dataset.transitions, dataset.features, dataset.initial, dataset.loss, dataset.horizon, dataset.discount)
-    return _learn_airl(problem, dataset.feature_targets(), settings, rng, callback, planner_progress)
+    d = dataset
+    if settings.matching == "per_step":  # the same game with features e_t (x) phi (core.per_step)
+        problem = GameProblem(d.transitions, step_features(d.features, d.horizon), d.initial, d.loss, d.horizon, d.discount)
+        learned = _learn_airl(problem, step_targets(d.demo_states, d.features, discount=d.discount), settings, rng, callback, planner_progress)
+        blocks = step_blocks(learned.weights, d.horizon)
+        info = learned.info | {"matching": "per_step"}
+        return Learned("airl", blocks[:, 1:].mean(axis=1), None, learned.history, info, learned.equilibrium, blocks)
+    problem = GameProblem(d.transitions, d.features, d.initial, d.loss, d.horizon, d.discount)
+    return _learn_airl(problem, d.feature_targets(), settings, rng, callback, planner_progress)
 
 
 def _learn_bc(dataset: Dataset, settings: FitSettings, *_) -> Learned:

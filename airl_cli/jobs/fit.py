@@ -55,6 +55,8 @@ def summary_text(dataset: Dataset, settings: FitSettings, learned: Learned, rows
             how += "Markov adversary (" + ("every Markov policy enumerated" if o.planner.method == "exact" else "CADP best responses") + ")"
         else:
             how += f"PBVI {o.planner.iterations} iterations ({info['n_beliefs']} beliefs)"
+        if settings.matching == "per_step":
+            how += ", features matched at every step (game.matching=per_step)"
     elif learned.method == "bc":
         how = "action frequencies of the demonstrations"
     else:
@@ -72,6 +74,8 @@ def summary_text(dataset: Dataset, settings: FitSettings, learned: Learned, rows
             lines.append(f"warning   {degenerate_sentence(info)}")
     if learned.weights is not None:
         lines += ["", "learned weights:"]
+        if learned.step_weights is not None:
+            lines.append("  (game.matching=per_step: a reward w_t . phi per step t, all in weights.json; below, their mean over t = 1..T-1)")
         if learned.shared:
             lines.append("  w:   " + np.array2string(learned.weights[0], precision=4, separator=", ") + "  (shared by every dynamics)")
         else:
@@ -160,7 +164,8 @@ def fit_and_write(
     if generated:
         write_dataset(folder / "dataset.npz", dataset)
     if learned.weights is not None:
-        write_json(folder / "weights.json", {"shared": learned.shared, "weights": learned.weights.tolist()})
+        steps = {} if learned.step_weights is None else {"step_weights": learned.step_weights.tolist()}
+        write_json(folder / "weights.json", {"shared": learned.shared, "weights": learned.weights.tolist(), **steps})
     else:
         atomic_write(folder / "policy.npy", lambda h: h.write(npy_bytes(learned.policy)))
     metrics = {"method": learned.method, "shared": learned.shared, **learned.info, "scored": dataset.true_weights is not None, "dynamics": rows}
