@@ -35,7 +35,7 @@ FIT_COLUMNS = (
     "experiment", "method", "seed", "run", "x", "x_name", "mdp", "dynamics_kind", "n_dynamics", "n_features",
     "n_demos", "demos", "sigma", "weight_sharing", "loss", "dynamics", "learner_score", "demonstrator_score",
     "cosine_similarity", "seconds", "optimizer", "objective", "relative_gap", "converged", "degenerate",
-    "equilibrium_score",
+    "equilibrium_score", "weight_scale",
 )  # fmt: skip
 #: The columns of the alpha-vector experiment's one row (thesis Figs. 2-3).
 ALPHA_COLUMNS = ("experiment", "seed", "n_exact", "n_envelope", "n_pbvi", "n_beliefs", "max_value_gap", "seconds")
@@ -51,7 +51,10 @@ ALPHA_ARRAYS = ("exact", "exact_envelope", "pbvi", "t", "s")
 SETTING_GROUPS = ("mdp", "dynamics", "demos", "loss", "method", "pbvi", "game", "optim")
 
 _INTEGERS = {"seed", "run", "n_dynamics", "n_features", "n_demos", "n_exact", "n_envelope", "n_pbvi", "n_beliefs"}
-_FLOATS = {"x", "sigma", "learner_score", "demonstrator_score", "cosine_similarity", "seconds", "objective", "relative_gap", "max_value_gap", "equilibrium_score"}
+_FLOATS = {
+    "x", "sigma", "learner_score", "demonstrator_score", "cosine_similarity", "seconds", "objective", "relative_gap", "max_value_gap",
+    "equilibrium_score", "weight_scale",
+}  # fmt: skip
 _BOOLS = {"weight_sharing", "converged", "degenerate"}
 #: Cells that differ from one dynamics' row to the next (all others are the job's, the same in each row).
 _PER_DYNAMICS = ("dynamics", "learner_score", "demonstrator_score", "cosine_similarity", "equilibrium_score")
@@ -211,7 +214,7 @@ def _check_fit(folder: Path, config: dict, header: list[str], rows: list[list[st
     empty = set() if method == "airl" else {"optimizer", "objective"}
     empty |= set() if exact else {"relative_gap", "converged", "degenerate", "equilibrium_score"}
     empty |= set() if metrics["scored"] else {"learner_score", "demonstrator_score", "cosine_similarity", "equilibrium_score"}
-    empty |= set() if _learns_reward(method) else {"cosine_similarity"}  # a policy, no weights
+    empty |= set() if _learns_reward(method) else {"cosine_similarity", "weight_scale"}  # a policy, no weights
     _check_types(ROWS, header, rows, empty | {k for k, v in settings.items() if v == ""})
     x_key = str(config["experiment"].get("x_key") or "seed")
     x = config

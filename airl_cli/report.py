@@ -22,6 +22,7 @@ from airl_cli.errors import AirlError
 from airl_cli.methods import NAMES
 from airl_cli.paths import conf_dir
 from airl_cli.results import atomic_write, write_text
+from airl_cli.variants import variants_summary
 
 START, END = "<!-- claims table: written by make_report.py -->", "<!-- end of the claims table -->"
 ORDER = list(NAMES)
@@ -192,9 +193,27 @@ def alphas(table: pd.DataFrame) -> str:
     )
 
 
+def variants(meta: dict, table: pd.DataFrame) -> str:
+    """Per swept value and variant of the game (``airl_cli.variants``): flagged fits, max |w|, cos, scores."""
+    lines = [
+        f"| {meta['x_label']} | variant | flagged | max \\|w\\| median [min, max] | median cos(w, w*) | learner | game p | demonstrator | at or above demo |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
+    for _, r in variants_summary(meta, table).iterrows():
+        flagged = f"{r.flagged}/{r.runs}" if r.certified else "-"
+        game_p = "-" if pd.isna(r.game_p_median) else fmt(r.game_p_median)
+        lines.append(
+            f"| {r.x:g} | {r.variant} | {flagged} | {r.w_median:.2g} [{r.w_min:.2g}, {r.w_max:.2g}] | {r.cos_median:.2f} | "
+            f"{fmt(r.learner_median)} | {game_p} | {fmt(r.demonstrator_median)} | {r.above}/{r.pairs} |"
+        )
+    return "\n".join(lines)
+
+
 def summary(name: str, meta: dict, table: pd.DataFrame) -> str:
     if meta["kind"] == "alphas":
         return alphas(table)
+    if meta.get("summary") == "variants":
+        return variants(meta, table)
     if name in ("fig15", "fig18"):
         return cosine(table)
     if meta["x"] == "run":
@@ -206,8 +225,8 @@ def overview(experiments: Tables) -> str:
     """method x experiment: median learner score over runs and demonstrated dynamics, [25%, 75%], fit time."""
     rows = {}
     for name, (meta, table) in sorted(experiments.items()):
-        if meta["kind"] == "alphas" or name in ("fig15", "fig18"):
-            continue
+        if meta["kind"] == "alphas" or name in ("fig15", "fig18") or meta.get("summary") == "variants":
+            continue  # (a variants table holds several games under method=airl: its own table shows them)
         t = demonstrated(table)
         for m in methods(t):
             s = t[t["method"] == m]

@@ -1,6 +1,6 @@
 """What a sweep is, below every module that runs one: its file names, its quick profile, its plan.
 
-The ``airl.sweep`` resolver (``${airl.sweep:runs|values|methods}`` in ``conf/experiment/*.yaml``)
+The ``airl.sweep`` resolver (``${airl.sweep:runs|values|methods|variants}`` in ``conf/experiment/*.yaml``)
 is registered on import, in the sweep process and in every worker that composes a job's config.
 Nothing here imports another module of ``airl_cli``.
 """
@@ -18,13 +18,13 @@ ROWS = "rows.csv"
 ERROR = "error.txt"
 
 #: Quick profile: this many runs at most, the first and last swept value (or the experiment's
-#: ``quick_values``), the first two methods.
+#: ``quick_values``), the first two methods (or variants).
 QUICK_RUNS = 2
 QUICK_METHODS = 2
 
 
 def _sweep_values(what: str, *, _root_: DictConfig) -> str:
-    """``${airl.sweep:runs|values|methods}``: the sweep of the experiment under the current profile."""
+    """``${airl.sweep:runs|values|methods|variants}``: the sweep of the experiment under the current profile."""
     exp = _root_.experiment
     quick = _root_.profile.name == "quick"
     if what == "runs":
@@ -36,10 +36,10 @@ def _sweep_values(what: str, *, _root_: DictConfig) -> str:
             # an experiment whose swept values are the problem's size shrinks them (quick_values)
             values = list(exp.get("quick_values") or dict.fromkeys([values[0], values[-1]]))
         return ",".join(str(v) for v in values)
-    if what == "methods":
-        methods = list(exp.methods)
-        return ",".join(methods[:QUICK_METHODS] if quick else methods)
-    raise ValueError(f"airl.sweep takes runs, values or methods, not {what!r}")
+    if what in ("methods", "variants"):  # variants: conf/variant/ bundles, each a method and its settings
+        names = list(exp[what])
+        return ",".join(names[:QUICK_METHODS] if quick else names)
+    raise ValueError(f"airl.sweep takes runs, values, methods or variants, not {what!r}")
 
 
 OmegaConf.register_new_resolver("airl.sweep", _sweep_values, replace=True)

@@ -18,6 +18,7 @@ from airl_cli.pool import call
 from airl_cli.results import atomic_write, write_json, write_text
 from airl_cli.sweep_folder import check_folder, unwritable
 from airl_cli.sweep_spec import ROWS, SweepPlan
+from airl_cli.variants import variants_summary
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -138,6 +139,8 @@ def medians_text(experiment: dict, table: pd.DataFrame) -> str:
     and the experiment's dynamics, the demonstrator's beside it, and the thesis's claim."""
     if experiment.get("kind") == "viano" and "total_return" in table:
         return viano_text(experiment, table)
+    if experiment.get("summary") == "variants" and "learner_score" in table:
+        return variants_text(experiment, table)
     if experiment.get("kind") == "alphas" or "learner_score" not in table:
         return ""
     rows = table[table["dynamics"].isin(experiment.get("dynamics") or table["dynamics"].unique())]
@@ -178,4 +181,22 @@ def viano_text(experiment: dict, table: pd.DataFrame) -> str:
     lines.append(f"expert (optimal policy): {expert:.1f}" + ("" if theirs != theirs else f" (published {theirs:.1f})"))
     if experiment.get("thesis"):
         lines.append(experiment["thesis"])
+    return "\n".join(lines) + "\n\n"
+
+
+def variants_text(experiment: dict, table: pd.DataFrame) -> str:
+    """``variants_summary`` for the terminal, one line per swept value and variant."""
+    summary = variants_summary(experiment, table)
+    x_name = experiment.get("x", "x")
+    lines = ["", f"per variant, over runs and {', '.join(experiment.get('dynamics') or [])} (flagged: the certified w is the zero reward):"]
+    lines.append(f"{x_name:>9} {'variant':<17}{'flagged':>8}{'max |w| (median)':>18}{'cos':>7}{'learner':>9}{'game p':>8}{'demo':>7}{'>= demo':>9}")
+    for _, r in summary.iterrows():
+        flagged = f"{r['flagged']}/{r['runs']}" if r["certified"] else "-"
+        game_p = "-" if r["game_p_median"] != r["game_p_median"] else f"{r['game_p_median']:.3f}"
+        lines.append(
+            f"{r['x']:>9g} {r['variant']:<17}{flagged:>8}{r['w_median']:>18.2g}{r['cos_median']:>7.2f}{r['learner_median']:>9.3f}"
+            f"{game_p:>8}{r['demonstrator_median']:>7.3f}{str(r['above']) + '/' + str(r['pairs']):>9}"
+        )
+    if experiment.get("thesis"):
+        lines.append(f"thesis: {experiment['thesis']}")
     return "\n".join(lines) + "\n\n"

@@ -19,7 +19,7 @@ from airl_cli.job_files import damaged_jobs
 from airl_cli.sweeps import FIT_COLUMNS, experiment_names, plan
 
 runner = CliRunner()
-EXPERIMENTS = ["cliffworld", "fig02_03", "fig04", "fig05", "fig06", "fig07", "fig08", "fig09", "fig12", "fig13", "fig14", "fig15", "fig17", "fig18", "frozenlake", "size", "size_random", "size_random_markov", "size_random_scaled"]
+EXPERIMENTS = ["cliffworld", "degeneracy", "fig02_03", "fig04", "fig05", "fig06", "fig07", "fig08", "fig09", "fig12", "fig13", "fig14", "fig15", "fig17", "fig18", "frozenlake", "size", "size_random", "size_random_markov", "size_random_scaled"]
 #: Experiments on the gymnasium and seals environments: they need the optional extra (pip install ".[envs]").
 ENV_EXPERIMENTS = {"cliffworld": "seals", "frozenlake": "gymnasium"}
 
@@ -45,7 +45,7 @@ def test_every_experiment_composes_and_plans(name, profile):
         assert len(sweep.jobs) <= 8
 
 
-RANDOM_MDP = {"fig04", "fig05", "fig06", "fig07", "fig08", "fig09", "size_random", "size_random_markov", "size_random_scaled"}
+RANDOM_MDP = {"degeneracy", "fig04", "fig05", "fig06", "fig07", "fig08", "fig09", "size_random", "size_random_markov", "size_random_scaled"}
 
 
 @pytest.mark.parametrize("name", [e for e in EXPERIMENTS if e != "fig02_03"])

@@ -63,6 +63,9 @@ def fit_rows(cfg: DictConfig, folder) -> list[dict]:
         "degenerate": info["degenerate"] if certified else np.nan,
     }
     settings = setting_columns(c)
+    # max |w|: a certified w this small beside a flagged fit is the zero reward (README, "A degenerate optimum")
+    weights = run.learned.weights
+    weight_scale = np.nan if weights is None else float(np.max(np.abs(weights)))
     out = []
     for row in run.rows:
         out.append(
@@ -75,6 +78,7 @@ def fit_rows(cfg: DictConfig, folder) -> list[dict]:
                 "seconds": run.seconds,
                 **fit_facts,
                 "equilibrium_score": np.nan if row["equilibrium_score"] is None else row["equilibrium_score"],
+                "weight_scale": weight_scale,
                 **settings,
             }
         )

@@ -51,6 +51,7 @@ from airl_cli.plotting.scores import (
     run_bars,
     times,
 )
+from airl_cli.plotting.variants import VARIANTS_COLUMNS, variants
 from airl_cli.plotting.viano import RETURNS_COLUMNS, returns
 from airl_cli.results import atomic_write
 
@@ -72,8 +73,8 @@ __all__ = [
 # the sweep folder
 
 
-_DRAWERS = {"histogram": histogram, "curves": curves, "run_bars": run_bars, "cosine": cosine, "times": times, "returns": returns}
-_NEEDS = {"histogram": HISTOGRAM_COLUMNS, "curves": CURVES_COLUMNS, "run_bars": RUN_BARS_COLUMNS, "times": TIMES_COLUMNS, "returns": RETURNS_COLUMNS}
+_DRAWERS = {"histogram": histogram, "curves": curves, "run_bars": run_bars, "cosine": cosine, "times": times, "returns": returns, "variants": variants}
+_NEEDS = {"histogram": HISTOGRAM_COLUMNS, "curves": CURVES_COLUMNS, "run_bars": RUN_BARS_COLUMNS, "times": TIMES_COLUMNS, "returns": RETURNS_COLUMNS, "variants": VARIANTS_COLUMNS}
 
 
 def _unfinished(folder: Path) -> str:
@@ -96,7 +97,7 @@ def _read_meta(folder: Path) -> dict[str, Any]:
     if not isinstance(meta, dict):
         raise ValueError(f"experiment.json in {folder} must hold a JSON object.")
     for key in ("name", "figures"):
-        if not meta.get(key):
+        if not meta.get(key) and meta.get(key) != []:  # an experiment may draw no figure (a table only)
             raise ValueError(f"experiment.json in {folder} has no {key!r}.")
     figures = meta["figures"]
     if isinstance(figures, str) or not isinstance(figures, list):
