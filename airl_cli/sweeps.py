@@ -29,7 +29,7 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 from airl_cli import compose_memo
 from airl_cli.config import fit_settings, plain, problem_settings
 from airl_cli.errors import ConfigError, ResultsUnwritable, interrupt_status, interrupted, say_error
-from airl_cli.job_files import FIT_COLUMNS, damaged_jobs, discard  # noqa: F401 (FIT_COLUMNS: part of the interface)
+from airl_cli.job_files import damaged_jobs, discard
 from airl_cli.launch import launcher_discoverable
 from airl_cli.paths import conf_dir
 from airl_cli.plain_progress import PlainProgress
