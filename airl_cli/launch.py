@@ -17,6 +17,7 @@ from omegaconf import OmegaConf
 from airl_cli.errors import ResultsUnwritable, interrupted, say_error
 from airl_cli.paths import conf_dir
 from airl_cli.results import claimed_folder, describe_os_error, holds_no_results, is_unwritable, new_run_folder, writable_problem, write_text
+from airl_cli.sweep_spec import override_key, split_override
 
 
 def config_groups() -> dict[str, list[str]]:
@@ -46,8 +47,7 @@ def check_group_choices(overrides: list[str]) -> None:
     """Refuse ``GROUP=OPTION`` with an unknown OPTION in one sentence (Hydra would print its search path)."""
     groups = config_groups()
     for item in overrides:
-        key, sep, value = item.partition("=")
-        key = key.lstrip("+~")
+        key, sep, value = split_override(item)
         if not sep or key not in groups or value.startswith(("choice(", "range(", "glob(")):
             continue
         for option in value.split(","):
@@ -78,8 +78,7 @@ def _known_keys(overrides: list[str], primary_name: str = "airl") -> tuple[dict[
     groups = config_groups()
     on_command_line = {}
     for item in overrides:
-        key, sep, value = item.partition("=")
-        name = key.lstrip("+~")
+        name, sep, value = split_override(item)
         if sep and name in groups:
             on_command_line[name] = value.split(",")[0]
     # an experiment picks its own options (``override /mdp: gymnasium``); the command line's win
@@ -116,7 +115,7 @@ def check_keys(overrides: list[str], primary: str = "airl") -> None:
     values = []
     for item in overrides:
         key, sep, _ = item.partition("=")
-        name = key.lstrip("+~")
+        name = override_key(item)
         if sep and not key.startswith("~") and not name.startswith(("hydra.", "hydra/")) and name not in groups:
             values.append((key, name))
     if not values:
@@ -152,8 +151,8 @@ def check_output_folder(overrides: list[str], *, multirun: bool) -> None:
     key = "hydra.sweep.dir" if multirun else "hydra.run.dir"
     folder = "results"
     for item in overrides:
-        name, sep, value = item.partition("=")
-        if sep and name.lstrip("+~") == key:
+        name, sep, value = split_override(item)
+        if sep and name == key:
             folder = value.strip("'\"")
     problem = writable_problem(folder)
     if problem is not None:
