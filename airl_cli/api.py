@@ -14,7 +14,6 @@ with the same seed streams; nothing is written to disk.
 
 from __future__ import annotations
 
-import json
 import os
 from pathlib import Path
 
@@ -28,6 +27,7 @@ from airl_cli.data import Dataset, read_dataset, write_dataset
 from airl_cli.evaluate import score_learned
 from airl_cli.learners import Learned, learn
 from airl_cli.paths import conf_dir
+from airl_cli.results import read_experiment
 
 __all__ = ["config", "load_dataset", "save_dataset", "make_dataset", "fit", "score", "read_sweep", "Dataset", "Learned"]
 
@@ -91,7 +91,7 @@ def read_sweep(folder: str | os.PathLike) -> pd.DataFrame:
     if not (folder / "results.csv").is_file():
         raise FileNotFoundError(f"{folder} has no results.csv: run airl sweep into it first")
     table = pd.read_csv(folder / "results.csv")
-    meta = folder / "experiment.json"
-    table.attrs["experiment"] = json.loads(meta.read_text()) if meta.is_file() else {}
+    meta = read_experiment(folder)
+    table.attrs["experiment"] = {} if meta is None else meta
     return table
 

@@ -13,7 +13,7 @@ import gc
 import typer
 from typer.core import TyperCommand
 
-from airl_cli.errors import AirlError, say_error, stop_on_sigterm
+from airl_cli.errors import AirlError, refuse, stop_on_sigterm
 from airl_cli.launch import check_group_choices, check_keys, config_groups, run_hydra
 
 PASS_THROUGH = {"allow_extra_args": True, "ignore_unknown_options": True}
@@ -140,8 +140,7 @@ def sweep(
     try:
         status = run(ctx.args, draw=plot, console=err_console, out=out_console, partial=partial)
     except AirlError as err:
-        say_error(err, err_console)
-        raise typer.Exit(2) from None
+        refuse(err, err_console)
     raise typer.Exit(status)
 
 
@@ -178,11 +177,9 @@ def plot(
     try:
         paths = draw_folder(folder)
     except (ValueError, FileNotFoundError) as err:
-        say_error(err, err_console)
-        raise typer.Exit(2) from None
+        refuse(err, err_console)
     except OSError as err:
-        say_error(f"cannot write the figures ({describe_os_error(err)})", err_console)
-        raise typer.Exit(2) from None
+        refuse(f"cannot write the figures ({describe_os_error(err)})", err_console)
     for path in paths:
         out_console.print(f"figure {path}", soft_wrap=True)
 
@@ -208,11 +205,9 @@ def report(
     try:
         paths = make_report(folder, out, profile)
     except AirlError as err:
-        say_error(err, err_console)
-        raise typer.Exit(2) from None
+        refuse(err, err_console)
     except OSError as err:
-        say_error(f"cannot write the report ({describe_os_error(err)})", err_console)
-        raise typer.Exit(2) from None
+        refuse(f"cannot write the report ({describe_os_error(err)})", err_console)
     # make_report writes the figures, then results.md, then the claims table
     n = len(paths) - 2
     out_console.print(f"wrote {paths[-2]}, {paths[-1]} and {n} figure{'' if n == 1 else 's'}", soft_wrap=True)

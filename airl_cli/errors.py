@@ -7,7 +7,7 @@ folder that cannot be written are said in one sentence too, by the command that 
 from __future__ import annotations
 
 import signal
-from typing import Any
+from typing import Any, NoReturn
 
 
 def error_line(sentence: object) -> str:
@@ -25,6 +25,14 @@ def say_error(sentence: object, console: Any = None) -> None:
 
         console = Console(stderr=True, highlight=False)
     console.print(error_line(sentence), soft_wrap=True)
+
+
+def refuse(sentence: object, console: Any = None) -> NoReturn:
+    """Stop a command on bad input: ``say_error(sentence, console)``, then exit with status 2."""
+    import typer
+
+    say_error(sentence, console)
+    raise typer.Exit(2) from None
 
 
 class AirlError(Exception):

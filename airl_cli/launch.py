@@ -10,13 +10,13 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
-import typer
 import yaml
 from omegaconf import OmegaConf
 
-from airl_cli.errors import ResultsUnwritable, interrupted, say_error
+from airl_cli.errors import ResultsUnwritable, interrupted, refuse
 from airl_cli.paths import conf_dir
 from airl_cli.results import claimed_folder, describe_os_error, holds_no_results, is_unwritable, new_run_folder, writable_problem, write_text
+from airl_cli.sweep_spec import override_key, split_override
 
 
 def config_groups() -> dict[str, list[str]]:
@@ -46,14 +46,12 @@ def check_group_choices(overrides: list[str]) -> None:
     """Refuse ``GROUP=OPTION`` with an unknown OPTION in one sentence (Hydra would print its search path)."""
     groups = config_groups()
     for item in overrides:
-        key, sep, value = item.partition("=")
-        key = key.lstrip("+~")
+        key, sep, value = split_override(item)
         if not sep or key not in groups or value.startswith(("choice(", "range(", "glob(")):
             continue
         for option in value.split(","):
             if option and option not in groups[key]:
-                say_error(f"'{option}' is not an option of the config group '{key}'; choose one of: {', '.join(groups[key])}")
-                raise typer.Exit(2)
+                refuse(f"'{option}' is not an option of the config group '{key}'; choose one of: {', '.join(groups[key])}")
 
 
 def _yaml(path: Path) -> tuple[dict, bool]:
@@ -78,8 +76,7 @@ def _known_keys(overrides: list[str], primary_name: str = "airl") -> tuple[dict[
     groups = config_groups()
     on_command_line = {}
     for item in overrides:
-        key, sep, value = item.partition("=")
-        name = key.lstrip("+~")
+        name, sep, value = split_override(item)
         if sep and name in groups:
             on_command_line[name] = value.split(",")[0]
     # an experiment picks its own options (``override /mdp: gymnasium``); the command line's win
@@ -116,7 +113,7 @@ def check_keys(overrides: list[str], primary: str = "airl") -> None:
     values = []
     for item in overrides:
         key, sep, _ = item.partition("=")
-        name = key.lstrip("+~")
+        name = override_key(item)
         if sep and not key.startswith("~") and not name.startswith(("hydra.", "hydra/")) and name not in groups:
             values.append((key, name))
     if not values:
@@ -130,21 +127,18 @@ def check_keys(overrides: list[str], primary: str = "airl") -> None:
                 continue
             close = difflib.get_close_matches(name, top, n=1, cutoff=0.7)
             hint = f"did you mean '{close[0]}'? " if close else ""
-            say_error(f"'{name}' is not a setting{adds}; {hint}the top-level keys are: {', '.join(top)}")
-            raise typer.Exit(2)
+            refuse(f"'{name}' is not a setting{adds}; {hint}the top-level keys are: {', '.join(top)}")
         group, leaf = parts[0], parts[1]
         if group not in known and group not in top:
             close = difflib.get_close_matches(group, list(known), n=1)
             hint = f"did you mean '{close[0]}'? " if close else ""
-            say_error(f"'{name}' names no setting: '{group}' is not a config group; {hint}the groups are: {', '.join(known)}")
-            raise typer.Exit(2)
+            refuse(f"'{name}' names no setting: '{group}' is not a config group; {hint}the groups are: {', '.join(known)}")
         option, keys = known.get(group, ("", None))
         if keys is None or leaf in keys:
             continue
         close = difflib.get_close_matches(leaf, keys, n=1, cutoff=0.7)
         hint = f"did you mean '{group}.{close[0]}'? " if close else ""
-        say_error(f"'{name}' is not a key of the config group '{group}' ({group}={option}){adds}; {hint}its keys are: {', '.join(keys)}")
-        raise typer.Exit(2)
+        refuse(f"'{name}' is not a key of the config group '{group}' ({group}={option}){adds}; {hint}its keys are: {', '.join(keys)}")
 
 
 def check_output_folder(overrides: list[str], *, multirun: bool) -> None:
@@ -152,13 +146,12 @@ def check_output_folder(overrides: list[str], *, multirun: bool) -> None:
     key = "hydra.sweep.dir" if multirun else "hydra.run.dir"
     folder = "results"
     for item in overrides:
-        name, sep, value = item.partition("=")
-        if sep and name.lstrip("+~") == key:
+        name, sep, value = split_override(item)
+        if sep and name == key:
             folder = value.strip("'\"")
     problem = writable_problem(folder)
     if problem is not None:
-        say_error(f"cannot write the results to {folder} ({problem}); choose a writable folder with {key}=PATH")
-        raise typer.Exit(2)
+        refuse(f"cannot write the results to {folder} ({problem}); choose a writable folder with {key}=PATH")
 
 
 def quote(value: str) -> str:

@@ -58,6 +58,29 @@ def write_json(path: str | os.PathLike, obj: Any) -> Path:
     return write_text(path, json.dumps(obj, indent=2, sort_keys=True, allow_nan=False) + "\n")
 
 
+#: A sweep folder's description (its experiment's settings, the profile, how many jobs finished).
+EXPERIMENT_FILE = "experiment.json"
+
+
+def read_experiment(folder: str | os.PathLike) -> dict | None:
+    """A sweep folder's ``experiment.json``, or None if the folder has no such file.
+
+    Raises:
+        ValueError: one sentence, if the file is not valid JSON or not a JSON object.
+    """
+    folder = Path(folder)
+    path = folder / EXPERIMENT_FILE
+    if not path.is_file():
+        return None
+    try:
+        meta = json.loads(path.read_text(encoding="utf-8"))
+    except json.JSONDecodeError as error:
+        raise ValueError(f"experiment.json in {folder} is not valid JSON ({error}).") from None
+    if not isinstance(meta, dict):
+        raise ValueError(f"experiment.json in {folder} must hold a JSON object.")
+    return meta
+
+
 _claimed: dict[str, str] = {}
 
 

@@ -23,6 +23,18 @@ QUICK_RUNS = 2
 QUICK_METHODS = 2
 
 
+def split_override(item: str) -> tuple[str, str, str]:
+    """(key, "=" or "", value) of a command-line override, the key without Hydra's leading ``+``
+    (add) or ``~`` (delete): ``+demos.n=10`` -> ("demos.n", "=", "10"), ``~seed`` -> ("seed", "", "")."""
+    key, sep, value = item.partition("=")
+    return key.lstrip("+~"), sep, value
+
+
+def override_key(item: str) -> str:
+    """The key an override sets or deletes (``split_override``'s first part)."""
+    return split_override(item)[0]
+
+
 def _sweep_values(what: str, *, _root_: DictConfig) -> str:
     """``${airl.sweep:runs|values|methods|variants}``: the sweep of the experiment under the current profile."""
     exp = _root_.experiment

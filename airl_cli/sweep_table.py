@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING
 from airl_cli.errors import ConfigError
 from airl_cli.job_files import damaged_jobs
 from airl_cli.pool import call
-from airl_cli.results import atomic_write, write_json, write_text
+from airl_cli.results import EXPERIMENT_FILE, atomic_write, write_json, write_text
 from airl_cli.sweep_folder import check_folder, unwritable
 from airl_cli.sweep_spec import ROWS, SweepPlan
 from airl_cli.variants import variants_summary
@@ -25,7 +25,7 @@ if TYPE_CHECKING:
     from rich.console import Console
 
 TABLE = "results.csv"
-META = "experiment.json"
+META = EXPERIMENT_FILE
 #: The sub-folder of a sweep folder that ``airl sweep --partial`` writes its table and figures into.
 PARTIAL = "partial"
 

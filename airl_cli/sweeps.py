@@ -29,14 +29,14 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 from airl_cli import compose_memo
 from airl_cli.config import fit_settings, plain, problem_settings
 from airl_cli.errors import ConfigError, ResultsUnwritable, interrupt_status, interrupted, say_error
-from airl_cli.job_files import FIT_COLUMNS, damaged_jobs, discard  # noqa: F401 (FIT_COLUMNS: part of the interface)
+from airl_cli.job_files import damaged_jobs, discard
 from airl_cli.launch import launcher_discoverable
 from airl_cli.paths import conf_dir
 from airl_cli.plain_progress import PlainProgress
 from airl_cli.pool import WorkerDied, environment, kept, prestart, shutdown, workers
 from airl_cli.results import describe_os_error, is_unwritable, mark_complete, mark_incomplete
 from airl_cli.sweep_folder import check_folder, claim, record_settings, shared_settings, unwritable
-from airl_cli.sweep_spec import ERROR, QUICK_METHODS, QUICK_RUNS, ROWS, SweepPlan  # noqa: F401 (the interface)
+from airl_cli.sweep_spec import ERROR, QUICK_METHODS, QUICK_RUNS, ROWS, SweepPlan, override_key  # noqa: F401 (the interface)
 from airl_cli.sweep_table import TABLE, collect, damaged_line, draw_figures, medians_text, write_partial
 
 #: What a sweep's warm workers import before their first job: the solvers and pandas, which the
@@ -45,7 +45,7 @@ JOB_CODE = ("airl_cli.jobs.sweep_rows",)
 
 
 def _is_task_override(item: str) -> bool:
-    key = item.lstrip("+~").split("=", 1)[0]
+    key = override_key(item)
     return not (key.startswith("hydra.") or key.startswith("hydra/"))
 
 
@@ -99,7 +99,7 @@ def _plan(overrides: list[str]) -> SweepPlan:
         from airl_cli.jobs.common import check_memory
 
         check_memory(first_job, workers=workers)
-    swept = tuple(sorted({_key(o) for o in jobs_overrides[0] if _is_task_override(o)}))
+    swept = tuple(sorted({override_key(o) for o in jobs_overrides[0] if _is_task_override(o)}))
     job_config = OmegaConf.to_container(first_job, resolve=False)
     del job_config["hydra"]
     settings = shared_settings(plain(OmegaConf.create(job_config)), swept)
@@ -117,11 +117,6 @@ def _workers(cfg: DictConfig) -> int:
     return workers(n_jobs)
 
 
-def _key(override: str) -> str:
-    return override.lstrip("+~").split("=", 1)[0]
-
-
-
 def _folder(cfg: DictConfig, overrides: list[str], parser: OverridesParser) -> Path:
     """The sweep folder: results/sweeps/<study>-<profile>, plus the command's other overrides.
 
@@ -130,7 +125,7 @@ def _folder(cfg: DictConfig, overrides: list[str], parser: OverridesParser) -> P
     """
     if any(o.split("=", 1)[0] == "hydra.sweep.dir" for o in overrides):
         return Path(cfg.hydra.sweep.dir)
-    extra = [o for o in overrides if _is_task_override(o) and o.lstrip("+~").split("=", 1)[0] not in ("experiment", "profile")]
+    extra = [o for o in overrides if _is_task_override(o) and override_key(o) not in ("experiment", "profile")]
     suffix = get_overrides_dirname(parser.parse_overrides(extra), [], ",", "=") if extra else ""
     if len(suffix) > 100:
         suffix = hashlib.sha1(suffix.encode()).hexdigest()[:12]

@@ -26,6 +26,15 @@ def output_dir() -> Path:
     return Path(HydraConfig.get().runtime.output_dir)
 
 
+def warm_up() -> None:
+    """Load (or, on the first run after installing, compile) the planner's kernels: a PBVI solve of
+    a tiny problem, which runs the kernels of both ``airl fit`` and ``airl plan``."""
+    from airl_cli.core.multimodel import solve  # numba: only in the jobs that plan
+
+    P = np.full((2, 2, 1, 2), 0.5)
+    solve(P, np.zeros((2, 2, 2)), np.array([1.0, 0.0]), iterations=2)
+
+
 def save_config(cfg: DictConfig, folder: Path) -> None:
     """The resolved config beside the results, as ``config.yaml``."""
     write_text(folder / "config.yaml", OmegaConf.to_yaml(cfg, resolve=True))

@@ -16,10 +16,9 @@ from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
 from airl_cli.build import build_dataset, learner_rng, with_loss
 from airl_cli.config import FitSettings, fit_settings, loss_and_seed, problem_settings
-from airl_cli.core.multimodel import solve
 from airl_cli.data import Dataset, read_dataset, write_dataset
 from airl_cli.evaluate import score_learned
-from airl_cli.jobs.common import check_memory, err_console, out_console, output_dir, run_job, save_config, size_note
+from airl_cli.jobs.common import check_memory, err_console, out_console, output_dir, run_job, save_config, size_note, warm_up
 from airl_cli.learners import Learned, learn
 from airl_cli.paths import conf_dir
 from airl_cli.plain_progress import PlainProgress
@@ -34,12 +33,6 @@ def load_dataset(cfg: DictConfig, settings: FitSettings) -> tuple[Dataset, int, 
         return dataset, problem.seed, True
     loss, seed = loss_and_seed(cfg)
     return with_loss(read_dataset(settings.data), loss), seed, False
-
-
-def warm_up() -> None:
-    """Load (or, on the first run after installing, compile) the planner's kernels."""
-    P = np.full((2, 2, 1, 2), 0.5)
-    solve(P, np.zeros((2, 2, 2)), np.array([1.0, 0.0]), iterations=2)
 
 
 def summary_text(dataset: Dataset, settings: FitSettings, learned: Learned, rows: list[dict], seconds: float) -> str:

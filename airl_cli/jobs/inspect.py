@@ -6,7 +6,7 @@ import numpy as np
 
 from airl_cli.core.sparse import SparseDynamics
 from airl_cli.data import read_dataset
-from airl_cli.errors import AirlError, say_error
+from airl_cli.errors import AirlError, refuse
 from airl_cli.jobs.common import err_console, out_console
 
 
@@ -45,6 +45,5 @@ def main(path: str) -> None:
     try:
         text = describe(path)
     except AirlError as err:
-        say_error(err, err_console)
-        raise SystemExit(2) from None
+        refuse(err, err_console)
     out_console.print(text, soft_wrap=True)

@@ -21,16 +21,11 @@ from airl_cli.config import PlanSettings, plan_settings
 from airl_cli.core.mmdp_baselines import Plan, graph_returns, plan
 from airl_cli.core.multimodel import PolicyGraph, layered_rewards
 from airl_cli.errors import ConfigError
-from airl_cli.jobs.common import err_console, out_console, output_dir, run_job, save_config
+from airl_cli.jobs.common import err_console, out_console, output_dir, run_job, save_config, warm_up
 from airl_cli.mmdp_data import MMDPProblem, input_path, read_problem
 from airl_cli.paths import conf_dir
 from airl_cli.plain_progress import PlainProgress
 from airl_cli.results import atomic_write, write_json
-
-
-def warm_up() -> None:
-    """Load (or, on the first run after installing, compile) the planner's kernels."""
-    plan("pbvi", np.full((2, 1, 1, 1), 1.0), np.zeros((2, 1, 1, 1)), np.ones(1), horizon=2, iterations=2)
 
 
 def run_plan(

@@ -13,6 +13,7 @@ import time
 import numpy as np
 from omegaconf import DictConfig, OmegaConf
 
+from airl_cli.alpha_values import largest_gap
 from airl_cli.build import resolved_loss, streams
 from airl_cli.config import plain, problem_settings
 from airl_cli.core.multimodel import exact_alpha_vectors, expand_beliefs, pbvi_graph, upper_envelope_1d
@@ -100,8 +101,7 @@ def alpha_rows(cfg: DictConfig, folder) -> list[dict]:
     graph = pbvi_graph(P, R, beliefs)
     pbvi = graph.alpha[t][graph.offsets[t][s] : graph.offsets[t][s + 1]]
     x = np.linspace(0.0, 1.0, 2001)
-    curve = lambda a: np.max(np.outer(1 - x, a[:, 0]) + np.outer(x, a[:, 1]), axis=1)  # noqa: E731
-    gap = float(np.max(curve(exact[envelope]) - curve(pbvi)))
+    gap = largest_gap(exact[envelope], pbvi, x)
     buf = io.BytesIO()
     np.savez(buf, exact=exact, exact_envelope=envelope, pbvi=pbvi, t=t, s=s)
     atomic_write(folder / "alphas.npz", lambda h: h.write(buf.getvalue()))

@@ -12,7 +12,6 @@ only tables and arrays; it never imports the solver (``airl_cli.core``).
 
 from __future__ import annotations
 
-import json
 import os
 import re
 from collections.abc import Callable
@@ -53,7 +52,7 @@ from airl_cli.plotting.scores import (
 )
 from airl_cli.plotting.variants import VARIANTS_COLUMNS, variants
 from airl_cli.plotting.viano import RETURNS_COLUMNS, returns
-from airl_cli.results import atomic_write
+from airl_cli.results import atomic_write, read_experiment
 
 __all__ = [
     "METHOD_COLOURS",
@@ -85,17 +84,11 @@ def _unfinished(folder: Path) -> str:
 
 
 def _read_meta(folder: Path) -> dict[str, Any]:
-    path = folder / "experiment.json"
     if not folder.is_dir():
         raise ValueError(f"The sweep folder {folder} does not exist." if not folder.exists() else f"{folder} is a file, not a sweep folder.")
-    if not path.is_file():
+    meta = read_experiment(folder)
+    if meta is None:
         raise ValueError(f"The sweep folder {folder} has no experiment.json{_unfinished(folder)}.")
-    try:
-        meta = json.loads(path.read_text(encoding="utf-8"))
-    except json.JSONDecodeError as error:
-        raise ValueError(f"experiment.json in {folder} is not valid JSON ({error}).") from None
-    if not isinstance(meta, dict):
-        raise ValueError(f"experiment.json in {folder} must hold a JSON object.")
     for key in ("name", "figures"):
         if not meta.get(key) and meta.get(key) != []:  # an experiment may draw no figure (a table only)
             raise ValueError(f"experiment.json in {folder} has no {key!r}.")

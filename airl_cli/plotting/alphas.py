@@ -10,6 +10,7 @@ from matplotlib.collections import LineCollection
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 
+from airl_cli.alpha_values import largest_gap
 from airl_cli.plotting._style import _ALPHA_KEYS, ROW_HEIGHT, _legend, _suptitle
 
 # --------------------------------------------------------------------------------------------
@@ -48,11 +49,6 @@ def _upper_envelope(vectors: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     xs.append(1.0)
     ys.append(float(b[current] + m[current]))
     return np.asarray(xs), np.asarray(ys)
-
-
-def _values(vectors: np.ndarray, xs: np.ndarray) -> np.ndarray:
-    vectors = np.asarray(vectors, dtype=float).reshape(-1, 2)
-    return np.max(np.outer(1.0 - xs, vectors[:, 0]) + np.outer(xs, vectors[:, 1]), axis=1)
 
 
 def _segments(vectors: np.ndarray) -> np.ndarray:
@@ -147,8 +143,7 @@ def alpha_vectors(data: Mapping[str, Any], meta: Mapping[str, Any] | None = None
     ax.plot(pb_x, pb_y, color=PBVI_COLOUR, linewidth=3.0, zorder=3)
     ax.plot(ex_x, ex_y, color="black", linewidth=1.4, linestyle="--", zorder=4)
     if len(pbvi):
-        xs = np.union1d(ex_x, pb_x)
-        gap = float(np.max(_values(envelope, xs) - _values(pbvi, xs)))
+        gap = largest_gap(envelope, pbvi, np.union1d(ex_x, pb_x))
         gap_text = f"; largest gap to the exact value {gap:.3g}"
     else:
         gap_text = ""
