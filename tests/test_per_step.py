@@ -158,3 +158,33 @@ def test_per_step_refuses_what_it_cannot_use_in_one_sentence(tmp_path, monkeypat
     done = CliRunner().invoke(app, ["fit", "hydra.run.dir=run", *matching, *extra, *small])
     assert done.exit_code == 2, done.output
     assert needle in " ".join(done.output.split()) and "Traceback" not in done.output
+
+
+@pytest.mark.parametrize("seed", [0, 3, 5])
+@pytest.mark.parametrize("variant", ["thesis", "per_step", "markov", "markov_per_step"])
+def test_the_optimum_lies_below_f0_by_at_most_the_price_of_imitation(seed, variant):
+    """With exact demonstrations the expert's own Markov policy is an adversary strategy that meets
+    the targets, so f(0) - f* <= Delta = f(0) - min_p p^T L q_E in every variant (the bound of
+    README's "A degenerate optimum"), here with every strategy enumerated."""
+    from airl_cli.core.demos import expected_feature_sums
+    from airl_cli.core.game import learner_best_response
+    from airl_cli.core.planning import backward_induction, state_marginals
+
+    problem, _ = tiny(seed, S=3)
+    P, phi, p0 = problem.transitions, problem.features, problem.initial
+    expert, _ = backward_induction(P[0], phi @ np.random.default_rng(seed).normal(size=2), horizon=T)
+    markov, per_step = variant.startswith("markov"), variant.endswith("per_step")
+    if per_step:
+        game = dataclasses.replace(problem, features=step_features(phi, T))
+        marginals = np.stack([state_marginals(P[j], expert, p0) for j in range(1, 3)])  # (D, T, S)
+        targets = np.einsum("jts,sk->jtk", marginals[:, 1:], phi).reshape(2, -1)
+    else:
+        game, targets = problem, expected_feature_sums(P[1:], expert, p0, phi)
+    oracle = markov_oracle(P, p0, exact=True) if markov else exact_oracle(game)
+    lam = 0.05
+    best = minimize(game, targets, oracle, options=CertifiedOptions(lam=lam, tol=1e-12))
+    f0 = objective_at(game, targets, np.zeros_like(targets), oracle, lam=lam, shared=True)
+    scaled = game.with_scaled_loss(True)
+    q_e = state_marginals(P[0], expert, p0)
+    expert_loss = float(np.sum(scaled.loss_times(learner_best_response(scaled, q_e)) * q_e))
+    assert best.converged and f0 - best.objective <= (f0 - expert_loss) + 1e-9
