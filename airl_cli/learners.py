@@ -226,6 +226,9 @@ def _learn_airl(
             "screen_calls": int(h["screen_calls"][-1]),
             "qp_fallbacks": res.qp_fallbacks,
             "n_beliefs": int(n_beliefs),
+            # how many strategies each player's equilibrium mixture uses (weight above 1e-8)
+            "learner_support": int(np.sum(res.learner_mix > 1e-8)),
+            "adversary_support": int(np.sum(res.adversary_mix > 1e-8)),
             **_degeneracy(problem, targets, res.weights, res.objective, settings.certified.tol),
         }
         return Learned("airl", res.weights, None, res.history, info, (res.learner_policies, res.learner_mix))
