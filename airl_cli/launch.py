@@ -16,7 +16,7 @@ from omegaconf import OmegaConf
 from airl_cli.errors import ResultsUnwritable, interrupted, refuse
 from airl_cli.paths import conf_dir
 from airl_cli.results import claimed_folder, describe_os_error, holds_no_results, is_unwritable, new_run_folder, writable_problem, write_text
-from airl_cli.sweep_spec import override_key, split_override
+from airl_cli.sweep.spec import override_key, split_override
 
 
 def config_groups() -> dict[str, list[str]]:

@@ -29,15 +29,15 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 from airl_cli import compose_memo
 from airl_cli.config import fit_settings, plain, problem_settings
 from airl_cli.errors import ConfigError, ResultsUnwritable, interrupt_status, interrupted, say_error
-from airl_cli.job_files import damaged_jobs, discard
+from airl_cli.sweep.job_files import damaged_jobs, discard
 from airl_cli.launch import launcher_discoverable
 from airl_cli.paths import conf_dir
 from airl_cli.plain_progress import PlainProgress
-from airl_cli.pool import WorkerDied, environment, kept, prestart, shutdown, workers
+from airl_cli.sweep.pool import WorkerDied, environment, kept, prestart, shutdown, workers
 from airl_cli.results import describe_os_error, is_unwritable, mark_complete, mark_incomplete
-from airl_cli.sweep_folder import check_folder, claim, record_settings, shared_settings, unwritable
-from airl_cli.sweep_spec import ERROR, QUICK_METHODS, QUICK_RUNS, ROWS, SweepPlan, override_key  # noqa: F401 (the interface)
-from airl_cli.sweep_table import TABLE, collect, damaged_line, draw_figures, medians_text, write_partial
+from airl_cli.sweep.folder import check_folder, claim, record_settings, shared_settings, unwritable
+from airl_cli.sweep.spec import ERROR, QUICK_METHODS, QUICK_RUNS, ROWS, SweepPlan, override_key  # noqa: F401 (the interface)
+from airl_cli.sweep.table import TABLE, collect, damaged_line, draw_figures, medians_text, write_partial
 
 #: What a sweep's warm workers import before their first job: the solvers and pandas, which the
 #: sweep process itself never imports (``tests/test_architecture.py``).

@@ -20,7 +20,8 @@ import pytest
 from omegaconf import OmegaConf
 from typer.testing import CliRunner
 
-from airl_cli import sweep_folder, sweeps
+from airl_cli import sweeps
+from airl_cli.sweep import folder as sweep_folder
 from airl_cli.cli import app
 from airl_cli.core.budget import estimate_fit, refusal
 from airl_cli.jobs.sweep import finished_earlier

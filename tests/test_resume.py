@@ -12,7 +12,7 @@ import pytest
 from typer.testing import CliRunner
 
 from airl_cli.cli import app
-from airl_cli.job_files import damaged_jobs, problem
+from airl_cli.sweep.job_files import damaged_jobs, problem
 
 runner = CliRunner()
 SWEEP = ["sweep", "experiment=fig12", "profile=quick", "hydra/launcher=basic", "--no-plot"]

@@ -26,8 +26,8 @@ from typing import Any
 import yaml
 
 from airl_cli.methods import REGISTRY
-from airl_cli.sweep_folder import shared_settings
-from airl_cli.sweep_spec import ROWS
+from airl_cli.sweep.folder import shared_settings
+from airl_cli.sweep.spec import ROWS
 
 #: The first columns of the results table of a fit experiment, in order (one row per job x
 #: dynamics); every setting of the problem and learner groups follows (``setting_columns``).

@@ -20,7 +20,7 @@ from omegaconf import OmegaConf
 
 from airl_cli.errors import ConfigError
 from airl_cli.results import write_json
-from airl_cli.sweep_spec import ROWS, SweepPlan  # noqa: F401 (ROWS: part of the interface)
+from airl_cli.sweep.spec import ROWS, SweepPlan  # noqa: F401 (ROWS: part of the interface)
 
 SETTINGS = "sweep.json"
 LOCK = ".lock"
