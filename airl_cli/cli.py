@@ -130,7 +130,9 @@ def sweep(
     hydra/launcher=basic runs them one by one, hydra/launcher=submitit_slurm on a cluster.
     """
     if cfg is not None:  # print the config (Hydra takes --cfg without --multirun)
-        run_hydra("sweep", ctx.args, cfg=cfg, resolve=resolve)
+        from airl_cli.sweeps import print_config
+
+        print_config(ctx.args, cfg=cfg, resolve=resolve)
         return
     from airl_cli.jobs.common import err_console, out_console
     from airl_cli.sweeps import run

@@ -41,7 +41,11 @@ from airl_cli.sweep.table import TABLE, collect, damaged_line, draw_figures, med
 
 #: What a sweep's warm workers import before their first job: the solvers and pandas, which the
 #: sweep process itself never imports (``tests/test_architecture.py``).
-JOB_CODE = ("airl_cli.jobs.sweep_rows",)
+JOB_CODE = ("airl_cli.sweep.rows",)
+#: The Hydra app of a sweep's jobs. Hydra names a job after its app's module ("job" here), so the
+#: sweep names it ``sweep`` itself: the jobs' ids (``sweep_0``...) and Hydra's records say ``sweep``.
+JOB_APP = "airl_cli.sweep.job"
+JOB_NAME = "hydra.job.name=sweep"
 
 
 def _is_task_override(item: str) -> bool:
@@ -229,6 +233,13 @@ def run(overrides: list[str], *, draw: bool, console: Console, out: Console, par
         shutdown(idle=True)  # workers left here run no job: warming up (bad input) or done (figures)
 
 
+def print_config(overrides: list[str], *, cfg: str, resolve: bool) -> None:
+    """``airl sweep --cfg job|hydra|all``: the config Hydra composes for these overrides, printed; no job runs."""
+    from airl_cli.launch import run_hydra
+
+    run_hydra("sweep", [JOB_NAME, *overrides], cfg=cfg, resolve=resolve, app=JOB_APP)
+
+
 def _expected_workers(overrides: list[str]) -> int:
     """The workers airl's launcher will start, read off the command line (1: another launcher)."""
     n_jobs = -1
@@ -299,11 +310,11 @@ def _run(sweep: SweepPlan, overrides: list[str], *, draw: bool, console: Console
     if done < len(sweep.jobs):
         # an absolute folder: launcher workers may be reused processes with another working directory
         quoted = str(sweep.folder.resolve()).replace("\\", "\\\\").replace("'", "\\'")
-        absolute = [*overrides, f"hydra.sweep.dir='{quoted}'"]  # quoted: folder names hold '=' and ','
+        absolute = [JOB_NAME, *overrides, f"hydra.sweep.dir='{quoted}'"]  # quoted: folder names hold '=' and ','
         # the jobs watch this process and stop when it dies (see pool.watch_parent)
         # with figures to draw, the warm workers stay for them and import the plotting code
         with environment(sweep.workers), progress(sweep, console), kept(["airl_cli.plotting"] if draw else []):
-            run_hydra("sweep", absolute, multirun=True)
+            run_hydra("sweep", absolute, multirun=True, app=JOB_APP)
     table = collect(sweep)
     failed = sweep.failed()
     out.print(f"finished {len(sweep.done())} of {len(sweep.jobs)} jobs; table {sweep.folder / TABLE} ({len(table)} rows)", soft_wrap=True)

@@ -56,7 +56,7 @@ def test_a_sweep_process_imports_no_solver_nor_table_code_before_its_jobs():
     import subprocess
 
     code = (
-        "import sys, airl_cli.cli, airl_cli.sweeps, airl_cli.sweep.pool, airl_cli.jobs.sweep, airl_cli.config;"
+        "import sys, airl_cli.cli, airl_cli.sweeps, airl_cli.sweep.pool, airl_cli.sweep.job, airl_cli.config;"
         "print(' '.join(m for m in ('numba', 'scipy.optimize', 'pandas', 'matplotlib') if m in sys.modules))"
     )
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
@@ -66,8 +66,8 @@ def test_a_sweep_process_imports_no_solver_nor_table_code_before_its_jobs():
 # --------------------------------------------------------------------------- one-way layers
 
 #: The layers, bottom to top; a module may import its own layer and those below, never above.
-#: ``airl sweep``'s Hydra job (``jobs.sweep``) and its rows (``jobs.sweep_rows``, ``jobs.viano_rows``) sit with the
-#: sweep machinery they serve, although Hydra finds them under ``jobs/``.
+#: ``airl sweep``'s machinery is the package ``sweep``, its Hydra job (``sweep.job``) and rows included; its
+#: ``sweep.spec`` imports no other module of airl and sits in base, below ``launch`` (which serves every command).
 #: ``conf`` is the Hydra configs' package: it holds no code, but an installed (non-editable) airl
 #: ships it as ``airl_cli.conf`` with an ``__init__.py``, so the walk over the package finds it.
 LAYERS = (
@@ -75,7 +75,7 @@ LAYERS = (
     ("base", "alpha_values errors paths results plain_progress compose_memo config_reader sweep.spec methods variants claims multimodel airl_cli conf conf.*"),
     ("problems and methods", "config data dataset_checks mmdp_data envs build evaluate learners plotting plotting.*"),
     ("jobs", "jobs jobs.common jobs.fit jobs.generate jobs.inspect jobs.plan api"),
-    ("sweeps", "launch sweep sweep.* sweeps jobs.sweep jobs.sweep_rows jobs.viano_rows report hydra_plugins.*"),
+    ("sweeps", "launch sweep sweep.* sweeps report hydra_plugins.*"),
     ("command line", "cli __main__"),
 )
 

@@ -24,7 +24,7 @@ from airl_cli import sweeps
 from airl_cli.sweep import folder as sweep_folder
 from airl_cli.cli import app
 from airl_cli.core.budget import estimate_fit, refusal
-from airl_cli.jobs.sweep import finished_earlier
+from airl_cli.sweep.job import finished_earlier
 from airl_cli.results import new_run_folder
 from output import kill_group, without_progress
 

@@ -66,7 +66,7 @@ def main(cfg: DictConfig) -> None:
     if finished_earlier(cfg, folder):
         return
     (folder / ERROR).unlink(missing_ok=True)
-    from airl_cli.jobs.sweep_rows import (  # the solvers: in the job only
+    from airl_cli.sweep.rows import (  # the solvers: in the job only
         alpha_rows,
         fit_rows,
         rows_csv,
@@ -74,7 +74,7 @@ def main(cfg: DictConfig) -> None:
 
     try:
         if cfg.experiment.kind == "viano":
-            from airl_cli.jobs.viano_rows import viano_rows
+            from airl_cli.sweep.viano_rows import viano_rows
 
             rows = viano_rows(cfg, folder)
         else:

@@ -1,7 +1,7 @@
 """The rows an ``airl sweep`` job writes: a fit's scores per dynamics with every setting, or the
 alpha-vectors of thesis Figs. 2-3.
 
-Apart from ``airl_cli.jobs.sweep`` so that the sweep process, which only hands jobs to its
+Apart from ``airl_cli.sweep.job`` so that the sweep process, which only hands jobs to its
 workers, never imports the solvers (numba, scipy.optimize); the workers import this at start-up.
 """
 
