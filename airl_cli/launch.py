@@ -268,7 +268,7 @@ def _jobs_composed_once(active: bool) -> Iterator[None]:
     Hydra's sweeper composes each job's config before launching any (``validate_batch_is_legal``)
     and the launcher composes it again to run it: at 0.2 s a composition, fig12's 90 jobs waited
     17 s before the first one started. ``airl sweep`` has already checked the overrides' keys and
-    group choices and composed the first job (``sweeps.plan``); a job whose values are bad still
+    group choices and composed the first job (``sweep.plan``); a job whose values are bad still
     stops with one sentence in its ``error.txt``. The jobs that run in this process
     (hydra/launcher=basic) compose through ``compose_memo``, as launcher workers do from their
     second job on (``sweep.job.main``).

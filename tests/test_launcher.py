@@ -18,7 +18,8 @@ from airl_cli import compose_memo
 from airl_cli.cli import app
 from airl_cli.paths import conf_dir
 from airl_cli.sweep import pool
-from airl_cli.sweeps import _expected_workers, experiment_names, plan
+from airl_cli.sweep.plan import experiment_names, plan
+from airl_cli.sweep.run import _expected_workers
 
 runner = CliRunner()
 

@@ -16,7 +16,7 @@ from typer.testing import CliRunner
 from airl_cli.cli import app
 from airl_cli.errors import ConfigError
 from airl_cli.sweep.job_files import FIT_COLUMNS, damaged_jobs
-from airl_cli.sweeps import experiment_names, plan
+from airl_cli.sweep.plan import experiment_names, plan
 
 runner = CliRunner()
 EXPERIMENTS = ["cliffworld", "degeneracy", "fig02_03", "fig04", "fig05", "fig06", "fig07", "fig08", "fig09", "fig12", "fig13", "fig14", "fig15", "fig17", "fig18", "frozenlake", "size", "size_random", "size_random_markov", "size_random_scaled"]

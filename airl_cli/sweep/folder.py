@@ -2,7 +2,7 @@
 
 A sweep folder holds the jobs of one experiment with one set of settings (``sweep.json``), and
 one ``airl sweep`` at a time writes into it (an advisory lock). These are the checks that keep a
-resumed sweep from mixing its rows with another sweep's (``airl_cli.sweeps``).
+resumed sweep from mixing its rows with another sweep's (``airl_cli.sweep.run``).
 """
 
 from __future__ import annotations
