@@ -1,6 +1,6 @@
 """The value of a set of alpha-vectors of two models (thesis Figs. 2-3), in numpy alone.
 
-Below both of its users: the sweep's rows (``jobs.sweep_rows``: the largest gap written to the
+Below both of its users: the sweep's rows (``sweep.rows``: the largest gap written to the
 results table) and the figure (``plotting.alphas``: the gap in the PBVI panel's title), which may
 not import ``airl_cli.core``.
 """

@@ -1,9 +1,10 @@
 """The ``airl`` command line: Typer owns the commands and their help, Hydra the configs.
 
 Each command passes its extra arguments, unchanged and in order, to the ``@hydra.main`` app of
-its job module (``airl_cli.jobs.<name>``), whose configs are loaded from the installed package
-(``airl_cli.conf``, see ``airl_cli.paths``), so ``airl`` works from any folder. Only Hydra's own flags
-(``--multirun``, ``--cfg``, ``--resolve``) are added, in front of the overrides.
+its job module (``airl_cli.jobs.<name>``; ``airl sweep``'s is ``airl_cli.sweep.job``), whose configs
+are loaded from the installed package (``airl_cli.conf``, see ``airl_cli.paths``), so ``airl`` works
+from any folder. Only Hydra's own flags (``--multirun``, ``--cfg``, ``--resolve``) are added, in
+front of the overrides.
 """
 
 from __future__ import annotations
@@ -130,10 +131,12 @@ def sweep(
     hydra/launcher=basic runs them one by one, hydra/launcher=submitit_slurm on a cluster.
     """
     if cfg is not None:  # print the config (Hydra takes --cfg without --multirun)
-        run_hydra("sweep", ctx.args, cfg=cfg, resolve=resolve)
+        from airl_cli.sweep.run import print_config
+
+        print_config(ctx.args, cfg=cfg, resolve=resolve)
         return
     from airl_cli.jobs.common import err_console, out_console
-    from airl_cli.sweeps import run
+    from airl_cli.sweep.run import run
 
     check_group_choices(ctx.args)
     check_keys(ctx.args)

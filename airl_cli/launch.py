@@ -16,7 +16,7 @@ from omegaconf import OmegaConf
 from airl_cli.errors import ResultsUnwritable, interrupted, refuse
 from airl_cli.paths import conf_dir
 from airl_cli.results import claimed_folder, describe_os_error, holds_no_results, is_unwritable, new_run_folder, writable_problem, write_text
-from airl_cli.sweep_spec import override_key, split_override
+from airl_cli.sweep.spec import override_key, split_override
 
 
 def config_groups() -> dict[str, list[str]]:
@@ -189,8 +189,10 @@ def _print_config_app(job: str):
     return print_only
 
 
-def run_hydra(job: str, overrides: list[str], *, cfg: str | None = None, resolve: bool = False, multirun: bool = False) -> None:
-    """Run the Hydra app of ``airl_cli.jobs.<job>`` with these overrides.
+def run_hydra(
+    job: str, overrides: list[str], *, cfg: str | None = None, resolve: bool = False, multirun: bool = False, app: str | None = None
+) -> None:
+    """Run the Hydra app of ``airl_cli.jobs.<job>`` (or of the module ``app``) with these overrides.
 
     A Ctrl-C, or a run folder that cannot be written, before the job itself starts (its imports,
     Hydra's records) is said in one sentence as in the job (``jobs.common.stop``); ``airl sweep``
@@ -198,7 +200,7 @@ def run_hydra(job: str, overrides: list[str], *, cfg: str | None = None, resolve
     """
     earlier = claimed_folder()
     try:
-        _run_hydra(job, overrides, cfg=cfg, resolve=resolve, multirun=multirun)
+        _run_hydra(job, overrides, cfg=cfg, resolve=resolve, multirun=multirun, app=app)
     except (KeyboardInterrupt, SystemError, ResultsUnwritable) as err:
         if job == "sweep" or not (interrupted(err) or isinstance(err, ResultsUnwritable)):
             raise
@@ -211,13 +213,13 @@ def run_hydra(job: str, overrides: list[str], *, cfg: str | None = None, resolve
         raise
 
 
-def _run_hydra(job: str, overrides: list[str], *, cfg: str | None, resolve: bool, multirun: bool) -> None:
+def _run_hydra(job: str, overrides: list[str], *, cfg: str | None, resolve: bool, multirun: bool, app: str | None) -> None:
     check_group_choices(overrides)
     check_keys(overrides, "airl_plan" if job == "plan" else "airl")
     if cfg is None:
         check_output_folder(overrides, multirun=multirun)
     # printing a config needs Hydra only: the job module (numpy, scipy, pandas, numba) is not loaded
-    main = _print_config_app(job) if cfg is not None and job in PRINT_ONLY else importlib.import_module(f"airl_cli.jobs.{job}").hydra_main
+    main = _print_config_app(job) if cfg is not None and job in PRINT_ONLY else importlib.import_module(app or f"airl_cli.jobs.{job}").hydra_main
     argv = [f"airl {job}"]
     if multirun:
         argv.append("--multirun")
@@ -266,10 +268,10 @@ def _jobs_composed_once(active: bool) -> Iterator[None]:
     Hydra's sweeper composes each job's config before launching any (``validate_batch_is_legal``)
     and the launcher composes it again to run it: at 0.2 s a composition, fig12's 90 jobs waited
     17 s before the first one started. ``airl sweep`` has already checked the overrides' keys and
-    group choices and composed the first job (``sweeps.plan``); a job whose values are bad still
+    group choices and composed the first job (``sweep.plan``); a job whose values are bad still
     stops with one sentence in its ``error.txt``. The jobs that run in this process
     (hydra/launcher=basic) compose through ``compose_memo``, as launcher workers do from their
-    second job on (``jobs.sweep.main``).
+    second job on (``sweep.job.main``).
     """
     if not active:
         yield

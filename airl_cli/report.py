@@ -68,7 +68,7 @@ def load(sweeps: Path, profile: str = "full") -> Tables:
     The metadata comes from the experiment's own config: two experiments may share one sweep
     (fig14 and fig15 are one study), whose experiment.json names only the last one run.
     """
-    from airl_cli.sweeps import (  # composing the configs: only when reporting
+    from airl_cli.sweep.plan import (  # composing the configs: only when reporting
         experiment_names,
         plan,
     )

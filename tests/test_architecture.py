@@ -56,7 +56,7 @@ def test_a_sweep_process_imports_no_solver_nor_table_code_before_its_jobs():
     import subprocess
 
     code = (
-        "import sys, airl_cli.cli, airl_cli.sweeps, airl_cli.pool, airl_cli.jobs.sweep, airl_cli.config;"
+        "import sys, airl_cli.cli, airl_cli.sweep.plan, airl_cli.sweep.run, airl_cli.sweep.pool, airl_cli.sweep.job, airl_cli.config;"
         "print(' '.join(m for m in ('numba', 'scipy.optimize', 'pandas', 'matplotlib') if m in sys.modules))"
     )
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
@@ -66,16 +66,16 @@ def test_a_sweep_process_imports_no_solver_nor_table_code_before_its_jobs():
 # --------------------------------------------------------------------------- one-way layers
 
 #: The layers, bottom to top; a module may import its own layer and those below, never above.
-#: ``airl sweep``'s Hydra job (``jobs.sweep``) and its rows (``jobs.sweep_rows``, ``jobs.viano_rows``) sit with the
-#: sweep machinery they serve, although Hydra finds them under ``jobs/``.
+#: ``airl sweep``'s machinery is the package ``sweep``, its Hydra job (``sweep.job``) and rows included; its
+#: ``sweep.spec`` imports no other module of airl and sits in base, below ``launch`` (which serves every command).
 #: ``conf`` is the Hydra configs' package: it holds no code, but an installed (non-editable) airl
 #: ships it as ``airl_cli.conf`` with an ``__init__.py``, so the walk over the package finds it.
 LAYERS = (
     ("core", "core.*"),
-    ("base", "alpha_values errors paths results plain_progress compose_memo config_reader sweep_spec methods variants claims multimodel airl_cli conf conf.*"),
+    ("base", "alpha_values errors paths results plain_progress compose_memo config_reader sweep.spec methods variants claims multimodel airl_cli conf conf.*"),
     ("problems and methods", "config data dataset_checks mmdp_data envs build evaluate learners plotting plotting.*"),
     ("jobs", "jobs jobs.common jobs.fit jobs.generate jobs.inspect jobs.plan api"),
-    ("sweeps", "launch pool sweep_folder job_files sweep_table sweeps jobs.sweep jobs.sweep_rows jobs.viano_rows report hydra_plugins.*"),
+    ("sweeps", "launch sweep sweep.* report hydra_plugins.*"),
     ("command line", "cli __main__"),
 )
 
@@ -159,6 +159,6 @@ def test_the_layering_checks_can_fail():
     """The checks above on made-up graphs: a cycle is found, a module outside the layers is named."""
     assert find_cycle({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}) == ["a", "b", "c", "a"]
     assert find_cycle({"a": {"b", "c"}, "b": {"c"}, "c": set()}) is None
-    assert layer_of("airl_cli.core.game") < layer_of("airl_cli.sweeps") < layer_of("airl_cli.cli")
+    assert layer_of("airl_cli.core.game") < layer_of("airl_cli.sweep.run") < layer_of("airl_cli.cli")
     with pytest.raises(AssertionError):
         layer_of("airl_cli.nowhere")

@@ -14,10 +14,12 @@ from hydra.core.override_parser.overrides_parser import OverridesParser
 from omegaconf import OmegaConf
 from typer.testing import CliRunner
 
-from airl_cli import compose_memo, pool
+from airl_cli import compose_memo
 from airl_cli.cli import app
 from airl_cli.paths import conf_dir
-from airl_cli.sweeps import _expected_workers, experiment_names, plan
+from airl_cli.sweep import pool
+from airl_cli.sweep.plan import experiment_names, plan
+from airl_cli.sweep.run import _expected_workers
 
 runner = CliRunner()
 
@@ -127,7 +129,7 @@ def test_warm_workers_are_other_processes_with_their_share_of_the_cores(monkeypa
 def test_two_workers_give_the_in_process_table_and_figures(tmp_path, monkeypatch):
     """The table equals basic's; the figures, drawn on the two warm workers (PNG on one, PDF on
     the other), are byte for byte what this process draws from the same folder."""
-    import airl_cli.sweep_table as sweep_table
+    import airl_cli.sweep.table as sweep_table
     from airl_cli.plotting import draw
 
     on_workers = []

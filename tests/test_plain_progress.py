@@ -13,7 +13,8 @@ import pandas as pd
 from rich.console import Console
 from typer.testing import CliRunner
 
-from airl_cli import plain_progress, sweeps
+from airl_cli import plain_progress
+from airl_cli.sweep.run import progress
 from airl_cli.cli import app
 from airl_cli.plain_progress import PlainProgress
 
@@ -67,7 +68,7 @@ def test_a_real_fit_with_stderr_to_a_file(tmp_path):
 
 
 class _Plan:
-    """What ``sweeps.progress`` reads of a sweep: its jobs, the finished and the failed ones."""
+    """What ``sweep.run.progress`` reads of a sweep: its jobs, the finished and the failed ones."""
 
     def __init__(self, n):
         self.jobs, self.finished, self.workers = [f"seed={i}" for i in range(n)], [], 1
@@ -84,7 +85,7 @@ def test_a_sweep_logged_to_a_file_says_how_many_jobs_finished(monkeypatch):
     monkeypatch.setattr(plain_progress, "EVERY", 0.0)
     log = io.StringIO()
     sweep = _Plan(3)
-    with sweeps.progress(sweep, Console(file=log, width=200), interval=0.01):
+    with progress(sweep, Console(file=log, width=200), interval=0.01):
         for job in sweep.jobs:
             time.sleep(0.1)
             sweep.finished.append(job)

@@ -20,11 +20,18 @@ import pytest
 from omegaconf import OmegaConf
 from typer.testing import CliRunner
 
-from airl_cli import sweep_folder, sweeps
 from airl_cli.cli import app
 from airl_cli.core.budget import estimate_fit, refusal
-from airl_cli.jobs.sweep import finished_earlier
+from airl_cli.errors import ConfigError
 from airl_cli.results import new_run_folder
+from airl_cli.sweep import folder as sweep_folder
+from airl_cli.sweep import run as sweep_run
+from airl_cli.sweep.folder import check_folder, claim, record_settings
+from airl_cli.sweep.job import finished_earlier
+from airl_cli.sweep.plan import _compose, plan
+from airl_cli.sweep.run import progress
+from airl_cli.sweep.spec import ERROR, ROWS, SweepPlan
+from airl_cli.sweep.table import medians_text
 from output import kill_group, without_progress
 
 runner = CliRunner()
@@ -45,7 +52,7 @@ def one_sentence(output: str) -> bool:
 
 def job_config(overrides: list[str]) -> str:
     """The resolved config.yaml a sweep job of these overrides writes."""
-    cfg = sweeps._compose(overrides)
+    cfg = _compose(overrides)
     plain = OmegaConf.to_container(cfg, resolve=False)
     del plain["hydra"]
     return OmegaConf.to_yaml(OmegaConf.create(plain), resolve=True)
@@ -55,7 +62,7 @@ def fake_finished_job(folder: Path, name: str, overrides: list[str]) -> None:
     job = folder / name
     job.mkdir(parents=True)
     (job / "config.yaml").write_text(job_config(overrides))
-    (job / sweeps.ROWS).write_text("experiment,method\nfig05,airl\n")
+    (job / ROWS).write_text("experiment,method\nfig05,airl\n")
 
 
 # ------------------------------------------------------------------ 1. resume checks more than names
@@ -63,9 +70,9 @@ def fake_finished_job(folder: Path, name: str, overrides: list[str]) -> None:
 
 def test_resume_into_another_experiments_folder_refuses(tmp_path):
     folder = tmp_path / "shared"
-    first = sweeps.plan(["experiment=fig05", "profile=quick", f"hydra.sweep.dir={folder}"])
+    first = plan(["experiment=fig05", "profile=quick", f"hydra.sweep.dir={folder}"])
     folder.mkdir()
-    sweeps.record_settings(first)
+    record_settings(first)
     result = runner.invoke(app, ["sweep", "experiment=fig06", "profile=quick", f"hydra.sweep.dir={folder}"])
     assert result.exit_code == 2 and one_sentence(result.output), result.output
     assert "experiment.name=fig05" in result.output and "experiment.name=fig06" in result.output
@@ -85,16 +92,16 @@ def test_resume_into_a_folder_from_before_sweep_json_reads_a_jobs_config(tmp_pat
 def test_a_changed_setting_is_named_and_a_narrower_method_list_is_fine(tmp_path):
     folder = tmp_path / "f"
     folder.mkdir()
-    here = sweeps.plan(["experiment=fig05", "profile=quick", f"hydra.sweep.dir={folder}"])
-    sweeps.record_settings(here)
-    sweeps.check_folder(sweeps.plan(["experiment=fig05", "profile=quick", "method=airl", f"hydra.sweep.dir={folder}"]))
+    here = plan(["experiment=fig05", "profile=quick", f"hydra.sweep.dir={folder}"])
+    record_settings(here)
+    check_folder(plan(["experiment=fig05", "profile=quick", "method=airl", f"hydra.sweep.dir={folder}"]))
     record = json.loads((folder / sweep_folder.SETTINGS).read_text())
     record["settings"]["optim.lam"] = 0.5  # as if the earlier run had changed conf/optim/default.yaml
     (folder / sweep_folder.SETTINGS).write_text(json.dumps(record))
-    with pytest.raises(sweeps.ConfigError, match=r"optim\.lam=0\.5 .* optim\.lam=0\.01"):
-        sweeps.check_folder(here)
+    with pytest.raises(ConfigError, match=r"optim\.lam=0\.5 .* optim\.lam=0\.01"):
+        check_folder(here)
     # an override on the command line names the job folders: those jobs cannot be mixed up
-    sweeps.check_folder(sweeps.plan(["experiment=fig05", "profile=quick", "optim.lam=0.01", f"hydra.sweep.dir={folder}"]))
+    check_folder(plan(["experiment=fig05", "profile=quick", "optim.lam=0.01", f"hydra.sweep.dir={folder}"]))
 
 
 def test_a_job_whose_rows_came_from_another_config_is_recomputed(tmp_path):
@@ -103,7 +110,7 @@ def test_a_job_whose_rows_came_from_another_config_is_recomputed(tmp_path):
     same = OmegaConf.create(job_config(["experiment=fig05", "profile=quick", "demos.n=1", "method=airl", "seed=0"]))
     assert finished_earlier(same, job)
     other = OmegaConf.create(job_config(["experiment=fig06", "profile=quick", "demos.n=1", "method=airl", "seed=0"]))
-    assert not finished_earlier(other, job) and not (job / sweeps.ROWS).exists()
+    assert not finished_earlier(other, job) and not (job / ROWS).exists()
 
 
 # ------------------------------------------------------------------ 2. a run folder per run
@@ -137,11 +144,11 @@ def test_two_fits_started_at_the_same_instant_get_two_folders(tmp_path):
 
 def test_a_second_sweep_into_a_busy_folder_refuses_in_one_sentence(tmp_path):
     folder = tmp_path / "results" / "sweeps" / "fig13-quick"
-    with sweeps.claim(folder):  # as a running sweep holds it
+    with claim(folder):  # as a running sweep holds it
         result = runner.invoke(app, ["sweep", "experiment=fig13", "profile=quick"])
     assert result.exit_code == 2 and one_sentence(result.output), result.output
     assert "in use by another airl sweep" in result.output and str(os.getpid()) in result.output
-    with sweeps.claim(folder):  # released when the holder is done
+    with claim(folder):  # released when the holder is done
         pass
 
 
@@ -232,7 +239,7 @@ def test_a_refused_sweep_starts_no_worker(tmp_path, monkeypatch, bad):
     monkeypatch.chdir(tmp_path)
     (tmp_path / "blocker").write_text("a file where the sweep folder's parent should be")
     started = []
-    monkeypatch.setattr(sweeps, "prestart", lambda n: started.append(n))
+    monkeypatch.setattr(sweep_run, "prestart", lambda n: started.append(n))
     result = runner.invoke(app, ["sweep", "experiment=fig13", "profile=quick", bad])
     assert result.exit_code == 2 and "error:" in result.output, result.output
     assert started == []
@@ -444,11 +451,11 @@ def test_the_estimate_is_above_the_measured_peak(tmp_path, S, T, iterations):
 def test_progress_reports_each_failure_as_it_happens(tmp_path):
     from rich.console import Console
 
-    sweep = sweeps.SweepPlan({"name": "figX"}, tmp_path, ("a", "b"))
+    sweep = SweepPlan({"name": "figX"}, tmp_path, ("a", "b"))
     console = Console(file=__import__("io").StringIO(), width=200, force_terminal=False)
-    with sweeps.progress(sweep, console, interval=0.05):
+    with progress(sweep, console, interval=0.05):
         (tmp_path / "a").mkdir()
-        (tmp_path / "a" / sweeps.ERROR).write_text("'demo_actions' is missing\n")
+        (tmp_path / "a" / ERROR).write_text("'demo_actions' is missing\n")
         time.sleep(0.3)
         printed_while_running = console.file.getvalue()
     assert "failed: a: 'demo_actions' is missing" in printed_while_running
@@ -464,7 +471,7 @@ def test_the_end_of_a_sweep_prints_median_scores_beside_the_thesis():
         for s, score in ((0, base - 0.1), (1, base), (2, base + 0.05))
         for d in ("tau", "tau_1")
     ]
-    text = sweeps.medians_text({"x": "n_demos", "dynamics": ["tau_1"], "thesis": "the learner wins"}, pd.DataFrame(rows))
+    text = medians_text({"x": "n_demos", "dynamics": ["tau_1"], "thesis": "the learner wins"}, pd.DataFrame(rows))
     lines = text.strip().splitlines()
     assert "over runs and tau_1" in lines[0] and lines[1].split() == ["n_demos", "airl", "mce", "demonstrator"]
     assert lines[2].split() == ["1", "0.9000", "0.7000", "0.5000"] and lines[-1] == "thesis: the learner wins"

@@ -12,7 +12,7 @@ import pytest
 from typer.testing import CliRunner
 
 from airl_cli.cli import app
-from airl_cli.job_files import damaged_jobs, problem
+from airl_cli.sweep.job_files import damaged_jobs, problem
 
 runner = CliRunner()
 SWEEP = ["sweep", "experiment=fig12", "profile=quick", "hydra/launcher=basic", "--no-plot"]
@@ -158,7 +158,7 @@ def test_partial_draws_the_finished_jobs_and_leaves_the_whole_table_alone(pristi
 
 
 def test_an_interrupted_sweep_gets_a_partial_table(pristine, tmp_path, monkeypatch):
-    import airl_cli.jobs.sweep_rows as sweep_rows
+    import airl_cli.sweep.rows as sweep_rows
 
     folder = tmp_path / "fig12"
     fit_rows, calls = sweep_rows.fit_rows, []

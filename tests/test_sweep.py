@@ -15,8 +15,8 @@ from typer.testing import CliRunner
 
 from airl_cli.cli import app
 from airl_cli.errors import ConfigError
-from airl_cli.job_files import FIT_COLUMNS, damaged_jobs
-from airl_cli.sweeps import experiment_names, plan
+from airl_cli.sweep.job_files import FIT_COLUMNS, damaged_jobs
+from airl_cli.sweep.plan import experiment_names, plan
 
 runner = CliRunner()
 EXPERIMENTS = ["cliffworld", "degeneracy", "fig02_03", "fig04", "fig05", "fig06", "fig07", "fig08", "fig09", "fig12", "fig13", "fig14", "fig15", "fig17", "fig18", "frozenlake", "size", "size_random", "size_random_markov", "size_random_scaled"]
@@ -223,7 +223,7 @@ def test_the_rows_of_many_jobs_read_at_once_equal_a_read_per_file(tmp_path):
     """Jobs with two headers, interleaved; a file without its last newline; a quoted comma; an
     empty cell: the same rows, columns and types as pandas reading file by file. A job that wrote
     its header alone adds no row (and, unlike a per-file read, leaves the numbers numeric)."""
-    from airl_cli.sweep_table import read_rows
+    from airl_cli.sweep.table import read_rows
 
     texts = [
         'method,seed,score,layout\nairl,0,0.5,"[1, 2]"\nairl,0,0.25,"[3, 4]"\n',

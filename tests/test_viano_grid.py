@@ -75,7 +75,7 @@ def test_the_sweep_reproduces_the_table_small_and_resumes(tmp_path, monkeypatch)
     from typer.testing import CliRunner
 
     from airl_cli.cli import app
-    from airl_cli.job_files import damaged_jobs
+    from airl_cli.sweep.job_files import damaged_jobs
 
     monkeypatch.chdir(tmp_path)
     runner = CliRunner()
@@ -112,7 +112,7 @@ def test_the_thesiss_method_runs_on_the_finite_grid(tmp_path, monkeypatch):
     from typer.testing import CliRunner
 
     from airl_cli.cli import app
-    from airl_cli.job_files import damaged_jobs
+    from airl_cli.sweep.job_files import damaged_jobs
 
     monkeypatch.chdir(tmp_path)
     result = CliRunner().invoke(app, ["sweep", "experiment=viano_finite", "profile=quick", "hydra/launcher=basic"])

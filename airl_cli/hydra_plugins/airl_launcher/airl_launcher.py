@@ -1,4 +1,4 @@
-"""The ``airl`` launcher: Hydra finds it here; the work is in ``airl_cli.pool``."""
+"""The ``airl`` launcher: Hydra finds it here; the work is in ``airl_cli.sweep.pool``."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ from hydra.plugins.launcher import Launcher
 
 
 class AirlLauncher(Launcher):
-    """Runs a multirun's jobs on warm worker processes (``airl_cli.pool``).
+    """Runs a multirun's jobs on warm worker processes (``airl_cli.sweep.pool``).
 
     Args:
         n_jobs: jobs at once; -1 every core, -2 all but one (joblib's convention); 1 in this process.
@@ -27,6 +27,6 @@ class AirlLauncher(Launcher):
         self.hydra_context = hydra_context
 
     def launch(self, job_overrides: Sequence[Sequence[str]], initial_job_idx: int) -> Sequence[Any]:
-        from airl_cli import pool
+        from airl_cli.sweep import pool
 
         return pool.launch(self, job_overrides, initial_job_idx)

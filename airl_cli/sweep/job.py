@@ -13,12 +13,14 @@ import os
 import hydra
 from omegaconf import DictConfig, OmegaConf
 
-from airl_cli import compose_memo, pool, sweep_folder
+from airl_cli import compose_memo
 from airl_cli.errors import AirlError, ResultsUnwritable, interrupted
 from airl_cli.jobs.common import output_dir
 from airl_cli.paths import conf_dir
 from airl_cli.results import describe_os_error, is_unwritable, write_text
-from airl_cli.sweep_spec import ERROR, ROWS
+from airl_cli.sweep import pool
+from airl_cli.sweep.folder import same_job
+from airl_cli.sweep.spec import ERROR, ROWS
 
 
 def finished_earlier(cfg: DictConfig, folder) -> bool:
@@ -40,7 +42,7 @@ def finished_earlier(cfg: DictConfig, folder) -> bool:
             before = OmegaConf.to_container(OmegaConf.create(text))
         except Exception:  # an unreadable config.yaml: recompute  # noqa: BLE001
             before = None
-        if isinstance(before, dict) and sweep_folder.same_job(before, OmegaConf.to_container(cfg, resolve=True)):
+        if isinstance(before, dict) and same_job(before, OmegaConf.to_container(cfg, resolve=True)):
             return True
     (folder / ROWS).unlink()
     return False
@@ -64,7 +66,7 @@ def main(cfg: DictConfig) -> None:
     if finished_earlier(cfg, folder):
         return
     (folder / ERROR).unlink(missing_ok=True)
-    from airl_cli.jobs.sweep_rows import (  # the solvers: in the job only
+    from airl_cli.sweep.rows import (  # the solvers: in the job only
         alpha_rows,
         fit_rows,
         rows_csv,
@@ -72,7 +74,7 @@ def main(cfg: DictConfig) -> None:
 
     try:
         if cfg.experiment.kind == "viano":
-            from airl_cli.jobs.viano_rows import viano_rows
+            from airl_cli.sweep.viano_rows import viano_rows
 
             rows = viano_rows(cfg, folder)
         else:

@@ -1,6 +1,6 @@
 """A sweep job's files: a finished job is reused only if they are what the job writes.
 
-A job writes ``rows.csv`` last (``airl_cli.jobs.sweep``), so its presence marks the job finished;
+A job writes ``rows.csv`` last (``airl_cli.sweep.job``), so its presence marks the job finished;
 but a file damaged since (a disk that filled up, a copy cut short, an editor) would pass garbage
 into the results table. ``problem`` checks a finished job's files against what the job writes,
 read off its own ``config.yaml`` (which the job itself compares with its config when it runs):
@@ -26,8 +26,8 @@ from typing import Any
 import yaml
 
 from airl_cli.methods import REGISTRY
-from airl_cli.sweep_folder import shared_settings
-from airl_cli.sweep_spec import ROWS
+from airl_cli.sweep.folder import shared_settings
+from airl_cli.sweep.spec import ROWS
 
 #: The first columns of the results table of a fit experiment, in order (one row per job x
 #: dynamics); every setting of the problem and learner groups follows (``setting_columns``).
@@ -39,7 +39,7 @@ FIT_COLUMNS = (
 )  # fmt: skip
 #: The columns of the alpha-vector experiment's one row (thesis Figs. 2-3).
 ALPHA_COLUMNS = ("experiment", "seed", "n_exact", "n_envelope", "n_pbvi", "n_beliefs", "max_value_gap", "seconds")
-#: The columns of the Viano et al. GridWorld experiment's one row (``jobs.viano_rows``).
+#: The columns of the Viano et al. GridWorld experiment's one row (``sweep.viano_rows``).
 VIANO_COLUMNS = (
     "experiment", "method", "alpha", "x", "x_name", "learner_epsilon", "corner", "total_return", "published",
     "relative_difference", "expert_return", "published_expert", "seconds",

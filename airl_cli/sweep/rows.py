@@ -1,7 +1,7 @@
 """The rows an ``airl sweep`` job writes: a fit's scores per dynamics with every setting, or the
 alpha-vectors of thesis Figs. 2-3.
 
-Apart from ``airl_cli.jobs.sweep`` so that the sweep process, which only hands jobs to its
+Apart from ``airl_cli.sweep.job`` so that the sweep process, which only hands jobs to its
 workers, never imports the solvers (numba, scipy.optimize); the workers import this at start-up.
 """
 
@@ -18,7 +18,7 @@ from airl_cli.build import resolved_loss, streams
 from airl_cli.config import plain, problem_settings
 from airl_cli.core.multimodel import exact_alpha_vectors, expand_beliefs, pbvi_graph, upper_envelope_1d
 from airl_cli.core.problems import noise
-from airl_cli.job_files import setting_columns
+from airl_cli.sweep.job_files import setting_columns
 from airl_cli.jobs.common import save_config
 from airl_cli.jobs.fit import fit_and_write
 from airl_cli.results import atomic_write

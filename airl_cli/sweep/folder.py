@@ -2,7 +2,7 @@
 
 A sweep folder holds the jobs of one experiment with one set of settings (``sweep.json``), and
 one ``airl sweep`` at a time writes into it (an advisory lock). These are the checks that keep a
-resumed sweep from mixing its rows with another sweep's (``airl_cli.sweeps``).
+resumed sweep from mixing its rows with another sweep's (``airl_cli.sweep.run``).
 """
 
 from __future__ import annotations
@@ -20,7 +20,7 @@ from omegaconf import OmegaConf
 
 from airl_cli.errors import ConfigError
 from airl_cli.results import write_json
-from airl_cli.sweep_spec import ROWS, SweepPlan  # noqa: F401 (ROWS: part of the interface)
+from airl_cli.sweep.spec import ROWS, SweepPlan  # noqa: F401 (ROWS: part of the interface)
 
 SETTINGS = "sweep.json"
 LOCK = ".lock"

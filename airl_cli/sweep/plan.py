@@ -1,0 +1,123 @@
+"""What ``airl sweep`` will run: the sweep folder, its jobs and the settings they share, from the command line.
+
+An experiment config (``conf/experiment/NAME.yaml``) sets the problem and lists its sweep in
+``hydra.sweeper.params``; the values depend on the profile through the ``airl.sweep`` resolver.
+Every job writes its rows (``rows.csv``) into its own folder, named from its overrides, as its last
+act; the sweep folder is fixed per experiment and profile. Running the same command again skips
+jobs whose ``rows.csv`` exists, and the results table is always rebuilt from those files, so an
+interrupted sweep never leaves duplicated or partial rows (``airl_cli.sweep.run``).
+"""
+
+from __future__ import annotations
+
+import hashlib
+from pathlib import Path
+
+from hydra import compose, initialize_config_dir
+from hydra._internal.config_loader_impl import get_overrides_dirname
+from hydra._internal.core_plugins.basic_sweeper import BasicSweeper
+from hydra.core.override_parser.overrides_parser import OverridesParser
+from hydra.errors import HydraException
+from omegaconf import DictConfig, OmegaConf
+
+from airl_cli import compose_memo
+from airl_cli.config import fit_settings, plain, problem_settings
+from airl_cli.errors import ConfigError
+from airl_cli.launch import launcher_discoverable
+from airl_cli.paths import conf_dir
+from airl_cli.sweep.folder import shared_settings
+from airl_cli.sweep.pool import workers
+from airl_cli.sweep.spec import SweepPlan, override_key
+
+
+def _is_task_override(item: str) -> bool:
+    key = override_key(item)
+    return not (key.startswith("hydra.") or key.startswith("hydra/"))
+
+
+def _compose(overrides: list[str]) -> DictConfig:
+    with initialize_config_dir(config_dir=conf_dir(), version_base="1.3", job_name="sweep"):
+        return compose("airl", overrides=overrides, return_hydra_config=True)
+
+
+def plan(overrides: list[str]) -> SweepPlan:
+    """The sweep folder and job list for these command-line overrides; checks the first job's config.
+
+    Raises:
+        ConfigError: no experiment named, an unknown override, or a bad value in the first job.
+    """
+    with compose_memo.active():  # the first job's composition reuses the sweep's
+        return _plan(overrides)
+
+
+def _plan(overrides: list[str]) -> SweepPlan:
+    launcher_discoverable()  # before Hydra's plugin registry is first built
+    parser = OverridesParser.create()
+    try:
+        parsed = parser.parse_overrides(overrides)
+    except HydraException as err:
+        raise ConfigError(f"cannot read the overrides: {err}") from None
+    # compose with the first value of every swept override, as the first job will
+    first = [
+        f"{o.get_key_element()}={next(iter(o.sweep_string_iterator()))}" if o.is_sweep_override() else o.input_line
+        for o in parsed
+    ]
+    try:
+        cfg = _compose(first)
+    except HydraException as err:
+        raise ConfigError(str(err).splitlines()[0]) from None
+    if cfg.get("experiment") is None:
+        raise ConfigError("name an experiment: airl sweep experiment=NAME (see airl sweep --help)")
+    params = [f"{k}={v}" for k, v in (cfg.hydra.sweeper.params or {}).items()]
+    task_args = [o for o in overrides if _is_task_override(o)]
+    jobs_overrides = BasicSweeper.split_arguments(parser.parse_overrides(params + task_args), None)[0]
+    exclude = list(cfg.hydra.job.config.override_dirname.exclude_keys)
+    parsed_once = {o: parser.parse_override(o) for o in {o for job in jobs_overrides for o in job}}  # 2 ms each
+    jobs = tuple(get_overrides_dirname([parsed_once[o] for o in job], exclude, ",", "=") for job in jobs_overrides)
+    try:
+        first_job = _compose([o for o in overrides if not _is_task_override(o)] + jobs_overrides[0])
+    except HydraException as err:
+        raise ConfigError(str(err).splitlines()[0]) from None
+    workers = _workers(first_job)
+    if first_job.experiment.kind == "fit":
+        problem_settings(first_job)
+        fit_settings(first_job)
+        from airl_cli.jobs.common import check_memory
+
+        check_memory(first_job, workers=workers)
+    swept = tuple(sorted({override_key(o) for o in jobs_overrides[0] if _is_task_override(o)}))
+    job_config = OmegaConf.to_container(first_job, resolve=False)
+    del job_config["hydra"]
+    settings = shared_settings(plain(OmegaConf.create(job_config)), swept)
+    job_overrides = tuple(tuple(job) for job in jobs_overrides)
+    return SweepPlan(plain(cfg.experiment), _folder(cfg, overrides, parser), jobs, settings, swept, workers, job_overrides)
+
+
+def _workers(cfg: DictConfig) -> int:
+    """How many jobs the launcher runs at once on this machine (hydra.launcher.n_jobs; 1 without it)."""
+    n_jobs = OmegaConf.select(cfg, "hydra.launcher.n_jobs", default=None)
+    if n_jobs is None:
+        return 1
+    if not isinstance(n_jobs, int) or isinstance(n_jobs, bool) or n_jobs == 0:
+        raise ConfigError(f"hydra.launcher.n_jobs must be a whole number of jobs at once (-1 for every core), not {n_jobs!r}")
+    return workers(n_jobs)
+
+
+def _folder(cfg: DictConfig, overrides: list[str], parser: OverridesParser) -> Path:
+    """The sweep folder: results/sweeps/<study>-<profile>, plus the command's other overrides.
+
+    A variant of an experiment (say mdp.transition=dirichlet) thus gets a folder of its own and
+    never mixes its table with the plain experiment's; hydra.sweep.dir=PATH names it outright.
+    """
+    if any(o.split("=", 1)[0] == "hydra.sweep.dir" for o in overrides):
+        return Path(cfg.hydra.sweep.dir)
+    extra = [o for o in overrides if _is_task_override(o) and override_key(o) not in ("experiment", "profile")]
+    suffix = get_overrides_dirname(parser.parse_overrides(extra), [], ",", "=") if extra else ""
+    if len(suffix) > 100:
+        suffix = hashlib.sha1(suffix.encode()).hexdigest()[:12]
+    return Path(f"{cfg.hydra.sweep.dir}-{suffix}" if suffix else cfg.hydra.sweep.dir)
+
+
+def experiment_names() -> list[str]:
+    """Every experiment config shipped in conf/experiment/."""
+    return sorted(p.stem for p in (Path(conf_dir()) / "experiment").glob("*.yaml") if not p.name.startswith("_"))
