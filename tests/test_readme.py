@@ -57,3 +57,22 @@ def test_the_seed_0_numbers_are_what_a_fresh_install_gives(tmp_path):
     got = [rows[f"tau_{j}"]["learner_score"] for j in (1, 2, 3)] + [rows[f"tau_{j}"]["demonstrator_score"] for j in (1, 2, 3)]
     got.append(rows["tau_1"]["cosine_similarity"])
     assert [f"{x:.3f}" for x in got] == list(found.groups())
+
+
+def test_the_layout_tree_names_every_module_and_package():
+    """README's Layout tree stays in step with the package: every module and sub-package of airl_cli
+    (the core's modules by name, the others by file or folder name) appears in it."""
+    import airl_cli
+
+    text = README.read_text()
+    tree = text.split("Layout, one line per module or package")[1].split("```text")[1].split("```")[0]
+    root = Path(airl_cli.__file__).parent
+    names = []
+    for path in sorted(root.iterdir()):
+        if path.name.startswith("__pycache__") or path.name == "__init__.py":
+            continue
+        names.append(path.name + "/" if path.is_dir() else path.name)
+    for sub in ("core", "sweep", "jobs"):
+        names += [p.stem for p in (root / sub).glob("*.py") if not p.name.startswith("_")]
+    missing = [n for n in names if n not in tree]
+    assert not missing, f"README's Layout tree does not name: {missing}"
