@@ -55,16 +55,11 @@ class StrategySets:
 
     def add_adversary(self, marginals: np.ndarray) -> None:
         """An adversary strategy from its marginals (M, T, S) under tau_0..tau_D."""
-        if self.problem.discount == 1.0:
-            tau = marginals[0].reshape(-1)
-            F = self.problem.feature_sums(marginals[1:])  # (D, K)
-        else:  # step t counts gamma^t: weigh the adversary's marginals, the learner's stay as they are
-            g = self.problem.step_weights
-            tau = (marginals[0] * g[:, None]).reshape(-1)
-            if self.problem.features.ndim == 2:
-                F = np.einsum("t,jts->js", g, marginals[1:]) @ self.problem.features
-            else:
-                F = self.problem.feature_sums(marginals[1:] * g[:, None])
+        # step t counts gamma^t (1 without a discount, which leaves the marginals as they are):
+        # the adversary's marginals are weighed, the learner's stay as they are
+        g = self.problem.step_weights[:, None]
+        tau = (marginals[0] * g).reshape(-1)
+        F = self.problem.feature_sums(marginals[1:] * g)  # (D, K)
         phi_k = F.sum(axis=0) if self.shared else F.reshape(-1)
         self.qp.add_adversary(self.l_loss @ tau, phi_k)
         self.a_tau = np.vstack([self.a_tau, tau[None]])

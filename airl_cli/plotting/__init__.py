@@ -90,7 +90,7 @@ def _read_meta(folder: Path) -> dict[str, Any]:
     if meta is None:
         raise ValueError(f"The sweep folder {folder} has no experiment.json{_unfinished(folder)}.")
     for key in ("name", "figures"):
-        if not meta.get(key) and meta.get(key) != []:  # an experiment may draw no figure (a table only)
+        if not meta.get(key):
             raise ValueError(f"experiment.json in {folder} has no {key!r}.")
     figures = meta["figures"]
     if isinstance(figures, str) or not isinstance(figures, list):
