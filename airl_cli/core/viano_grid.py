@@ -112,6 +112,23 @@ def total_return(P: np.ndarray, policy: np.ndarray, r: np.ndarray, *, goal: int 
     return float(v[starts].mean())
 
 
+def expert_return(P: np.ndarray, allowed: np.ndarray, r: np.ndarray, r_true: np.ndarray, gamma: float) -> float:
+    """Viano et al.'s "expert" line: ``total_return`` of the optimal (hard) policy of the reward r,
+    by discounted value iteration to convergence (1e-10).
+
+    Args:
+        P: (S', A, S') dynamics; allowed: (S', A) bool, the actions that exist; r: (S',) the state
+        reward planned for; r_true: (S,) the true rewards ``total_return`` scores with; gamma < 1.
+    """
+    V = np.zeros(r.size)
+    while True:
+        Q = np.where(allowed, r[:, None] + gamma * (P @ V), -np.inf)
+        V_new = Q.max(axis=1)
+        if np.linalg.norm(V_new - V) < 1e-10:
+            return total_return(P, np.eye(P.shape[1])[np.argmax(Q, axis=1)], r_true)
+        V = V_new
+
+
 def finite_total_return(P: np.ndarray, policy: np.ndarray, r: np.ndarray, *, goal: int = 0) -> float:
     """The metric on a finite horizon: the expected undiscounted return of the T states of a
     non-stationary policy from every grid state (stopping at the goal), averaged over them.

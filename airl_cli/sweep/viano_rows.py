@@ -17,7 +17,7 @@ from airl_cli.config import fit_settings, plain
 from airl_cli.core.demos import expected_feature_sums
 from airl_cli.core.planning import backward_induction
 from airl_cli.core.robust_mce import discounted_feature_sum, robust_mce_irl, robust_soft_value_iteration
-from airl_cli.core.viano_grid import finite_total_return, total_return, viano_grid
+from airl_cli.core.viano_grid import expert_return, finite_total_return, total_return, viano_grid
 from airl_cli.data import Dataset
 from airl_cli.errors import ConfigError
 from airl_cli.evaluate import learner_policy
@@ -32,17 +32,6 @@ def published(exp: dict, alpha: float, epsilon: float) -> float:
     if row is None or epsilon not in values:
         return float("nan")
     return float(row[values.index(epsilon)])
-
-
-def expert_return(P: np.ndarray, allowed: np.ndarray, r: np.ndarray, w_star: np.ndarray, gamma: float) -> float:
-    """Their "expert" line: the optimal (hard) policy of the true reward, value iteration to convergence."""
-    V = np.zeros(r.size)
-    while True:
-        Q = np.where(allowed, r[:, None] + gamma * (P @ V), -np.inf)
-        V_new = Q.max(axis=1)
-        if np.linalg.norm(V_new - V) < 1e-10:
-            return total_return(P, np.eye(P.shape[1])[np.argmax(Q, axis=1)], w_star)
-        V = V_new
 
 
 def viano_rows(cfg: DictConfig, folder) -> list[dict]:
