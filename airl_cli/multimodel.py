@@ -37,7 +37,7 @@ from airl_cli.core.multimodel import (
     exact_alpha_vectors,
     expand_beliefs,
     solve,
-    upper_envelope_1d,
 )
+from airl_cli.alpha_values import upper_envelope_1d
 
 __all__ = ["PolicyGraph", "Solution", "exact_alpha_vectors", "expand_beliefs", "solve", "upper_envelope_1d"]

@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 from airl_cli.core import _kernels
-from airl_cli.core.multimodel import exact_alpha_vectors, pbvi_graph, upper_envelope_1d
+from airl_cli.alpha_values import upper_envelope_1d
+from airl_cli.core.multimodel import exact_alpha_vectors, pbvi_graph
 from airl_cli.core.planning import backward_induction
 from airl_cli.core.sparse import sparse_dynamics
 from airl_cli.multimodel import expand_beliefs, solve
@@ -325,3 +326,20 @@ def test_blas_runs_on_one_thread_inside_the_planner_and_is_restored_after(monkey
     pbvi_graph(P, rng.random((2, 3, 4)), expand_beliefs(P, iterations=3, rng=rng))
     assert seen and all(s == {1} for s in seen)
     assert blas_threads() == before
+
+
+def test_envelope_vertices_with_ties_and_duplicates():
+    """Small integer vectors tie at x = 0, at x = 1 and at kinks, and repeat: the vertices still
+    trace the brute-force maximum, increase strictly, and count one kink per envelope change."""
+    from airl_cli.alpha_values import envelope_vertices
+
+    rng = np.random.default_rng(1)
+    for _ in range(50):
+        alpha = rng.integers(-3, 4, size=(rng.integers(1, 12), 2)).astype(float)
+        xs, ys = envelope_vertices(alpha)
+        x = np.linspace(0, 1, 2001)
+        brute = np.max(np.outer(1 - x, alpha[:, 0]) + np.outer(x, alpha[:, 1]), axis=1)
+        assert xs[0] == 0 and xs[-1] == 1 and np.all(np.diff(xs) > 0)
+        np.testing.assert_allclose(np.interp(x, xs, ys), brute, atol=1e-12)
+        assert len(xs) <= len(upper_envelope_1d(alpha)) + 1
+    assert np.isnan(envelope_vertices(np.empty((0, 2)))[1]).all()

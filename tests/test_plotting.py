@@ -16,6 +16,7 @@ from matplotlib.figure import Figure
 
 import airl_cli
 from airl_cli import plotting
+from airl_cli.alpha_values import envelope_vertices
 
 METHODS = ("airl", "mce", "bc")
 SEEDS = (0, 1, 2, 3)
@@ -232,7 +233,7 @@ def test_unknown_dynamics_is_an_error():
 
 def test_upper_envelope_matches_brute_force():
     data = make_alphas(200)
-    xs, ys = plotting._upper_envelope(data["exact"])
+    xs, ys = envelope_vertices(data["exact"])
     assert xs[0] == 0 and xs[-1] == 1 and np.all(np.diff(xs) > 0)
     grid = np.linspace(0, 1, 5001)
     brute = np.max(np.outer(1 - grid, data["exact"][:, 0]) + np.outer(grid, data["exact"][:, 1]), axis=1)

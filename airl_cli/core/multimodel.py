@@ -54,7 +54,7 @@ import numpy as np
 from airl_cli.core import _column_kernels, _kernels, _walk_kernels
 from airl_cli.core.demos import _inverse_cdf
 from airl_cli.core.mdp import check_probabilities
-from airl_cli.core.mmdp_exact import exact_alpha_vectors, exact_graph, markov_graph, markov_values, mean_graph, upper_envelope_1d
+from airl_cli.core.mmdp_exact import exact_alpha_vectors, exact_graph, markov_graph, markov_values, mean_graph
 from airl_cli.core.policy_graph import LayeredRewards, PolicyGraph, Solution, _as_layered, check_beliefs, check_prior, layered_rewards
 from airl_cli.core.sparse import SparseDynamics, sparse_dynamics
 from airl_cli.core.threads import blas_on_one_thread
@@ -332,5 +332,4 @@ __all__ = [
     "solve",
     "expand_beliefs",
     "exact_alpha_vectors",
-    "upper_envelope_1d",
 ]

@@ -36,7 +36,7 @@ from airl_cli.plotting._style import (  # noqa: F401 (the constants are part of 
     THRESHOLD_COLOUR,
     _require,
 )
-from airl_cli.plotting.alphas import _alpha_arrays, _upper_envelope, alpha_vectors  # noqa: F401 (tests check _upper_envelope)
+from airl_cli.plotting.alphas import _alpha_arrays, alpha_vectors  # noqa: F401
 from airl_cli.plotting.convergence import convergence, fit_figures, is_fit_folder, read_fit
 from airl_cli.plotting.scores import (
     CURVES_COLUMNS,

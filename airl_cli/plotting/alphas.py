@@ -10,45 +10,11 @@ from matplotlib.collections import LineCollection
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 
-from airl_cli.alpha_values import largest_gap
+from airl_cli.alpha_values import envelope_vertices, largest_gap
 from airl_cli.plotting._style import _ALPHA_KEYS, ROW_HEIGHT, _legend, _suptitle
 
 # --------------------------------------------------------------------------------------------
 # alpha-vectors (figures 2 and 3)
-
-
-def _upper_envelope(vectors: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Vertices (x, value) of max_a (1 - x) a[0] + x a[1] over x in [0, 1], exactly.
-
-    Walks from x = 0: the current line is overtaken first by the steeper line whose crossing is
-    nearest; the slope rises at every step, so the walk ends after at most len(vectors) steps.
-    """
-    vectors = np.asarray(vectors, dtype=float).reshape(-1, 2)
-    if vectors.size == 0:
-        return np.array([0.0, 1.0]), np.array([np.nan, np.nan])
-    b = vectors[:, 0]
-    m = vectors[:, 1] - vectors[:, 0]
-    top = np.flatnonzero(np.isclose(b, b.max(), rtol=0, atol=1e-12 * max(1.0, abs(b.max()))))
-    current = int(top[np.argmax(m[top])])
-    xs, ys = [0.0], [float(b[current])]
-    x = 0.0
-    while True:
-        steeper = np.flatnonzero(m > m[current])
-        if steeper.size == 0:
-            break
-        crossing = np.maximum((b[current] - b[steeper]) / (m[steeper] - m[current]), x)
-        first = crossing.min()
-        if first >= 1.0:
-            break
-        tied = steeper[crossing <= first + 1e-12]
-        current = int(tied[np.argmax(m[tied])])
-        x = float(first)
-        if x > xs[-1]:
-            xs.append(x)
-            ys.append(float(b[current] + m[current] * x))
-    xs.append(1.0)
-    ys.append(float(b[current] + m[current]))
-    return np.asarray(xs), np.asarray(ys)
 
 
 def _segments(vectors: np.ndarray) -> np.ndarray:
@@ -115,7 +81,7 @@ def alpha_vectors(data: Mapping[str, Any], meta: Mapping[str, Any] | None = None
     exact, envelope_index, pbvi, t, s = _alpha_arrays(data)
     where = f"t = {t}, s = {s}"
     envelope = exact[envelope_index] if envelope_index.size else exact
-    ex_x, ex_y = _upper_envelope(envelope)
+    ex_x, ex_y = envelope_vertices(envelope)
     x_label = "belief x = probability of model 1"
 
     first = Figure(figsize=(11.0, ROW_HEIGHT + 0.6), layout="constrained")
@@ -138,7 +104,7 @@ def alpha_vectors(data: Mapping[str, Any], meta: Mapping[str, Any] | None = None
 
     second = Figure(figsize=(7.0, ROW_HEIGHT + 0.6), layout="constrained")
     ax = second.subplots()
-    pb_x, pb_y = _upper_envelope(pbvi)
+    pb_x, pb_y = envelope_vertices(pbvi)
     _hyperplanes(ax, pbvi, PBVI_COLOUR)
     ax.plot(pb_x, pb_y, color=PBVI_COLOUR, linewidth=3.0, zorder=3)
     ax.plot(ex_x, ex_y, color="black", linewidth=1.4, linestyle="--", zorder=4)
