@@ -100,7 +100,7 @@ def test_the_certified_learner_with_a_discount_equals_brute_force(seed, shared, 
 
     from test_certified import adversary_marginals, brute_minimum, exact_oracle, f_brute, learner_marginals, tiny
 
-    from airl_cli.core.certified import CertifiedOptions, minimize
+    from airl_cli.core.certified import CertifiedOptions, minimize, objective_at
 
     problem, targets = tiny(seed, S=2)
     problem = dataclasses.replace(problem, discount=gamma)
@@ -116,6 +116,12 @@ def test_the_certified_learner_with_a_discount_equals_brute_force(seed, shared, 
     w = res.weights[0] if shared else res.weights.reshape(-1)
     assert res.converged and res.objective == pytest.approx(f_star, abs=1e-6)
     assert np.allclose(w, w_brute, atol=1e-6) and f_brute(w, L, Phi, C, 0.05) == pytest.approx(f_star, abs=1e-6)
+    # the independent check airl fit reports (double oracle on the restricted game) plays the discounted game too
+    W = np.tile(w, (2, 1)) if shared else w.reshape(2, -1)
+    w_off = W + 0.3
+    for weights in (W, w_off):
+        flat = weights[0] if shared else weights.reshape(-1)
+        assert objective_at(problem, targets, weights, exact_oracle(problem), lam=0.05, shared=shared) == pytest.approx(f_brute(flat, L, Phi, C, 0.05), abs=1e-7)
     undiscounted = minimize(dataclasses.replace(problem, discount=1.0), targets, exact_oracle(problem), options=CertifiedOptions(weight_sharing=shared, lam=0.05, tol=1e-12))
     assert not np.allclose(undiscounted.weights, res.weights, atol=1e-4)  # the discount changes the game
 

@@ -110,7 +110,7 @@ def test_restricted_game_matches_a_cold_lp_through_adds_weight_changes_and_pruni
     game = RestrictedGame(problem)
     game.set_weights(rng.normal(size=(2, 2)))
     for i in range(12):
-        game.add_learner(rng.dirichlet(np.ones(4), size=5))
+        game.add_learner(np.zeros((4, 4), dtype=int), rng.dirichlet(np.ones(4), size=5))
         game.add_adversary(rng.dirichlet(np.ones(4), size=(3, 5)))
         if i % 3 == 2:
             game.set_weights(rng.normal(size=(2, 2)))

@@ -206,7 +206,7 @@ def minimize(
         added_a = False
         # the adversary's side is asked unless the learner's side still accounts for most of the gap
         if not added_l or gap_l <= BALANCE * (run.upper - run.lower):
-            rewards = adversary_rewards(problem, np.tensordot(p, sets.l_marg[: p.size], axes=1), per_dynamics(w))
+            rewards = adversary_rewards(problem, np.tensordot(p, sets.learner_marginals[: p.size], axes=1), per_dynamics(w))
             reg = -float(w @ C) + 0.5 * lam * float(w @ w)
             added_a = _adversary_side(sets, rewards, oracle, screen, w, v, reg, tiny, it, run)
         rows.append(_row(it, run, qp_objective, qp, qp_seconds, start))
@@ -232,10 +232,10 @@ def _result(weights: np.ndarray, run: _Run, rows: list[dict], stopped: str, p: n
         converged=stopped != "max_iterations",
         stopped=stopped,
         history={c: np.array([r[c] for r in rows]) for c in HISTORY_COLUMNS},
-        adversary_features=np.einsum("m,mjk->jk", q, sets.a_F[: q.size]),
+        adversary_features=np.einsum("m,mjk->jk", q, sets.adversary_features[: q.size]),
         learner_mix=p,
         adversary_mix=q,
-        learner_policies=sets.l_policy[: p.size].copy(),
+        learner_policies=sets.learner_policies[: p.size].copy(),
         qp_fallbacks=sets.qp.fallbacks,
     )
 
@@ -247,7 +247,7 @@ def _start(sets: StrategySets, targets: np.ndarray, oracle: AdversaryOracle) -> 
     P, p0, T = problem.transitions, problem.initial, problem.horizon
     policy, _ = backward_induction(P[0], problem.features @ targets.mean(axis=0), horizon=T)
     sets.add_learner(policy, state_marginals(P[0], policy, p0))
-    sets.add_adversary(oracle(adversary_rewards(problem, sets.l_marg[0], np.zeros(targets.shape)))[1])
+    sets.add_adversary(oracle(adversary_rewards(problem, sets.learner_marginals[0], np.zeros(targets.shape)))[1])
     return sets
 
 
@@ -268,13 +268,13 @@ def _learner_side(sets: StrategySets, q: np.ndarray, C: np.ndarray, lam: float, 
     learner strategy by more than ``tiny``, adds it as a column. Returns that improvement."""
     problem = sets.problem
     T, S = problem.horizon, problem.transitions.shape[1]
-    q_tau = q @ sets.a_tau
+    q_tau = q @ sets.adversary_tau
     br_policy = learner_best_policy(problem, q_tau.reshape(T, S))
     br = state_marginals(problem.transitions[0], br_policy, problem.initial)
     br_loss = float(problem.loss_times(br).reshape(-1) @ q_tau)
-    g = q @ sets.a_phi - C
+    g = q @ sets.adversary_phi - C
     run.lower = max(run.lower, br_loss - float(g @ g) / (2.0 * lam))
-    gap_l = float(np.min(sets.l_loss @ q_tau)) - br_loss
+    gap_l = float(np.min(sets.learner_loss @ q_tau)) - br_loss
     if gap_l > tiny:
         sets.add_learner(br_policy, br)
     return gap_l

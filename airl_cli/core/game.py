@@ -22,97 +22,23 @@ neither does or at an iteration cap (whose use is recorded).
 
 from __future__ import annotations
 
-import dataclasses
-from collections.abc import Callable
 from dataclasses import dataclass, field
-from functools import cached_property
 
 import highspy
 import numpy as np
 
-from airl_cli.core import lowrank
+from airl_cli.core.game_problem import AdversaryOracle, GameProblem, scaled  # noqa: F401 (re-exported)
 from airl_cli.core.highs import quiet_highs
 from airl_cli.core.matrix_game import MatrixGameSolution, clean_mixture, solve_matrix_game  # noqa: F401 (re-exported)
 from airl_cli.core.planning import backward_induction, state_marginals
+from airl_cli.core.strategies import Strategies
 
 _INF = highspy.kHighsInf
 
 # --------------------------------------------------------------------------- the IRL game
 
 
-@dataclass(frozen=True)
-class GameProblem:
-    """What the game needs to know about the problem.
-
-    Attributes:
-        transitions: (M, S, A, S), index 0 = tau (both players' loss is measured under tau).
-        features: (S, K) phi, or (T, S, K) time-dependent features phi_t(s).
-        initial: (S,) p0.
-        loss: (S, S) loss(s_hat, s_check) >= 0.
-        horizon: T.
-        discount: gamma in (0, 1]: the loss and the features of step t count gamma^t (1: the thesis).
-    """
-
-    transitions: np.ndarray
-    features: np.ndarray
-    initial: np.ndarray
-    loss: np.ndarray
-    horizon: int
-    discount: float = 1.0
-
-    @property
-    def n_models(self) -> int:
-        return int(self.transitions.shape[0])
-
-    n_features = property(lambda self: int(self.features.shape[-1]), doc="K, the length of a feature vector.")
-
-    def feature_sums(self, marginals: np.ndarray) -> np.ndarray:
-        """(..., K) sum_t sum_s marginals(t, s) phi_t(s) for marginals (..., T, S)."""
-        if self.features.ndim == 2:
-            return marginals.sum(axis=-2) @ self.features
-        return np.einsum("...ts,tsk->...k", marginals, self.features)
-
-    def feature_rewards(self, w: np.ndarray) -> np.ndarray:
-        """(D, T, S) rewards R_j(t, s) = w_j . phi_t(s) for weights w (D, K) (no discount)."""
-        if self.features.ndim == 2:
-            return np.broadcast_to((self.features @ w.T).T[:, None, :], (w.shape[0], self.horizon, self.features.shape[0]))
-        return np.einsum("tsk,jk->jts", self.features, w)
-
-    @cached_property
-    def step_weights(self) -> np.ndarray:
-        """(T,) gamma^t, the weight of step t in the payoff (all ones without a discount)."""
-        return self.discount ** np.arange(self.horizon, dtype=np.float64)
-
-    @cached_property
-    def _loss_factors(self) -> tuple[np.ndarray, np.ndarray] | None:
-        return lowrank.factor(self.loss)
-
-    def loss_times(self, X: np.ndarray) -> np.ndarray:
-        """X @ loss for marginals X (..., S): (..., S), in O(S r) when the loss has low rank r."""
-        return lowrank.times(X, self.loss, self._loss_factors)
-
-    def loss_times_transposed(self, X: np.ndarray) -> np.ndarray:
-        """X @ loss.T for marginals X (..., S): (..., S)."""
-        return lowrank.times_transposed(X, self.loss, self._loss_factors)
-
-    def with_scaled_loss(self, normalize: bool = True) -> GameProblem:
-        """This problem with its loss divided by its largest entry (``game.normalize_loss``; the
-        minimiser's direction is unchanged); itself if not ``normalize`` or the loss is 0."""
-        loss = scaled(self.loss) if normalize else self.loss
-        return self if loss is self.loss else dataclasses.replace(self, loss=loss)
-
-
-def scaled(loss: np.ndarray) -> np.ndarray:
-    """(S, S) the loss divided by its largest entry; the same array if that entry is not positive."""
-    top = float(np.max(loss))
-    return loss / top if top > 0 else loss
-
-
-#: The adversary's best response: rewards (M, T, S) -> (its exact value, its marginals (M, T, S)).
-AdversaryOracle = Callable[[np.ndarray], tuple[float, np.ndarray]]
-
-
-class RestrictedGame:
+class RestrictedGame(Strategies):
     """The restricted game of double oracle, kept as one warm-started LP for a whole fit.
 
     The LP is the row player's (the learner's, who minimises):
@@ -125,24 +51,15 @@ class RestrictedGame:
 
     This object is the solver's state and is changed in place by its methods.
 
-    Attributes (row i: learner strategy i; row k: adversary strategy k):
-        learner_loss: (n, T*S) (p_hat_i(t) @ loss) flattened, so L = learner_loss @ adversary_tau.T.
-        learner_marginals: (n, T, S) under tau.
-        adversary_tau: (m, T*S) the adversary's marginals under tau, flattened.
-        adversary_features: (m, D, K) F_k[j], expected feature sums under tau_1..tau_D.
+    Attributes: those of ``Strategies`` (row i: learner strategy i; row k: adversary strategy k), and
         loss_part: (n, m) L.
+        w: (D, K) the current weights.
     """
 
     def __init__(self, problem: GameProblem):
-        T, S = problem.horizon, problem.transitions.shape[1]
-        D, K = problem.n_models - 1, problem.n_features
-        self.problem = problem
-        self.learner_loss = np.empty((0, T * S))
-        self.learner_marginals = np.empty((0, T, S))
-        self.adversary_tau = np.empty((0, T * S))
-        self.adversary_features = np.empty((0, D, K))
+        super().__init__(problem)
         self.loss_part = np.empty((0, 0))
-        self.w = np.zeros((D, K))
+        self.w = np.zeros((problem.n_models - 1, problem.n_features))
         lp = quiet_highs()
         lp.addVar(-_INF, _INF)  # column 0: the value v
         lp.changeColCost(0, 1.0)
@@ -170,28 +87,23 @@ class RestrictedGame:
             rows = np.arange(1, m + 1, dtype=np.int32)
             self._lp.changeRowsBounds(m, rows, np.full(m, -_INF), -self.feature_part())
 
-    def add_learner(self, marginals: np.ndarray) -> None:
-        """Add a learner strategy from its state marginals (T, S) under tau."""
-        row_loss = self.problem.loss_times(marginals).reshape(1, -1)
-        L_row = row_loss @ self.adversary_tau.T  # (1, m)
-        self.learner_loss = np.vstack([self.learner_loss, row_loss])
-        self.learner_marginals = np.concatenate([self.learner_marginals, marginals[None]])
-        self.loss_part = np.vstack([self.loss_part, L_row])
+    def add_learner(self, policy: np.ndarray, marginals: np.ndarray) -> np.ndarray:
+        """Add a learner strategy, its policy (T-1, S) and marginals (T, S) under tau; returns its row of L."""
+        L_row = super().add_learner(policy, marginals)
+        self.loss_part = np.vstack([self.loss_part, L_row[None]])
         m = self.sizes[1]
         idx = np.arange(m + 1, dtype=np.int32)  # the simplex row, then every adversary row
-        self._lp.addCol(0.0, 0.0, _INF, m + 1, idx, np.r_[1.0, L_row[0]])
+        self._lp.addCol(0.0, 0.0, _INF, m + 1, idx, np.r_[1.0, L_row])
+        return L_row
 
-    def add_adversary(self, marginals: np.ndarray) -> None:
-        """Add an adversary strategy from its state marginals (M, T, S) under tau_0..tau_D."""
-        tau_flat = marginals[0].reshape(1, -1)
-        feats = self.problem.feature_sums(marginals[1:])  # (D, K)
-        L_col = self.learner_loss @ tau_flat.T  # (n, 1)
-        self.adversary_tau = np.vstack([self.adversary_tau, tau_flat])
-        self.adversary_features = np.concatenate([self.adversary_features, feats[None]])
-        self.loss_part = np.hstack([self.loss_part, L_col])
+    def add_adversary(self, marginals: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Add an adversary strategy from its marginals (M, T, S) under tau_0..tau_D; returns (L_col, F_k)."""
+        L_col, feats = super().add_adversary(marginals)
+        self.loss_part = np.hstack([self.loss_part, L_col[:, None]])
         n = self.sizes[0]
         idx = np.arange(n + 1, dtype=np.int32)  # v, then every learner column
-        self._lp.addRow(-_INF, -float(np.sum(self.w * feats)), n + 1, idx, np.r_[-1.0, L_col[:, 0]])
+        self._lp.addRow(-_INF, -float(np.sum(self.w * feats)), n + 1, idx, np.r_[-1.0, L_col])
+        return L_col, feats
 
     def keep(self, learner: np.ndarray, adversary: np.ndarray) -> None:
         """Keep only these strategies (sorted index arrays), dropping the rest from the LP too."""
@@ -202,10 +114,7 @@ class RestrictedGame:
             self._lp.deleteCols(drop_l.size, (drop_l + 1).astype(np.int32))
         if drop_a.size:
             self._lp.deleteRows(drop_a.size, (drop_a + 1).astype(np.int32))
-        self.learner_loss = self.learner_loss[learner]
-        self.learner_marginals = self.learner_marginals[learner]
-        self.adversary_tau = self.adversary_tau[adversary]
-        self.adversary_features = self.adversary_features[adversary]
+        super().keep(learner, adversary)
         self.loss_part = self.loss_part[np.ix_(learner, adversary)]
 
     def solve(self) -> MatrixGameSolution:
@@ -351,7 +260,7 @@ def double_oracle(
     calls = 0
     if game.sizes[0] == 0:
         policy, _ = backward_induction(problem.transitions[0], problem.features @ game.w.mean(axis=0), horizon=problem.horizon)
-        game.add_learner(state_marginals(problem.transitions[0], policy, problem.initial))
+        game.add_learner(policy, state_marginals(problem.transitions[0], policy, problem.initial))
     if game.sizes[1] == 0:
         _, marginals = oracle(adversary_rewards(problem, game.learner_marginals.mean(axis=0), game.w))
         calls += 1
@@ -366,23 +275,24 @@ def double_oracle(
         v, p, q = sol.value, sol.row, sol.col
         tol = threshold * (1.0 + abs(v))
         # the learner's best response to the adversary's mixture (cheap)
-        l_marg = learner_best_response(problem, (q @ game.adversary_tau).reshape(T, S))
-        l_row = problem.loss_times(l_marg).reshape(-1) @ game.adversary_tau.T
+        l_policy = learner_best_policy(problem, (q @ game.adversary_tau).reshape(T, S))
+        l_marg = state_marginals(problem.transitions[0], l_policy, problem.initial)
+        l_row = game.learner_row(l_marg) @ game.adversary_tau.T
         v_learner = float((l_row + game.feature_part()) @ q)
         # a strategy already in the game cannot lower its value: a gap then is the LP's tolerance
         # (with a tight threshold, re-adding it loops until the iteration cap)
         add_l = v - v_learner > tol and not _known(game.learner_marginals, l_marg)
         v_adv, add_a = np.nan, False
         if add_l:
-            game.add_learner(l_marg)
+            game.add_learner(l_policy, l_marg)
         else:
             # the adversary's best response to the learner's mixture (expensive)
             l_tau = np.einsum("n,nts->ts", p, game.learner_marginals)
             v_best, a_marg = oracle(adversary_rewards(problem, l_tau, game.w))
             calls += 1
             v_adv = max(v_best, v)
-            feats = problem.feature_sums(a_marg[1:])[None]  # what the game sees of it
-            known = _known(game.adversary_tau, a_marg[0]) and _known(game.adversary_features, feats)
+            tau, feats = game.adversary_column(a_marg)  # what the game sees of it
+            known = _known(game.adversary_tau, tau) and _known(game.adversary_features, feats[None])
             add_a = v_best - v > tol and not known
             if add_a:
                 game.add_adversary(a_marg)

@@ -1,0 +1,86 @@
+"""The strategies both players of the game (thesis §5.3.1) have found so far, as marginals.
+
+A learner strategy i (a deterministic Markov policy under tau) is kept as its state marginals
+p_hat_i (T, S) under tau; an adversary strategy k as its marginals under tau (flattened, with step
+t counting gamma^t under a discount) and F_k[j], its feature sums under tau_1..tau_D. The loss part
+of every payoff is then
+
+    L[i, k] = sum_t (p_hat_i(t) @ loss) . p_check_k(t) = learner_loss[i] . adversary_tau[k],
+
+so each new strategy brings one row or one column of L, which the solver holding the restricted
+game (``game.RestrictedGame``'s LP, ``strategy_sets.StrategySets``'s QP) takes in.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from airl_cli.core.game_problem import GameProblem
+
+
+class Strategies:
+    """The strategies found so far (changed in place by ``add_learner``, ``add_adversary``, ``keep``).
+
+    Attributes (i: learner strategy, k: adversary strategy):
+        problem: the game's problem.
+        learner_loss: (n, T*S) p_hat_i(t) @ loss, flattened, so L = learner_loss @ adversary_tau.T.
+        learner_marginals: (n, T, S) learner marginals under tau.
+        learner_policies: (n, T-1, S) the learner strategies themselves (deterministic Markov policies).
+        adversary_tau: (m, T*S) adversary marginals under tau, flattened (times gamma^t with a discount).
+        adversary_features: (m, D, K) F_k[j], adversary feature sums under tau_1..tau_D (step t
+            counting gamma^t).
+    """
+
+    def __init__(self, problem: GameProblem):
+        T, S = problem.horizon, problem.transitions.shape[1]
+        D, K = problem.n_models - 1, problem.n_features
+        self.problem = problem
+        self.learner_loss = np.empty((0, T * S))
+        self.learner_marginals = np.empty((0, T, S))
+        self.learner_policies = np.empty((0, T - 1, S), dtype=np.int64)
+        self.adversary_tau = np.empty((0, T * S))
+        self.adversary_features = np.empty((0, D, K))
+
+    def learner_row(self, marginals: np.ndarray) -> np.ndarray:
+        """(T*S,) p_hat(t) @ loss, flattened, for a learner's marginals (T, S) under tau."""
+        return self.problem.loss_times(marginals).reshape(-1)
+
+    def adversary_column(self, marginals: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """What the game sees of an adversary strategy with marginals (M, T, S) under tau_0..tau_D:
+        its marginals under tau (T*S,), flattened, and F[j] (D, K), each step t counting gamma^t
+        (1 without a discount, which leaves the marginals as they are; the learner's stay as they are)."""
+        g = self.problem.step_weights[:, None]
+        return (marginals[0] * g).reshape(-1), self.problem.feature_sums(marginals[1:] * g)
+
+    def add_learner(self, policy: np.ndarray, marginals: np.ndarray) -> np.ndarray:
+        """Keep a learner strategy, its policy (T-1, S) and marginals (T, S) under tau.
+
+        Returns:
+            (m,) its row of L against the adversary strategies kept.
+        """
+        row = self.learner_row(marginals)
+        L_row = self.adversary_tau @ row
+        self.learner_loss = np.vstack([self.learner_loss, row[None]])
+        self.learner_marginals = np.concatenate([self.learner_marginals, marginals[None]])
+        self.learner_policies = np.concatenate([self.learner_policies, np.asarray(policy, dtype=np.int64)[None]])
+        return L_row
+
+    def add_adversary(self, marginals: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Keep an adversary strategy from its marginals (M, T, S) under tau_0..tau_D.
+
+        Returns:
+            (L_col, F): (n,) its column of L against the learner strategies kept, and (D, K) F_k.
+        """
+        tau, F = self.adversary_column(marginals)
+        L_col = self.learner_loss @ tau
+        self.adversary_tau = np.vstack([self.adversary_tau, tau[None]])
+        self.adversary_features = np.concatenate([self.adversary_features, F[None]])
+        return L_col, F
+
+    def keep(self, learner: np.ndarray, adversary: np.ndarray) -> None:
+        """Keep only these strategies (sorted index arrays)."""
+        self.learner_loss = self.learner_loss[learner]
+        self.learner_marginals = self.learner_marginals[learner]
+        self.learner_policies = self.learner_policies[learner]
+        self.adversary_tau = self.adversary_tau[adversary]
+        self.adversary_features = self.adversary_features[adversary]
