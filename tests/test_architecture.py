@@ -162,3 +162,30 @@ def test_the_layering_checks_can_fail():
     assert layer_of("airl_cli.core.game") < layer_of("airl_cli.sweep.run") < layer_of("airl_cli.cli")
     with pytest.raises(AssertionError):
         layer_of("airl_cli.nowhere")
+
+
+# --------------------------------------------------------------------------- size
+
+#: A function may run longer than this only if its docstring says why ("Long because ...").
+MAX_FUNCTION_LINES = 80
+MAX_MODULE_LINES = 400
+
+
+def long_functions(source: str) -> list[tuple[str, int]]:
+    """(name, lines) of each function of ``source`` longer than MAX_FUNCTION_LINES without a reason."""
+    found = []
+    for node in ast.walk(ast.parse(source)):
+        if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+            lines = node.end_lineno - node.lineno + 1
+            if lines > MAX_FUNCTION_LINES and "Long because" not in (ast.get_docstring(node) or ""):
+                found.append((node.name, lines))
+    return found
+
+
+def test_no_function_over_80_lines_and_no_module_over_400():
+    too_long = [f"{p.relative_to(PACKAGE)}: {name} ({n} lines)" for p in PACKAGE.rglob("*.py") for name, n in long_functions(p.read_text())]
+    too_long += [f"{p.relative_to(PACKAGE)} ({n} lines)" for p in PACKAGE.rglob("*.py") if (n := len(p.read_text().splitlines())) > MAX_MODULE_LINES]
+    assert not too_long, "\n".join(too_long)
+    body = "\n".join(f"    x = {i}" for i in range(MAX_FUNCTION_LINES))
+    assert long_functions(f"def f():\n{body}\n") == [("f", MAX_FUNCTION_LINES + 1)]
+    assert long_functions(f'def f():\n    """Long because it must."""\n{body}\n') == []

@@ -194,12 +194,7 @@ def minimize(
         t0 = time.perf_counter()
         w, v, p, q, qp_objective = qp.solve()
         qp_seconds = time.perf_counter() - t0
-        # weights below 1e-8 count as 0: an interior-point fallback spreads tiny weight over ties
-        idle_l, idle_a = idle_counters(idle_l, np.where(p > 1e-8, p, 0.0)), idle_counters(idle_a, np.where(q > 1e-8, q, 0.0))
-        if it % PRUNE_AFTER == 0 and (np.any(idle_l >= PRUNE_AFTER) or np.any(idle_a >= PRUNE_AFTER)):
-            keep_l, keep_a = np.flatnonzero(idle_l < PRUNE_AFTER), np.flatnonzero(idle_a < PRUNE_AFTER)
-            sets.keep(keep_l, keep_a)  # the strategies out of the solution for PRUNE_AFTER iterations
-            idle_l, idle_a, p, q = idle_l[keep_l], idle_a[keep_a], p[keep_l], q[keep_a]
+        idle_l, idle_a, p, q = _prune(sets, it, idle_l, idle_a, p, q)
         tiny = 1e-9 * (1.0 + abs(v))
         gap_l = _learner_side(sets, q, C, lam, tiny, run)
         added_l = gap_l > tiny
@@ -219,6 +214,18 @@ def minimize(
             stopped = "no_improvement"
             break
     return _result(per_dynamics(run.best_w), run, rows, stopped, p, q, sets)
+
+
+def _prune(sets: StrategySets, it: int, idle_l: np.ndarray, idle_a: np.ndarray, p: np.ndarray, q: np.ndarray):
+    """Count the iterations each strategy has had weight 0 in the mixtures p (n,) and q (m,) and,
+    every ``PRUNE_AFTER`` iterations, drop those idle that long; returns (idle_l, idle_a, p, q) kept."""
+    # weights below 1e-8 count as 0: an interior-point fallback spreads tiny weight over ties
+    idle_l, idle_a = idle_counters(idle_l, np.where(p > 1e-8, p, 0.0)), idle_counters(idle_a, np.where(q > 1e-8, q, 0.0))
+    if it % PRUNE_AFTER == 0 and (np.any(idle_l >= PRUNE_AFTER) or np.any(idle_a >= PRUNE_AFTER)):
+        keep_l, keep_a = np.flatnonzero(idle_l < PRUNE_AFTER), np.flatnonzero(idle_a < PRUNE_AFTER)
+        sets.keep(keep_l, keep_a)
+        idle_l, idle_a, p, q = idle_l[keep_l], idle_a[keep_a], p[keep_l], q[keep_a]
+    return idle_l, idle_a, p, q
 
 
 def _result(weights: np.ndarray, run: _Run, rows: list[dict], stopped: str, p: np.ndarray, q: np.ndarray, sets: StrategySets) -> CertifiedResult:
