@@ -13,12 +13,12 @@ import numpy as np
 
 from airl_cli import envs
 from airl_cli.config import EnvMDPSettings, GridMDPSettings, MDPSettings, ObjectworldSettings, ProblemSettings
-from airl_cli.core import demos as core_demos
-from airl_cli.core import objectworld, problems
-from airl_cli.core.mdp import discounted
-from airl_cli.core.planning import backward_induction
-from airl_cli.core.scores import performance
-from airl_cli.core.sparse import SparseDynamics
+from airl_cli.core.mdp import demos as core_demos
+from airl_cli.core.mdp import objectworld, problems
+from airl_cli.core.mdp.basics import discounted
+from airl_cli.core.mdp.planning import backward_induction
+from airl_cli.core.mdp.scores import performance
+from airl_cli.core.mdp.sparse import SparseDynamics
 from airl_cli.data import Dataset
 from airl_cli.errors import ConfigError
 
@@ -158,7 +158,7 @@ def env_problem(settings: ProblemSettings) -> Problem:
         sizes = dict(width=mdp.width, height=mdp.height, horizon=mdp.horizon - 1)
     try:
         env = envs.env_problem(mdp.name, mdp.env, (mdp.value, *values), features=mdp.features, **sizes)
-    except ValueError as e:  # the table breaks an assumption of airl_cli.core.tabular
+    except ValueError as e:  # the table breaks an assumption of airl_cli.core.mdp.tabular
         raise ConfigError(f"{mdp.env}'s transition table cannot be read as a problem: {e}") from None
     loss = loss_matrix(resolved_loss(settings), env.features)
     return Problem(env.transitions, env.features, env.initial, mdp.horizon, env.true_weights, loss, discount=settings.discount)

@@ -15,7 +15,7 @@ from typing import Any
 from omegaconf import DictConfig
 
 from airl_cli.config_reader import Cell, Reader, plain
-from airl_cli.core.options import SCHEDULES, CertifiedOptions, FitOptions, PlannerOptions
+from airl_cli.core.irl.options import SCHEDULES, CertifiedOptions, FitOptions, PlannerOptions
 from airl_cli.envs import DEFAULT_VALUES, EnvMDPSettings, env_settings, env_value
 from airl_cli.errors import ConfigError
 from airl_cli.methods import NAMES, REGISTRY
@@ -53,7 +53,7 @@ class GridMDPSettings:
 
 @dataclass(frozen=True)
 class ObjectworldSettings:
-    """``mdp=objectworld``: Levine, Popović & Koltun (2011), ``airl_cli.core.objectworld``.
+    """``mdp=objectworld``: Levine, Popović & Koltun (2011), ``airl_cli.core.mdp.objectworld``.
 
     ``n_objects`` and ``max_distance`` are resolved (never None); ``true_weights`` None means w* is
     drawn from the "mdp" stream after the objects.
@@ -151,7 +151,7 @@ def _mdp(node: Any) -> MDPSettings:
 
 
 def _objectworld(r: Reader) -> ObjectworldSettings:
-    from airl_cli.core.objectworld import FEATURE_SETS, n_features
+    from airl_cli.core.mdp.objectworld import FEATURE_SETS, n_features
 
     size = r.int("size", lo=2)
     S = size * size
@@ -379,8 +379,8 @@ class PlanSettings:
 
 def plan_settings(cfg: DictConfig | Mapping) -> PlanSettings:
     """Read and check the ``plan`` group and the seed."""
-    from airl_cli.core.mmdp_baselines import PLAN_METHODS
-    from airl_cli.core.multimodel import EXPANSIONS
+    from airl_cli.core.mmdp.baselines import PLAN_METHODS
+    from airl_cli.core.mmdp.planner import EXPANSIONS
 
     c = plain(cfg)
     top = Reader(c, "")

@@ -8,8 +8,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from airl_cli.core.mdp import check_probabilities
-from airl_cli.core.sparse import SparseDynamics
+from airl_cli.core.mdp.basics import check_probabilities
+from airl_cli.core.mdp.sparse import SparseDynamics
 from airl_cli.errors import DatasetError
 
 #: The two keys of the sparse form of the dynamics.

@@ -2,7 +2,7 @@
 and Taxi (``mdp=gymnasium``) and seals' CliffWorld (``mdp=seals``), read from the installed packages.
 
 Each environment is built once per parameter value (tau's ``mdp.value``, then each of
-``dynamics.values``): its own transition table becomes the dynamics (``airl_cli.core.tabular``),
+``dynamics.values``): its own transition table becomes the dynamics (``airl_cli.core.mdp.tabular``),
 its terminal states absorbing. The features are one-hot, of the tile type (``features=tile``) or of
 the state (``features=state``); w* is the environment's reward as a function of the state, read
 from its table, as ``TILES`` and the README's "Environments from gymnasium and seals" say.
@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 
 from airl_cli.config_reader import Reader
-from airl_cli.core import tabular
+from airl_cli.core.mdp import tabular
 from airl_cli.errors import ConfigError
 
 #: The environments of each package.

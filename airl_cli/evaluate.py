@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from airl_cli.core.mdp import discounted
-from airl_cli.core.planning import backward_induction
-from airl_cli.core.scores import cosine_similarity, mixture_performance, performance, return_bounds
+from airl_cli.core.mdp.basics import discounted
+from airl_cli.core.mdp.planning import backward_induction
+from airl_cli.core.mdp.scores import cosine_similarity, mixture_performance, performance, return_bounds
 from airl_cli.data import Dataset
 
 

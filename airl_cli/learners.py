@@ -9,12 +9,12 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from airl_cli.config import FitSettings
-from airl_cli.core import baselines, mmp, robust_mce
-from airl_cli.core.certified import minimize, objective_at
-from airl_cli.core.degeneracy import is_degenerate, reward_effect
-from airl_cli.core.game import GameProblem, scaled
-from airl_cli.core.learn import fit, make_oracles
-from airl_cli.core.per_step import step_blocks, step_features, step_targets
+from airl_cli.core.irl import baselines, mmp, robust_mce
+from airl_cli.core.irl.certified import minimize, objective_at
+from airl_cli.core.irl.degeneracy import is_degenerate, reward_effect
+from airl_cli.core.irl.game_problem import GameProblem, scaled
+from airl_cli.core.irl.learn import fit, make_oracles
+from airl_cli.core.irl.per_step import step_blocks, step_features, step_targets
 from airl_cli.data import Dataset
 from airl_cli.errors import ConfigError
 from airl_cli.methods import REGISTRY
@@ -34,7 +34,7 @@ class Learned:
             int, deterministic Markov policies under any dynamics; mix (n,) their probabilities p,
             eq. 5.9), else None.
         step_weights: with game.matching=per_step, (D, T, K) the time-dependent reward's weights
-            w_{j,t}, block 0 zero (``airl_cli.core.per_step``); ``weights`` is then the mean of blocks
+            w_{j,t}, block 0 zero (``airl_cli.core.irl.per_step``); ``weights`` is then the mean of blocks
             1..T-1. Else None.
     """
 
@@ -272,7 +272,7 @@ def _oracle_name(settings: FitSettings) -> str:
 
 
 def _degeneracy(problem: GameProblem, targets: np.ndarray, weights: np.ndarray, objective: float, tol: float) -> dict:
-    """Whether the certified w is the zero reward in all but name (``airl_cli.core.degeneracy``).
+    """Whether the certified w is the zero reward in all but name (``airl_cli.core.irl.degeneracy``).
 
     ``objective`` is f at ``weights`` in the certificate's units (the loss scaled as the solve scaled it).
     """

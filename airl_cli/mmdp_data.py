@@ -43,7 +43,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from airl_cli.core.mdp import check_probabilities
+from airl_cli.core.mdp.basics import check_probabilities
 from airl_cli.errors import DatasetError
 
 TRANSITION_COLUMNS = ("idstatefrom", "idaction", "idstateto", "idoutcome", "probability", "reward")

@@ -24,20 +24,20 @@ belief starts there; ``value`` becomes sum_j lambda_j values[j])::
     sol = solve(P, r_sas, p0, horizon=50, discount=0.9, prior=np.full(M, 1 / M))
 
 The published Markov heuristics (WSU, MVP, CADP) and exact evaluation of any policy on other
-models are in ``airl_cli.core.mmdp_baselines``; ``airl plan`` runs them all from the command line.
+models are in ``airl_cli.core.mmdp.baselines``; ``airl plan`` runs them all from the command line.
 
 Methods: ``"pbvi"`` (modified point-based value iteration, thesis Tables II-IV), ``"exact"``
 (enumerate every history; tiny problems) and ``"mean"`` (the optimal policy of the averaged MDP,
-the naive baseline). See ``airl_cli.core.multimodel`` for the details.
+the naive baseline). See ``airl_cli.core.mmdp.planner`` for the details.
 """
 
-from airl_cli.core.multimodel import (
+from airl_cli.alpha_values import upper_envelope_1d
+from airl_cli.core.mmdp.planner import (
     PolicyGraph,
     Solution,
     exact_alpha_vectors,
     expand_beliefs,
     solve,
 )
-from airl_cli.alpha_values import upper_envelope_1d
 
 __all__ = ["PolicyGraph", "Solution", "exact_alpha_vectors", "expand_beliefs", "solve", "upper_envelope_1d"]

@@ -24,10 +24,10 @@ import numpy as np  # noqa: E402
 from rich.console import Console  # noqa: E402
 from rich.table import Table  # noqa: E402
 
-from airl_cli.core.demos import sample_trajectories  # noqa: E402
-from airl_cli.core.planning import backward_induction  # noqa: E402
-from airl_cli.core.problems import gaussian_perturbations, random_mdp  # noqa: E402
-from airl_cli.core.sparse import sparse_dynamics  # noqa: E402
+from airl_cli.core.mdp.demos import sample_trajectories  # noqa: E402
+from airl_cli.core.mdp.planning import backward_induction  # noqa: E402
+from airl_cli.core.mdp.problems import gaussian_perturbations, random_mdp  # noqa: E402
+from airl_cli.core.mdp.sparse import sparse_dynamics  # noqa: E402
 from airl_cli.mmdp_data import BENCHMARKS  # noqa: E402
 from airl_cli.multimodel import expand_beliefs, solve  # noqa: E402
 
@@ -95,7 +95,7 @@ def _backup_times(S, A, T, M, iterations, threads):
     backup on each thread count; checks that every path gives the same arrays."""
     import numba
 
-    from airl_cli.core import _kernels
+    from airl_cli.core.mmdp import _kernels
 
     P, R, p0 = adversary_problem(S=S, A=A, D=M - 1, T=T)
     B = expand_beliefs(P, iterations=iterations, rng=np.random.default_rng(1))
@@ -221,8 +221,8 @@ def thesis_scale_dataset(seed: int, transition: str = "uniform", alpha: float = 
 
 def timed_fit(dataset, options, seed):
     from airl_cli.build import streams
-    from airl_cli.core.game import GameProblem
-    from airl_cli.core.learn import fit
+    from airl_cli.core.irl.game_problem import GameProblem
+    from airl_cli.core.irl.learn import fit
 
     problem = GameProblem(dataset.transitions, dataset.features, dataset.initial, dataset.loss, dataset.horizon)
     start = time.perf_counter()
@@ -231,7 +231,7 @@ def timed_fit(dataset, options, seed):
 
 
 def bench_fit() -> None:
-    from airl_cli.core.learn import FitOptions, PlannerOptions
+    from airl_cli.core.irl.learn import FitOptions, PlannerOptions
 
     ours = FitOptions()
     thesis = FitOptions(planner=PlannerOptions(expectations="monte_carlo", n_samples=50_000, reuse_beliefs=False))
@@ -264,9 +264,10 @@ def bench_fit() -> None:
 
 def grid_dataset(seed: int = 0):
     """Fig. 12's data: the grid world, the sub-optimal layouts, exact feature expectations."""
+    from hydra import compose, initialize_config_module
+
     from airl_cli.build import build_dataset
     from airl_cli.config import problem_settings
-    from hydra import compose, initialize_config_module
 
     with initialize_config_module("airl_cli.conf", version_base="1.3"):
         cfg = compose("airl", overrides=["mdp=grid", "dynamics=grid_suboptimal", "demos=exact", f"seed={seed}"])
@@ -275,9 +276,9 @@ def grid_dataset(seed: int = 0):
 
 def certified_fit(dataset, planner=None, options=None):
     """One certified fit (optim=exact's defaults): seconds and the result."""
-    from airl_cli.core.certified import CertifiedOptions, minimize
-    from airl_cli.core.game import GameProblem
-    from airl_cli.core.learn import PlannerOptions, make_oracles
+    from airl_cli.core.irl.certified import CertifiedOptions, minimize
+    from airl_cli.core.irl.game_problem import GameProblem
+    from airl_cli.core.irl.learn import PlannerOptions, make_oracles
 
     problem = GameProblem(dataset.transitions, dataset.features, dataset.initial, dataset.loss, dataset.horizon)
     start = time.perf_counter()
@@ -287,7 +288,7 @@ def certified_fit(dataset, planner=None, options=None):
 
 
 def bench_certified() -> None:
-    from airl_cli.core.learn import PlannerOptions
+    from airl_cli.core.irl.learn import PlannerOptions
 
     certified_fit(grid_dataset())  # compile / load the kernels first
     table = Table(title="certified fit (optim=exact, tol 1e-4, PBVI 8 iterations): whole fit incl. belief set, one core")
@@ -338,8 +339,8 @@ def bench_mmdp() -> None:
     """The multi-model MDP benchmark (Su & Petrik 2023): riverswim and hiv at T=50, every method."""
     import resource
 
-    from airl_cli.core.mmdp_baselines import graph_returns, plan
-    from airl_cli.core.multimodel import layered_rewards
+    from airl_cli.core.mmdp.baselines import graph_returns, plan
+    from airl_cli.core.mmdp.planner import layered_rewards
     from airl_cli.mmdp_data import read_csv_folder
 
     T = 50

@@ -36,9 +36,10 @@ import argparse
 import numpy as np
 
 from airl_cli import api
-from airl_cli.core.game import GameProblem, learner_best_response
-from airl_cli.core.planning import backward_induction, state_marginals
-from airl_cli.core.scores import return_bounds
+from airl_cli.core.irl.game import learner_best_response
+from airl_cli.core.irl.game_problem import GameProblem
+from airl_cli.core.mdp.planning import backward_induction, state_marginals
+from airl_cli.core.mdp.scores import return_bounds
 
 
 def measures(S: int, seed: int, extra: list[str]) -> tuple[float, float, float, float, float]:

@@ -6,10 +6,10 @@ Robust MCE IRL (Viano, Huang, Kamalaruban, Weller & Cevher, NeurIPS 2021), their
 start), the learner in the noise-free grid (eps_L = 0), the infinite-horizon form (value iteration
 to 1e-10), w0 = 0 and 200 Adam steps (lr 0.5, betas (0.9, 0.99), eps 1e-7). The metric: the
 undiscounted return of the deployed player pi_pl in the learner's grid from every start state
-(``airl_cli.core.viano_grid.total_return``, exact). alpha = 1 is MCE IRL.
+(``airl_cli.core.mdp.viano_grid.total_return``, exact). alpha = 1 is MCE IRL.
 
 --corner: what happens to the noise mass their code drops in three corners (see
-``airl_cli.core.viano_grid``); --all-actions: let every action exist everywhere (a move off the
+``airl_cli.core.mdp.viano_grid``); --all-actions: let every action exist everywhere (a move off the
 grid stays), instead of their action sets.
 """
 
@@ -20,8 +20,8 @@ import time
 
 import numpy as np
 
-from airl_cli.core.robust_mce import discounted_feature_sum, robust_mce_irl, robust_soft_value_iteration
-from airl_cli.core.viano_grid import total_return, viano_grid
+from airl_cli.core.irl.robust_mce import discounted_feature_sum, robust_mce_irl, robust_soft_value_iteration
+from airl_cli.core.mdp.viano_grid import total_return, viano_grid
 
 GAMMA = 0.99
 EPSILONS = (0.0, 0.05, 0.1, 0.15, 0.2)

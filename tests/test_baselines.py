@@ -4,19 +4,19 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from tiny import random_dynamics
 
-from airl_cli.core.baselines import (
+from airl_cli.core.irl.baselines import (
     behavioral_cloning,
     expected_features_per_dynamics,
     mce_irl,
     mce_objective,
     projection,
 )
-from airl_cli.core.mmp import max_margin_planning
-from airl_cli.core.demos import expected_feature_sums, feature_sums, sample_trajectories
-from airl_cli.core.planning import backward_induction, state_marginals
-from airl_cli.core.scores import performance
-from tiny import random_dynamics
+from airl_cli.core.irl.mmp import max_margin_planning
+from airl_cli.core.mdp.demos import expected_feature_sums, feature_sums, sample_trajectories
+from airl_cli.core.mdp.planning import backward_induction, state_marginals
+from airl_cli.core.mdp.scores import performance
 
 
 def tiny_problem(seed, *, S=4, A=3, T=5, D=2, K=3, concentration=0.5):

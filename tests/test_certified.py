@@ -6,15 +6,16 @@ import itertools
 
 import numpy as np
 import pytest
-from scipy.optimize import linprog, minimize as scipy_minimize
-
-from airl_cli.core.certified import CertifiedOptions, minimize, objective_at
-from airl_cli.core.demos import expected_feature_sums
-from airl_cli.core.game import GameProblem
-from airl_cli.core.learn import FitOptions, PlannerOptions, fit, make_oracle
-from airl_cli.core.planning import backward_induction, state_marginals
-from airl_cli.core.qp import MasterQP, solve_clarabel, solve_dense
+from scipy.optimize import linprog
+from scipy.optimize import minimize as scipy_minimize
 from tiny import random_dynamics
+
+from airl_cli.core.irl.certified import CertifiedOptions, minimize, objective_at
+from airl_cli.core.irl.game_problem import GameProblem
+from airl_cli.core.irl.learn import FitOptions, PlannerOptions, fit, make_oracle
+from airl_cli.core.irl.qp import MasterQP, solve_clarabel, solve_dense
+from airl_cli.core.mdp.demos import expected_feature_sums
+from airl_cli.core.mdp.planning import backward_induction, state_marginals
 
 T = 3  # the brute force below enumerates histories (s0, s1) of a 3-step horizon
 
@@ -298,6 +299,6 @@ def test_the_solvers_print_no_banner_on_standard_output():
     import subprocess
     import sys
 
-    code = "from airl_cli.core.qp import MasterQP; import numpy as np; MasterQP(np.ones(2), 0.1); print('done')"
+    code = "from airl_cli.core.irl.qp import MasterQP; import numpy as np; MasterQP(np.ones(2), 0.1); print('done')"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout == "done\n"

@@ -10,12 +10,13 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
-from airl_cli.core import _column_kernels, _kernels, multimodel
-from airl_cli.core.objectworld import slip_sparse, uniform_initial
-from airl_cli.core.sparse import sparse_dynamics
-from airl_cli.multimodel import expand_beliefs, solve
 from tiny import random_backup_inputs, random_dynamics, reference_backup
+
+from airl_cli.core.mdp.objectworld import slip_sparse, uniform_initial
+from airl_cli.core.mdp.sparse import sparse_dynamics
+from airl_cli.core.mmdp import _column_kernels, _kernels
+from airl_cli.core.mmdp import planner as multimodel
+from airl_cli.multimodel import expand_beliefs, solve
 
 SLIPS = (0.0, 0.1, 0.2, 0.3, 0.5)
 

@@ -13,15 +13,15 @@ import json
 import numpy as np
 import pytest
 from scipy.optimize import linprog
+from test_certified import adversary_marginals, enumerated_game, exact_oracle, f_brute, tiny
+from tiny import random_dynamics
 from typer.testing import CliRunner
 
 from airl_cli.cli import app
-from airl_cli.core.certified import CertifiedOptions, minimize
-from airl_cli.core.degeneracy import is_degenerate, reward_effect
-from airl_cli.core.planning import state_marginals
-from airl_cli.core.scores import mixture_performance, performance
-from test_certified import adversary_marginals, enumerated_game, exact_oracle, f_brute, tiny
-from tiny import random_dynamics
+from airl_cli.core.irl.certified import CertifiedOptions, minimize
+from airl_cli.core.irl.degeneracy import is_degenerate, reward_effect
+from airl_cli.core.mdp.planning import state_marginals
+from airl_cli.core.mdp.scores import mixture_performance, performance
 
 runner = CliRunner()
 T = 3

@@ -6,10 +6,10 @@ import itertools
 
 import numpy as np
 import pytest
-
-from airl_cli.core.demos import expected_feature_sums, feature_sums, most_likely_trajectory, sample_trajectories
-from airl_cli.core.planning import backward_induction, state_marginals
 from tiny import random_dynamics
+
+from airl_cli.core.mdp.demos import expected_feature_sums, feature_sums, most_likely_trajectory, sample_trajectories
+from airl_cli.core.mdp.planning import backward_induction, state_marginals
 
 
 def _setup(seed=0, S=5, A=3, T=6, D=3):

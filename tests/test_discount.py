@@ -8,11 +8,11 @@ import pytest
 from typer.testing import CliRunner
 
 from airl_cli.cli import app
-from airl_cli.core.baselines import feature_sum, mce_objective
-from airl_cli.core.demos import expected_feature_sums, feature_sums
-from airl_cli.core.planning import backward_induction, expected_return, soft_backward_induction
-from airl_cli.core.mdp import discounted
-from airl_cli.core.scores import performance
+from airl_cli.core.irl.baselines import feature_sum, mce_objective
+from airl_cli.core.mdp.basics import discounted
+from airl_cli.core.mdp.demos import expected_feature_sums, feature_sums
+from airl_cli.core.mdp.planning import backward_induction, expected_return, soft_backward_induction
+from airl_cli.core.mdp.scores import performance
 from airl_cli.data import Dataset, read_dataset, write_dataset
 from airl_cli.errors import DatasetError
 
@@ -100,7 +100,7 @@ def test_the_certified_learner_with_a_discount_equals_brute_force(seed, shared, 
 
     from test_certified import adversary_marginals, brute_minimum, exact_oracle, f_brute, learner_marginals, tiny
 
-    from airl_cli.core.certified import CertifiedOptions, minimize, objective_at
+    from airl_cli.core.irl.certified import CertifiedOptions, minimize, objective_at
 
     problem, targets = tiny(seed, S=2)
     problem = dataclasses.replace(problem, discount=gamma)

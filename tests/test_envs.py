@@ -15,7 +15,7 @@ from typer.testing import CliRunner
 
 from airl_cli.cli import app
 from airl_cli.config import problem_settings
-from airl_cli.core import tabular
+from airl_cli.core.mdp import tabular
 from airl_cli.errors import ConfigError
 
 runner = CliRunner()

@@ -6,17 +6,13 @@ import itertools
 
 import numpy as np
 import pytest
-
-from airl_cli.core.game import (
-    GameProblem,
-    RestrictedGame,
-    adversary_rewards,
-    double_oracle,
-    solve_matrix_game,
-)
-from airl_cli.core.multimodel import expand_beliefs, solve
-from airl_cli.core.planning import state_marginals
 from tiny import random_dynamics
+
+from airl_cli.core.irl.game import RestrictedGame, adversary_rewards, double_oracle
+from airl_cli.core.irl.game_problem import GameProblem
+from airl_cli.core.mdp.planning import state_marginals
+from airl_cli.core.mmdp.planner import expand_beliefs, solve
+from airl_cli.core.numerics.matrix_game import solve_matrix_game
 
 # The column player maximises p^T G q, the row player minimises.
 

@@ -4,12 +4,13 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
-from airl_cli.core.demos import expected_feature_sums
-from airl_cli.core.game import GameProblem, RestrictedGame, double_oracle
-from airl_cli.core.learn import FitOptions, PlannerOptions, fit, make_oracle
-from airl_cli.core.planning import backward_induction
 from tiny import random_dynamics
+
+from airl_cli.core.irl.game import RestrictedGame, double_oracle
+from airl_cli.core.irl.game_problem import GameProblem
+from airl_cli.core.irl.learn import FitOptions, PlannerOptions, fit, make_oracle
+from airl_cli.core.mdp.demos import expected_feature_sums
+from airl_cli.core.mdp.planning import backward_induction
 
 
 def tiny_irl(seed=0, *, S=4, A=2, T=4, D=2, K=3, concentration=0.4):
@@ -114,7 +115,7 @@ def test_history_seconds_is_the_wall_time_since_the_fit_began_for_both_optimiser
     """One meaning for `history.csv`'s seconds: cumulative, for the gradient steps as for the exact solve."""
     import time
 
-    from airl_cli.core.certified import CertifiedOptions, minimize
+    from airl_cli.core.irl.certified import CertifiedOptions, minimize
 
     problem, targets, _ = tiny_irl(2)
     exact, _ = make_oracle(problem, EXACT, np.random.default_rng(0))

@@ -4,10 +4,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from airl_cli.core import lowrank
-from airl_cli.core.game import GameProblem, adversary_rewards, learner_best_policy
-from airl_cli.core.objectworld import slip_sparse, uniform_initial
-from airl_cli.core.problems import squared_feature_loss, zero_one_loss
+from airl_cli.core.irl.game import adversary_rewards, learner_best_policy
+from airl_cli.core.irl.game_problem import GameProblem
+from airl_cli.core.mdp.objectworld import slip_sparse, uniform_initial
+from airl_cli.core.mdp.problems import squared_feature_loss, zero_one_loss
+from airl_cli.core.numerics import lowrank
 
 
 def test_a_squared_feature_loss_factors_at_rank_k_plus_two_and_its_products_are_the_dense_ones():

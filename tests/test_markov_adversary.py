@@ -10,10 +10,10 @@ import numpy as np
 import pytest
 from test_certified import T, brute_minimum, f_brute, learner_marginals, tiny
 
-from airl_cli.core.certified import CertifiedOptions, minimize
-from airl_cli.core.learn import PlannerOptions, make_oracles
-from airl_cli.core.markov_adversary import markov_oracle
-from airl_cli.core.planning import state_marginals
+from airl_cli.core.irl.certified import CertifiedOptions, minimize
+from airl_cli.core.irl.learn import PlannerOptions, make_oracles
+from airl_cli.core.irl.markov_adversary import markov_oracle
+from airl_cli.core.mdp.planning import state_marginals
 
 
 def markov_adversary_marginals(problem):

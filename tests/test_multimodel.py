@@ -6,14 +6,14 @@ import itertools
 
 import numpy as np
 import pytest
-
-from airl_cli.core import _kernels
-from airl_cli.alpha_values import upper_envelope_1d
-from airl_cli.core.multimodel import exact_alpha_vectors, pbvi_graph
-from airl_cli.core.planning import backward_induction
-from airl_cli.core.sparse import sparse_dynamics
-from airl_cli.multimodel import expand_beliefs, solve
 from tiny import random_backup_inputs, random_dynamics, reference_backup
+
+from airl_cli.alpha_values import upper_envelope_1d
+from airl_cli.core.mdp.planning import backward_induction
+from airl_cli.core.mdp.sparse import sparse_dynamics
+from airl_cli.core.mmdp import _kernels
+from airl_cli.core.mmdp.planner import exact_alpha_vectors, pbvi_graph
+from airl_cli.multimodel import expand_beliefs, solve
 
 
 def tiny_problem(seed, *, S=3, A=2, T=5, M=3, concentration=0.3):
@@ -309,7 +309,8 @@ def test_blas_runs_on_one_thread_inside_the_planner_and_is_restored_after(monkey
     """The planner's numba threads and BLAS's own threads would share the cores (core.threads)."""
     from threadpoolctl import threadpool_info
 
-    from airl_cli.core import _kernels, threads
+    from airl_cli.core.mmdp import _kernels
+    from airl_cli.core.numerics import threads
 
     def blas_threads() -> set[int]:
         return {lib["num_threads"] for lib in threadpool_info() if lib["user_api"] == "blas"}

@@ -15,7 +15,7 @@ from airl_cli import api
 from airl_cli.build import build_problem
 from airl_cli.cli import app
 from airl_cli.config import ObjectworldSettings, problem_settings
-from airl_cli.core.objectworld import (
+from airl_cli.core.mdp.objectworld import (
     OBJECTWORLD_ACTIONS,
     n_features,
     objectworld,
@@ -24,7 +24,7 @@ from airl_cli.core.objectworld import (
     slip_dynamics,
     uniform_initial,
 )
-from airl_cli.core.problems import grid_coordinates
+from airl_cli.core.mdp.problems import grid_coordinates
 from airl_cli.data import read_dataset
 from airl_cli.errors import ConfigError
 
@@ -212,7 +212,7 @@ def test_the_built_problem():
 
 
 def test_memory_estimate_knows_the_objectworld_sizes():
-    from airl_cli.core.budget import estimate_fit, refusal
+    from airl_cli.core.mmdp.budget import estimate_fit, refusal
     from airl_cli.jobs.common import _shrink, fit_sizes
 
     cfg = api.config("mdp=objectworld", "dynamics=slip")

@@ -10,11 +10,11 @@ import pytest
 from test_certified import T, adversary_marginals, brute_minimum, exact_oracle, f_brute, learner_marginals, tiny
 from test_markov_adversary import markov_adversary_marginals
 
-from airl_cli.core.certified import CertifiedOptions, minimize, objective_at
-from airl_cli.core.degeneracy import reward_effect
-from airl_cli.core.markov_adversary import markov_oracle
-from airl_cli.core.per_step import step_blocks, step_features, step_targets
-from airl_cli.core.scores import return_bounds
+from airl_cli.core.irl.certified import CertifiedOptions, minimize, objective_at
+from airl_cli.core.irl.degeneracy import reward_effect
+from airl_cli.core.irl.markov_adversary import markov_oracle
+from airl_cli.core.irl.per_step import step_blocks, step_features, step_targets
+from airl_cli.core.mdp.scores import return_bounds
 
 
 def per_step_problem(seed, S, *, K=2, D=2):
@@ -117,8 +117,8 @@ def test_airl_fit_per_step_writes_the_time_dependent_reward_and_scores_its_polic
     from typer.testing import CliRunner
 
     from airl_cli.cli import app
-    from airl_cli.core.planning import backward_induction
-    from airl_cli.core.scores import performance
+    from airl_cli.core.mdp.planning import backward_induction
+    from airl_cli.core.mdp.scores import performance
 
     monkeypatch.chdir(tmp_path)
     done = CliRunner().invoke(app, ["fit", "hydra.run.dir=run", "variant=per_step", *SMALL])
@@ -166,9 +166,9 @@ def test_the_optimum_lies_below_f0_by_at_most_the_price_of_imitation(seed, varia
     """With exact demonstrations the expert's own Markov policy is an adversary strategy that meets
     the targets, so f(0) - f* <= Delta = f(0) - min_p p^T L q_E in every variant (the bound of
     README's "A degenerate optimum"), here with every strategy enumerated."""
-    from airl_cli.core.demos import expected_feature_sums
-    from airl_cli.core.game import learner_best_response
-    from airl_cli.core.planning import backward_induction, state_marginals
+    from airl_cli.core.irl.game import learner_best_response
+    from airl_cli.core.mdp.demos import expected_feature_sums
+    from airl_cli.core.mdp.planning import backward_induction, state_marginals
 
     problem, _ = tiny(seed, S=3)
     P, phi, p0 = problem.transitions, problem.features, problem.initial

@@ -12,11 +12,11 @@ import itertools
 
 import numpy as np
 import pytest
-
-from airl_cli.core.mmdp_baselines import cadp, graph_returns, markov_returns, mvp, plan, state_weights, wsu
-from airl_cli.core.multimodel import PolicyGraph, expand_beliefs, layered_rewards, markov_graph, solve
-from airl_cli.core.planning import backward_induction
 from tiny import random_dynamics
+
+from airl_cli.core.mdp.planning import backward_induction
+from airl_cli.core.mmdp.baselines import cadp, graph_returns, markov_returns, mvp, plan, state_weights, wsu
+from airl_cli.core.mmdp.planner import PolicyGraph, expand_beliefs, layered_rewards, markov_graph, solve
 
 
 def tiny(seed, *, M=2, S=2, A=2, T=2):

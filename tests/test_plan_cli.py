@@ -9,8 +9,8 @@ import pytest
 from typer.testing import CliRunner
 
 from airl_cli.cli import app
-from airl_cli.core.mmdp_baselines import graph_returns, plan
-from airl_cli.core.multimodel import layered_rewards
+from airl_cli.core.mmdp.baselines import graph_returns, plan
+from airl_cli.core.mmdp.planner import layered_rewards
 from airl_cli.errors import DatasetError
 from airl_cli.jobs.plan import load_policy
 from airl_cli.mmdp_data import read_csv_folder, read_problem

@@ -6,15 +6,15 @@ import itertools
 
 import numpy as np
 import pytest
+from tiny import random_dynamics
 
-from airl_cli.core.planning import (
+from airl_cli.core.mdp.planning import (
     backward_induction,
     expected_return,
     policy_values,
     soft_backward_induction,
     state_marginals,
 )
-from tiny import random_dynamics
 
 
 def test_backward_induction_by_hand(two_state_mdp):

@@ -5,12 +5,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from airl_cli.core.demos import most_likely_trajectory
-from airl_cli.core.planning import backward_induction
-from airl_cli.core.problems import (
+from airl_cli.core.mdp.demos import most_likely_trajectory
+from airl_cli.core.mdp.planning import backward_induction
+from airl_cli.core.mdp.problems import (
     GRID_ACTIONS,
     GRID_TRUE_WEIGHTS,
     gaussian_perturbations,
+    grid_coordinates,
     grid_features,
     grid_index,
     grid_initial,
@@ -19,7 +20,6 @@ from airl_cli.core.problems import (
     squared_euclidean_loss,
     squared_feature_loss,
     zero_one_loss,
-    grid_coordinates,
 )
 
 UP, RIGHT, DOWN, LEFT = range(4)
@@ -214,7 +214,7 @@ def test_sigma_states_scales_the_perturbation_as_one_over_s():
     S = S0 it is the thesis's sigma; the summary and a bad value say so in one sentence."""
     from airl_cli import api
     from airl_cli.config import ConfigError, problem_settings
-    from airl_cli.core.problems import noise
+    from airl_cli.core.mdp.problems import noise
 
     assert noise(0.1, None, 100) == 0.1 and noise(0.1, 20, 100) == pytest.approx(0.02) and noise(0.1, 20, 20) == 0.1
     scaled = api.make_dataset("mdp.n_states=100", "dynamics.sigma_states=20", "demos.n=5", "seed=4")

@@ -18,10 +18,11 @@ from pathlib import Path
 
 import pytest
 from omegaconf import OmegaConf
+from output import kill_group, without_progress
 from typer.testing import CliRunner
 
 from airl_cli.cli import app
-from airl_cli.core.budget import estimate_fit, refusal
+from airl_cli.core.mmdp.budget import estimate_fit, refusal
 from airl_cli.errors import ConfigError
 from airl_cli.results import new_run_folder
 from airl_cli.sweep import folder as sweep_folder
@@ -32,7 +33,6 @@ from airl_cli.sweep.plan import _compose, plan
 from airl_cli.sweep.run import progress
 from airl_cli.sweep.spec import ERROR, ROWS, SweepPlan
 from airl_cli.sweep.table import medians_text
-from output import kill_group, without_progress
 
 runner = CliRunner()
 SMALL = ["mdp.n_states=6", "mdp.n_actions=3", "mdp.horizon=5", "mdp.n_features=3", "demos.n=30", "pbvi.iterations=4"]

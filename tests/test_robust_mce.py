@@ -9,15 +9,15 @@ import json
 import numpy as np
 import pytest
 from scipy.special import logsumexp
+from tiny import random_dynamics
 from typer.testing import CliRunner
 
 from airl_cli.cli import app
-from airl_cli.core import robust_mce as rm
-from airl_cli.core.baselines import mce_irl
-from airl_cli.core.demos import expected_feature_sums
-from airl_cli.core.planning import backward_induction
-from airl_cli.core.sparse import sparse_dynamics
-from tiny import random_dynamics
+from airl_cli.core.irl import robust_mce as rm
+from airl_cli.core.irl.baselines import mce_irl
+from airl_cli.core.mdp.demos import expected_feature_sums
+from airl_cli.core.mdp.planning import backward_induction
+from airl_cli.core.mdp.sparse import sparse_dynamics
 
 runner = CliRunner()
 

@@ -5,10 +5,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from airl_cli.core.mmdp_baselines import graph_returns
-from airl_cli.core.multimodel import expand_beliefs, pbvi_graph, solve
-from airl_cli.core.policy_graph import PolicyGraph, layered_rewards
-from airl_cli.core.sparse import SparseDynamics, full_reach, reachable, sparse_dynamics
+from airl_cli.core.mdp.sparse import SparseDynamics, full_reach, reachable, sparse_dynamics
+from airl_cli.core.mmdp.baselines import graph_returns
+from airl_cli.core.mmdp.planner import expand_beliefs, pbvi_graph, solve
+from airl_cli.core.mmdp.policy_graph import PolicyGraph, layered_rewards
 
 
 def sparse_problem(seed: int, S: int = 7, A: int = 3, M: int = 3, n_next: int = 2):
@@ -64,7 +64,7 @@ def test_reachable_and_the_round_trip():
 
 
 def test_a_grid_keeps_four_successors_per_node():
-    from airl_cli.core.problems import grid_world
+    from airl_cli.core.mdp.problems import grid_world
 
     P = np.stack([grid_world(epsilon=0.2), grid_world(epsilon=0.1)])
     g = solve(P, np.random.default_rng(0).normal(size=(2, 6, 25)), np.full(25, 1 / 25), iterations=5).graph
@@ -142,7 +142,7 @@ def test_sparse_dynamics_is_checked_by_solve():
 
 
 def test_the_memory_estimate_counts_only_reachable_successors():
-    from airl_cli.core.budget import estimate_fit
+    from airl_cli.core.mmdp.budget import estimate_fit
 
     dense = estimate_fit(n_states=1024, n_actions=5, horizon=20, n_dynamics=3, n_demos=200, iterations=8)
     grid = estimate_fit(n_states=1024, n_actions=5, horizon=20, n_dynamics=3, n_demos=200, iterations=8, n_next=5)
@@ -168,8 +168,8 @@ def test_fit_sizes_know_the_reach_of_a_grid_and_of_a_file(tmp_path):
 
 
 def small_dataset(seed: int = 0):
-    from airl_cli.core.demos import sample_trajectories
-    from airl_cli.core.planning import backward_induction
+    from airl_cli.core.mdp.demos import sample_trajectories
+    from airl_cli.core.mdp.planning import backward_induction
     from airl_cli.data import Dataset
 
     P = sparse_problem(seed, S=12, A=2, M=3, n_next=1)  # each state reaches at most 6 of the 12

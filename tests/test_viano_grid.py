@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from airl_cli.core.viano_grid import total_return, viano_grid
+from airl_cli.core.mdp.viano_grid import total_return, viano_grid
 
 
 def their_dynamics(n, eps):
@@ -100,7 +100,7 @@ def test_the_sweep_reproduces_the_table_small_and_resumes(tmp_path, monkeypatch)
 def test_finite_total_return_by_hand():
     # the 2 x 2 grid of test_total_return_by_hand on T = 2 states: cell 3 is cut off after one move
     P, _, _, w_star, _ = viano_grid(size=2, epsilon=0.0, corner="stay")
-    from airl_cli.core.viano_grid import finite_total_return
+    from airl_cli.core.mdp.viano_grid import finite_total_return
 
     policy = np.array([[3, 3, 0, 3]])  # (T-1, S): left, left, up, left
     assert finite_total_return(P, policy, w_star) == pytest.approx((0 - 1 - 1 - 2) / 4)

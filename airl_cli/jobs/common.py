@@ -12,7 +12,7 @@ from omegaconf import DictConfig, OmegaConf
 from rich.console import Console
 from rich.markup import escape
 
-from airl_cli.core.budget import Estimate, estimate_fit, refusal
+from airl_cli.core.mmdp.budget import Estimate, estimate_fit, refusal
 from airl_cli.errors import AirlError, ConfigError, ResultsUnwritable, error_line, interrupt_status, interrupted
 from airl_cli.results import INCOMPLETE, describe_os_error, discard, holds_no_results, is_unwritable, mark_complete, mark_incomplete, write_text
 
@@ -29,7 +29,7 @@ def output_dir() -> Path:
 def warm_up() -> None:
     """Load (or, on the first run after installing, compile) the planner's kernels: a PBVI solve of
     a tiny problem, which runs the kernels of both ``airl fit`` and ``airl plan``."""
-    from airl_cli.core.multimodel import solve  # numba: only in the jobs that plan
+    from airl_cli.core.mmdp.planner import solve  # numba: only in the jobs that plan
 
     P = np.full((2, 2, 1, 2), 0.5)
     solve(P, np.zeros((2, 2, 2)), np.array([1.0, 0.0]), iterations=2)
@@ -138,8 +138,8 @@ def fit_sizes(cfg: DictConfig) -> dict | None:
 
             S, A = env_sizes(mdp.name, mdp.env, map_name=mdp.map_name, width=mdp.width, height=mdp.height)
         else:  # the grid world and the objectworld: size x size cells
-            from airl_cli.core.objectworld import OBJECTWORLD_ACTIONS
-            from airl_cli.core.problems import GRID_ACTIONS
+            from airl_cli.core.mdp.objectworld import OBJECTWORLD_ACTIONS
+            from airl_cli.core.mdp.problems import GRID_ACTIONS
 
             S, A = mdp.size**2, len(OBJECTWORLD_ACTIONS if mdp.name == "objectworld" else GRID_ACTIONS)
         n = problem.demos.n if problem.demos.kind == "sampled" else 1

@@ -9,7 +9,7 @@ from rich.progress import Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
 
 from airl_cli.build import build_dataset, expert_scores, resolved_loss
 from airl_cli.config import EnvMDPSettings, ProblemSettings, problem_settings
-from airl_cli.core.problems import noise
+from airl_cli.core.mdp.problems import noise
 from airl_cli.data import Dataset, write_dataset
 from airl_cli.envs import env_parameter
 from airl_cli.jobs.common import err_console, out_console, output_dir, run_job, save_config

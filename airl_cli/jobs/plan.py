@@ -18,8 +18,8 @@ import numpy as np
 from omegaconf import DictConfig
 
 from airl_cli.config import PlanSettings, plan_settings
-from airl_cli.core.mmdp_baselines import Plan, graph_returns, plan
-from airl_cli.core.multimodel import PolicyGraph, layered_rewards
+from airl_cli.core.mmdp.baselines import Plan, graph_returns, plan
+from airl_cli.core.mmdp.planner import PolicyGraph, layered_rewards
 from airl_cli.errors import ConfigError
 from airl_cli.jobs.common import err_console, out_console, output_dir, run_job, save_config, warm_up
 from airl_cli.mmdp_data import MMDPProblem, input_path, read_problem

@@ -1,7 +1,7 @@
 """The job of ``airl sweep experiment=viano_gridworld``: robust MCE IRL on Viano et al.'s GridWorld,
 scored in their metric, one row with the published number beside ours.
 
-The problem is built from the experiment's own keys (``airl_cli.core.viano_grid``), the learner
+The problem is built from the experiment's own keys (``airl_cli.core.mdp.viano_grid``), the learner
 from ``method.*`` (checked as for ``airl fit``); see experiments/README.md for the conventions.
 """
 
@@ -14,10 +14,10 @@ from omegaconf import DictConfig
 
 from airl_cli.build import learner_rng, loss_matrix
 from airl_cli.config import fit_settings, plain
-from airl_cli.core.demos import expected_feature_sums
-from airl_cli.core.planning import backward_induction
-from airl_cli.core.robust_mce import discounted_feature_sum, robust_mce_irl, robust_soft_value_iteration
-from airl_cli.core.viano_grid import expert_return, finite_total_return, total_return, viano_grid
+from airl_cli.core.irl.robust_mce import discounted_feature_sum, robust_mce_irl, robust_soft_value_iteration
+from airl_cli.core.mdp.demos import expected_feature_sums
+from airl_cli.core.mdp.planning import backward_induction
+from airl_cli.core.mdp.viano_grid import expert_return, finite_total_return, total_return, viano_grid
 from airl_cli.data import Dataset
 from airl_cli.errors import ConfigError
 from airl_cli.evaluate import learner_policy

@@ -2,17 +2,16 @@
 policy's graph, the mean-MDP baseline, exact enumeration of histories (tiny problems), and the
 exact alpha-vectors at one (t, s) with their upper envelope (thesis Figs. 2-3).
 
-Shapes as in ``airl_cli.core.policy_graph``.
+Shapes as in ``airl_cli.core.mmdp.policy_graph``.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from airl_cli.core.mdp import argmax_lowest
-from airl_cli.core.policy_graph import PolicyGraph, _as_layered
-from airl_cli.core.sparse import reachable
-
+from airl_cli.core.mdp.basics import argmax_lowest
+from airl_cli.core.mdp.sparse import reachable
+from airl_cli.core.mmdp.policy_graph import PolicyGraph, _as_layered
 
 # --------------------------------------------------------------------------- baselines and exact
 

@@ -51,13 +51,13 @@ from collections.abc import Callable
 
 import numpy as np
 
-from airl_cli.core import _column_kernels, _kernels, _walk_kernels
-from airl_cli.core.demos import _inverse_cdf
-from airl_cli.core.mdp import check_probabilities
-from airl_cli.core.mmdp_exact import exact_alpha_vectors, exact_graph, markov_graph, markov_values, mean_graph
-from airl_cli.core.policy_graph import LayeredRewards, PolicyGraph, Solution, _as_layered, check_beliefs, check_prior, layered_rewards
-from airl_cli.core.sparse import SparseDynamics, sparse_dynamics
-from airl_cli.core.threads import blas_on_one_thread
+from airl_cli.core.mdp.basics import check_probabilities
+from airl_cli.core.mdp.demos import _inverse_cdf
+from airl_cli.core.mdp.sparse import SparseDynamics, sparse_dynamics
+from airl_cli.core.mmdp import _column_kernels, _kernels, _walk_kernels
+from airl_cli.core.mmdp.exact import exact_alpha_vectors, exact_graph, markov_graph, markov_values, mean_graph
+from airl_cli.core.mmdp.policy_graph import LayeredRewards, PolicyGraph, Solution, _as_layered, check_beliefs, check_prior, layered_rewards
+from airl_cli.core.numerics.threads import blas_on_one_thread
 
 #: Two beliefs closer than this in L1 distance are the same point.
 BELIEF_TOL = 1e-12

@@ -25,9 +25,9 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import minimize
 
-from airl_cli.core.mdp import check_probabilities, check_transitions, discounted
-from airl_cli.core.planning import backward_induction, soft_backward_induction, state_marginals
-from airl_cli.core.sparse import SparseDynamics
+from airl_cli.core.mdp.basics import check_probabilities, check_transitions, discounted
+from airl_cli.core.mdp.planning import backward_induction, soft_backward_induction, state_marginals
+from airl_cli.core.mdp.sparse import SparseDynamics
 
 
 @dataclass(frozen=True)

@@ -18,12 +18,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from airl_cli.core.game import AdversaryOracle, GameProblem, RestrictedGame, double_oracle, idle_counters
-from airl_cli.core.markov_adversary import markov_oracle
-from airl_cli.core.multimodel import expand_beliefs, solve
-from airl_cli.core.options import SCHEDULES, FitOptions, PlannerOptions  # noqa: F401 (re-exported)
-from airl_cli.core.sparse import sparse_dynamics
-from airl_cli.core.threads import blas_on_one_thread
+from airl_cli.core.irl.game import RestrictedGame, double_oracle, idle_counters
+from airl_cli.core.irl.game_problem import AdversaryOracle, GameProblem
+from airl_cli.core.irl.markov_adversary import markov_oracle
+from airl_cli.core.irl.options import SCHEDULES, FitOptions, PlannerOptions  # noqa: F401 (re-exported)
+from airl_cli.core.mdp.sparse import sparse_dynamics
+from airl_cli.core.mmdp.planner import expand_beliefs, solve
+from airl_cli.core.numerics.threads import blas_on_one_thread
 
 HISTORY_COLUMNS = (
     "step",

@@ -1,4 +1,4 @@
-"""The restricted QP of the certified learner (``airl_cli.core.certified``), kept warm across a fit.
+"""The restricted QP of the certified learner (``airl_cli.core.irl.certified``), kept warm across a fit.
 
 Over I learner strategies and K adversary strategies, with d weights:
 
@@ -34,14 +34,12 @@ against Clarabel's 200 ms (same objective within 1e-10); BLAS runs on one thread
 
 from __future__ import annotations
 
+import highspy
 import numpy as np
 import scipy.sparse as sp
 
-import highspy
-
-from airl_cli.core.highs import quiet_highs
-
-from airl_cli.core.threads import one_blas_thread
+from airl_cli.core.numerics.highs import quiet_highs
+from airl_cli.core.numerics.threads import one_blas_thread
 
 _INF = highspy.kHighsInf
 #: HiGHS QP iterations per solve before giving up on it for the rest of the fit.
@@ -201,7 +199,7 @@ def solve_dense(
     Returns w (d,), v, p (n,), q (m,) and the objective, or None if it did not converge within
     ``max_iterations`` steps.
     """
-    from airl_cli.core._ipm import mehrotra
+    from airl_cli.core.irl._ipm import mehrotra
 
     C, L, Phi = (np.ascontiguousarray(x, dtype=np.float64) for x in (C, L, Phi))
     m = L.shape[1]

@@ -35,7 +35,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from airl_cli.core.sparse import SparseDynamics
+from airl_cli.core.mdp.sparse import SparseDynamics
 
 #: Actions of the objectworld, in index order.
 OBJECTWORLD_ACTIONS = ("STAY", "UP", "RIGHT", "DOWN", "LEFT")

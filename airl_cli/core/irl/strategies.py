@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from airl_cli.core.game_problem import GameProblem
+from airl_cli.core.irl.game_problem import GameProblem
 
 
 class Strategies:

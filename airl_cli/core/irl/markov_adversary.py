@@ -17,7 +17,7 @@ changes (the learner still mixes Markov policies under tau).
 
 Its best response is the Markov multi-model MDP problem (NP-hard in general). The oracle here
 solves it by CADP (coordinate ascent with dynamic programming, Su & Petrik 2023, from WSU;
-``airl_cli.core.mmdp_baselines``), a local optimum: the certificate then holds against CADP's
+``airl_cli.core.mmdp.baselines``), a local optimum: the certificate then holds against CADP's
 best responses, as PBVI's does against PBVI's. ``exact=True`` enumerates every Markov policy
 (A^(S (T-1)) of them: tiny problems, tests).
 """
@@ -28,11 +28,11 @@ import itertools
 
 import numpy as np
 
-from airl_cli.core.game import AdversaryOracle
-from airl_cli.core.mmdp_baselines import cadp, markov_returns
-from airl_cli.core.planning import state_marginals
-from airl_cli.core.policy_graph import layered_rewards
-from airl_cli.core.sparse import SparseDynamics
+from airl_cli.core.irl.game_problem import AdversaryOracle
+from airl_cli.core.mdp.planning import state_marginals
+from airl_cli.core.mdp.sparse import SparseDynamics
+from airl_cli.core.mmdp.baselines import cadp, markov_returns
+from airl_cli.core.mmdp.policy_graph import layered_rewards
 
 #: Largest number of Markov policies ``exact=True`` enumerates.
 MAX_ENUMERATED = 1 << 16
@@ -48,7 +48,7 @@ def markov_oracle(transitions: np.ndarray | SparseDynamics, initial: np.ndarray,
 
     Returns:
         ``oracle(R)`` for rewards R (M, T, S): (sum_j of the returned policy's exact returns, its
-        state marginals (M, T, S) under each dynamics), as ``airl_cli.core.game.AdversaryOracle``.
+        state marginals (M, T, S) under each dynamics), as ``airl_cli.core.irl.game.AdversaryOracle``.
 
     Raises:
         ValueError: ``exact`` with more than ``MAX_ENUMERATED`` policies.

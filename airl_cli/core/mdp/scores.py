@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from airl_cli.core.mdp import discounted
-from airl_cli.core.planning import backward_induction, expected_return
+from airl_cli.core.mdp.basics import discounted
+from airl_cli.core.mdp.planning import backward_induction, expected_return
 
 
 def return_bounds(

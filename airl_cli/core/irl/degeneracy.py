@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from airl_cli.core.scores import return_bounds
+from airl_cli.core.mdp.scores import return_bounds
 
 
 def reward_effect(

@@ -38,7 +38,7 @@ With a discount gamma (``GameProblem.discount``) step t counts gamma^t in L and 
 adversary's marginals are weighed by gamma^t where they enter, and its planner's rewards too.
 
 The QP is kept in one HiGHS model for the whole fit, with a dense interior-point method for the
-solves after HiGHS fails (``airl_cli.core.qp``).
+solves after HiGHS fails (``airl_cli.core.irl.qp``).
 """
 
 from __future__ import annotations
@@ -49,20 +49,19 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from airl_cli.core.game import (
-    AdversaryOracle,
-    GameProblem,
+from airl_cli.core.irl.game import (
     RestrictedGame,
     adversary_rewards,
     double_oracle,
     idle_counters,
     learner_best_policy,
 )
-from airl_cli.core.planning import backward_induction, state_marginals
-from airl_cli.core.options import CertifiedOptions
-from airl_cli.core.qp import MasterQP
-from airl_cli.core.strategy_sets import StrategySets
-from airl_cli.core.threads import blas_on_one_thread
+from airl_cli.core.irl.game_problem import AdversaryOracle, GameProblem
+from airl_cli.core.irl.options import CertifiedOptions
+from airl_cli.core.irl.qp import MasterQP
+from airl_cli.core.irl.strategy_sets import StrategySets
+from airl_cli.core.mdp.planning import backward_induction, state_marginals
+from airl_cli.core.numerics.threads import blas_on_one_thread
 
 #: A screening best response is added without asking the full oracle if it raises the restricted
 #: value by more than this fraction of the current gap.
@@ -161,7 +160,7 @@ def minimize(
         problem: the game's problem (dynamics with tau at index 0, phi, p0, loss, T).
         targets: (D, K) c~_j, the demonstrations' feature sums under each tau_j.
         oracle: the adversary's best response: rewards (M, T, S) -> (exact value of the returned
-            policy, its marginals (M, T, S)); see ``airl_cli.core.game.AdversaryOracle``.
+            policy, its marginals (M, T, S)); see ``airl_cli.core.irl.game.AdversaryOracle``.
         screen: an optional cheaper adversary oracle of the same signature.
         options: see ``CertifiedOptions``.
         callback: called after every iteration with that iteration's history row (a dict).

@@ -13,6 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import linprog
 
+
 @dataclass(frozen=True)
 class MatrixGameSolution:
     """value = min_p max_q p^T G q; ``row`` (n,) is the minimiser's mixture, ``col`` (m,) the maximiser's."""

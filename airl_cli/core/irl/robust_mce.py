@@ -41,10 +41,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from airl_cli.core.baselines import BaselineResult, check_problem, feature_sum, lbfgs_ascent
-from airl_cli.core.planning import expect_next
-from airl_cli.core.sparse import SparseModel
-from airl_cli.core.threads import blas_on_one_thread
+from airl_cli.core.irl.baselines import BaselineResult, check_problem, feature_sum, lbfgs_ascent
+from airl_cli.core.mdp.planning import expect_next
+from airl_cli.core.mdp.sparse import SparseModel
+from airl_cli.core.numerics.threads import blas_on_one_thread
 
 OPTIMIZERS = ("lbfgs", "adam")
 #: soft policy-iteration steps of the infinite form before plain value iteration takes over

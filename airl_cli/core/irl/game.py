@@ -9,7 +9,7 @@ of a pure pair (learner i, adversary k) is
     G[i, k] = L[i, k] + sum_j w_j . F_k[j],
     L[i, k] = sum_t sum_{s, s'} p_hat_i(t, s) loss(s, s') p_check_k(t, s')     (both under tau)
     F_k[j]  = sum_t sum_s p_check_k^{(j)}(t, s) phi(s)                         (under tau_j)
-With time-dependent features phi_t(s) (features (T, S, K), e.g. ``airl_cli.core.per_step``'s) F_k[j] sums phi_t(s).
+With time-dependent features phi_t(s) (features (T, S, K), e.g. ``airl_cli.core.irl.per_step``'s) F_k[j] sums phi_t(s).
 
 Only state marginals are needed, so a strategy is stored as its marginals: the learner's (T, S)
 under tau, the adversary's (M, T, S) under tau_0..tau_D. The loss part L does not depend on w,
@@ -27,11 +27,11 @@ from dataclasses import dataclass, field
 import highspy
 import numpy as np
 
-from airl_cli.core.game_problem import AdversaryOracle, GameProblem, scaled  # noqa: F401 (re-exported)
-from airl_cli.core.highs import quiet_highs
-from airl_cli.core.matrix_game import MatrixGameSolution, clean_mixture, solve_matrix_game  # noqa: F401 (re-exported)
-from airl_cli.core.planning import backward_induction, state_marginals
-from airl_cli.core.strategies import Strategies
+from airl_cli.core.irl.game_problem import AdversaryOracle, GameProblem
+from airl_cli.core.irl.strategies import Strategies
+from airl_cli.core.mdp.planning import backward_induction, state_marginals
+from airl_cli.core.numerics.highs import quiet_highs
+from airl_cli.core.numerics.matrix_game import MatrixGameSolution, clean_mixture, solve_matrix_game
 
 _INF = highspy.kHighsInf
 

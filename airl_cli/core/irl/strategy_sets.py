@@ -1,17 +1,17 @@
-"""The strategies the certified learner has found so far (``airl_cli.core.certified``), feeding its QP.
+"""The strategies the certified learner has found so far (``airl_cli.core.irl.certified``), feeding its QP.
 
 ``Strategies`` keeps both players' marginals; this subclass hands each new strategy's row or column
 of L, and an adversary strategy's Phi[:, k] (its feature sums F_k summed over j with weight
-sharing, stacked without), to the master QP (``airl_cli.core.qp``).
+sharing, stacked without), to the master QP (``airl_cli.core.irl.qp``).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from airl_cli.core.game_problem import GameProblem
-from airl_cli.core.qp import MasterQP
-from airl_cli.core.strategies import Strategies
+from airl_cli.core.irl.game_problem import GameProblem
+from airl_cli.core.irl.qp import MasterQP
+from airl_cli.core.irl.strategies import Strategies
 
 
 class StrategySets(Strategies):

@@ -16,8 +16,8 @@ from __future__ import annotations
 import numpy as np
 from scipy.special import logsumexp
 
-from airl_cli.core.mdp import argmax_lowest, discounted, per_time
-from airl_cli.core.sparse import SparseModel
+from airl_cli.core.mdp.basics import argmax_lowest, discounted, per_time
+from airl_cli.core.mdp.sparse import SparseModel
 
 
 def _dynamics(P) -> np.ndarray | SparseModel:

@@ -39,8 +39,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from airl_cli.core.mdp import argmax_lowest
-from airl_cli.core.multimodel import (
+from airl_cli.core.mdp.basics import argmax_lowest
+from airl_cli.core.mmdp.planner import (
     METHODS,
     LayeredRewards,
     PolicyGraph,

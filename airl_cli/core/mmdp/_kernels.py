@@ -1,7 +1,7 @@
 """Compiled kernels of the multiple-MDP planner (numba, cached on disk after the first call).
 
 These are the inner loops of modified PBVI's backup (thesis Table III) written for speed; the
-readable description and the public functions are in ``airl_cli.core.multimodel``; the belief
+readable description and the public functions are in ``airl_cli.core.mmdp.planner``; the belief
 expansion and the policy graph's forward pass are in ``_walk_kernels``. Layouts:
 
 * ``PT`` (S, A, S, M): dynamics with the model axis last, ``PT[s, a, s', j] = P_j(s' | s, a)``.
@@ -112,7 +112,7 @@ def backup_step(PR, nxt, cnt, R_t, Bt, alpha_next, offsets_next):  # pragma: no 
     alpha_j = R_j(t, s, a) + sum_{s'} P_j(s'|s,a) alpha_next[k(s'), j].
     The thesis's state rewards R_j(t, s) are the case where R_t does not vary along a.
 
-    Only the next states s reaches (``nxt[s, :cnt[s]]``, see ``airl_cli.core.sparse``) are
+    Only the next states s reaches (``nxt[s, :cnt[s]]``, see ``airl_cli.core.mdp.sparse``) are
     visited: a next state no action and model reach adds nothing to any value. The work per
     state is O(A * nb * R * M * nodes) for R reachable next states, not O(S).
 

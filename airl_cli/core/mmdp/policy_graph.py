@@ -3,8 +3,8 @@ reward forms, prior and beliefs every planner takes.
 
 A policy graph (a finite controller) has, at each time t and state s, a few nodes, each with its
 action, its successor node for every next state and its alpha-vector, the exact value of
-following the graph from there under each model (``airl_cli.core.multimodel`` for the planner,
-``airl_cli.core.mmdp_exact`` for the exact and baseline graphs).
+following the graph from there under each model (``airl_cli.core.mmdp.planner`` for the planner,
+``airl_cli.core.mmdp.exact`` for the exact and baseline graphs).
 
 Shapes: transitions P (M, S, A, S); rewards R (M, T, S) or the forms of ``layered_rewards``;
 initial p0 (S,); prior (M,); beliefs (nb, M); marginals (M, T, S) with T the number of layers.
@@ -17,11 +17,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from airl_cli.core import _walk_kernels
-from airl_cli.core.demos import _inverse_cdf
-from airl_cli.core.mdp import check_probabilities
-from airl_cli.core.sparse import SparseDynamics, full_reach, sparse_dynamics
-
+from airl_cli.core.mdp.basics import check_probabilities
+from airl_cli.core.mdp.demos import _inverse_cdf
+from airl_cli.core.mdp.sparse import SparseDynamics, full_reach, sparse_dynamics
+from airl_cli.core.mmdp import _walk_kernels
 
 # --------------------------------------------------------------------------- policy graphs
 
@@ -32,7 +31,7 @@ class PolicyGraph:
 
     Nodes are stored per time step t = 0..T-1, flat and grouped by state: the nodes of state s at
     time t are ``offsets[t][s] .. offsets[t][s+1]-1``. Successors are stored only for the next
-    states a node's state can reach (``reach``, see ``airl_cli.core.sparse``): on a grid five
+    states a node's state can reach (``reach``, see ``airl_cli.core.mdp.sparse``): on a grid five
     per node instead of S.
 
     Attributes:

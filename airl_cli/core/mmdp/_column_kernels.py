@@ -24,7 +24,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-from airl_cli.core._kernels import ACTION_RTOL, _scan
+from airl_cli.core.mmdp._kernels import ACTION_RTOL, _scan
 
 #: Work is split into this many chunks over the threads, each with its scratch arrays allocated once.
 CHUNKS = 64

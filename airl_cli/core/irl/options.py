@@ -1,7 +1,7 @@
 """The learners' settings: plain frozen dataclasses, importable without the solvers.
 
-``PlannerOptions`` and ``FitOptions`` configure the gradient learner (``airl_cli.core.learn``,
-thesis Table I and §5.3); ``CertifiedOptions`` the exact solve (``airl_cli.core.certified``,
+``PlannerOptions`` and ``FitOptions`` configure the gradient learner (``airl_cli.core.irl.learn``,
+thesis Table I and §5.3); ``CertifiedOptions`` the exact solve (``airl_cli.core.irl.certified``,
 eq. 5.9). The config layer builds and checks them before any job starts, so they live apart from
 the numba and scipy code that uses them.
 """
@@ -19,7 +19,7 @@ class PlannerOptions:
     """How the adversary's best response is computed (thesis §5.3.1, chapter 6).
 
     method: "pbvi", "exact" (tiny problems) or "mean" (the naive baseline).
-    iterations / expansion: PBVI's belief set (see ``airl_cli.core.multimodel.expand_beliefs``).
+    iterations / expansion: PBVI's belief set (see ``airl_cli.core.mmdp.planner.expand_beliefs``).
     expectations: "exact" (forward pass over the policy graph) or "monte_carlo" with n_samples.
     reuse_beliefs: build the belief set once per fit (ours) or anew for every call (the thesis).
     belief_seed: seeds the belief sampling of a reused belief set, so that the learned weights are
@@ -27,7 +27,7 @@ class PlannerOptions:
     screen_beliefs: the certified learner first asks PBVI restricted to the first this many
         beliefs (a cheap, weaker best response; 0 turns screening off).
     adversary: "history" (thesis Def. 5.3.1: one history-dependent policy over every dynamics)
-        or "markov" (a Markov policy, ``airl_cli.core.markov_adversary``: CADP, or enumeration
+        or "markov" (a Markov policy, ``airl_cli.core.irl.markov_adversary``: CADP, or enumeration
         with method "exact").
     """
 

@@ -8,8 +8,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from airl_cli.core.planning import state_marginals
-from airl_cli.core.sparse import SparseDynamics, SparseModel
+from airl_cli.core.mdp.planning import state_marginals
+from airl_cli.core.mdp.sparse import SparseDynamics, SparseModel
 
 
 def _inverse_cdf(p: np.ndarray) -> np.ndarray:

@@ -14,7 +14,7 @@ from functools import cached_property
 
 import numpy as np
 
-from airl_cli.core import lowrank
+from airl_cli.core.numerics import lowrank
 
 
 @dataclass(frozen=True)

@@ -1,6 +1,6 @@
 """Compiled kernels that walk the models forward (numba, cached on disk after the first call):
 modified belief expansion (thesis Table IV) and the policy graph's forward pass (the exact state
-marginals). The readable description is in ``airl_cli.core.multimodel``; layouts as in
+marginals). The readable description is in ``airl_cli.core.mmdp.planner``; layouts as in
 ``_kernels`` (sparse dynamics ``PR`` (S, A, R, M) over the next states ``nxt`` (S, R) each
 state reaches, ``cnt`` (S,) of them; beliefs ``B`` (nb, M); nodes grouped by state).
 """

@@ -1,17 +1,16 @@
 """Maximum margin planning (Ratliff, Bagnell & Zinkevich 2006), a comparison method.
 
 Subgradient descent on the structured-margin objective, one loss-augmented planning problem per
-demonstration dynamics; shapes and the result type as in ``airl_cli.core.baselines``.
+demonstration dynamics; shapes and the result type as in ``airl_cli.core.irl.baselines``.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from airl_cli.core.baselines import BaselineResult, check_problem, feature_sum
-from airl_cli.core.mdp import check_probabilities
-from airl_cli.core.mdp import discounted
-from airl_cli.core.planning import backward_induction
+from airl_cli.core.irl.baselines import BaselineResult, check_problem, feature_sum
+from airl_cli.core.mdp.basics import check_probabilities, discounted
+from airl_cli.core.mdp.planning import backward_induction
 
 
 def loss_augmentation(demo_marginals: np.ndarray | None, loss: np.ndarray | None, *, D: int, T: int, S: int) -> np.ndarray:
