@@ -72,7 +72,7 @@ def test_a_sweep_process_imports_no_solver_nor_table_code_before_its_jobs():
 #: ships it as ``airl_cli.conf`` with an ``__init__.py``, so the walk over the package finds it.
 LAYERS = (
     ("core", "core.*"),
-    ("base", "alpha_values errors paths results plain_progress compose_memo config_reader sweep.spec methods variants claims multimodel airl_cli conf conf.*"),
+    ("base", "alpha_values errors paths results plain_progress compose_memo hydra_internals config_reader sweep.spec methods variants claims multimodel airl_cli conf conf.*"),
     ("problems and methods", "config data dataset_checks mmdp_data envs build evaluate learners plotting plotting.*"),
     ("jobs", "jobs jobs.common jobs.fit jobs.generate jobs.inspect jobs.plan api"),
     ("sweeps", "launch sweep sweep.* report hydra_plugins.*"),
