@@ -24,12 +24,13 @@ the files as they were at its first job.
 from __future__ import annotations
 
 import copy
-import dataclasses
 from collections.abc import Iterator
 from contextlib import contextmanager
 from typing import Any
 
-_installed: tuple | None = None  # Hydra's own two functions while ours stand in for them
+from airl_cli import hydra_internals
+
+_installed: hydra_internals.CompositionSteps | None = None  # Hydra's own steps while ours stand in for them
 _defaults_memo: dict[tuple, Any] = {}
 _config_memo: dict[tuple, Any] = {}
 _parse_memo: dict[str, Any] = {}
@@ -50,13 +51,8 @@ def install() -> None:
     global _installed
     if _installed is not None:
         return
-    from hydra._internal import config_loader_impl
-    from hydra._internal.config_loader_impl import ConfigLoaderImpl
-    from hydra.core.override_parser.overrides_parser import OverridesParser
-
-    create_defaults_list = config_loader_impl.create_defaults_list
-    compose = ConfigLoaderImpl._compose_config_from_defaults_list
-    parse_rule = OverridesParser.parse_rule
+    hydra_own = hydra_internals.composition_steps()
+    create_defaults_list, compose, parse_rule = hydra_own
 
     def remembered_defaults_list(repo, config_name, overrides_list, prepend_hydra, skip_missing):
         groups = [o for o in overrides_list if not o.is_sweep_override() and _is_group(repo, o)]
@@ -70,10 +66,10 @@ def install() -> None:
                 prepend_hydra=prepend_hydra,
                 skip_missing=skip_missing,
             )
-        return dataclasses.replace(_defaults_memo[key], config_overrides=values)
+        return hydra_internals.defaults_with_overrides(_defaults_memo[key], values)
 
     def remembered_compose(self, defaults, repo):
-        key = (_sources(repo), tuple((d.config_path, d.package, d.parent, d.is_self, d.primary, d.override_key) for d in defaults))
+        key = (_sources(repo), hydra_internals.defaults_key(defaults))
         if key not in _config_memo:
             _config_memo[key] = compose(self, defaults=defaults, repo=repo)
         return copy.deepcopy(_config_memo[key])
@@ -85,10 +81,8 @@ def install() -> None:
             _parse_memo[s] = parse_rule(self, s, rule_name)
         return copy.copy(_parse_memo[s])  # the caller sets its config_loader on the copy
 
-    config_loader_impl.create_defaults_list = remembered_defaults_list
-    ConfigLoaderImpl._compose_config_from_defaults_list = remembered_compose
-    OverridesParser.parse_rule = remembered_parse_rule
-    _installed = (create_defaults_list, compose, parse_rule)
+    hydra_internals.set_composition_steps(hydra_internals.CompositionSteps(remembered_defaults_list, remembered_compose, remembered_parse_rule))
+    _installed = hydra_own
 
 
 def uninstall() -> None:
@@ -96,14 +90,7 @@ def uninstall() -> None:
     global _installed
     if _installed is None:
         return
-    from hydra._internal import config_loader_impl
-    from hydra._internal.config_loader_impl import ConfigLoaderImpl
-    from hydra.core.override_parser.overrides_parser import OverridesParser
-
-    create_defaults_list, compose, parse_rule = _installed
-    config_loader_impl.create_defaults_list = create_defaults_list
-    ConfigLoaderImpl._compose_config_from_defaults_list = compose
-    OverridesParser.parse_rule = parse_rule
+    hydra_internals.set_composition_steps(_installed)
     _defaults_memo.clear()
     _config_memo.clear()
     _parse_memo.clear()

@@ -227,13 +227,15 @@ def _run_hydra(job: str, overrides: list[str], *, cfg: str | None, resolve: bool
         argv += ["--cfg", cfg]
     if resolve:
         argv.append("--resolve")
+    from airl_cli.hydra_internals import atomic_hydra_records
+
     saved = sys.argv
     sys.argv = argv + quote_paths(list(overrides))
     claim = not multirun and cfg is None
     if claim:  # a folder of its own for this run, even if another started in the same second
         OmegaConf.register_new_resolver("airl.new_run_folder", new_run_folder, replace=True)
     try:
-        with _jobs_composed_once(multirun and cfg is None), hydra_records_atomic():
+        with _jobs_composed_once(multirun and cfg is None), atomic_hydra_records(save_hydra_record):
             main()
     finally:
         sys.argv = saved
@@ -255,10 +257,9 @@ def launcher_discoverable() -> None:
     folder = str(Path(ours.__file__).parent.parent)
     if folder not in list(hydra_plugins.__path__):
         hydra_plugins.__path__.append(folder)
-        from hydra.core.plugins import Plugins
-        from hydra.core.singleton import Singleton
+        from airl_cli.hydra_internals import forget_plugin_registry
 
-        Singleton._instances.pop(Plugins, None)  # a registry scanned before is scanned again
+        forget_plugin_registry()  # a registry scanned before is scanned again
 
 
 @contextmanager
@@ -290,7 +291,7 @@ def _jobs_composed_once(active: bool) -> Iterator[None]:
 
 
 def save_hydra_record(cfg: Any, filename: str, output_dir: Path) -> None:
-    """Hydra's ``_save_config`` (``.hydra/config.yaml``, ``hydra.yaml``, ``overrides.yaml``), atomic.
+    """Hydra's record writer (``.hydra/config.yaml``, ``hydra.yaml``, ``overrides.yaml``), atomic.
 
     Hydra writes its records with a plain ``open`` before the job starts: a full disk left a
     0-byte ``overrides.yaml`` and a traceback. Here each file is whole or absent, and a folder that
@@ -309,15 +310,3 @@ def save_hydra_record(cfg: Any, filename: str, output_dir: Path) -> None:
             folder = None
         raise ResultsUnwritable(describe_os_error(err), folder) from None
 
-
-@contextmanager
-def hydra_records_atomic() -> Iterator[None]:
-    """Within: Hydra writes its records through ``save_hydra_record``."""
-    import hydra.core.utils
-
-    saved = hydra.core.utils._save_config
-    hydra.core.utils._save_config = save_hydra_record
-    try:
-        yield
-    finally:
-        hydra.core.utils._save_config = saved

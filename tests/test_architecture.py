@@ -76,7 +76,7 @@ LAYERS = (
     ("core.mdp", "core.mdp core.mdp.*"),
     ("core.mmdp", "core.mmdp core.mmdp.*"),
     ("core.irl", "core.irl core.irl.*"),
-    ("base", "alpha_values errors paths results plain_progress compose_memo config_reader sweep.spec methods variants claims multimodel airl_cli conf conf.*"),
+    ("base", "alpha_values errors paths results plain_progress compose_memo hydra_internals config_reader sweep.spec methods variants claims multimodel airl_cli conf conf.*"),
     ("problems and methods", "config data dataset_checks mmdp_data envs build evaluate learners plotting plotting.*"),
     ("jobs", "jobs jobs.common jobs.fit jobs.generate jobs.inspect jobs.plan api"),
     ("sweeps", "launch sweep sweep.* report hydra_plugins.*"),

@@ -14,8 +14,6 @@ import hashlib
 from pathlib import Path
 
 from hydra import compose, initialize_config_dir
-from hydra._internal.config_loader_impl import get_overrides_dirname
-from hydra._internal.core_plugins.basic_sweeper import BasicSweeper
 from hydra.core.override_parser.overrides_parser import OverridesParser
 from hydra.errors import HydraException
 from omegaconf import DictConfig, OmegaConf
@@ -23,6 +21,7 @@ from omegaconf import DictConfig, OmegaConf
 from airl_cli import compose_memo
 from airl_cli.config import fit_settings, plain, problem_settings
 from airl_cli.errors import ConfigError
+from airl_cli.hydra_internals import overrides_dirname, split_sweep_overrides
 from airl_cli.launch import launcher_discoverable
 from airl_cli.paths import conf_dir
 from airl_cli.sweep.folder import shared_settings
@@ -70,10 +69,10 @@ def _plan(overrides: list[str]) -> SweepPlan:
         raise ConfigError("name an experiment: airl sweep experiment=NAME (see airl sweep --help)")
     params = [f"{k}={v}" for k, v in (cfg.hydra.sweeper.params or {}).items()]
     task_args = [o for o in overrides if _is_task_override(o)]
-    jobs_overrides = BasicSweeper.split_arguments(parser.parse_overrides(params + task_args), None)[0]
+    jobs_overrides = split_sweep_overrides(parser.parse_overrides(params + task_args))
     exclude = list(cfg.hydra.job.config.override_dirname.exclude_keys)
     parsed_once = {o: parser.parse_override(o) for o in {o for job in jobs_overrides for o in job}}  # 2 ms each
-    jobs = tuple(get_overrides_dirname([parsed_once[o] for o in job], exclude, ",", "=") for job in jobs_overrides)
+    jobs = tuple(overrides_dirname([parsed_once[o] for o in job], exclude) for job in jobs_overrides)
     try:
         first_job = _compose([o for o in overrides if not _is_task_override(o)] + jobs_overrides[0])
     except HydraException as err:
@@ -112,7 +111,7 @@ def _folder(cfg: DictConfig, overrides: list[str], parser: OverridesParser) -> P
     if any(o.split("=", 1)[0] == "hydra.sweep.dir" for o in overrides):
         return Path(cfg.hydra.sweep.dir)
     extra = [o for o in overrides if _is_task_override(o) and override_key(o) not in ("experiment", "profile")]
-    suffix = get_overrides_dirname(parser.parse_overrides(extra), [], ",", "=") if extra else ""
+    suffix = overrides_dirname(parser.parse_overrides(extra), []) if extra else ""
     if len(suffix) > 100:
         suffix = hashlib.sha1(suffix.encode()).hexdigest()[:12]
     return Path(f"{cfg.hydra.sweep.dir}-{suffix}" if suffix else cfg.hydra.sweep.dir)

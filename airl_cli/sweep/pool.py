@@ -236,18 +236,18 @@ def _start(state: bytes | tuple) -> None:
     ``hydra.main`` wrapped cannot be pickled by name).
     """
     import cloudpickle
-    import hydra.core.utils
     from hydra.core.singleton import Singleton
     from hydra.core.utils import setup_globals
 
     from airl_cli import compose_memo
+    from airl_cli.hydra_internals import set_hydra_record_writer
     from airl_cli.launch import save_hydra_record
 
     hydra_context, config, task_function, singleton_state = cloudpickle.loads(state) if isinstance(state, bytes) else state
     setup_globals()
     Singleton.set_state(singleton_state)
     compose_memo.install()
-    hydra.core.utils._save_config = save_hydra_record  # whole or absent, as in the sweep process
+    set_hydra_record_writer(save_hydra_record)  # whole or absent, as in the sweep process
     _worker.update(hydra_context=hydra_context, config=config, task_function=task_function)
 
 
