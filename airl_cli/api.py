@@ -23,11 +23,11 @@ from omegaconf import DictConfig
 
 from airl_cli.build import build_dataset, learner_rng, with_loss
 from airl_cli.config import fit_settings, loss_and_seed, problem_settings
-from airl_cli.data import Dataset, read_dataset, write_dataset
 from airl_cli.evaluate import score_learned
+from airl_cli.io.dataset import Dataset, read_dataset, write_dataset
+from airl_cli.io.run_folder import read_experiment
 from airl_cli.learners import Learned, learn
 from airl_cli.paths import conf_dir
-from airl_cli.results import read_experiment
 
 __all__ = ["config", "load_dataset", "save_dataset", "make_dataset", "fit", "score", "read_sweep", "Dataset", "Learned"]
 

@@ -19,8 +19,8 @@ from airl_cli.core.mdp.basics import discounted
 from airl_cli.core.mdp.planning import backward_induction
 from airl_cli.core.mdp.scores import performance
 from airl_cli.core.mdp.sparse import SparseDynamics
-from airl_cli.data import Dataset
 from airl_cli.errors import ConfigError
+from airl_cli.io.dataset import Dataset
 
 #: Named random streams, in spawn order (append only: existing streams keep their numbers).
 STREAMS = ("mdp", "dynamics", "demos", "fit", "method")
@@ -40,7 +40,7 @@ def learner_rng(seed: int, method: str) -> np.random.Generator:
 
 @dataclass(frozen=True)
 class Problem:
-    """A problem without demonstrations: shapes as in ``airl_cli.data``."""
+    """A problem without demonstrations: shapes as in ``airl_cli.io.dataset``."""
 
     transitions: np.ndarray | SparseDynamics  # (M, S, A, S), index 0 = tau
     features: np.ndarray  # (S, K)

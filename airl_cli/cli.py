@@ -173,9 +173,9 @@ def plot(
     the tolerance; for optim=gradient the objective per step and the gradient's norm; for a
     comparison method the columns of its history.csv.
     """
+    from airl_cli.io.files import describe_os_error
     from airl_cli.jobs.common import err_console, out_console
     from airl_cli.plotting import draw_folder
-    from airl_cli.results import describe_os_error
 
     try:
         paths = draw_folder(folder)
@@ -201,9 +201,9 @@ def report(
     table goes between the marker lines of OUT/README.md if it has them (experiments/README.md does),
     else into OUT/claims.md.
     """
+    from airl_cli.io.files import describe_os_error
     from airl_cli.jobs.common import err_console, out_console
     from airl_cli.report import make_report
-    from airl_cli.results import describe_os_error
 
     try:
         paths = make_report(folder, out, profile)

@@ -7,7 +7,7 @@ import numpy as np
 from airl_cli.core.mdp.basics import discounted
 from airl_cli.core.mdp.planning import backward_induction
 from airl_cli.core.mdp.scores import cosine_similarity, mixture_performance, performance, return_bounds
-from airl_cli.data import Dataset
+from airl_cli.io.dataset import Dataset
 
 
 def dynamics_name(j: int) -> str:

@@ -14,8 +14,9 @@ import yaml
 from omegaconf import OmegaConf
 
 from airl_cli.errors import ResultsUnwritable, interrupted, refuse
+from airl_cli.io.files import describe_os_error, is_unwritable, writable_problem, write_text
+from airl_cli.io.run_folder import claimed_folder, holds_no_results, new_run_folder
 from airl_cli.paths import conf_dir
-from airl_cli.results import claimed_folder, describe_os_error, holds_no_results, is_unwritable, new_run_folder, writable_problem, write_text
 from airl_cli.sweep.spec import override_key, split_override
 
 

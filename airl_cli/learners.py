@@ -15,8 +15,8 @@ from airl_cli.core.irl.degeneracy import is_degenerate, reward_effect
 from airl_cli.core.irl.game_problem import GameProblem, scaled
 from airl_cli.core.irl.learn import fit, make_oracles
 from airl_cli.core.irl.per_step import step_blocks, step_features, step_targets
-from airl_cli.data import Dataset
 from airl_cli.errors import ConfigError
+from airl_cli.io.dataset import Dataset
 from airl_cli.methods import REGISTRY
 
 

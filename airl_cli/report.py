@@ -19,9 +19,9 @@ from omegaconf import OmegaConf
 
 from airl_cli.claims import claims_table, reading_of
 from airl_cli.errors import AirlError
+from airl_cli.io.files import atomic_write, write_text
 from airl_cli.methods import NAMES
 from airl_cli.paths import conf_dir
-from airl_cli.results import atomic_write, write_text
 from airl_cli.variants import variants_summary
 
 START, END = "<!-- claims table: written by make_report.py -->", "<!-- end of the claims table -->"

@@ -28,7 +28,7 @@ from airl_cli.core.mdp.demos import sample_trajectories  # noqa: E402
 from airl_cli.core.mdp.planning import backward_induction  # noqa: E402
 from airl_cli.core.mdp.problems import gaussian_perturbations, random_mdp  # noqa: E402
 from airl_cli.core.mdp.sparse import sparse_dynamics  # noqa: E402
-from airl_cli.mmdp_data import BENCHMARKS  # noqa: E402
+from airl_cli.io.mmdp_files import BENCHMARKS  # noqa: E402
 from airl_cli.multimodel import expand_beliefs, solve  # noqa: E402
 
 console = Console(width=150)
@@ -341,7 +341,7 @@ def bench_mmdp() -> None:
 
     from airl_cli.core.mmdp.baselines import graph_returns, plan
     from airl_cli.core.mmdp.planner import layered_rewards
-    from airl_cli.mmdp_data import read_csv_folder
+    from airl_cli.io.mmdp_files import read_csv_folder
 
     T = 50
     plan("pbvi", np.full((2, 1, 1, 1), 1.0), np.zeros((2, 1, 1, 1)), np.ones(1), horizon=2, iterations=2)  # compile

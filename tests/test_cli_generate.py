@@ -7,7 +7,7 @@ import pytest
 from typer.testing import CliRunner
 
 from airl_cli.cli import app, config_groups
-from airl_cli.data import read_dataset
+from airl_cli.io.dataset import read_dataset
 
 runner = CliRunner()
 

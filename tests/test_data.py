@@ -4,12 +4,12 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from tiny import random_dynamics
 from typer.testing import CliRunner
 
 from airl_cli.cli import app
-from airl_cli.data import Dataset, read_dataset, validate, write_dataset
 from airl_cli.errors import DatasetError
-from tiny import random_dynamics
+from airl_cli.io.dataset import Dataset, read_dataset, validate, write_dataset
 
 S, A, K, T, D, N = 4, 2, 3, 5, 2, 6
 

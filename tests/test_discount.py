@@ -13,8 +13,8 @@ from airl_cli.core.mdp.basics import discounted
 from airl_cli.core.mdp.demos import expected_feature_sums, feature_sums
 from airl_cli.core.mdp.planning import backward_induction, expected_return, soft_backward_induction
 from airl_cli.core.mdp.scores import performance
-from airl_cli.data import Dataset, read_dataset, write_dataset
 from airl_cli.errors import DatasetError
+from airl_cli.io.dataset import Dataset, read_dataset, write_dataset
 
 runner = CliRunner()
 

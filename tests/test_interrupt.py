@@ -16,10 +16,11 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
+from output import kill_group, without_progress
 from typer.testing import CliRunner
 
 from airl_cli.cli import app
-from output import kill_group, without_progress
+
 INCOMPLETE = "INCOMPLETE"  # the marker file a run folder holds while its run is under way (README)
 
 runner = CliRunner()
@@ -217,7 +218,7 @@ def test_a_sweep_interrupted_by_ctrl_c_resumes_to_the_table_of_an_uninterrupted_
 
 def no_space(name: str):
     """A writer that fails with ENOSPC for files called ``name`` (and writes the others)."""
-    from airl_cli.results import write_text
+    from airl_cli.io.files import write_text
 
     def write(path, text):
         if Path(path).name == name:

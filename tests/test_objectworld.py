@@ -25,8 +25,8 @@ from airl_cli.core.mdp.objectworld import (
     uniform_initial,
 )
 from airl_cli.core.mdp.problems import grid_coordinates
-from airl_cli.data import read_dataset
 from airl_cli.errors import ConfigError
+from airl_cli.io.dataset import read_dataset
 
 STAY, UP, RIGHT, DOWN, LEFT = range(5)
 runner = CliRunner()

@@ -12,8 +12,8 @@ from airl_cli.cli import app
 from airl_cli.core.mmdp.baselines import graph_returns, plan
 from airl_cli.core.mmdp.planner import layered_rewards
 from airl_cli.errors import DatasetError
+from airl_cli.io.mmdp_files import read_csv_folder, read_problem
 from airl_cli.jobs.plan import load_policy
-from airl_cli.mmdp_data import read_csv_folder, read_problem
 
 runner = CliRunner()
 
@@ -177,7 +177,7 @@ def test_plan_config_is_packaged_and_printable():
 
 def test_the_shipped_benchmarks_plan_from_any_folder(tmp_path):
     """`plan.input=benchmark:NAME`: Su & Petrik's small domains, shipped in the package (MIT licence)."""
-    from airl_cli.mmdp_data import benchmark_names
+    from airl_cli.io.mmdp_files import benchmark_names
 
     assert benchmark_names() == ["hiv", "riverswim"]
     hiv = read_problem("benchmark:hiv")

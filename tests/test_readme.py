@@ -31,7 +31,7 @@ def test_the_quoted_bad_value_error_is_the_one_airl_prints(tmp_path):
 
 def test_the_plan_examples_use_data_a_users_install_has():
     """The README's `airl plan` examples once pointed at ../shared/..., which a user's clone lacks."""
-    from airl_cli.mmdp_data import BENCHMARK, benchmark_names
+    from airl_cli.io.mmdp_files import BENCHMARK, benchmark_names
 
     text = README.read_text()
     inputs = re.findall(r"^airl plan plan\.input=(\S+)", text, flags=re.M)

@@ -24,7 +24,7 @@ from typer.testing import CliRunner
 from airl_cli.cli import app
 from airl_cli.core.mmdp.budget import estimate_fit, refusal
 from airl_cli.errors import ConfigError
-from airl_cli.results import new_run_folder
+from airl_cli.io.run_folder import new_run_folder
 from airl_cli.sweep import folder as sweep_folder
 from airl_cli.sweep import run as sweep_run
 from airl_cli.sweep.folder import check_folder, claim, record_settings
@@ -119,8 +119,8 @@ def test_a_job_whose_rows_came_from_another_config_is_recomputed(tmp_path):
 def test_two_folders_claimed_in_the_same_second_differ(tmp_path):
     stamp = str(tmp_path / "results" / "fit" / "2026-01-01_00-00-00")
     first = new_run_folder(stamp)
-    sweeps_claimed = dict(__import__("airl_cli.results", fromlist=["_claimed"])._claimed)
-    __import__("airl_cli.results", fromlist=["_claimed"])._claimed.clear()  # as a second process would
+    sweeps_claimed = dict(__import__("airl_cli.io.run_folder", fromlist=["_claimed"])._claimed)
+    __import__("airl_cli.io.run_folder", fromlist=["_claimed"])._claimed.clear()  # as a second process would
     second = new_run_folder(stamp)
     assert first == stamp and second == stamp + "-2" and Path(second).is_dir()
     assert sweeps_claimed[stamp] == first

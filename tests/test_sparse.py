@@ -170,7 +170,7 @@ def test_fit_sizes_know_the_reach_of_a_grid_and_of_a_file(tmp_path):
 def small_dataset(seed: int = 0):
     from airl_cli.core.mdp.demos import sample_trajectories
     from airl_cli.core.mdp.planning import backward_induction
-    from airl_cli.data import Dataset
+    from airl_cli.io.dataset import Dataset
 
     P = sparse_problem(seed, S=12, A=2, M=3, n_next=1)  # each state reaches at most 6 of the 12
     rng = np.random.default_rng(seed)
@@ -184,7 +184,7 @@ def small_dataset(seed: int = 0):
 
 def test_a_sparse_file_reads_as_the_dense_one_and_fits_the_same(tmp_path):
     from airl_cli import api
-    from airl_cli.data import read_dataset
+    from airl_cli.io.dataset import read_dataset
 
     ds = small_dataset()
     arrays = ds.arrays()
@@ -207,7 +207,7 @@ def test_a_sparse_file_reads_as_the_dense_one_and_fits_the_same(tmp_path):
 
 
 def test_a_large_dataset_is_written_sparse(tmp_path, monkeypatch):
-    import airl_cli.data as data
+    import airl_cli.io.dataset as data
 
     ds = small_dataset(1)
     monkeypatch.setattr(data, "SPARSE_ABOVE", 0)  # every dynamics counts as large
@@ -236,8 +236,8 @@ def test_a_large_dataset_is_written_sparse(tmp_path, monkeypatch):
     ],
 )
 def test_a_bad_sparse_file_gets_one_sentence(tmp_path, change, message):
-    from airl_cli.data import read_dataset
     from airl_cli.errors import DatasetError
+    from airl_cli.io.dataset import read_dataset
 
     ds = small_dataset(2)
     arrays = ds.arrays()

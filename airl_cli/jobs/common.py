@@ -14,7 +14,8 @@ from rich.markup import escape
 
 from airl_cli.core.mmdp.budget import Estimate, estimate_fit, refusal
 from airl_cli.errors import AirlError, ConfigError, ResultsUnwritable, error_line, interrupt_status, interrupted
-from airl_cli.results import INCOMPLETE, describe_os_error, discard, holds_no_results, is_unwritable, mark_complete, mark_incomplete, write_text
+from airl_cli.io.files import describe_os_error, is_unwritable, write_text
+from airl_cli.io.run_folder import INCOMPLETE, discard, holds_no_results, mark_complete, mark_incomplete
 
 #: Progress and errors go to stderr; the final "where it went" line to stdout.
 err_console = Console(stderr=True, highlight=False)

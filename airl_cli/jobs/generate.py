@@ -10,12 +10,12 @@ from rich.progress import Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
 from airl_cli.build import build_dataset, expert_scores, resolved_loss
 from airl_cli.config import EnvMDPSettings, ProblemSettings, problem_settings
 from airl_cli.core.mdp.problems import noise
-from airl_cli.data import Dataset, write_dataset
 from airl_cli.envs import env_parameter
+from airl_cli.io.dataset import Dataset, write_dataset
+from airl_cli.io.files import write_text
 from airl_cli.jobs.common import err_console, out_console, output_dir, run_job, save_config
 from airl_cli.paths import conf_dir
 from airl_cli.plain_progress import PlainProgress
-from airl_cli.results import write_text
 
 
 def describe(settings: ProblemSettings, dataset: Dataset) -> list[tuple[str, str]]:

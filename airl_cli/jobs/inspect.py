@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 
 from airl_cli.core.mdp.sparse import SparseDynamics
-from airl_cli.data import read_dataset
 from airl_cli.errors import AirlError, refuse
+from airl_cli.io.dataset import read_dataset
 from airl_cli.jobs.common import err_console, out_console
 
 

@@ -1,6 +1,6 @@
 """``airl plan``: solve a multi-model MDP with the chapter-6 planner or a published heuristic.
 
-Reads a CSV folder or an ``.npz`` (``airl_cli.mmdp_data``), plans over ``plan.horizon`` decisions,
+Reads a CSV folder or an ``.npz`` (``airl_cli.io.mmdp_files``), plans over ``plan.horizon`` decisions,
 and writes to the run folder: ``plan.json`` (objective on the training models, mean return on the
 test models, time), ``policy.npz`` (the policy graph's arrays, and ``markov_policy`` (T, S) for
 Markov methods; ``airl_cli.jobs.plan.load_policy`` reads it back) and ``config.yaml``.
@@ -21,11 +21,11 @@ from airl_cli.config import PlanSettings, plan_settings
 from airl_cli.core.mmdp.baselines import Plan, graph_returns, plan
 from airl_cli.core.mmdp.planner import PolicyGraph, layered_rewards
 from airl_cli.errors import ConfigError
+from airl_cli.io.files import atomic_write, write_json
+from airl_cli.io.mmdp_files import MMDPProblem, input_path, read_problem
 from airl_cli.jobs.common import err_console, out_console, output_dir, run_job, save_config, warm_up
-from airl_cli.mmdp_data import MMDPProblem, input_path, read_problem
 from airl_cli.paths import conf_dir
 from airl_cli.plain_progress import PlainProgress
-from airl_cli.results import atomic_write, write_json
 
 
 def run_plan(

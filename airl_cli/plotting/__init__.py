@@ -22,6 +22,8 @@ import numpy as np
 import pandas as pd
 from matplotlib.figure import Figure
 
+from airl_cli.io.files import atomic_write
+from airl_cli.io.run_folder import read_experiment
 from airl_cli.plotting._style import (  # noqa: F401 (the constants are part of the module's interface)
     DEFAULT_THRESHOLD,
     DEMONSTRATOR_COLOUR,
@@ -52,7 +54,6 @@ from airl_cli.plotting.scores import (
 )
 from airl_cli.plotting.variants import VARIANTS_COLUMNS, variants
 from airl_cli.plotting.viano import RETURNS_COLUMNS, returns
-from airl_cli.results import atomic_write, read_experiment
 
 __all__ = [
     "METHOD_COLOURS",

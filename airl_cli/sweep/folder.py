@@ -19,7 +19,7 @@ from typing import Any
 from omegaconf import OmegaConf
 
 from airl_cli.errors import ConfigError
-from airl_cli.results import write_json
+from airl_cli.io.files import write_json
 from airl_cli.sweep.spec import ROWS, SweepPlan  # noqa: F401 (ROWS: part of the interface)
 
 SETTINGS = "sweep.json"

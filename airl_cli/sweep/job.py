@@ -15,9 +15,9 @@ from omegaconf import DictConfig, OmegaConf
 
 from airl_cli import compose_memo
 from airl_cli.errors import AirlError, ResultsUnwritable, interrupted
+from airl_cli.io.files import describe_os_error, is_unwritable, write_text
 from airl_cli.jobs.common import output_dir
 from airl_cli.paths import conf_dir
-from airl_cli.results import describe_os_error, is_unwritable, write_text
 from airl_cli.sweep import pool
 from airl_cli.sweep.folder import same_job
 from airl_cli.sweep.spec import ERROR, ROWS

@@ -13,10 +13,11 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from airl_cli.errors import ConfigError
+from airl_cli.io.files import atomic_write, write_json, write_text
+from airl_cli.io.run_folder import EXPERIMENT_FILE
+from airl_cli.sweep.folder import check_folder, unwritable
 from airl_cli.sweep.job_files import damaged_jobs
 from airl_cli.sweep.pool import call
-from airl_cli.results import EXPERIMENT_FILE, atomic_write, write_json, write_text
-from airl_cli.sweep.folder import check_folder, unwritable
 from airl_cli.sweep.spec import ROWS, SweepPlan
 from airl_cli.variants import variants_summary
 

@@ -18,9 +18,9 @@ from airl_cli.core.irl.robust_mce import discounted_feature_sum, robust_mce_irl,
 from airl_cli.core.mdp.demos import expected_feature_sums
 from airl_cli.core.mdp.planning import backward_induction
 from airl_cli.core.mdp.viano_grid import expert_return, finite_total_return, total_return, viano_grid
-from airl_cli.data import Dataset
 from airl_cli.errors import ConfigError
 from airl_cli.evaluate import learner_policy
+from airl_cli.io.dataset import Dataset
 from airl_cli.jobs.common import save_config
 from airl_cli.learners import learn
 

@@ -41,9 +41,9 @@ import numpy as np
 
 from airl_cli.core.mdp.demos import feature_sums
 from airl_cli.core.mdp.sparse import SparseDynamics, sparse_dynamics
-from airl_cli.dataset_checks import demonstrations, discount_and_actions, dynamics, fail, numeric, optional_arrays, probabilities, shape
 from airl_cli.errors import DatasetError
-from airl_cli.results import atomic_write
+from airl_cli.io.dataset_checks import demonstrations, discount_and_actions, dynamics, fail, numeric, optional_arrays, probabilities, shape
+from airl_cli.io.files import atomic_write
 
 KEYS = (
     "transitions",

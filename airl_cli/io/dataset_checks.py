@@ -1,4 +1,4 @@
-"""The checks of a dataset file's keys (``airl_cli.data``), one function per key or group of keys.
+"""The checks of a dataset file's keys (``airl_cli.io.dataset``), one function per key or group of keys.
 
 Each raises ``DatasetError`` with one sentence naming the key, and returns the checked array
 (float64 or int64), so that ``data.validate`` builds its ``Dataset`` from their results.

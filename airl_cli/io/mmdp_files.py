@@ -265,7 +265,7 @@ def _validate(raw: dict[str, np.ndarray]) -> MMDPProblem:
 
 #: ``plan.input=benchmark:NAME`` names a benchmark folder shipped inside the package (MIT licence).
 BENCHMARK = "benchmark:"
-BENCHMARKS = Path(__file__).resolve().parent / "benchmarks"
+BENCHMARKS = Path(__file__).resolve().parents[1] / "benchmarks"
 
 
 def benchmark_names() -> list[str]:
