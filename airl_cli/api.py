@@ -21,13 +21,13 @@ import pandas as pd
 from hydra import compose, initialize_config_dir
 from omegaconf import DictConfig
 
-from airl_cli.build import build_dataset, learner_rng, with_loss
 from airl_cli.config import fit_settings, loss_and_seed, problem_settings
-from airl_cli.evaluate import score_learned
 from airl_cli.io.dataset import Dataset, read_dataset, write_dataset
 from airl_cli.io.run_folder import read_experiment
-from airl_cli.learners import Learned, learn
 from airl_cli.paths import conf_dir
+from airl_cli.usecases.evaluate import score_learned
+from airl_cli.usecases.fit import Learned, learn
+from airl_cli.usecases.problem import build_dataset, learner_rng, with_loss
 
 __all__ = ["config", "load_dataset", "save_dataset", "make_dataset", "fit", "score", "read_sweep", "Dataset", "Learned"]
 

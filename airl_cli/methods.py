@@ -2,7 +2,7 @@
 
 Each entry gives a method's config name (``method=NAME``, with ``conf/method/NAME.yaml``), its
 label and colour in figures, its keyword options (read and checked from ``method.*``), and the
-name of the function in ``airl_cli.learners`` that learns with it (named, not imported, so that
+name of the function in ``airl_cli.usecases.fit`` that learns with it (named, not imported, so that
 the figures and the sweep process never load the solvers). Everything else — the config check, the
 dispatch in ``learners.learn``, the figures' labels and colours, the report's column order — reads
 this table; ``tests/test_methods.py`` checks that every entry has its YAML file and its function.
@@ -34,7 +34,7 @@ class Method:
         name: the config name (``method=NAME``).
         label: its name in figures and tables.
         colour: its colour in every figure.
-        learner: the name of its learner function in ``airl_cli.learners`` (which calls it).
+        learner: the name of its learner function in ``airl_cli.usecases.fit`` (which calls it).
         options: its keyword options, passed to the learner as ``settings.method_options``.
         learns_reward: False for a method that learns a policy only (no weights, no cos(w, w*)).
     """

@@ -206,8 +206,8 @@ def bench_planner() -> None:
 
 def thesis_scale_dataset(seed: int, transition: str = "uniform", alpha: float = 1.0):
     """The thesis's random-MDP setting: S=20, A=5, T=10, K=5, D=3 (sigma=0.1), N=1000 demos."""
-    from airl_cli.build import build_dataset
     from airl_cli.config import DemoSettings, DynamicsSettings, ProblemSettings, RandomMDPSettings
+    from airl_cli.usecases.problem import build_dataset
 
     settings = ProblemSettings(
         mdp=RandomMDPSettings(20, 5, 5, 10, transition, alpha),
@@ -220,9 +220,9 @@ def thesis_scale_dataset(seed: int, transition: str = "uniform", alpha: float = 
 
 
 def timed_fit(dataset, options, seed):
-    from airl_cli.build import streams
     from airl_cli.core.irl.game_problem import GameProblem
     from airl_cli.core.irl.learn import fit
+    from airl_cli.usecases.problem import streams
 
     problem = GameProblem(dataset.transitions, dataset.features, dataset.initial, dataset.loss, dataset.horizon)
     start = time.perf_counter()
@@ -266,8 +266,8 @@ def grid_dataset(seed: int = 0):
     """Fig. 12's data: the grid world, the sub-optimal layouts, exact feature expectations."""
     from hydra import compose, initialize_config_module
 
-    from airl_cli.build import build_dataset
     from airl_cli.config import problem_settings
+    from airl_cli.usecases.problem import build_dataset
 
     with initialize_config_module("airl_cli.conf", version_base="1.3"):
         cfg = compose("airl", overrides=["mdp=grid", "dynamics=grid_suboptimal", "demos=exact", f"seed={seed}"])

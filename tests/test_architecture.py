@@ -77,7 +77,8 @@ LAYERS = (
     ("core.mmdp", "core.mmdp core.mmdp.*"),
     ("core.irl", "core.irl core.irl.*"),
     ("base", "alpha_values errors paths io io.* plain_progress compose_memo hydra_internals config_reader sweep.spec methods variants claims multimodel airl_cli conf conf.*"),
-    ("problems and methods", "config envs build evaluate learners plotting plotting.*"),
+    ("settings", "config envs"),
+    ("use cases", "usecases usecases.* plotting plotting.*"),
     ("jobs", "jobs jobs.common jobs.fit jobs.generate jobs.inspect jobs.plan api"),
     ("sweeps", "launch sweep sweep.* report hydra_plugins.*"),
     ("command line", "cli __main__"),
@@ -193,3 +194,14 @@ def test_no_function_over_80_lines_and_no_module_over_400():
     body = "\n".join(f"    x = {i}" for i in range(MAX_FUNCTION_LINES))
     assert long_functions(f"def f():\n{body}\n") == [("f", MAX_FUNCTION_LINES + 1)]
     assert long_functions(f'def f():\n    """Long because it must."""\n{body}\n') == []
+
+
+def test_the_use_cases_and_the_files_know_no_hydra_and_no_console():
+    """usecases/ and io/ are called by the jobs, the Python API and the sweep's rows alike: they take
+    settings and paths and raise one-sentence errors; Hydra, the consoles and the CLI stay above."""
+    banned = {"hydra", "omegaconf", "rich", "typer"}
+    files = sorted((PACKAGE / "usecases").glob("*.py")) + sorted((PACKAGE / "io").glob("*.py"))
+    assert len(files) > 8
+    for path in files:
+        found = {n.split(".")[0] for n in imports_of(path)} & banned
+        assert not found, f"{path.relative_to(PACKAGE)} imports {sorted(found)}"

@@ -7,11 +7,12 @@ from pathlib import Path
 import pytest
 from omegaconf import OmegaConf
 
-from airl_cli import api, learners, plotting, report
+from airl_cli import api, plotting, report
 from airl_cli.config import fit_settings
 from airl_cli.errors import ConfigError
 from airl_cli.methods import NAMES, REGISTRY
 from airl_cli.paths import conf_dir
+from airl_cli.usecases import fit as learners
 
 
 def test_every_method_has_its_config_file_and_its_learner_and_nothing_else_does():

@@ -12,7 +12,6 @@ import pytest
 from typer.testing import CliRunner
 
 from airl_cli import api
-from airl_cli.build import build_problem
 from airl_cli.cli import app
 from airl_cli.config import ObjectworldSettings, problem_settings
 from airl_cli.core.mdp.objectworld import (
@@ -27,6 +26,7 @@ from airl_cli.core.mdp.objectworld import (
 from airl_cli.core.mdp.problems import grid_coordinates
 from airl_cli.errors import ConfigError
 from airl_cli.io.dataset import read_dataset
+from airl_cli.usecases.problem import build_problem
 
 STAY, UP, RIGHT, DOWN, LEFT = range(5)
 runner = CliRunner()
@@ -212,8 +212,9 @@ def test_the_built_problem():
 
 
 def test_memory_estimate_knows_the_objectworld_sizes():
-    from airl_cli.core.mmdp.budget import estimate_fit, refusal
+    from airl_cli.core.mmdp.budget import estimate_fit
     from airl_cli.jobs.common import _shrink, fit_sizes
+    from airl_cli.usecases.memory import refusal
 
     cfg = api.config("mdp=objectworld", "dynamics=slip")
     sizes = fit_sizes(cfg)

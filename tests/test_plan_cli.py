@@ -13,7 +13,7 @@ from airl_cli.core.mmdp.baselines import graph_returns, plan
 from airl_cli.core.mmdp.planner import layered_rewards
 from airl_cli.errors import DatasetError
 from airl_cli.io.mmdp_files import read_csv_folder, read_problem
-from airl_cli.jobs.plan import load_policy
+from airl_cli.io.policy_file import load_policy
 
 runner = CliRunner()
 

@@ -22,7 +22,7 @@ from output import kill_group, without_progress
 from typer.testing import CliRunner
 
 from airl_cli.cli import app
-from airl_cli.core.mmdp.budget import estimate_fit, refusal
+from airl_cli.core.mmdp.budget import estimate_fit
 from airl_cli.errors import ConfigError
 from airl_cli.io.run_folder import new_run_folder
 from airl_cli.sweep import folder as sweep_folder
@@ -33,6 +33,8 @@ from airl_cli.sweep.plan import _compose, plan
 from airl_cli.sweep.run import progress
 from airl_cli.sweep.spec import ERROR, ROWS, SweepPlan
 from airl_cli.sweep.table import medians_text
+from airl_cli.usecases import memory
+from airl_cli.usecases.memory import refusal
 
 runner = CliRunner()
 SMALL = ["mdp.n_states=6", "mdp.n_actions=3", "mdp.horizon=5", "mdp.n_features=3", "demos.n=30", "pbvi.iterations=4"]
@@ -405,7 +407,7 @@ def test_the_large_fit_note_names_the_optimiser_in_use(monkeypatch, optim, each)
     from airl_cli import api
     from airl_cli.jobs import common
 
-    monkeypatch.setattr(common, "available_memory", lambda: 1 << 50)
+    monkeypatch.setattr(memory, "available_memory", lambda: 1 << 50)
     note = common.size_note(api.config(f"optim={optim}", "pbvi.iterations=14"))
     assert note is not None and "8,192 belief points" in note and f"{each} may take minutes" in note
     assert optim == "gradient" or "gradient" not in note

@@ -251,3 +251,21 @@ def write_dataset(path: str | os.PathLike, dataset: Dataset) -> Path:
                 zf.writestr(info, buf.getvalue())
 
     return atomic_write(path, write)
+
+
+def dataset_sizes(path: str | os.PathLike) -> dict | None:
+    """S, A, T, D, N and R (the most next states a state reaches) of a dataset file, read from its
+    arrays' shapes without checking it; None if they cannot be read (``read_dataset`` says why)."""
+    try:
+        with np.load(str(path), allow_pickle=False) as npz:
+            if "transition_probs" in npz.files:  # the sparse form: (M, S, A, R)
+                M, S, A, R = npz["transition_probs"].shape
+            else:
+                P = npz["transitions"]
+                M, S, A, _ = P.shape
+                R = int(np.max(np.sum(np.any(P != 0, axis=(0, 2)), axis=1))) if P.size else None
+            T = int(npz["horizon"])
+            n = npz["demo_states"].shape[1] if "demo_states" in npz.files else 0
+    except Exception:  # noqa: BLE001 (read_dataset names what is wrong)
+        return None
+    return {"n_states": S, "n_actions": A, "horizon": T, "n_dynamics": M - 1, "n_demos": n, "n_next": R}

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import os
 from collections.abc import Callable
 from pathlib import Path
 
@@ -12,10 +11,12 @@ from omegaconf import DictConfig, OmegaConf
 from rich.console import Console
 from rich.markup import escape
 
-from airl_cli.core.mmdp.budget import Estimate, estimate_fit, refusal
+from airl_cli.core.mmdp.budget import Estimate
 from airl_cli.errors import AirlError, ConfigError, ResultsUnwritable, error_line, interrupt_status, interrupted
+from airl_cli.io.dataset import dataset_sizes
 from airl_cli.io.files import describe_os_error, is_unwritable, write_text
 from airl_cli.io.run_folder import INCOMPLETE, discard, holds_no_results, mark_complete, mark_incomplete
+from airl_cli.usecases import memory
 
 #: Progress and errors go to stderr; the final "where it went" line to stdout.
 err_console = Console(stderr=True, highlight=False)
@@ -96,72 +97,15 @@ def stop(err: BaseException, folder: Path | None, *, fresh: bool) -> None:
     raise SystemExit(status) from None
 
 
-def available_memory() -> int:
-    """Bytes this process can still get: free memory, or the container's limit if lower."""
-    free = None
-    try:
-        with open("/proc/meminfo") as f:
-            for line in f:
-                if line.startswith("MemAvailable:"):
-                    free = int(line.split()[1]) * 1024
-    except OSError:
-        pass
-    try:
-        limit = Path("/sys/fs/cgroup/memory.max").read_text().strip()
-        used = int(Path("/sys/fs/cgroup/memory.current").read_text())
-        if limit != "max":
-            free = min(free if free is not None else 1 << 62, int(limit) - used)
-    except (OSError, ValueError):
-        pass
-    if free is None:  # not Linux: physical memory
-        try:
-            free = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
-        except (OSError, ValueError):
-            free = 1 << 62
-    return free
-
-
 def fit_sizes(cfg: DictConfig) -> dict | None:
-    """S, A, T, D and N of the fit this config asks for, known without building or reading it all.
+    """S, A, T, D, N and R of the fit this config asks for, known without building or reading it all.
 
     None when they cannot be known cheaply (a dataset file that will fail its own check).
     """
     from airl_cli.config import problem_settings
 
     data = cfg.get("data")
-    if data is None:
-        problem = problem_settings(cfg)
-        mdp = problem.mdp
-        if mdp.name == "random":
-            S, A = mdp.n_states, mdp.n_actions
-        elif mdp.name in ("gymnasium", "seals"):
-            from airl_cli.envs import env_sizes
-
-            S, A = env_sizes(mdp.name, mdp.env, map_name=mdp.map_name, width=mdp.width, height=mdp.height)
-        else:  # the grid world and the objectworld: size x size cells
-            from airl_cli.core.mdp.objectworld import OBJECTWORLD_ACTIONS
-            from airl_cli.core.mdp.problems import GRID_ACTIONS
-
-            S, A = mdp.size**2, len(OBJECTWORLD_ACTIONS if mdp.name == "objectworld" else GRID_ACTIONS)
-        n = problem.demos.n if problem.demos.kind == "sampled" else 1
-        # the most next states a state reaches: a grid cell its neighbours and itself
-        R = None if mdp.name in ("random", "gymnasium", "seals") else 5
-        if mdp.name == "random" and mdp.transition == "sparse":
-            R = mdp.n_next * mdp.n_actions * (problem.dynamics.n_dynamics + 1)
-        return {"n_states": S, "n_actions": A, "horizon": mdp.horizon, "n_dynamics": problem.dynamics.n_dynamics, "n_demos": n, "n_next": R}
-    try:
-        with np.load(str(data), allow_pickle=False) as npz:
-            if "transition_probs" in npz.files:  # the sparse form: (M, S, A, R)
-                M, S, A, R = npz["transition_probs"].shape
-            else:
-                P = npz["transitions"]
-                M, S, A, _ = P.shape
-                R = int(np.max(np.sum(np.any(P != 0, axis=(0, 2)), axis=1))) if P.size else None
-            T = int(npz["horizon"])
-            n = npz["demo_states"].shape[1] if "demo_states" in npz.files else 0
-    except Exception:  # noqa: BLE001 (read_dataset names what is wrong)
-        return None
-    return {"n_states": S, "n_actions": A, "horizon": T, "n_dynamics": M - 1, "n_demos": n, "n_next": R}
+    return memory.problem_sizes(problem_settings(cfg)) if data is None else dataset_sizes(data)
 
 
 def memory_estimate(cfg: DictConfig) -> tuple[Estimate, int | None] | None:
@@ -169,13 +113,7 @@ def memory_estimate(cfg: DictConfig) -> tuple[Estimate, int | None] | None:
     from airl_cli.config import fit_settings
 
     sizes = fit_sizes(cfg)
-    if sizes is None:
-        return None
-    settings = fit_settings(cfg)
-    planner = settings.options.planner
-    estimate = estimate_fit(**sizes, method=settings.method, planner=planner.method, iterations=planner.iterations)
-    pbvi = settings.method == "airl" and planner.method == "pbvi"
-    return estimate, (planner.iterations if pbvi else None)
+    return None if sizes is None else memory.fit_memory(sizes, fit_settings(cfg))
 
 
 def _shrink(cfg: DictConfig) -> str:
@@ -195,7 +133,7 @@ def check_memory(cfg: DictConfig, *, workers: int = 1) -> Estimate | None:
     if found is None:
         return None
     estimate, iterations = found
-    sentence = refusal(estimate, available_memory(), iterations=iterations, workers=workers, shrink=_shrink(cfg))
+    sentence = memory.refusal(estimate, memory.available_memory(), iterations=iterations, workers=workers, shrink=_shrink(cfg))
     if sentence is not None:
         raise ConfigError(sentence)
     return estimate
@@ -203,19 +141,7 @@ def check_memory(cfg: DictConfig, *, workers: int = 1) -> Estimate | None:
 
 def size_note(cfg: DictConfig) -> str | None:
     """A line to print before a fit whose steps will be long (a large belief set or over 1 GB)."""
-    found = memory_estimate(cfg)
-    if found is None or found[1] is None:
-        return None
-    estimate, iterations = found
-    if estimate.total < 2**30 and estimate.n_beliefs <= 1024:
-        return None
-    if refusal(estimate, available_memory(), iterations=iterations) is not None:
-        return None  # check_memory will refuse it
     from airl_cli.config import fit_settings
 
-    # the planner is called once per gradient step, or up to once per iteration of the exact solve
-    each = "gradient step" if fit_settings(cfg).optimizer == "gradient" else "iteration of the exact solve"
-    return (
-        f"note: pbvi.iterations={iterations} allows up to {estimate.n_beliefs:,} belief points and about "
-        f"{estimate.total / 2**30:,.1f} GB of memory; each {each} may take minutes"
-    )
+    found = memory_estimate(cfg)
+    return None if found is None else memory.size_note(*found, fit_settings(cfg).optimizer)

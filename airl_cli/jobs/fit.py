@@ -14,15 +14,15 @@ import pandas as pd
 from omegaconf import DictConfig
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
-from airl_cli.build import build_dataset, learner_rng, with_loss
 from airl_cli.config import FitSettings, fit_settings, loss_and_seed, problem_settings
-from airl_cli.evaluate import score_learned
 from airl_cli.io.dataset import Dataset, read_dataset, write_dataset
 from airl_cli.io.files import atomic_write, write_json, write_text
 from airl_cli.jobs.common import check_memory, err_console, out_console, output_dir, run_job, save_config, size_note, warm_up
-from airl_cli.learners import Learned, learn
 from airl_cli.paths import conf_dir
 from airl_cli.plain_progress import PlainProgress
+from airl_cli.usecases.evaluate import score_learned
+from airl_cli.usecases.fit import Learned, learn
+from airl_cli.usecases.problem import build_dataset, learner_rng, with_loss
 
 
 def load_dataset(cfg: DictConfig, settings: FitSettings) -> tuple[Dataset, int, bool]:

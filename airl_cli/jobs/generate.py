@@ -7,7 +7,6 @@ import numpy as np
 from omegaconf import DictConfig
 from rich.progress import Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
 
-from airl_cli.build import build_dataset, expert_scores, resolved_loss
 from airl_cli.config import EnvMDPSettings, ProblemSettings, problem_settings
 from airl_cli.core.mdp.problems import noise
 from airl_cli.envs import env_parameter
@@ -16,6 +15,7 @@ from airl_cli.io.files import write_text
 from airl_cli.jobs.common import err_console, out_console, output_dir, run_job, save_config
 from airl_cli.paths import conf_dir
 from airl_cli.plain_progress import PlainProgress
+from airl_cli.usecases.problem import build_dataset, expert_scores, resolved_loss
 
 
 def describe(settings: ProblemSettings, dataset: Dataset) -> list[tuple[str, str]]:

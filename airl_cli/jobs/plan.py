@@ -3,72 +3,22 @@
 Reads a CSV folder or an ``.npz`` (``airl_cli.io.mmdp_files``), plans over ``plan.horizon`` decisions,
 and writes to the run folder: ``plan.json`` (objective on the training models, mean return on the
 test models, time), ``policy.npz`` (the policy graph's arrays, and ``markov_policy`` (T, S) for
-Markov methods; ``airl_cli.jobs.plan.load_policy`` reads it back) and ``config.yaml``.
+Markov methods; ``airl_cli.io.policy_file.load_policy`` reads it back) and ``config.yaml``.
 """
 
 from __future__ import annotations
 
-import io
-import time
-from collections.abc import Callable
-from pathlib import Path
-
 import hydra
-import numpy as np
 from omegaconf import DictConfig
 
-from airl_cli.config import PlanSettings, plan_settings
-from airl_cli.core.mmdp.baselines import Plan, graph_returns, plan
-from airl_cli.core.mmdp.planner import PolicyGraph, layered_rewards
-from airl_cli.errors import ConfigError
-from airl_cli.io.files import atomic_write, write_json
-from airl_cli.io.mmdp_files import MMDPProblem, input_path, read_problem
+from airl_cli.config import plan_settings
+from airl_cli.io.files import write_json
+from airl_cli.io.mmdp_files import input_path, read_problem
+from airl_cli.io.policy_file import save_policy
 from airl_cli.jobs.common import err_console, out_console, output_dir, run_job, save_config, warm_up
 from airl_cli.paths import conf_dir
 from airl_cli.plain_progress import PlainProgress
-
-
-def run_plan(
-    problem: MMDPProblem, settings: PlanSettings, progress: Callable[[int, int], None] | None = None
-) -> tuple[Plan, float, float | None, float]:
-    """(the plan, its discount, the mean test return or None, seconds spent planning); ``progress`` as in ``plan``."""
-    discount = problem.discount if settings.discount is None else settings.discount
-    start = time.perf_counter()
-    try:
-        result = plan(
-            settings.method, problem.transitions, problem.rewards, problem.initial,
-            horizon=settings.horizon, discount=discount, prior=problem.prior,
-            iterations=settings.iterations, expansion=settings.expansion, rng=np.random.default_rng(settings.seed),
-            progress=progress,
-        )
-    except ValueError as err:  # the input was checked; what is left is a setting, e.g. exact on a large problem
-        raise ConfigError(f"plan.method={settings.method}: {err}") from None
-    seconds = time.perf_counter() - start
-    test = None
-    if problem.test_transitions is not None:
-        L = layered_rewards(problem.test_transitions, problem.test_rewards, horizon=settings.horizon, discount=discount)
-        test = float(graph_returns(result.graph, problem.test_transitions, L, problem.initial).mean())
-    return result, discount, test, seconds
-
-
-def save_policy(path: Path, result: Plan) -> None:
-    """The policy graph's arrays (``PolicyGraph.to_arrays``) and, if Markov, ``markov_policy`` (T, S)."""
-    arrays = result.graph.to_arrays()
-    if result.policy is not None:
-        arrays["markov_policy"] = result.policy
-
-    def write(handle) -> None:
-        buf = io.BytesIO()
-        np.savez_compressed(buf, **arrays)
-        handle.write(buf.getvalue())
-
-    atomic_write(path, write)
-
-
-def load_policy(path: str | Path) -> PolicyGraph:
-    """The policy graph saved by ``airl plan`` (run it on any model with ``graph_returns``)."""
-    with np.load(path, allow_pickle=False) as npz:
-        return PolicyGraph.from_arrays({k: npz[k] for k in npz.files})
+from airl_cli.usecases.plan import run_plan
 
 
 def main(cfg: DictConfig) -> dict:

@@ -14,7 +14,6 @@ import numpy as np
 from omegaconf import DictConfig, OmegaConf
 
 from airl_cli.alpha_values import largest_gap, upper_envelope_1d
-from airl_cli.build import resolved_loss, streams
 from airl_cli.config import plain, problem_settings
 from airl_cli.core.mdp.problems import noise
 from airl_cli.core.mmdp.planner import exact_alpha_vectors, expand_beliefs, pbvi_graph
@@ -22,6 +21,7 @@ from airl_cli.io.files import atomic_write
 from airl_cli.jobs.common import save_config
 from airl_cli.jobs.fit import fit_and_write
 from airl_cli.sweep.job_files import setting_columns
+from airl_cli.usecases.problem import resolved_loss, streams
 
 
 def rows_csv(rows: list[dict]) -> str:

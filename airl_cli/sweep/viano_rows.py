@@ -12,17 +12,17 @@ import time
 import numpy as np
 from omegaconf import DictConfig
 
-from airl_cli.build import learner_rng, loss_matrix
 from airl_cli.config import fit_settings, plain
 from airl_cli.core.irl.robust_mce import discounted_feature_sum, robust_mce_irl, robust_soft_value_iteration
 from airl_cli.core.mdp.demos import expected_feature_sums
 from airl_cli.core.mdp.planning import backward_induction
 from airl_cli.core.mdp.viano_grid import expert_return, finite_total_return, total_return, viano_grid
 from airl_cli.errors import ConfigError
-from airl_cli.evaluate import learner_policy
 from airl_cli.io.dataset import Dataset
 from airl_cli.jobs.common import save_config
-from airl_cli.learners import learn
+from airl_cli.usecases.evaluate import learner_policy
+from airl_cli.usecases.fit import learn
+from airl_cli.usecases.problem import learner_rng, loss_matrix
 
 
 def published(exp: dict, alpha: float, epsilon: float) -> float:

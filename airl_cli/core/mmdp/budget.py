@@ -1,4 +1,5 @@
-"""How much memory a fit will need, known before any work: refuse what cannot fit.
+"""How much memory a fit will need, known before any work (``airl_cli.usecases.memory`` refuses,
+in one sentence, what cannot fit).
 
 The adversary's best response (modified PBVI, thesis chapter 6) is the memory of a fit. Its
 belief set at most doubles per iteration (``multimodel.expand_beliefs``), so it holds at most
@@ -110,64 +111,24 @@ def estimate_fit(
     return Estimate(total=sum(parts.values()), parts=parts, n_beliefs=nb)
 
 
-def refusal(
-    estimate: Estimate,
-    available: int,
-    *,
-    iterations: int | None = None,
-    workers: int = 1,
-    shrink: str = "mdp.n_states, mdp.horizon",
-) -> str | None:
-    """One sentence refusing a fit that will not fit in ``available`` bytes, or None if it fits.
-
-    Args:
-        estimate: from ``estimate_fit``.
-        available: bytes the machine can give (free memory, or the container's limit).
-        iterations: the PBVI iterations, to say how far to lower them; None if not PBVI.
-        workers: fits running at once (a sweep's parallel jobs), each needing ``estimate.total``.
-        shrink: the settings that size the problem, named in the advice ("mdp.size, mdp.horizon"
-            on a grid).
-    """
-    need = estimate.total * workers
-    if need <= available:
-        return None
-    at_once = f" per job, {workers} jobs at once," if workers > 1 else ""
-    graph = estimate.parts.get("policy graph", 0)
-    what = shrink
-    nothing_fits = ""
-    if graph > estimate.total / 2 and iterations is not None and estimate.n_beliefs > 1:
-        fits = fewer_iterations(estimate, available / workers, iterations=iterations)
-        if fits is not None:
-            what = f"pbvi.iterations (to {fits} or less), or " + what
-        else:
-            smallest = estimate.total - graph + graph * _nodes(1) / _nodes(iterations)
-            nothing_fits = f"; it does not fit even with the smallest planner (pbvi.iterations=1, about {_size(smallest)})"
-    if workers > 1:
-        what += ", or hydra.launcher.n_jobs"
-    return (
-        f"this fit needs about {_size(estimate.total)} of memory{at_once} "
-        f"(up to {estimate.n_beliefs} belief points in the planner's policy graph), but only {_size(available)} is free"
-        f"{nothing_fits}; lower {what}"
-    )
-
-
 def fewer_iterations(estimate: Estimate, available: float, *, iterations: int) -> int | None:
     """The most PBVI iterations below ``iterations`` whose fit needs at most ``available`` bytes.
 
     The policy graph grows with its nodes per (t, s), ``max_beliefs // 2 + 1``; the rest of the
     estimate does not depend on the iterations. None if not even one iteration fits.
     """
-    graph = estimate.parts.get("policy graph", 0)
     for fits in range(iterations - 1, 0, -1):
-        if estimate.total - graph + graph * _nodes(fits) / _nodes(iterations) <= available:
+        if total_with_iterations(estimate, iterations, fits) <= available:
             return fits
     return None
+
+
+def total_with_iterations(estimate: Estimate, iterations: int, fewer: int) -> float:
+    """Bytes the fit of ``estimate`` (made for ``iterations`` PBVI iterations) needs with ``fewer``."""
+    graph = estimate.parts.get("policy graph", 0)
+    return estimate.total - graph + graph * _nodes(fewer) / _nodes(iterations)
 
 
 def _nodes(iterations: int) -> int:
     """Nodes per (t, s) that ``estimate_fit`` counts for this many PBVI iterations."""
     return max_beliefs(iterations) // 2 + 1
-
-
-def _size(n: int) -> str:
-    return f"{n / GB:,.1f} GB" if n >= GB / 10 else f"{n / 2**20:.0f} MB"

@@ -1,0 +1,128 @@
+"""A fit's memory, known before any work: its sizes from the settings, the estimate
+(``airl_cli.core.mmdp.budget``), the free memory, and the one sentence that refuses a fit that will
+not fit (naming the settings to lower) or warns of a long one."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+from airl_cli.config import FitSettings, ProblemSettings
+from airl_cli.core.mmdp.budget import GB, Estimate, estimate_fit, fewer_iterations, total_with_iterations
+
+
+def available_memory() -> int:
+    """Bytes this process can still get: free memory, or the container's limit if lower."""
+    free = None
+    try:
+        with open("/proc/meminfo") as f:
+            for line in f:
+                if line.startswith("MemAvailable:"):
+                    free = int(line.split()[1]) * 1024
+    except OSError:
+        pass
+    try:
+        limit = Path("/sys/fs/cgroup/memory.max").read_text().strip()
+        used = int(Path("/sys/fs/cgroup/memory.current").read_text())
+        if limit != "max":
+            free = min(free if free is not None else 1 << 62, int(limit) - used)
+    except (OSError, ValueError):
+        pass
+    if free is None:  # not Linux: physical memory
+        try:
+            free = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+        except (OSError, ValueError):
+            free = 1 << 62
+    return free
+
+
+def problem_sizes(problem: ProblemSettings) -> dict:
+    """S, A, T, D, N and R (the most next states a state reaches; None: S) of a built problem,
+    known from its settings without building it."""
+    mdp = problem.mdp
+    if mdp.name == "random":
+        S, A = mdp.n_states, mdp.n_actions
+    elif mdp.name in ("gymnasium", "seals"):
+        from airl_cli.envs import env_sizes
+
+        S, A = env_sizes(mdp.name, mdp.env, map_name=mdp.map_name, width=mdp.width, height=mdp.height)
+    else:  # the grid world and the objectworld: size x size cells
+        from airl_cli.core.mdp.objectworld import OBJECTWORLD_ACTIONS
+        from airl_cli.core.mdp.problems import GRID_ACTIONS
+
+        S, A = mdp.size**2, len(OBJECTWORLD_ACTIONS if mdp.name == "objectworld" else GRID_ACTIONS)
+    n = problem.demos.n if problem.demos.kind == "sampled" else 1
+    # the most next states a state reaches: a grid cell its neighbours and itself
+    R = None if mdp.name in ("random", "gymnasium", "seals") else 5
+    if mdp.name == "random" and mdp.transition == "sparse":
+        R = mdp.n_next * mdp.n_actions * (problem.dynamics.n_dynamics + 1)
+    return {"n_states": S, "n_actions": A, "horizon": mdp.horizon, "n_dynamics": problem.dynamics.n_dynamics, "n_demos": n, "n_next": R}
+
+
+def fit_memory(sizes: dict, settings: FitSettings) -> tuple[Estimate, int | None]:
+    """The fit's memory estimate for these sizes (``problem_sizes``) and its PBVI iterations
+    (None if it does not run PBVI)."""
+    planner = settings.options.planner
+    estimate = estimate_fit(**sizes, method=settings.method, planner=planner.method, iterations=planner.iterations)
+    pbvi = settings.method == "airl" and planner.method == "pbvi"
+    return estimate, (planner.iterations if pbvi else None)
+
+
+def refusal(
+    estimate: Estimate,
+    available: int,
+    *,
+    iterations: int | None = None,
+    workers: int = 1,
+    shrink: str = "mdp.n_states, mdp.horizon",
+) -> str | None:
+    """One sentence refusing a fit that will not fit in ``available`` bytes, or None if it fits.
+
+    Args:
+        estimate: from ``estimate_fit``.
+        available: bytes the machine can give (free memory, or the container's limit).
+        iterations: the PBVI iterations, to say how far to lower them; None if not PBVI.
+        workers: fits running at once (a sweep's parallel jobs), each needing ``estimate.total``.
+        shrink: the settings that size the problem, named in the advice ("mdp.size, mdp.horizon"
+            on a grid).
+    """
+    need = estimate.total * workers
+    if need <= available:
+        return None
+    at_once = f" per job, {workers} jobs at once," if workers > 1 else ""
+    graph = estimate.parts.get("policy graph", 0)
+    what = shrink
+    nothing_fits = ""
+    if graph > estimate.total / 2 and iterations is not None and estimate.n_beliefs > 1:
+        fits = fewer_iterations(estimate, available / workers, iterations=iterations)
+        if fits is not None:
+            what = f"pbvi.iterations (to {fits} or less), or " + what
+        else:
+            smallest = total_with_iterations(estimate, iterations, 1)
+            nothing_fits = f"; it does not fit even with the smallest planner (pbvi.iterations=1, about {_size(smallest)})"
+    if workers > 1:
+        what += ", or hydra.launcher.n_jobs"
+    return (
+        f"this fit needs about {_size(estimate.total)} of memory{at_once} "
+        f"(up to {estimate.n_beliefs} belief points in the planner's policy graph), but only {_size(available)} is free"
+        f"{nothing_fits}; lower {what}"
+    )
+
+
+def size_note(estimate: Estimate, iterations: int | None, optimizer: str) -> str | None:
+    """A line to print before a fit whose steps will be long (a large belief set or over 1 GB);
+    None for a short one, and for one that ``refusal`` refuses."""
+    if iterations is None or (estimate.total < GB and estimate.n_beliefs <= 1024):
+        return None
+    if refusal(estimate, available_memory(), iterations=iterations) is not None:
+        return None
+    # the planner is called once per gradient step, or up to once per iteration of the exact solve
+    each = "gradient step" if optimizer == "gradient" else "iteration of the exact solve"
+    return (
+        f"note: pbvi.iterations={iterations} allows up to {estimate.n_beliefs:,} belief points and about "
+        f"{estimate.total / GB:,.1f} GB of memory; each {each} may take minutes"
+    )
+
+
+def _size(n: float) -> str:
+    return f"{n / GB:,.1f} GB" if n >= GB / 10 else f"{n / 2**20:.0f} MB"

@@ -1,0 +1,38 @@
+"""Plan a multi-model MDP (thesis chapter 6) from its settings: the chapter-6 planner or a
+published heuristic, scored on the training models and, if the problem has them, the test models."""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+
+import numpy as np
+
+from airl_cli.config import PlanSettings
+from airl_cli.core.mmdp.baselines import Plan, graph_returns, plan
+from airl_cli.core.mmdp.planner import layered_rewards
+from airl_cli.errors import ConfigError
+from airl_cli.io.mmdp_files import MMDPProblem
+
+
+def run_plan(
+    problem: MMDPProblem, settings: PlanSettings, progress: Callable[[int, int], None] | None = None
+) -> tuple[Plan, float, float | None, float]:
+    """(the plan, its discount, the mean test return or None, seconds spent planning); ``progress`` as in ``plan``."""
+    discount = problem.discount if settings.discount is None else settings.discount
+    start = time.perf_counter()
+    try:
+        result = plan(
+            settings.method, problem.transitions, problem.rewards, problem.initial,
+            horizon=settings.horizon, discount=discount, prior=problem.prior,
+            iterations=settings.iterations, expansion=settings.expansion, rng=np.random.default_rng(settings.seed),
+            progress=progress,
+        )
+    except ValueError as err:  # the input was checked; what is left is a setting, e.g. exact on a large problem
+        raise ConfigError(f"plan.method={settings.method}: {err}") from None
+    seconds = time.perf_counter() - start
+    test = None
+    if problem.test_transitions is not None:
+        L = layered_rewards(problem.test_transitions, problem.test_rewards, horizon=settings.horizon, discount=discount)
+        test = float(graph_returns(result.graph, problem.test_transitions, L, problem.initial).mean())
+    return result, discount, test, seconds
