@@ -16,7 +16,7 @@ the merged config, by Hydra itself. So this module remembers
 
 Everything after that (value overrides, the ``hydra`` node's runtime fields, the job's output
 folder) is Hydra's own code, unchanged, so a remembered composition equals a fresh one
-(``tests/test_sweep.py`` checks every job of every experiment). Config files edited while a
+(``tests/sweep/test_sweep.py`` checks every job of every experiment). Config files edited while a
 sweep runs are not reread by a process that already composed them: all jobs of a worker see
 the files as they were at its first job.
 """

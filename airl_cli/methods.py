@@ -5,7 +5,7 @@ label and colour in figures, its keyword options (read and checked from ``method
 name of the function in ``airl_cli.usecases.fit`` that learns with it (named, not imported, so that
 the figures and the sweep process never load the solvers). Everything else — the config check, the
 dispatch in ``learners.learn``, the figures' labels and colours, the report's column order — reads
-this table; ``tests/test_methods.py`` checks that every entry has its YAML file and its function.
+this table; ``tests/usecases/test_methods.py`` checks that every entry has its YAML file and its function.
 """
 
 from __future__ import annotations

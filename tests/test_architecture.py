@@ -205,3 +205,13 @@ def test_the_use_cases_and_the_files_know_no_hydra_and_no_console():
     for path in files:
         found = {n.split(".")[0] for n in imports_of(path)} & banned
         assert not found, f"{path.relative_to(PACKAGE)} imports {sorted(found)}"
+
+
+def test_the_tests_mirror_the_package():
+    """Each folder of tests/ is a package of airl_cli (tests/core/irl/ tests airl_cli/core/irl/)."""
+    tests = Path(__file__).resolve().parent
+    folders = [p.relative_to(tests) for p in tests.rglob("*") if p.is_dir() and p.name != "__pycache__"]
+    assert len(folders) >= 8
+    for folder in folders:
+        assert (PACKAGE / folder).is_dir(), f"tests/{folder} mirrors no package of airl_cli"
+        assert any((tests / folder).glob("test_*.py")) or any(p.is_dir() for p in (tests / folder).iterdir()), folder

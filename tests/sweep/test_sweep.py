@@ -30,7 +30,7 @@ def in_tmp(tmp_path, monkeypatch):
 
 
 def test_every_thesis_experiment_has_a_config():
-    # and one more beyond the thesis, run in tests/test_viano_grid.py
+    # and one more beyond the thesis, run in tests/core/mdp/test_viano_grid.py
     assert experiment_names() == [*EXPERIMENTS, "viano_finite", "viano_gridworld"]
 
 

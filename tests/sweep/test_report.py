@@ -15,7 +15,7 @@ from typer.testing import CliRunner
 from airl_cli.cli import app
 
 runner = CliRunner()
-REPO = Path(__file__).resolve().parent.parent
+REPO = Path(__file__).resolve().parents[2]
 START, END = "<!-- claims table: written by make_report.py -->", "<!-- end of the claims table -->"
 
 

@@ -158,7 +158,7 @@ def _boom(message: str) -> None:
 @pytest.mark.skipif(pool.cores() < 2, reason="two workers need two cores")
 def test_work_on_kept_workers_returns_in_order_or_raises_and_none_without_workers(monkeypatch):
     assert pool.call([("os:getpid", ())]) is None  # no warm workers
-    monkeypatch.syspath_prepend(str(Path(__file__).resolve().parents[1]))  # workers import tests.test_launcher
+    monkeypatch.syspath_prepend(str(Path(__file__).resolve().parents[2]))  # workers import tests.sweep.test_launcher
     pool.prestart(2)
     try:
         pids = pool.call([("os:getpid", ()), ("os:getpid", ())])
@@ -166,9 +166,9 @@ def test_work_on_kept_workers_returns_in_order_or_raises_and_none_without_worker
         assert pool.call([("os.path:join", ("a", "b")), ("os.path:join", ("c",))]) == [os.path.join("a", "b"), "c"]
         assert pool.call([("os:getpid", ())] * 3) is None  # more than the workers
         with pytest.raises(ValueError, match="bad figure"):
-            pool.call([("tests.test_launcher:_boom", ("bad figure",))])
+            pool.call([("tests.sweep.test_launcher:_boom", ("bad figure",))])
         with pytest.raises(RuntimeError, match="a runtime error"):  # raised, not taken for a broken pool
-            pool.call([("tests.test_launcher:_boom", ("a runtime error",))])
+            pool.call([("tests.sweep.test_launcher:_boom", ("a runtime error",))])
         assert pool.call([("os:getpid", ())]) is not None  # and the workers are still there
     finally:
         pool.shutdown()
