@@ -4,7 +4,7 @@ Each entry gives a method's config name (``method=NAME``, with ``conf/method/NAM
 label and colour in figures, its keyword options (read and checked from ``method.*``), and the
 name of the function in ``airl_cli.usecases.fit`` that learns with it (named, not imported, so that
 the figures and the sweep process never load the solvers). Everything else — the config check, the
-dispatch in ``learners.learn``, the figures' labels and colours, the report's column order — reads
+dispatch in ``usecases.fit.learn``, the figures' labels and colours, the report's column order — reads
 this table; ``tests/usecases/test_methods.py`` checks that every entry has its YAML file and its function.
 """
 

@@ -8,7 +8,7 @@ from pathlib import Path
 from omegaconf import OmegaConf
 
 # hydra.run.dir of conf/airl.yaml. Composing a config (sweep plans, tests) only names the folder;
-# launch.run_hydra swaps in results.new_run_folder, which makes it, for the one run it starts.
+# launch.run_hydra swaps in io.run_folder.new_run_folder, which makes it, for the one run it starts.
 OmegaConf.register_new_resolver("airl.new_run_folder", lambda path: path, replace=True)
 
 

@@ -45,7 +45,7 @@ def save_config(cfg: DictConfig, folder: Path) -> None:
 def run_job(main: Callable[[DictConfig], object], cfg: DictConfig) -> object:
     """Run ``main(cfg)`` into the run folder; a run that does not finish says why in one sentence.
 
-    The folder holds ``INCOMPLETE`` while the job runs (``results.mark_incomplete``). Bad input
+    The folder holds ``INCOMPLETE`` while the job runs (``io.run_folder.mark_incomplete``). Bad input
     and a results folder that cannot be written (read-only, a full disk) exit with status 2,
     Ctrl-C with 130 (SIGTERM 143), after one sentence on stderr (``stop``). Other errors (a bug)
     keep their traceback and the marker.
