@@ -22,6 +22,7 @@ from hydra import compose, initialize_config_dir
 from omegaconf import DictConfig
 
 from airl_cli.config import fit_settings, loss_and_seed, problem_settings
+from airl_cli.hydra_internals import launcher_discoverable
 from airl_cli.io.dataset import Dataset, read_dataset, write_dataset
 from airl_cli.io.run_folder import read_experiment
 from airl_cli.paths import conf_dir
@@ -34,6 +35,7 @@ __all__ = ["config", "load_dataset", "save_dataset", "make_dataset", "fit", "sco
 
 def config(*overrides: str) -> DictConfig:
     """The composed config for these overrides (``"mdp=grid"``, ``"optim.lam=0.1"``...), as a job sees it."""
+    launcher_discoverable()  # hydra/launcher=airl's config comes with the plugin
     with initialize_config_dir(config_dir=conf_dir(), version_base="1.3", job_name="api"):
         return compose("airl", overrides=list(overrides))
 

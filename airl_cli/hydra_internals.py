@@ -33,6 +33,7 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
+from pathlib import Path
 from typing import Any, NamedTuple
 
 
@@ -71,6 +72,24 @@ def forget_plugin_registry() -> None:
     from hydra.core.singleton import Singleton
 
     Singleton._instances.pop(Plugins, None)
+
+
+def launcher_discoverable() -> None:
+    """Let Hydra's plugin scan find ``hydra_plugins.airl_launcher`` (hydra/launcher=airl, whose
+    config the plugin registers in Hydra's ConfigStore when the scan imports it).
+
+    An installed airl puts it in site-packages/hydra_plugins, where the scan looks; an editable
+    install (``pip install -e .``) only maps its import, so its folder is added to the scanned path.
+    """
+    try:
+        import hydra_plugins
+        import hydra_plugins.airl_launcher as ours
+    except ImportError:  # not installed with airl: Hydra will name the launchers it has
+        return
+    folder = str(Path(ours.__file__).parent.parent)
+    if folder not in list(hydra_plugins.__path__):
+        hydra_plugins.__path__.append(folder)
+        forget_plugin_registry()  # a registry scanned before is scanned again
 
 
 def set_hydra_record_writer(writer: Callable[[Any, str, Any], None]) -> Callable[[Any, str, Any], None]:

@@ -215,6 +215,9 @@ def run_hydra(
 
 
 def _run_hydra(job: str, overrides: list[str], *, cfg: str | None, resolve: bool, multirun: bool, app: str | None) -> None:
+    from airl_cli.hydra_internals import launcher_discoverable
+
+    launcher_discoverable()  # hydra/launcher=airl's config comes with the plugin
     check_group_choices(overrides)
     check_keys(overrides, "airl_plan" if job == "plan" else "airl")
     if cfg is None:
@@ -242,25 +245,6 @@ def _run_hydra(job: str, overrides: list[str], *, cfg: str | None, resolve: bool
         sys.argv = saved
         if claim:
             OmegaConf.register_new_resolver("airl.new_run_folder", lambda path: path, replace=True)
-
-
-def launcher_discoverable() -> None:
-    """Let Hydra's plugin scan find ``hydra_plugins.airl_launcher`` (hydra/launcher=airl).
-
-    An installed airl puts it in site-packages/hydra_plugins, where the scan looks; an editable
-    install (``pip install -e .``) only maps its import, so its folder is added to the scanned path.
-    """
-    try:
-        import hydra_plugins
-        import hydra_plugins.airl_launcher as ours
-    except ImportError:  # not installed with airl: Hydra will name the launchers it has
-        return
-    folder = str(Path(ours.__file__).parent.parent)
-    if folder not in list(hydra_plugins.__path__):
-        hydra_plugins.__path__.append(folder)
-        from airl_cli.hydra_internals import forget_plugin_registry
-
-        forget_plugin_registry()  # a registry scanned before is scanned again
 
 
 @contextmanager

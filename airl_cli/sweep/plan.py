@@ -21,8 +21,7 @@ from omegaconf import DictConfig, OmegaConf
 from airl_cli import compose_memo
 from airl_cli.config import fit_settings, plain, problem_settings
 from airl_cli.errors import ConfigError
-from airl_cli.hydra_internals import overrides_dirname, split_sweep_overrides
-from airl_cli.launch import launcher_discoverable
+from airl_cli.hydra_internals import launcher_discoverable, overrides_dirname, split_sweep_overrides
 from airl_cli.paths import conf_dir
 from airl_cli.sweep.folder import shared_settings
 from airl_cli.sweep.pool import workers

@@ -4,6 +4,7 @@ workers get their share of the cores, and a sweep on two workers gives the in-pr
 from __future__ import annotations
 
 import os
+import re
 import signal
 from pathlib import Path
 
@@ -184,3 +185,21 @@ def test_workers_that_run_no_job_are_stopped_at_once():
     pool.shutdown(idle=True)  # at once: a worker's imports take about a second
     assert not any(p.is_alive() for p in processes) and not pool._pool
     assert all(p.exitcode == -signal.SIGTERM for p in processes)  # stopped, not left to finish their imports
+
+
+# --------------------------------------------------------------------------- Hydra's own launcher tests
+
+
+def test_hydras_launcher_test_suite_passes_on_the_airl_launcher():
+    """Hydra's test suite for launcher plugins (``hydra.test_utils.launcher_common_tests``), on
+    Hydra's own test app (``tests/sweep/hydra_launcher_suite.py``): the airl launcher is a
+    self-contained plugin that runs any app's multirun, on warm workers and in-process. In a
+    process of its own: an earlier composition of airl's config (``hydra/job_logging: none``) in
+    this one changes what Hydra's basic launcher does too."""
+    import subprocess
+    import sys
+
+    suite = Path(__file__).with_name("hydra_launcher_suite.py")
+    done = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", str(suite)], capture_output=True, text=True, cwd=suite.parent)
+    assert done.returncode == 0, done.stdout[-3000:]
+    assert re.search(r"\b18 passed\b", done.stdout), done.stdout[-1000:]

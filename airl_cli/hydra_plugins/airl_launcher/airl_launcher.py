@@ -1,11 +1,29 @@
 """The ``airl`` launcher: Hydra finds it here; the work is in ``airl_cli.sweep.pool``."""
 
-from __future__ import annotations
+# no `from __future__ import annotations`: Hydra imports plugins outside sys.modules, where a
+# dataclass with string annotations cannot resolve them
 
 from collections.abc import Sequence
+from dataclasses import dataclass
 from typing import Any
 
+from hydra.core.config_store import ConfigStore
 from hydra.plugins.launcher import Launcher
+
+
+@dataclass
+class AirlLauncherConf:
+    """``hydra/launcher=airl``: warm worker processes, each job's config composed in the worker that runs it.
+
+    n_jobs: jobs at once; -1 every core, -2 all but one; 1 runs them in the sweep's own process.
+    """
+
+    _target_: str = "hydra_plugins.airl_launcher.airl_launcher.AirlLauncher"
+    n_jobs: int = -1
+
+
+# registered when Hydra scans its plugins, as Hydra's own launchers do: any app can then choose it
+ConfigStore.instance().store(group="hydra/launcher", name="airl", node=AirlLauncherConf, provider="airl_launcher")
 
 
 class AirlLauncher(Launcher):
