@@ -16,6 +16,7 @@ from typer.core import TyperCommand
 
 from airl_cli.errors import AirlError, refuse, stop_on_sigterm
 from airl_cli.launch import check_group_choices, check_keys, config_groups, run_hydra
+from airl_cli.methods import NAMES
 
 PASS_THROUGH = {"allow_extra_args": True, "ignore_unknown_options": True}
 
@@ -94,20 +95,23 @@ def generate(
     run_hydra("generate", ctx.args, cfg=cfg, resolve=resolve, multirun=multirun)
 
 
-@app.command(context_settings=PASS_THROUGH, epilog=EPILOG)
+FIT_HELP = f"""Learn reward weights from demonstrations under several dynamics; write weights, metrics and history.
+
+With data=PATH it learns from a dataset file (ours or yours); without, from the problem the
+mdp/dynamics/demos groups describe, built in-process (and saved as dataset.npz).
+method={NAMES[0]} (default), {", ".join(NAMES[1:-1])} or {NAMES[-1]} picks the learner. The run folder is
+results/fit/<time>/ unless hydra.run.dir=PATH says otherwise.
+"""
+
+
+@app.command(context_settings=PASS_THROUGH, epilog=EPILOG, help=FIT_HELP)
 def fit(
     ctx: typer.Context,
     cfg: str | None = CfgOption,
     resolve: bool = ResolveOption,
     multirun: bool = MultirunOption,
 ) -> None:
-    """Learn reward weights from demonstrations under several dynamics; write weights, metrics and history.
-
-    With data=PATH it learns from a dataset file (ours or yours); without, from the problem the
-    mdp/dynamics/demos groups describe, built in-process (and saved as dataset.npz).
-    method=airl (default), mce, projection, mmp or bc picks the learner. The run folder is
-    results/fit/<time>/ unless hydra.run.dir=PATH says otherwise.
-    """
+    """``airl fit`` (its help, ``FIT_HELP``, names the methods of the registry)."""
     run_hydra("fit", ctx.args, cfg=cfg, resolve=resolve, multirun=multirun)
 
 

@@ -257,7 +257,7 @@ class FitSettings:
     ``optimizer`` picks how method=airl minimises eq. 5.9: "exact" uses ``certified``, "gradient"
     uses ``options`` (Table I; with ``certify`` it also runs the exact solve for comparison). Both
     share ``options.planner``, ``options.lam`` and ``options.weight_sharing``.
-    ``method_options`` holds the keyword options of a comparison method (mce, projection, mmp).
+    ``method_options`` holds the keyword options of a comparison method (its registry entry names them).
     """
 
     method: str

@@ -25,7 +25,7 @@ class Learned:
     """What a method learned, in one shape for every method.
 
     Attributes:
-        method: its name (airl, mce, projection, mmp, bc).
+        method: its name (one of ``airl_cli.methods.NAMES``).
         weights: (D, K) one row per demonstration dynamics, or None (behavioural cloning).
         policy: (T-1, S, A) the learned policy for behavioural cloning, else None.
         history: column -> (iterations,) array, one row per iteration (columns per method).
