@@ -278,7 +278,7 @@ def _learner_side(sets: StrategySets, q: np.ndarray, C: np.ndarray, lam: float, 
     br_policy = learner_best_policy(problem, q_tau.reshape(T, S))
     br = state_marginals(problem.transitions[0], br_policy, problem.initial)
     br_loss = float(problem.loss_times(br).reshape(-1) @ q_tau)
-    g = q @ sets.adversary_phi - C
+    g = q @ sets.qp.Phi - C
     run.lower = max(run.lower, br_loss - float(g @ g) / (2.0 * lam))
     gap_l = float(np.min(sets.learner_loss @ q_tau)) - br_loss
     if gap_l > tiny:

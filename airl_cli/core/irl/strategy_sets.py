@@ -20,13 +20,12 @@ class StrategySets(Strategies):
     Attributes: those of ``Strategies`` (i: learner strategy, k: adversary strategy), and
         qp: the master QP, one column per learner strategy and one row per adversary strategy.
         shared: whether the weights are shared over the demonstration dynamics.
-        adversary_phi: (m, d) Phi[:, k], d = K with sharing, D*K without.
+    The QP keeps Phi (``qp.Phi``, (m, d): Phi[:, k], d = K with sharing, D*K without).
     """
 
     def __init__(self, problem: GameProblem, qp: MasterQP, shared: bool):
         super().__init__(problem)
         self.qp, self.shared = qp, shared
-        self.adversary_phi = np.empty((0, qp.d))
 
     def add_learner(self, policy: np.ndarray, marginals: np.ndarray) -> np.ndarray:
         """A learner strategy: the deterministic Markov policy (T-1, S) and its marginals (T, S) under tau."""
@@ -39,11 +38,9 @@ class StrategySets(Strategies):
         L_col, F = super().add_adversary(marginals)
         phi_k = F.sum(axis=0) if self.shared else F.reshape(-1)
         self.qp.add_adversary(L_col, phi_k)
-        self.adversary_phi = np.vstack([self.adversary_phi, phi_k[None]])
         return L_col, F
 
     def keep(self, learner: np.ndarray, adversary: np.ndarray) -> None:
         """Keep only these strategies (sorted index arrays), here and in the QP."""
         self.qp.keep(learner, adversary)
         super().keep(learner, adversary)
-        self.adversary_phi = self.adversary_phi[adversary]
