@@ -293,7 +293,7 @@ def _planner(node: Any) -> PlannerOptions:
         n_samples=r.int("n_samples", lo=1),
         reuse_beliefs=_bool(r, "reuse_beliefs"),
         belief_seed=None if r.raw("belief_seed", None) is None else r.int("belief_seed", lo=0),
-        screen_beliefs=r.int("screen_beliefs", lo=0, default=8),
+        screen_beliefs=r.int("screen_beliefs", lo=0, default=0),
     )
 
 

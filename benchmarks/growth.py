@@ -1,13 +1,16 @@
-"""How a certified fit grows with the problem: `python benchmarks/growth.py [--sizes 8 16 24 32] [--horizons 20]`.
+"""How a certified fit grows with the problem: `python benchmarks/growth.py [--sizes 8 16 24 32] [--horizons 20] [--loss squared_features zero_one]`.
 
 For each Objectworld grid (N x N cells, 5 actions, slip 0 for tau and 0.1 / 0.2 / 0.3 for
 tau_1..tau_3, K = 5 "near an object of colour c" features, N = 200 demonstrations per dynamics)
-the script generates one dataset with `airl generate`, then times `airl fit data=FILE` (the
-certified learner, defaults) and `airl fit data=FILE method=mce` on it, each in a fresh process
-on every core, as a user runs them. It prints one table: wall time of the fit and of the whole
-process, iterations, planner calls, certified relative gap, whether the fit converged, peak
-resident memory (the child's own ``ru_maxrss``), the learned reward's
-scores, and MCE IRL's fit time on the same file.
+the script generates one dataset with `airl generate`, then, for each ``--loss``, times
+`airl fit data=FILE` (the certified learner, defaults) and `airl fit data=FILE method=mce` on
+it, each in a fresh process on every core, as a user runs them. ``squared_features`` fits the
+file as `airl generate` wrote it (its loss is the grid's squared feature distance);
+``zero_one`` fits a copy without the ``loss`` key, as a user's own file without one is fitted
+(`loss=auto` then gives the zero-one loss). It prints one table: wall time of the fit and of the
+whole process, iterations, planner calls, the QP's seconds, certified relative gap, whether the
+fit converged, peak resident memory (the child's own ``ru_maxrss``), the learned reward's scores,
+and MCE IRL's fit and process time on the same file.
 
 `--extra` appends Hydra overrides to the certified fit (e.g. `--extra optim.tol=1e-3`).
 """
@@ -47,7 +50,7 @@ def fit_row(folder: Path) -> dict:
     metrics = json.loads((folder / "metrics.json").read_text())
     timing = json.loads((folder / "timing.json").read_text())
     scores = [r["learner_score"] for r in metrics["dynamics"][1:]] if metrics.get("scored") else []
-    return {"metrics": metrics, "fit_seconds": timing["fit_seconds"], "scores": scores}
+    return {"metrics": metrics, "fit_seconds": timing["fit_seconds"], "qp_seconds": timing.get("qp_seconds", 0.0), "scores": scores}
 
 
 def main() -> None:
@@ -56,11 +59,12 @@ def main() -> None:
     parser.add_argument("--horizons", type=int, nargs="+", default=[20])
     parser.add_argument("--demos", type=int, default=200)
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--loss", nargs="+", default=["squared_features"], choices=["squared_features", "zero_one"])
     parser.add_argument("--extra", nargs="*", default=[])
     args = parser.parse_args()
     os.environ.pop("NUMBA_NUM_THREADS", None)
     table = Table(title=f"certified fit on Objectworld (D=3, N={args.demos}, seed {args.seed}; all cores)")
-    for col in ("grid", "S", "T", "fit s", "process s", "iterations", "planner calls", "rel. gap", "converged", "peak GB", "score tau_1..3", "MCE fit s", "MCE process s", "fit / MCE", "process / MCE"):
+    for col in COLUMNS:
         table.add_column(col, justify="right")
     with tempfile.TemporaryDirectory() as tmp:
         root = Path(tmp)
@@ -71,22 +75,47 @@ def main() -> None:
                 tag = f"{n}x{n}-T{T}"
                 data = root / tag / "gen"
                 run(["generate", "mdp=objectworld", "dynamics=slip", f"mdp.size={n}", f"mdp.horizon={T}", f"demos.n={args.demos}", f"seed={args.seed}", f"hydra.run.dir={data}"])
-                wall, peak = run(["fit", f"data={data / 'dataset.npz'}", f"hydra.run.dir={root / tag / 'fit'}", *args.extra])
-                fit = fit_row(root / tag / "fit")
-                mce_wall, _ = run(["fit", f"data={data / 'dataset.npz'}", "method=mce", f"hydra.run.dir={root / tag / 'mce'}"])
-                mce = fit_row(root / tag / "mce")
-                m = fit["metrics"]
-                table.add_row(
-                    f"{n}x{n}", str(n * n), str(T), f"{fit['fit_seconds']:.1f}", f"{wall:.1f}", str(m["iterations"]),
-                    str(m["planner_calls"]), f"{m['relative_gap']:.1e}", "yes" if m["converged"] else "NO",
-                    f"{peak / 2**30:.2f}", " / ".join(f"{x:.3f}" for x in fit["scores"]), f"{mce['fit_seconds']:.2f}",
-                    f"{mce_wall:.1f}", f"{fit['fit_seconds'] / mce['fit_seconds']:.1f}x", f"{wall / mce_wall:.1f}x",
-                )
-                console.print(
-                    f"done {tag}: fit {fit['fit_seconds']:.2f} s (process {wall:.1f} s), MCE {mce['fit_seconds']:.2f} s (process {mce_wall:.1f} s); "
-                    f"MCE scores {' / '.join(f'{x:.3f}' for x in mce['scores'])}"
-                )
+                for loss in args.loss:
+                    file = data / "dataset.npz" if loss == "squared_features" else without_loss(data / "dataset.npz")
+                    table.add_row(*measure(file, root / tag / loss, n, T, loss, args.extra))
     console.print(table)
+
+
+COLUMNS = (
+    "grid", "S", "T", "loss", "fit s", "process s", "iterations", "planner calls", "QP s", "rel. gap", "converged", "peak GB",
+    "score tau_1..3", "MCE fit s", "MCE process s", "process / MCE",
+)
+
+
+def without_loss(path: Path) -> Path:
+    """A copy of the dataset file ``path`` without its ``loss`` key, beside it."""
+    import numpy as np
+
+    with np.load(path) as z:
+        arrays = {k: z[k] for k in z.files if k != "loss"}
+    out = path.with_name("dataset-no-loss.npz")
+    np.savez(out, **arrays)
+    return out
+
+
+def measure(file: Path, folder: Path, n: int, T: int, loss: str, extra: list[str]) -> tuple[str, ...]:
+    """Fit ``file`` with the certified learner and with MCE IRL, each in a fresh process: one table row."""
+    wall, peak = run(["fit", f"data={file}", f"hydra.run.dir={folder / 'fit'}", *extra])
+    fit = fit_row(folder / "fit")
+    mce_wall, _ = run(["fit", f"data={file}", "method=mce", f"hydra.run.dir={folder / 'mce'}"])
+    mce = fit_row(folder / "mce")
+    m = fit["metrics"]
+    console.print(
+        f"done {n}x{n} T={T} {loss}: fit {fit['fit_seconds']:.2f} s (process {wall:.1f} s), {m['iterations']} iterations, "
+        f"MCE {mce['fit_seconds']:.2f} s (process {mce_wall:.1f} s); MCE scores {' / '.join(f'{x:.3f}' for x in mce['scores'])}"
+    )
+    return (
+        f"{n}x{n}", str(n * n), str(T), loss, f"{fit['fit_seconds']:.1f}", f"{wall:.1f}", str(m["iterations"]), str(m["planner_calls"]),
+        f"{fit['qp_seconds']:.2f}", f"{m['relative_gap']:.1e}", "yes" if m["converged"] else "NO", f"{peak / 2**30:.2f}",
+        " / ".join(f"{x:.3f}" for x in fit["scores"]), f"{mce['fit_seconds']:.2f}", f"{mce_wall:.1f}", f"{wall / mce_wall:.1f}x",
+    )
+
+
 
 
 if __name__ == "__main__":

@@ -10,7 +10,8 @@ import numpy as np
 
 from airl_cli.config import FitSettings
 from airl_cli.core.irl import baselines, mmp, robust_mce
-from airl_cli.core.irl.certified import minimize, objective_at
+from airl_cli.core.irl.certified import minimize
+from airl_cli.core.irl.game import objective_at
 from airl_cli.core.irl.degeneracy import is_degenerate, reward_effect
 from airl_cli.core.irl.game_problem import GameProblem, scaled
 from airl_cli.core.irl.learn import fit, make_oracles

@@ -32,6 +32,7 @@ from airl_cli.core.irl.strategies import Strategies
 from airl_cli.core.mdp.planning import backward_induction, state_marginals
 from airl_cli.core.numerics.highs import quiet_highs
 from airl_cli.core.numerics.matrix_game import MatrixGameSolution, clean_mixture, solve_matrix_game
+from airl_cli.core.numerics.threads import blas_on_one_thread
 
 _INF = highspy.kHighsInf
 
@@ -307,3 +308,34 @@ def double_oracle(
             break
     F_q = np.einsum("m,mjk->jk", q, game.adversary_features)
     return OracleResult(v, p, q, F_q, it, calls, capped, tuple(steps))
+
+
+@blas_on_one_thread
+def objective_at(
+    problem: GameProblem,
+    targets: np.ndarray,
+    weights: np.ndarray,
+    oracle: AdversaryOracle,
+    *,
+    lam: float,
+    shared: bool,
+    normalize_loss: bool = True,
+    threshold: float = 1e-9,
+    game: RestrictedGame | None = None,
+) -> float:
+    """f at given weights (eq. 5.9): the inner game's value by double oracle, minus w . c~, plus lambda/2 |w|^2.
+
+    Args:
+        weights: (D, K) one row per demonstration dynamics.
+        shared: whether the rows are one shared w (then |w|^2 counts it once, as in eq. 5.4).
+        threshold: double oracle's relative improvement threshold (tight by default).
+        game: a restricted game of the same problem (and loss scaling) to start from, e.g. the
+            gradient fit's last one: started from scratch, double oracle on peaked dynamics can
+            need thousands of planner calls to reach the tight threshold. Grown in place.
+    """
+    if game is None:
+        game = RestrictedGame(problem.with_scaled_loss(normalize_loss))
+    W = np.asarray(weights, dtype=np.float64)
+    result = double_oracle(game, W, oracle, threshold=threshold, max_iterations=10_000)
+    norm2 = float(W[0] @ W[0]) if shared else float(np.sum(W * W))
+    return result.value - float(np.sum(W * np.asarray(targets))) + 0.5 * lam * norm2

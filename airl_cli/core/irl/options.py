@@ -38,7 +38,7 @@ class PlannerOptions:
     n_samples: int = 50_000
     reuse_beliefs: bool = True
     belief_seed: int | None = 0
-    screen_beliefs: int = 8
+    screen_beliefs: int = 0
     adversary: str = "history"
 
 

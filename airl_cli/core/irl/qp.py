@@ -1,4 +1,4 @@
-"""The restricted QP of the certified learner (``airl_cli.core.irl.certified``), kept warm across a fit.
+"""The restricted QP of the certified learner (``airl_cli.core.irl.certified``), re-solved at the accuracy asked.
 
 Over I learner strategies and K adversary strategies, with d weights:
 
@@ -7,12 +7,17 @@ Over I learner strategies and K adversary strategies, with d weights:
           sum_i p_i = 1,  p >= 0.
 
 Stationarity in v gives sum_k q_k = 1, so the duals of the K rows are the adversary's mixture.
-HiGHS's QP solver keeps one model for the whole fit: a new learner strategy adds a column, a new
-adversary strategy a row, and each re-solve starts from the previous solution. If HiGHS does not
-report an optimum with duals that form a distribution (on the default problem it stopped with an
-error at the 8th of 370 solves), this and every later solve of the fit go to ``solve_dense``, a
-dense primal-dual interior-point method written for this QP; Clarabel's general interior-point
-method answers where that one does not converge.
+
+Every solve is ``solve_dense``'s interior-point method from scratch, stopped at the relative
+accuracy the caller asks: the certified learner asks a loose one while its gap is wide and gets a
+well-centred point (every strategy of either player with positive weight), a tighter one as the
+gap closes (primal-dual column generation, Gondzio, Gonzalez-Brevis & Munari 2013). The bounds of
+the certificate hold at any point, so the accuracy changes the path, never the answer's meaning.
+Clarabel's general interior-point method answers where the dense one does not converge.
+
+(HiGHS's warm-started active-set QP, which this module used before, stopped with an error or
+cycled after a few solves on 492 of 500 masters of an 8 x 8 grid with the zero-one loss: the
+masters are degenerate, hundreds of strategies with equal losses; and it cannot stop early.)
 
 ``solve_dense`` is Mehrotra's predictor-corrector method (compiled: ``core._ipm``) on
 x = (w, v, p), N = d + 1 + n,
@@ -26,134 +31,129 @@ with Q = diag(lam I_d, 0, 0), c = (-C, 1, 0), a = (0, 0, 1_n), and G stacking th
 
 by one dense Cholesky factorisation of the N x N matrix (the single equality by its Schur
 complement), each direction refined twice against the unreduced system. The first m duals are
-the adversary's mixture q. A weight (p_i or q_k) smaller than its complementary slack or dual is
-returned as zero: an interior point leaves it small but positive. At 161 x 135 a solve takes 15 ms
-against Clarabel's 200 ms (same objective within 1e-10); BLAS runs on one thread inside it
-(``core.threads``).
+the adversary's mixture q. At a tight accuracy a weight (p_i or q_k) smaller than its
+complementary slack or dual is returned as zero: an interior point leaves it small but positive.
+At 161 x 135 a tight solve takes 15 ms against Clarabel's 200 ms (same objective within 1e-10);
+BLAS runs on one thread inside it (``core.threads``).
 """
 
 from __future__ import annotations
 
-import highspy
+from dataclasses import dataclass
+
 import numpy as np
 import scipy.sparse as sp
 
-from airl_cli.core.numerics.highs import quiet_highs
+from airl_cli.core.numerics.rows import Matrix, Rows
 from airl_cli.core.numerics.threads import one_blas_thread
 
-_INF = highspy.kHighsInf
-#: HiGHS QP iterations per solve before giving up on it for the rest of the fit.
-QP_ITERATION_LIMIT = 5_000
+#: The tightest accuracy asked of a solve (relative duality gap and constraints): the dense
+#: factorisation's limit on the masters met here.
+TIGHT = 1e-10
+
+
+@dataclass(frozen=True)
+class MasterSolution:
+    """One solve of the restricted QP.
+
+    Attributes: w (d,), v (the epigraph variable), p (n,) and q (m,) mixtures, objective;
+    accuracy, the relative accuracy it was solved to (interior, centred weights when loose).
+    """
+
+    w: np.ndarray
+    v: float
+    p: np.ndarray
+    q: np.ndarray
+    objective: float
+    accuracy: float
 
 
 class MasterQP:
-    """The restricted QP above as one HiGHS model, grown in place.
+    """The restricted QP above, grown in place by strategies and re-solved from scratch.
 
-    Attributes: C (d,) the targets; lam; L (n, m) losses; Phi (m, d) feature sums; fallbacks,
-    the number of solves done without HiGHS (after its first failure in the fit).
-
-    Columns: w (d of them, free), v (free), then p_1..p_n (>= 0). Rows: sum p = 1, then one row
-    per adversary strategy k: v - Phi[:, k] . w - sum_i L[i, k] p_i >= 0.
+    Attributes: C (d,) the targets; lam; L (n, m) losses of learner i against adversary k;
+    Phi (m, d) feature sums; fallbacks, the solves Clarabel answered because the dense method
+    did not converge.
     """
 
-    def __init__(self, C: np.ndarray, lam: float, backend: str = "highs"):
+    def __init__(self, C: np.ndarray, lam: float):
         self.C = np.asarray(C, dtype=np.float64)
-        self.d = int(C.size)
+        self.d = int(self.C.size)
         self.lam = float(lam)
-        self.backend = backend
-        self.L = np.empty((0, 0))  # (n, m) losses of learner i against adversary k
-        self.Phi = np.empty((0, self.d))  # (m, d)
+        self._L = Matrix()
+        self._Phi = Rows((self.d,))
         self.fallbacks = 0
-        self.iterations: list[int] = []  # HiGHS QP iterations of each successful solve
-        h = quiet_highs()
-        # tight tolerances: w follows from the duals (lam w = C - Phi^T q), so they must be accurate
-        for option in ("primal_feasibility_tolerance", "dual_feasibility_tolerance", "optimality_tolerance"):
-            h.setOptionValue(option, 1e-10)
-        h.setOptionValue("qp_regularization_value", 1e-12)
-        # HiGHS's active-set QP solver can cycle on the degenerate QPs met here (hundreds of
-        # thousands of iterations without progress); warm re-solves need a few dozen. Past this
-        # cap the solve goes to Clarabel, and so do the rest of this fit's solves.
-        h.setOptionValue("qp_iteration_limit", QP_ITERATION_LIMIT)
-        h.addVars(self.d + 1, np.full(self.d + 1, -_INF), np.full(self.d + 1, _INF))
-        h.changeColsCost(self.d + 1, np.arange(self.d + 1, dtype=np.int32), np.r_[-self.C, 1.0])
-        h.addRow(1.0, 1.0, 0, np.empty(0, dtype=np.int32), np.empty(0))
-        self._h = h
-        self._pass_hessian()
 
-    @property
-    def n(self) -> int:
-        return self.L.shape[0]
-
-    @property
-    def m(self) -> int:
-        return self.Phi.shape[0]
-
-    def _pass_hessian(self) -> None:
-        dim = self.d + 1 + self.n
-        start = np.r_[np.arange(self.d + 1), np.full(dim - self.d, self.d)].astype(np.int32)
-        self._h.passHessian(dim, self.d, highspy.HessianFormat.kTriangular, start, np.arange(self.d, dtype=np.int32), np.full(self.d, self.lam))
+    L = property(lambda self: self._L.view)
+    Phi = property(lambda self: self._Phi.view)
+    n = property(lambda self: self._L.n)
+    m = property(lambda self: self._L.m)
 
     def add_learner(self, L_col: np.ndarray) -> None:
         """A learner strategy: its losses (m,) against every adversary strategy."""
-        L_col = np.asarray(L_col, dtype=np.float64)
-        idx = np.arange(self.m + 1, dtype=np.int32)
-        self._h.addCol(0.0, 0.0, _INF, self.m + 1, idx, np.r_[1.0, -L_col])
-        self.L = np.vstack([self.L.reshape(self.n, self.m), L_col[None]])
-        self._pass_hessian()
+        self._L.add_row(np.asarray(L_col, dtype=np.float64))
 
     def add_adversary(self, L_row: np.ndarray, phi_k: np.ndarray) -> None:
         """An adversary strategy: the losses (n,) of every learner strategy against it, its Phi[:, k] (d,)."""
-        L_row, phi_k = np.asarray(L_row, dtype=np.float64), np.asarray(phi_k, dtype=np.float64)
-        idx = np.r_[np.arange(self.d + 1), self.d + 1 + np.arange(self.n)].astype(np.int32)
-        self._h.addRow(0.0, _INF, idx.size, idx, np.r_[-phi_k, 1.0, -L_row])
-        self.L = np.hstack([self.L.reshape(self.n, self.m), L_row[:, None]])
-        self.Phi = np.vstack([self.Phi, phi_k[None]])
+        self._L.add_column(np.asarray(L_row, dtype=np.float64))
+        self._Phi.append(np.asarray(phi_k, dtype=np.float64))
 
     def keep(self, learner: np.ndarray, adversary: np.ndarray) -> None:
-        """Keep only these strategies (sorted index arrays), dropping the rest from the model."""
-        drop_l = np.setdiff1d(np.arange(self.n), learner)
-        drop_a = np.setdiff1d(np.arange(self.m), adversary)
-        if drop_l.size:
-            self._h.deleteCols(drop_l.size, (self.d + 1 + drop_l).astype(np.int32))
-        if drop_a.size:
-            self._h.deleteRows(drop_a.size, (1 + drop_a).astype(np.int32))
-        self.L = self.L[np.ix_(learner, adversary)]
-        self.Phi = self.Phi[adversary]
-        if drop_l.size:
-            self._pass_hessian()
+        """Keep only these strategies (sorted index arrays)."""
+        self._L.keep(learner, adversary)
+        self._Phi.keep(adversary)
 
-    def _solve_highs(self) -> tuple[np.ndarray, float, np.ndarray, np.ndarray, float] | None:
-        h = self._h
-        h.run()
-        if h.getModelStatus() != highspy.HighsModelStatus.kOptimal:
-            return None
-        sol = h.getSolution()
-        x = np.asarray(sol.col_value)
-        q = np.asarray(sol.row_dual)[1:]
-        if abs(q.sum() - 1.0) > 1e-6 or np.any(q < -1e-9):
-            return None
-        self.iterations.append(int(h.getInfo().qp_iteration_count))
-        return x[: self.d], float(x[self.d]), _simplex(x[self.d + 1 :]), _simplex(q), float(h.getInfo().objective_function_value)
+    def solve(self, accuracy: float = TIGHT) -> MasterSolution:
+        """The QP solved to relative ``accuracy`` (>= ``TIGHT``) by ``solve_dense``, by Clarabel if that fails."""
+        accuracy = max(float(accuracy), TIGHT)
+        answer = solve_dense(self.C, self.lam, self.L, self.Phi, tol=accuracy, centred=accuracy > TIGHT)
+        if answer is None:
+            self.fallbacks += 1
+            answer, accuracy = solve_clarabel(self.C, self.lam, self.L, self.Phi), TIGHT
+        if accuracy <= TIGHT:
+            answer = crossover(self.C, self.lam, self.L, self.Phi, answer[2], answer[3]) or answer
+        return MasterSolution(*answer, accuracy)
 
-    def solve(self) -> tuple[np.ndarray, float, np.ndarray, np.ndarray, float]:
-        """Returns w (d,), v, p (n,), q (m,) and the QP's objective.
 
-        HiGHS from the previous solution; if it fails, HiGHS from scratch; if that fails too,
-        ``solve_dense`` (Clarabel if that does not converge), for this and every later solve of
-        the fit (counted in ``fallbacks``).
-        """
-        if self.backend == "highs":
-            answer = self._solve_highs()
-            if answer is None:
-                # a warm start that HiGHS rejects (it reports a solve error at once): start cold
-                self._h.clearSolver()
-                answer = self._solve_highs()
-            if answer is not None:
-                return answer
-            self.backend = "dense"
-        self.fallbacks += 1
-        answer = solve_dense(self.C, self.lam, self.L, self.Phi)
-        return answer if answer is not None else solve_clarabel(self.C, self.lam, self.L, self.Phi)
+def crossover(C: np.ndarray, lam: float, L: np.ndarray, Phi: np.ndarray, p: np.ndarray, q: np.ndarray):
+    """The exact optimum on the supports of an interior point's mixtures p (n,) and q (m,), or None.
+
+    On the supports I of p and K of q the optimality conditions are linear: every learner
+    strategy in I loses u against q, every adversary strategy in K is worth v at (w, p), and
+    lam w = C - Phi^T q (stationarity in w), with p and q summing to one. Solved (least squares, so
+    that ties do not stop it), the answer is kept only if it is a solution: p, q >= 0, no learner
+    strategy loses less than u against q, no adversary strategy is worth more than v at (w, p)
+    (to 1e-12 of the data's scale). An interior point pins w only to about the square root of its
+    accuracy over lam; this pins it to the arithmetic's (a degenerate game's w = 0 comes out 0).
+    Returns (w, v, p, q, objective) like ``solve_dense``.
+    """
+    I, K = np.flatnonzero(p > 0), np.flatnonzero(q > 0)
+    d, nI, nK = C.size, I.size, K.size
+    # unknowns (p_I, q_K, w, u, v)
+    A = np.zeros((nI + nK + d + 2, nI + nK + d + 2))
+    A[:nI, nI : nI + nK] = L[np.ix_(I, K)]
+    A[:nI, nI + nK + d] = -1.0
+    A[nI : nI + nK, :nI] = L[np.ix_(I, K)].T
+    A[nI : nI + nK, nI + nK : nI + nK + d] = Phi[K]
+    A[nI : nI + nK, nI + nK + d + 1] = -1.0
+    A[nI + nK : nI + nK + d, nI : nI + nK] = Phi[K].T
+    A[nI + nK : nI + nK + d, nI + nK : nI + nK + d] = lam * np.eye(d)
+    A[-2, :nI] = 1.0
+    A[-1, nI : nI + nK] = 1.0
+    b = np.r_[np.zeros(nI + nK), C, 1.0, 1.0]
+    x = np.linalg.lstsq(A, b, rcond=None)[0]
+    scale = 1e-12 * max(1.0, np.max(np.abs(L)), np.max(np.abs(Phi)) if Phi.size else 0.0, np.max(np.abs(C)) if C.size else 0.0)
+    if np.max(np.abs(A @ x - b)) > scale * 100:
+        return None
+    pp, qq = np.zeros(p.size), np.zeros(q.size)
+    pp[I], qq[K] = x[:nI], x[nI : nI + nK]
+    w, u, v = x[nI + nK : nI + nK + d], x[-2], x[-1]
+    if pp.min() < -scale or qq.min() < -scale:
+        return None
+    if np.min(L @ qq) < u - scale * 100 or np.max(pp @ L + Phi @ w) > v + scale * 100:
+        return None
+    pp, qq = _simplex(pp), _simplex(qq)
+    return w, float(v), pp, qq, float(v - w @ C + 0.5 * lam * w @ w)
 
 
 def _simplex(x: np.ndarray) -> np.ndarray:
@@ -190,12 +190,14 @@ def solve_clarabel(C: np.ndarray, lam: float, L: np.ndarray, Phi: np.ndarray) ->
 
 
 def solve_dense(
-    C: np.ndarray, lam: float, L: np.ndarray, Phi: np.ndarray, *, tol: float = 1e-10, max_iterations: int = 60
+    C: np.ndarray, lam: float, L: np.ndarray, Phi: np.ndarray, *, tol: float = TIGHT, max_iterations: int = 60, centred: bool = False
 ) -> tuple[np.ndarray, float, np.ndarray, np.ndarray, float] | None:
     """The restricted QP from scratch by the dense interior-point method of the module docstring.
 
     Args: C (d,), lam > 0, L (n, m), Phi (m, d); tol, the relative accuracy of the duality gap and
     of the constraints (the stationarity residual is held to ``core._ipm.STATIONARITY`` tol).
+    centred: return the interior point's weights as they are (every one positive) instead of
+    zeroing those below their complementary slack or dual.
     Returns w (d,), v, p (n,), q (m,) and the objective, or None if it did not converge within
     ``max_iterations`` steps.
     """
@@ -214,6 +216,7 @@ def solve_dense(
     # an interior point leaves the weights that are zero at the optimum small but positive (about
     # gap / dual); a pair whose primal side is the smaller one is taken as zero
     p, q = x[d + 1 :].copy(), z[:m].copy()
-    p[p < z[m:]] = 0.0
-    q[q < s[:m]] = 0.0
+    if not centred:
+        p[p < z[m:]] = 0.0
+        q[q < s[:m]] = 0.0
     return x[:d].copy(), float(x[d]), _simplex(p), _simplex(q), float(objective)

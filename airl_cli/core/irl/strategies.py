@@ -16,6 +16,7 @@ from __future__ import annotations
 import numpy as np
 
 from airl_cli.core.irl.game_problem import GameProblem
+from airl_cli.core.numerics.rows import Rows
 
 
 class Strategies:
@@ -35,11 +36,16 @@ class Strategies:
         T, S = problem.horizon, problem.transitions.shape[1]
         D, K = problem.n_models - 1, problem.n_features
         self.problem = problem
-        self.learner_loss = np.empty((0, T * S))
-        self.learner_marginals = np.empty((0, T, S))
-        self.learner_policies = np.empty((0, T - 1, S), dtype=np.int64)
-        self.adversary_tau = np.empty((0, T * S))
-        self.adversary_features = np.empty((0, D, K))
+        # grown in amortised constant time (core.numerics.rows); the attributes are views of them
+        self._learner_loss, self._learner_marginals = Rows((T * S,)), Rows((T, S))
+        self._learner_policies = Rows((T - 1, S), dtype=np.int64)
+        self._adversary_tau, self._adversary_features = Rows((T * S,)), Rows((D, K))
+
+    learner_loss = property(lambda self: self._learner_loss.view)
+    learner_marginals = property(lambda self: self._learner_marginals.view)
+    learner_policies = property(lambda self: self._learner_policies.view)
+    adversary_tau = property(lambda self: self._adversary_tau.view)
+    adversary_features = property(lambda self: self._adversary_features.view)
 
     def learner_row(self, marginals: np.ndarray) -> np.ndarray:
         """(T*S,) p_hat(t) @ loss, flattened, for a learner's marginals (T, S) under tau."""
@@ -60,9 +66,9 @@ class Strategies:
         """
         row = self.learner_row(marginals)
         L_row = self.adversary_tau @ row
-        self.learner_loss = np.vstack([self.learner_loss, row[None]])
-        self.learner_marginals = np.concatenate([self.learner_marginals, marginals[None]])
-        self.learner_policies = np.concatenate([self.learner_policies, np.asarray(policy, dtype=np.int64)[None]])
+        self._learner_loss.append(row)
+        self._learner_marginals.append(marginals)
+        self._learner_policies.append(policy)
         return L_row
 
     def add_adversary(self, marginals: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -73,14 +79,13 @@ class Strategies:
         """
         tau, F = self.adversary_column(marginals)
         L_col = self.learner_loss @ tau
-        self.adversary_tau = np.vstack([self.adversary_tau, tau[None]])
-        self.adversary_features = np.concatenate([self.adversary_features, F[None]])
+        self._adversary_tau.append(tau)
+        self._adversary_features.append(F)
         return L_col, F
 
     def keep(self, learner: np.ndarray, adversary: np.ndarray) -> None:
         """Keep only these strategies (sorted index arrays)."""
-        self.learner_loss = self.learner_loss[learner]
-        self.learner_marginals = self.learner_marginals[learner]
-        self.learner_policies = self.learner_policies[learner]
-        self.adversary_tau = self.adversary_tau[adversary]
-        self.adversary_features = self.adversary_features[adversary]
+        for rows in (self._learner_loss, self._learner_marginals, self._learner_policies):
+            rows.keep(learner)
+        for rows in (self._adversary_tau, self._adversary_features):
+            rows.keep(adversary)

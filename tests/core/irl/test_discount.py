@@ -100,7 +100,8 @@ def test_the_certified_learner_with_a_discount_equals_brute_force(seed, shared, 
 
     from test_certified import adversary_marginals, brute_minimum, exact_oracle, f_brute, learner_marginals, tiny
 
-    from airl_cli.core.irl.certified import CertifiedOptions, minimize, objective_at
+    from airl_cli.core.irl.certified import CertifiedOptions, minimize
+    from airl_cli.core.irl.game import objective_at
 
     problem, targets = tiny(seed, S=2)
     problem = dataclasses.replace(problem, discount=gamma)

@@ -10,7 +10,8 @@ import pytest
 from test_certified import T, adversary_marginals, brute_minimum, exact_oracle, f_brute, learner_marginals, tiny
 from test_markov_adversary import markov_adversary_marginals
 
-from airl_cli.core.irl.certified import CertifiedOptions, minimize, objective_at
+from airl_cli.core.irl.certified import CertifiedOptions, minimize
+from airl_cli.core.irl.game import objective_at
 from airl_cli.core.irl.degeneracy import reward_effect
 from airl_cli.core.irl.markov_adversary import markov_oracle
 from airl_cli.core.irl.per_step import step_blocks, step_features, step_targets
