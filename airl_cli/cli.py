@@ -110,9 +110,19 @@ def fit(
     cfg: str | None = CfgOption,
     resolve: bool = ResolveOption,
     multirun: bool = MultirunOption,
+    strict: bool = typer.Option(
+        False, "--strict", help="Exit with status 3 if the fit warns: NOT converged (no certificate) or a degenerate optimum."
+    ),
 ) -> None:
     """``airl fit`` (its help, ``FIT_HELP``, names the methods of the registry)."""
+    if strict and multirun:
+        refuse("--strict judges one fit; a multirun's jobs run in worker processes (read each job's metrics.json instead)")
     run_hydra("fit", ctx.args, cfg=cfg, resolve=resolve, multirun=multirun)
+    if strict and cfg is None:
+        from airl_cli.jobs.fit import WARNED
+
+        if WARNED:
+            raise typer.Exit(3)
 
 
 @app.command(context_settings=PASS_THROUGH, cls=_SweepCommand)
@@ -196,6 +206,7 @@ def report(
     folder: str = typer.Argument("results/sweeps", help="The folder holding the sweep folders (<experiment>-full/ ...)."),
     out: str = typer.Option("results/report", "--out", "-o", help="Where to write results.md, claims.md and figures/."),
     profile: str = typer.Option("full", "--profile", help="Report the sweeps of this profile: full or quick."),
+    replace: bool = typer.Option(False, "--replace", help="Write the report even if it drops experiments or claims that OUT reports."),
 ) -> None:
     """Write the claims table, results.md and the figures of chapter 7 from finished sweeps.
 
@@ -203,14 +214,15 @@ def report(
     computes each experiment's numbers, the method x experiment table and the claims table (each claim of
     the thesis with its verdict under each reading), and copies the sweeps' PNG figures. The claims
     table goes between the marker lines of OUT/README.md if it has them (experiments/README.md does),
-    else into OUT/claims.md.
+    else into OUT/claims.md. A report from fewer sweeps than OUT reports is refused, naming what it
+    would drop, unless --replace.
     """
     from airl_cli.io.files import describe_os_error
     from airl_cli.jobs.common import err_console, out_console
     from airl_cli.report import make_report
 
     try:
-        paths = make_report(folder, out, profile)
+        paths = make_report(folder, out, profile, replace=replace)
     except AirlError as err:
         refuse(err, err_console)
     except OSError as err:

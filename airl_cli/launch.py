@@ -239,12 +239,48 @@ def _run_hydra(job: str, overrides: list[str], *, cfg: str | None, resolve: bool
     if claim:  # a folder of its own for this run, even if another started in the same second
         OmegaConf.register_new_resolver("airl.new_run_folder", new_run_folder, replace=True)
     try:
-        with _jobs_composed_once(multirun and cfg is None), atomic_hydra_records(save_hydra_record):
+        with _jobs_composed_once(multirun and cfg is None), _checked_first(job if claim else None, overrides), atomic_hydra_records(save_hydra_record):
             main()
     finally:
         sys.argv = saved
         if claim:
             OmegaConf.register_new_resolver("airl.new_run_folder", lambda path: path, replace=True)
+
+
+@contextmanager
+def _checked_first(job: str | None, overrides: list[str]) -> Iterator[None]:
+    """``preflight`` for a single run of ``job`` (None: nothing to check), then the block, with
+    compositions remembered in both (Hydra composes the same config again)."""
+    if job is None or job not in PRINT_ONLY:
+        yield
+        return
+    from airl_cli import compose_memo
+
+    with compose_memo.active():
+        preflight(job, overrides)
+        yield
+
+
+def preflight(job: str, overrides: list[str]) -> None:
+    """Refuse bad input in one sentence before Hydra makes or touches any folder.
+
+    Hydra makes the run folder and writes its records there before the job starts; a job that
+    then refused its settings left an empty ``results/<command>/`` behind, and, run into an earlier
+    run's folder (``hydra.run.dir=``), marked that folder INCOMPLETE and overwrote its records. So the
+    job's config is composed here first and its ``check`` run (the settings, the memory, the input
+    files). Compositions are remembered (``compose_memo``): Hydra's own, next, costs little.
+    """
+    from hydra import compose, initialize_config_dir
+
+    from airl_cli.errors import AirlError
+
+    module = importlib.import_module(f"airl_cli.jobs.{job}")
+    with initialize_config_dir(config_dir=conf_dir(), version_base="1.3", job_name=job):
+        cfg = compose(PRINT_ONLY[job], overrides=quote_paths(list(overrides)))
+    try:
+        module.check(cfg)
+    except AirlError as err:
+        refuse(err)
 
 
 @contextmanager

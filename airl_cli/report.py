@@ -302,9 +302,54 @@ def build(sweeps: Path, profile: str = "full") -> Report:
     return Report("\n".join(parts) + "\n", claims_table(experiments, readings), figures)
 
 
-def write(report: Report, out: Path) -> list[Path]:
+def sections(results: str) -> list[str]:
+    """The experiments (and variants) a results.md reports: its "## NAME: title" and "## NAME with ..." headings."""
+    names = []
+    for line in results.splitlines():
+        if line.startswith("## ") and not line.startswith("## Every method"):
+            names.append(line[3:].split(":", 1)[0].strip())
+    return names
+
+
+def claim_rows(text: str) -> list[str]:
+    """The claims (first cells) of the claims table between the marker lines of ``text``, or of a
+    claims.md's text if it has no markers."""
+    if START in text and END in text.split(START, 1)[1]:
+        text = text.split(START, 1)[1].split(END, 1)[0]
+    rows = [line.split("|")[1].strip() for line in text.splitlines() if line.startswith("|") and line.count("|") > 2]
+    return [r for r in rows[1:] if r and not set(r) <= {"-", ":"}]
+
+
+def dropped(report: Report, out: Path) -> list[str]:
+    """What writing ``report`` into ``out`` would remove: experiments of the results.md there, or
+    claims of its claims table, that the new report does not have."""
+    readme, results, claims = out / "README.md", out / "results.md", out / "claims.md"
+    old: list[str] = []
+    if results.is_file():
+        kept = set(sections(report.results))
+        old += [n for n in sections(results.read_text(encoding="utf-8")) if n not in kept]
+    for path in (readme, claims):
+        if path.is_file():
+            kept = set(claim_rows(report.claims))
+            old += [c for c in claim_rows(path.read_text(encoding="utf-8")) if c not in kept and c not in old]
+    return old
+
+
+def write(report: Report, out: Path, *, replace: bool = False) -> list[Path]:
     """Write ``out/results.md``, ``out/figures/`` and the claims table: between the marker lines of
-    ``out/README.md`` if it has them (experiments/README.md does), else into ``out/claims.md``."""
+    ``out/README.md`` if it has them (experiments/README.md does), else into ``out/claims.md``.
+
+    Raises:
+        AirlError: before writing anything, if the report would drop experiments or claims that the
+            files in ``out`` hold (a report from fewer sweeps than the last one), unless ``replace``.
+    """
+    lost = dropped(report, out)
+    if lost and not replace:
+        shown = ", ".join(lost[:8]) + (f" and {len(lost) - 8} more" if len(lost) > 8 else "")
+        raise AirlError(
+            f"the report would drop {len(lost)} experiment(s) or claim(s) that {out} holds ({shown}): their sweeps are not "
+            "among those read; run them, report into another folder with --out, or pass --replace to write the smaller report"
+        )
     readme = out / "README.md"
     text = readme.read_text(encoding="utf-8") if readme.is_file() else ""
     written = []
@@ -320,12 +365,13 @@ def write(report: Report, out: Path) -> list[Path]:
     return written
 
 
-def make_report(sweeps: str | Path, out: str | Path, profile: str = "full") -> list[Path]:
-    """Build the report of the sweeps under ``sweeps`` and write it into ``out``.
+def make_report(sweeps: str | Path, out: str | Path, profile: str = "full", *, replace: bool = False) -> list[Path]:
+    """Build the report of the sweeps under ``sweeps`` and write it into ``out`` (``write``: it
+    refuses to drop what ``out`` reports unless ``replace``).
 
     Returns the files written: the figures, then results.md, then the file holding the claims table.
     """
     if profile not in PROFILES:
         raise AirlError(f"--profile must be one of {', '.join(PROFILES)}, got {profile!r}.")
     report = build(Path(sweeps), profile)
-    return write(report, Path(out))
+    return write(report, Path(out), replace=replace)

@@ -264,14 +264,9 @@ def bench_fit() -> None:
 
 def grid_dataset(seed: int = 0):
     """Fig. 12's data: the grid world, the sub-optimal layouts, exact feature expectations."""
-    from hydra import compose, initialize_config_module
+    from airl_cli import api
 
-    from airl_cli.config import problem_settings
-    from airl_cli.usecases.problem import build_dataset
-
-    with initialize_config_module("airl_cli.conf", version_base="1.3"):
-        cfg = compose("airl", overrides=["mdp=grid", "dynamics=grid_suboptimal", "demos=exact", f"seed={seed}"])
-    return build_dataset(problem_settings(cfg))[0]
+    return api.make_dataset("mdp=grid", "dynamics=grid_suboptimal", "demos=exact", f"seed={seed}")
 
 
 def certified_fit(dataset, planner=None, options=None):

@@ -139,6 +139,20 @@ def check_memory(cfg: DictConfig, *, workers: int = 1) -> Estimate | None:
     return estimate
 
 
+def check_build_memory(cfg: DictConfig) -> None:
+    """Refuse, before any work, a problem that will not fit in memory to build (``airl generate``).
+
+    Raises:
+        ConfigError: the estimate exceeds the free memory (one sentence: what to lower).
+    """
+    from airl_cli.config import problem_settings
+
+    estimate = memory.build_memory(memory.problem_sizes(problem_settings(cfg)))
+    sentence = memory.refusal(estimate, memory.available_memory(), shrink=_shrink(cfg), what="building this problem")
+    if sentence is not None:
+        raise ConfigError(sentence)
+
+
 def size_note(cfg: DictConfig) -> str | None:
     """A line to print before a fit whose steps will be long (a large belief set or over 1 GB)."""
     from airl_cli.config import fit_settings

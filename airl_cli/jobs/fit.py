@@ -21,7 +21,7 @@ from airl_cli.jobs.common import check_memory, err_console, out_console, output_
 from airl_cli.paths import conf_dir
 from airl_cli.plain_progress import PlainProgress
 from airl_cli.usecases.evaluate import score_learned
-from airl_cli.usecases.fit import Learned, learn
+from airl_cli.usecases.fit import Learned, check_supported, learn
 from airl_cli.usecases.problem import build_dataset, learner_rng, with_loss
 
 
@@ -33,6 +33,17 @@ def load_dataset(cfg: DictConfig, settings: FitSettings) -> tuple[Dataset, int, 
         return dataset, problem.seed, True
     loss, seed = loss_and_seed(cfg)
     return with_loss(read_dataset(settings.data), loss), seed, False
+
+
+def check(cfg: DictConfig) -> None:
+    """Everything ``main`` would refuse before its first result, checked before any folder is made
+    (``launch.preflight``): the settings, the memory, and a dataset file with the method."""
+    settings = fit_settings(cfg)
+    check_memory(cfg)
+    if settings.data is None:
+        problem_settings(cfg)
+    else:
+        check_supported(load_dataset(cfg, settings)[0], settings)
 
 
 def summary_text(dataset: Dataset, settings: FitSettings, learned: Learned, rows: list[dict], seconds: float) -> str:
@@ -222,8 +233,28 @@ def main(cfg: DictConfig) -> None:
         run = fit_with_progress(cfg, folder, settings)
     out_console.print(run.text, end="", soft_wrap=True)
     out_console.print(f"\nwrote {folder} (fit in {run.seconds:.2f} s)", soft_wrap=True)
-    if run.learned.info.get("degenerate"):
-        err_console.print(f"warning: {degenerate_sentence(run.learned.info)}", soft_wrap=True)
+    for sentence in fit_warnings(run.learned.info):
+        err_console.print(f"warning: {sentence}", soft_wrap=True)
+        WARNED.append(sentence)
+
+
+#: The warnings of the fits run in this process (``airl fit --strict`` exits 3 if there are any).
+WARNED: list[str] = []
+
+
+def fit_warnings(info: dict) -> list[str]:
+    """The sentences a fit warns with on stderr: a certified learner stopped at its cap (no
+    certificate), a degenerate optimum (a certificate that says nothing of the reward)."""
+    out = []
+    if info.get("optimizer") == "exact" and not info.get("converged", True):
+        out.append(
+            f"NOT converged: {info['iterations']} iterations reached optim.max_iterations with relative gap "
+            f"{info['relative_gap']:.2g} above optim.tol={info['tol']:g}; the weights carry no certificate "
+            "(raise optim.max_iterations, or loosen optim.tol)"
+        )
+    if info.get("degenerate"):
+        out.append(degenerate_sentence(info))
+    return out
 
 
 @hydra.main(version_base="1.3", config_path=conf_dir(), config_name="airl")

@@ -12,7 +12,7 @@ from airl_cli.core.mdp.problems import noise
 from airl_cli.envs import env_parameter
 from airl_cli.io.dataset import Dataset, write_dataset
 from airl_cli.io.files import write_text
-from airl_cli.jobs.common import err_console, out_console, output_dir, run_job, save_config
+from airl_cli.jobs.common import check_build_memory, err_console, out_console, output_dir, run_job, save_config
 from airl_cli.paths import conf_dir
 from airl_cli.plain_progress import PlainProgress
 from airl_cli.usecases.problem import build_dataset, expert_scores, resolved_loss
@@ -72,7 +72,15 @@ def summary_text(settings: ProblemSettings, dataset: Dataset, scores: np.ndarray
     return "\n".join(lines) + "\n"
 
 
+def check(cfg: DictConfig) -> None:
+    """What ``main`` would refuse before building anything, checked before any folder is made
+    (``launch.preflight``): the settings, and the memory the problem needs."""
+    problem_settings(cfg)
+    check_build_memory(cfg)
+
+
 def main(cfg: DictConfig) -> None:
+    check_build_memory(cfg)
     settings = problem_settings(cfg)
     folder = output_dir()
     plain = PlainProgress(err_console)  # stderr to a file: plain lines, at most every 5 s

@@ -21,6 +21,12 @@ from airl_cli.plain_progress import PlainProgress
 from airl_cli.usecases.plan import run_plan
 
 
+def check(cfg: DictConfig) -> None:
+    """What ``main`` would refuse before planning, checked before any folder is made
+    (``launch.preflight``): the settings and the input's files."""
+    read_problem(plan_settings(cfg).input)
+
+
 def main(cfg: DictConfig) -> dict:
     settings = plan_settings(cfg)
     problem = read_problem(settings.input)

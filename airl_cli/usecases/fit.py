@@ -79,11 +79,11 @@ def learn(
     Raises:
         ConfigError: if the method cannot use this dataset (behavioural cloning without actions).
     """
-    _check_supported(dataset, settings)
+    check_supported(dataset, settings)
     return globals()[REGISTRY[settings.method].learner](dataset, settings, rng, callback, planner_progress)
 
 
-def _check_supported(dataset: Dataset, settings: FitSettings) -> None:
+def check_supported(dataset: Dataset, settings: FitSettings) -> None:
     """One sentence for what a method cannot take: a discount (the thesis's gradient steps) or action sets."""
     method = settings.method
     if method == "airl" and settings.matching == "per_step" and settings.optimizer != "exact":

@@ -111,3 +111,30 @@ def test_make_report_script_still_writes_into_its_own_folder(sweeps, tmp_path):
     assert done.returncode == 0, done.stderr
     assert "| fig04 |" in (here / "README.md").read_text() and (here / "figures" / "fig04_histogram.png").is_file()
     assert "## fig04:" in (here / "results.md").read_text()
+
+
+def test_a_report_from_fewer_sweeps_is_refused_and_changes_nothing(sweeps, tmp_path):
+    """Issue: `airl report results/sweeps --out experiments` with one sweep present replaced the
+    13-row claims table with one row. A report that would drop experiments or claims is refused in
+    one sentence naming them, nothing written; --replace writes it."""
+    out = tmp_path / "experiments"
+    out.mkdir()
+    readme = f"# head\n\n{START}\n| claim | the thesis |\n|---|---|\n| fig04 | a |\n| fig05 | b |\n| fig12 | c |\n{END}\n"
+    (out / "README.md").write_text(readme)
+    (out / "results.md").write_text("# Results\n\n## Every method on every experiment\n\n## fig04: x\n\n## fig05: y\n")
+    before = {p: p.read_bytes() for p in out.rglob("*") if p.is_file()}
+    line = one_sentence(runner.invoke(app, ["report", str(sweeps), "--out", str(out)]))
+    assert "drop" in line and "fig05" in line and "fig12" in line and "--replace" in line
+    assert {p: p.read_bytes() for p in out.rglob("*") if p.is_file()} == before
+    result = runner.invoke(app, ["report", str(sweeps), "--out", str(out), "--replace"])
+    assert result.exit_code == 0, result.output
+    assert "| fig05 |" not in (out / "README.md").read_text() and "| fig04 |" in (out / "README.md").read_text()
+
+
+def test_a_report_that_keeps_every_claim_is_written(sweeps, tmp_path):
+    out = tmp_path / "experiments"
+    out.mkdir()
+    (out / "README.md").write_text(f"{START}\n| claim | the thesis |\n|---|---|\n| fig04 | old |\n{END}\n")
+    result = runner.invoke(app, ["report", str(sweeps), "--out", str(out)])
+    assert result.exit_code == 0, result.output
+    assert "| fig04 |" in (out / "README.md").read_text() and "| old |" not in (out / "README.md").read_text()

@@ -210,10 +210,21 @@ def zero_one_loss(n_states: int) -> np.ndarray:
     return 1.0 - np.eye(n_states)
 
 
+#: Rows of the (S, S) loss computed at once: the differences of a block take rows * S * dim floats
+#: (the whole (S, S, dim) array took 10.7 GB for Objectworld's 128 x 128 grid with K = 5).
+_BLOCK_FLOATS = 1 << 22
+
+
 def squared_euclidean_loss(coords: np.ndarray) -> np.ndarray:
     """Squared Euclidean distance (S, S) between state coordinates ``coords`` (S, dim)."""
-    diff = coords[:, None, :] - coords[None, :, :]
-    return np.einsum("ijk,ijk->ij", diff, diff)
+    coords = np.asarray(coords)
+    S, dim = coords.shape
+    out = np.empty((S, S))
+    rows = max(1, _BLOCK_FLOATS // max(1, S * dim))
+    for start in range(0, S, rows):
+        diff = coords[start : start + rows, None, :] - coords[None, :, :]
+        out[start : start + rows] = np.einsum("ijk,ijk->ij", diff, diff)
+    return out
 
 
 def squared_feature_loss(phi: np.ndarray) -> np.ndarray:

@@ -1,0 +1,95 @@
+"""A refused command changes nothing on disk, and a fit that carries no certificate says so (issue 33).
+
+Each test failed on the code before it: a refused fit marked an earlier run's folder INCOMPLETE and
+overwrote its Hydra records, every refused command left an empty results/<command>/ behind,
+`airl generate` of a huge Objectworld ran into a 302 GiB allocation and a traceback, and a fit that
+stopped at its iteration cap exited 0 with nothing on stderr.
+"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+import pytest
+from typer.testing import CliRunner
+
+from airl_cli.cli import app
+from airl_cli.jobs import fit as fit_job
+
+runner = CliRunner()
+SMALL = ["mdp.n_states=6", "mdp.n_actions=3", "mdp.horizon=5", "mdp.n_features=3", "demos.n=30", "pbvi.iterations=4"]
+
+
+@pytest.fixture(autouse=True)
+def in_tmp(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    fit_job.WARNED.clear()
+
+
+def snapshot(folder: Path) -> dict[str, bytes]:
+    return {str(p.relative_to(folder)): p.read_bytes() for p in sorted(folder.rglob("*")) if p.is_file()}
+
+
+def error_line(result) -> str:
+    lines = [line for line in result.output.splitlines() if line.strip()]
+    assert result.exit_code == 2 and len(lines) == 1 and lines[0].startswith("error: "), result.output
+    return lines[0]
+
+
+@pytest.mark.parametrize(
+    "command, bad, needle",
+    [
+        ("fit", "mdp.discount=2", "mdp.discount"),
+        ("fit", "optim.lam=-1", "optim.lam"),
+        ("fit", "data=missing.npz", "does not exist"),
+        ("fit", "data=old-run/dataset.npz optim=gradient game.matching=per_step", "optim=exact"),
+        ("generate", "mdp.n_states=1", "must be"),
+        ("plan", "plan.input=nowhere", "does not exist"),
+    ],
+)
+def test_a_refused_command_leaves_an_earlier_run_folder_as_it_was(tmp_path, command, bad, needle):
+    old = tmp_path / "old-run"
+    assert runner.invoke(app, ["generate", *SMALL, f"hydra.run.dir={old}"]).exit_code == 0
+    before = snapshot(old)
+    # one line: the gradient learner's note about optim.certify no longer comes before the error
+    line = error_line(runner.invoke(app, [command, *bad.split(), f"hydra.run.dir={old}"]))
+    assert needle in line
+    assert snapshot(old) == before  # no INCOMPLETE marker, Hydra's records untouched
+
+
+@pytest.mark.parametrize("command, bad", [("fit", "mdp.discount=2"), ("generate", "mdp.horizon=0"), ("plan", "plan.input=nowhere")])
+def test_a_refused_command_makes_no_folder(tmp_path, command, bad):
+    error_line(runner.invoke(app, [command, bad]))
+    assert not (tmp_path / "results").exists() and not list(tmp_path.iterdir())
+
+
+@pytest.mark.parametrize("size", [300, 100000])
+def test_generate_refuses_a_problem_too_large_for_memory_before_any_work(tmp_path, size):
+    start = time.perf_counter()
+    line = error_line(runner.invoke(app, ["generate", "mdp=objectworld", "dynamics=slip", f"mdp.size={size}"]))
+    assert "building this problem needs about" in line and "lower mdp.size" in line
+    assert time.perf_counter() - start < 10  # the build of 300 x 300 alone ran 80 s before failing
+    assert not list(tmp_path.iterdir())
+
+
+def test_a_fit_stopped_at_its_cap_says_not_converged_on_stderr_and_strict_fails(tmp_path):
+    args = ["fit", *SMALL, "optim.max_iterations=2", "optim.tol=1e-12"]
+    result = runner.invoke(app, [*args, f"hydra.run.dir={tmp_path / 'a'}"])
+    assert result.exit_code == 0, result.output
+    assert "warning: NOT converged" in result.stderr and "optim.max_iterations" in result.stderr
+    fit_job.WARNED.clear()
+    strict = runner.invoke(app, ["fit", "--strict", *args[1:], f"hydra.run.dir={tmp_path / 'b'}"])
+    assert strict.exit_code == 3, strict.output
+    assert (tmp_path / "b" / "metrics.json").is_file()  # the results are written all the same
+
+
+def test_strict_passes_a_certified_fit(tmp_path):
+    result = runner.invoke(app, ["fit", "--strict", *SMALL, f"hydra.run.dir={tmp_path / 'a'}"])
+    assert result.exit_code == 0, result.output
+    assert "warning" not in result.stderr
+
+
+def test_strict_refuses_a_multirun():
+    line = error_line(runner.invoke(app, ["fit", "--strict", "-m", "seed=0,1"]))
+    assert "--strict" in line
