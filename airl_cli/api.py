@@ -26,6 +26,7 @@ from airl_cli.hydra_internals import launcher_discoverable
 from airl_cli.io.dataset import Dataset, read_dataset, write_dataset
 from airl_cli.io.run_folder import read_experiment
 from airl_cli.paths import conf_dir
+from airl_cli.problem_defaults import with_problem_defaults
 from airl_cli.usecases.evaluate import score_learned
 from airl_cli.usecases.fit import Learned, learn
 from airl_cli.usecases.problem import build_dataset, learner_rng, with_loss
@@ -37,7 +38,7 @@ def config(*overrides: str) -> DictConfig:
     """The composed config for these overrides (``"mdp=grid"``, ``"optim.lam=0.1"``...), as a job sees it."""
     launcher_discoverable()  # hydra/launcher=airl's config comes with the plugin
     with initialize_config_dir(config_dir=conf_dir(), version_base="1.3", job_name="api"):
-        return compose("airl", overrides=list(overrides))
+        return compose("airl", overrides=with_problem_defaults(list(overrides)))
 
 
 def load_dataset(path: str | os.PathLike) -> Dataset:

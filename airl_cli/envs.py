@@ -7,7 +7,7 @@ its terminal states absorbing. The features are one-hot, of the tile type (``fea
 the state (``features=state``); w* is the environment's reward as a function of the state, read
 from its table, as ``TILES`` and the README's "Environments from gymnasium and seals" say.
 
-The packages are an optional extra (``pip install 'airl-cli[envs]'``); they are imported only when
+The packages are an optional extra (``pip install '.[envs]'`` in airl's folder); they are imported only when
 such a problem is built, and their absence is one sentence (``ConfigError``).
 """
 
@@ -70,7 +70,7 @@ TILES = {
 #: over), -100 on the cliff cells, which no trajectory occupies (a fall puts the agent on start).
 CLIFF_WALKING_WEIGHTS = (-1.0, -1.0, -100.0, 0.0)
 
-MISSING = "'mdp={package}' needs the optional extra: pip install 'airl-cli[envs]' (it installs gymnasium and seals)"
+MISSING = "'mdp={package}' needs the optional extra: pip install '.[envs]' in airl's folder (it installs gymnasium and seals)"
 
 
 @dataclass(frozen=True)
@@ -152,7 +152,7 @@ def require(package: str) -> Any:
     version = tuple(int(x) for x in re.findall(r"\d+", getattr(module, "__version__", "0"))[:2])
     if package == "gymnasium" and version < (1, 3):
         # Taxi's rainy_probability and its fixed is_rainy came in gymnasium 1.3 (its version history)
-        raise ConfigError(f"'mdp=gymnasium' needs gymnasium 1.3 or later, but {module.__version__} is installed: pip install -U 'airl-cli[envs]'")
+        raise ConfigError(f"'mdp=gymnasium' needs gymnasium 1.3 or later, but {module.__version__} is installed: pip install -U '.[envs]' in airl's folder")
     return module
 
 

@@ -12,11 +12,13 @@ from typing import Any
 
 import yaml
 from omegaconf import OmegaConf
+from rich.markup import escape
 
 from airl_cli.errors import ResultsUnwritable, interrupted, refuse
 from airl_cli.io.files import describe_os_error, is_unwritable, writable_problem, write_text
 from airl_cli.io.run_folder import claimed_folder, holds_no_results, new_run_folder
 from airl_cli.paths import conf_dir
+from airl_cli.problem_defaults import with_problem_defaults
 from airl_cli.sweep.spec import override_key, split_override
 
 
@@ -218,6 +220,8 @@ def _run_hydra(job: str, overrides: list[str], *, cfg: str | None, resolve: bool
     from airl_cli.hydra_internals import launcher_discoverable
 
     launcher_discoverable()  # hydra/launcher=airl's config comes with the plugin
+    if job in ("fit", "generate"):  # a problem picked on the command line brings its own dynamics
+        overrides = with_problem_defaults(overrides)
     check_group_choices(overrides)
     check_keys(overrides, "airl_plan" if job == "plan" else "airl")
     if cfg is None:
@@ -268,7 +272,8 @@ def preflight(job: str, overrides: list[str]) -> None:
     then refused its settings left an empty ``results/<command>/`` behind, and, run into an earlier
     run's folder (``hydra.run.dir=``), marked that folder INCOMPLETE and overwrote its records. So the
     job's config is composed here first and its ``check`` run (the settings, the memory, the input
-    files). Compositions are remembered (``compose_memo``): Hydra's own, next, costs little.
+    files); the settings it will not read are named, one line each. Compositions are remembered
+    (``compose_memo``): Hydra's own, next, costs little.
     """
     from hydra import compose, initialize_config_dir
 
@@ -278,9 +283,15 @@ def preflight(job: str, overrides: list[str]) -> None:
     with initialize_config_dir(config_dir=conf_dir(), version_base="1.3", job_name=job):
         cfg = compose(PRINT_ONLY[job], overrides=quote_paths(list(overrides)))
     try:
-        module.check(cfg)
+        notes = module.check(cfg, list(overrides))
     except AirlError as err:
         refuse(err)
+    if notes:
+        from rich.console import Console
+
+        console = Console(stderr=True, highlight=False)
+        for note in notes:
+            console.print(f"note: {escape(note)}", soft_wrap=True)
 
 
 @contextmanager

@@ -76,3 +76,23 @@ def test_the_layout_tree_names_every_module_and_package():
         names += [sub.rpartition("/")[2] + "/"] + [p.stem for p in (root / sub).glob("*.py") if not p.name.startswith("_")]
     missing = [n for n in names if n not in tree]
     assert not missing, f"README's Layout tree does not name: {missing}"
+
+
+def test_the_job_counts_experiments_readme_quotes_are_the_sweeps():
+    """experiments/README.md's wall-time table and commands quote each sweep's jobs: the counts come
+    from the experiments' configs (``sweep.plan``), checked here (they said 150 for a 180-job sweep)."""
+    from airl_cli.sweep.plan import plan
+
+    text = (README.parent / "experiments" / "README.md").read_text()
+    quoted: dict[str, int] = {}
+    for name, jobs in re.findall(r"^\| (\w+)(?: \+ \w+ \(one sweep\))? \| (\d+) \| [\d.]+", text, flags=re.M):
+        quoted[name] = int(jobs)
+    for name, jobs in re.findall(r"^airl sweep experiment=(\w+) .*\([\d.]+ min, (\d+) jobs\)", text, flags=re.M):
+        quoted[name] = int(jobs)
+    for cell in re.findall(r"^\|[^\n]*$", text, flags=re.M):  # the two-column wall-time table: the right half
+        right = re.match(r"^\| \w+[^|]* \| \d+ \| [\d.]+ \| \| (\w+)(?: \+ \w+ \(one sweep\))? \| (\d+) \|", cell)
+        if right:
+            quoted[right.group(1)] = int(right.group(2))
+    assert len(quoted) >= 10, quoted
+    wrong = {name: (n, len(plan([f"experiment={name}"]).jobs)) for name, n in quoted.items() if len(plan([f"experiment={name}"]).jobs) != n}
+    assert not wrong, f"quoted vs planned jobs: {wrong}"

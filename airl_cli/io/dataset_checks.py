@@ -141,9 +141,11 @@ def demonstrations(raw: dict, P, p0: np.ndarray, T: int) -> tuple[np.ndarray | N
         what = "under any action"
     if np.any(prob <= 0):
         j, n, t = (int(i) for i in np.argwhere(prob <= 0)[0])
+        # name the key the file has: a sparse file gives its dynamics as 'transition_next' and 'transition_probs'
+        where = f"'transition_next'/'transition_probs' (dynamics {j + 1})" if sparse else f"'transitions'[{j + 1}]"
         fail(
             f"key 'demo_states' has demonstration ({j}, {n}) move from state {s[j, n, t]} to {s_next[j, n, t]} "
-            f"at step {t}, which 'transitions'[{j + 1}] gives probability 0 {what}"
+            f"at step {t}, which {where} gives probability 0 {what}"
         )
     return states, actions
 

@@ -35,15 +35,48 @@ def load_dataset(cfg: DictConfig, settings: FitSettings) -> tuple[Dataset, int, 
     return with_loss(read_dataset(settings.data), loss), seed, False
 
 
-def check(cfg: DictConfig) -> None:
+def check(cfg: DictConfig, overrides: list[str] = ()) -> list[str]:
     """Everything ``main`` would refuse before its first result, checked before any folder is made
-    (``launch.preflight``): the settings, the memory, and a dataset file with the method."""
+    (``launch.preflight``): the settings, the memory, and a dataset file with the method.
+
+    Returns notes on the ``overrides`` that will do nothing (``ignored_settings``)."""
     settings = fit_settings(cfg)
     check_memory(cfg)
     if settings.data is None:
         problem_settings(cfg)
     else:
         check_supported(load_dataset(cfg, settings)[0], settings)
+    return ignored_settings(cfg, list(overrides), settings.method)
+
+
+#: The groups that configure the thesis's learner alone (method=airl).
+LEARNER_GROUPS = ("game", "optim", "pbvi", "variant")
+#: The groups that describe a problem airl builds (ignored when the problem comes from data=FILE).
+PROBLEM_GROUPS = ("mdp", "dynamics", "demos")
+
+
+def ignored_settings(cfg: DictConfig, overrides: list[str], method: str) -> list[str]:
+    """One sentence per kind of override that this command will not read: the problem's groups
+    with data=FILE, the thesis's learner's groups with another method, a map with an environment
+    that has none."""
+    from airl_cli.sweep.spec import split_override
+
+    set_here = [(item, split_override(item)[0].lstrip("+").split(".")[0], split_override(item)[0]) for item in overrides if "=" in item]
+    notes = []
+    if cfg.get("data") is not None:
+        given = [item for item, group, _ in set_here if group in PROBLEM_GROUPS]
+        if given:
+            notes.append(f"{', '.join(given)} {'does' if len(given) == 1 else 'do'} nothing with data=FILE: the problem and its demonstrations come from the file")
+    if method != "airl":
+        given = [item for item, group, _ in set_here if group in LEARNER_GROUPS]
+        if given:
+            notes.append(f"{', '.join(given)} {'does' if len(given) == 1 else 'do'} nothing with method={method}: they configure the thesis's learner (method=airl)")
+    mdp = cfg.get("mdp") or {}
+    if cfg.get("data") is None and mdp.get("name") == "gymnasium" and mdp.get("env") != "FrozenLake":
+        given = [item for item, _, key in set_here if key == "mdp.map_name"]
+        if given:
+            notes.append(f"{given[0]} does nothing with mdp.env={mdp.get('env')}: only FrozenLake has maps")
+    return notes
 
 
 def summary_text(dataset: Dataset, settings: FitSettings, learned: Learned, rows: list[dict], seconds: float) -> str:

@@ -72,11 +72,13 @@ def summary_text(settings: ProblemSettings, dataset: Dataset, scores: np.ndarray
     return "\n".join(lines) + "\n"
 
 
-def check(cfg: DictConfig) -> None:
+def check(cfg: DictConfig, overrides: list[str] = ()) -> list[str]:
     """What ``main`` would refuse before building anything, checked before any folder is made
-    (``launch.preflight``): the settings, and the memory the problem needs."""
+    (``launch.preflight``): the settings, and the memory the problem needs. (The learner's groups,
+    which only ``airl fit`` reads, pass unremarked: a shared list of overrides is common.)"""
     problem_settings(cfg)
     check_build_memory(cfg)
+    return []
 
 
 def main(cfg: DictConfig) -> None:

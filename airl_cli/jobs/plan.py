@@ -21,10 +21,11 @@ from airl_cli.plain_progress import PlainProgress
 from airl_cli.usecases.plan import run_plan
 
 
-def check(cfg: DictConfig) -> None:
+def check(cfg: DictConfig, overrides: list[str] = ()) -> list[str]:
     """What ``main`` would refuse before planning, checked before any folder is made
     (``launch.preflight``): the settings and the input's files."""
     read_problem(plan_settings(cfg).input)
+    return []
 
 
 def main(cfg: DictConfig) -> dict:

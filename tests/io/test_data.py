@@ -197,3 +197,22 @@ def test_bad_dataset_is_never_written(tmp_path):
     with pytest.raises(DatasetError, match="'initial'"):
         write_dataset(tmp_path / "d.npz", ds)
     assert list(tmp_path.iterdir()) == []  # neither the file nor a temporary file
+
+
+def test_an_impossible_move_in_a_sparse_file_names_the_keys_the_file_has(tmp_path):
+    """A sparse file has 'transition_next' and 'transition_probs', not 'transitions' (issue 33)."""
+    from airl_cli.core.mdp.sparse import sparse_dynamics
+
+    S_, A_, D_, T_ = 4, 2, 2, 3
+    P = np.zeros((D_ + 1, S_, A_, S_))
+    P[:, np.arange(S_), 0, np.arange(S_)] = 1.0  # stay
+    P[:, np.arange(S_), 1, (np.arange(S_) + 1) % S_] = 1.0  # move on
+    dyn = sparse_dynamics(P)
+    states = np.zeros((D_, 1, T_), dtype=np.int64)
+    states[1, 0, 1] = 2  # 0 -> 2 in one step: no action does it
+    arrays = dict(transition_next=dyn.next_states, transition_probs=dyn.probs, features=np.eye(S_), initial=np.full(S_, 1 / S_),
+                  horizon=np.asarray(T_), demo_states=states)
+    np.savez(tmp_path / "sparse.npz", **arrays)
+    with pytest.raises(DatasetError) as err:
+        read_dataset(tmp_path / "sparse.npz")
+    assert "'transition_next'/'transition_probs' (dynamics 2)" in str(err.value) and "'transitions'" not in str(err.value)

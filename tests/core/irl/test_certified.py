@@ -21,8 +21,12 @@ from airl_cli.core.mdp.planning import backward_induction, state_marginals
 T = 3  # the brute force below enumerates histories (s0, s1) of a 3-step horizon
 
 
-def tiny(seed, *, S=2, A=2, D=2, K=2):
-    """A tiny problem (tau at index 0) with an expert optimal under tau and its exact feature sums under each tau_j."""
+def tiny(seed, *, S=2, A=2, D=2, K=2, loss="random"):
+    """A tiny problem (tau at index 0) with an expert optimal under tau and its exact feature sums under each tau_j.
+
+    loss: "random" (off-diagonal entries in [0, 1)), "zero_one" (the thesis's on the random MDP) or
+    "squared_features" (|phi(s) - phi(s')|^2, thesis §7.3's on the grid).
+    """
     rng = np.random.default_rng(seed)
     P = np.stack([random_dynamics(rng, S, A, concentration=0.5) for _ in range(D + 1)])
     phi = rng.random((S, K))
@@ -30,8 +34,12 @@ def tiny(seed, *, S=2, A=2, D=2, K=2):
     expert, _ = backward_induction(P[0], phi @ rng.normal(size=K), horizon=T)
     # the expert's exact feature sums, moved so that no policy matches them: w* is not 0
     targets = expected_feature_sums(P[1:], expert, p0, phi) + rng.normal(scale=0.3, size=(D, K))
-    loss = rng.random((S, S)) * (1 - np.eye(S))
-    return GameProblem(P, phi, p0, loss, T), targets
+    losses = {
+        "random": rng.random((S, S)) * (1 - np.eye(S)),
+        "zero_one": 1.0 - np.eye(S),
+        "squared_features": ((phi[:, None, :] - phi[None, :, :]) ** 2).sum(axis=2),
+    }
+    return GameProblem(P, phi, p0, losses[loss], T), targets
 
 
 def learner_marginals(problem):
@@ -117,9 +125,16 @@ def exact_oracle(problem):
     return make_oracle(problem, PlannerOptions(method="exact"), np.random.default_rng(0))[0]
 
 
-@pytest.mark.parametrize("seed,S,shared", [(0, 2, True), (1, 2, False), (2, 3, True), (3, 2, True), (4, 3, False)])
-def test_certified_minimum_equals_brute_force(seed, S, shared):
-    problem, targets = tiny(seed, S=S)
+@pytest.mark.parametrize(
+    "seed,S,shared,loss",
+    [
+        (0, 2, True, "random"), (1, 2, False, "random"), (2, 3, True, "random"), (3, 2, True, "random"), (4, 3, False, "random"),
+        (5, 3, True, "zero_one"), (6, 3, False, "zero_one"), (7, 2, True, "zero_one"),
+        (8, 3, True, "squared_features"), (9, 3, False, "squared_features"), (10, 2, True, "squared_features"),
+    ],
+)
+def test_certified_minimum_equals_brute_force(seed, S, shared, loss):
+    problem, targets = tiny(seed, S=S, loss=loss)
     lam = 0.05
     L, Phi, C = enumerated_game(problem, targets, shared)
     w_brute, f_star = brute_minimum(L, Phi, C, lam)

@@ -36,9 +36,15 @@ def markov_game(problem, targets, shared):
     return L, (F.sum(axis=1) if shared else F.reshape(len(F), -1)), (targets.sum(axis=0) if shared else targets.reshape(-1))
 
 
-@pytest.mark.parametrize("seed,S,shared", [(0, 2, True), (1, 2, False), (2, 3, True), (4, 3, False)])
-def test_certified_minimum_with_a_markov_adversary_equals_brute_force(seed, S, shared):
-    problem, targets = tiny(seed, S=S)
+@pytest.mark.parametrize(
+    "seed,S,shared,loss",
+    [
+        (0, 2, True, "random"), (1, 2, False, "random"), (2, 3, True, "random"), (4, 3, False, "random"),
+        (5, 3, True, "zero_one"), (6, 3, False, "zero_one"), (8, 3, True, "squared_features"), (9, 2, False, "squared_features"),
+    ],
+)
+def test_certified_minimum_with_a_markov_adversary_equals_brute_force(seed, S, shared, loss):
+    problem, targets = tiny(seed, S=S, loss=loss)
     lam = 0.05
     L, Phi, C = markov_game(problem, targets, shared)
     w_brute, f_star = brute_minimum(L, Phi, C, lam)

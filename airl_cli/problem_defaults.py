@@ -1,0 +1,37 @@
+"""Each problem's own default dynamics: what ``mdp=NAME`` brings along unless ``dynamics=`` is given.
+
+Hydra lets only the primary config (and ``@package _global_`` files) override another group's
+choice, so a problem's config cannot pick its dynamics itself. The commands and the Python API
+add ``dynamics=OPTION`` from ``conf/mdp/_dynamics.yaml`` to the overrides instead, when the
+overrides pick a problem, no dynamics, and no experiment (an experiment picks both).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import yaml
+
+from airl_cli.paths import conf_dir
+from airl_cli.sweep.spec import split_override
+
+
+def default_dynamics() -> dict[str, str]:
+    """Problem (mdp option) -> its dynamics option."""
+    return dict(yaml.safe_load((Path(conf_dir()) / "mdp" / "_dynamics.yaml").read_text()) or {})
+
+
+def with_problem_defaults(overrides: list[str]) -> list[str]:
+    """``overrides`` plus ``dynamics=OPTION`` for the problem they pick, if they pick no dynamics,
+    no experiment and no dataset file; unchanged otherwise (and for a comma-separated sweep over
+    problems)."""
+    chosen = {}
+    for item in overrides:
+        key, sep, value = split_override(item)
+        if sep:
+            chosen[key.lstrip("+")] = value
+    mdp = chosen.get("mdp")
+    if mdp is None or "dynamics" in chosen or "experiment" in chosen or "data" in chosen or "," in mdp:
+        return list(overrides)
+    dynamics = default_dynamics().get(mdp)
+    return list(overrides) if dynamics is None else [*overrides, f"dynamics={dynamics}"]
