@@ -22,8 +22,25 @@ PASS_THROUGH = {"allow_extra_args": True, "ignore_unknown_options": True}
 
 
 def _groups_epilog() -> str:
+    """The config groups, their options and the keys their options have (read from the YAML files)."""
+    from pathlib import Path
+
+    import yaml
+
+    from airl_cli.paths import conf_dir
+
     lines = ["Config groups (choose with GROUP=OPTION; change a value with GROUP.KEY=VALUE):", "", "\b"]
-    lines += [f"  {group:<10} {', '.join(options)}" for group, options in config_groups().items()]
+    for group, options in config_groups().items():
+        lines.append(f"  {group:<10} {', '.join(options)}")
+        keys: dict[str, None] = {}
+        for option in options:
+            text = (Path(conf_dir()) / group / f"{option}.yaml").read_text()
+            if "@package _global_" in text.split("\n", 1)[0]:  # sets values across groups: no keys of its own
+                keys = {}
+                break
+            keys.update(dict.fromkeys(str(k) for k in (yaml.safe_load(text) or {}) if k != "defaults"))
+        if keys:
+            lines.append(f"  {'':<10} keys: {', '.join(keys)}")
     return "\n".join(lines) + "\n"
 
 
@@ -50,7 +67,7 @@ app = typer.Typer(
         "sub-optimal demonstrations given under several known dynamics."
     ),
     no_args_is_help=True,
-    add_completion=False,
+    add_completion=True,  # --install-completion / --show-completion for bash, zsh, fish, PowerShell
     pretty_exceptions_enable=False,
     rich_markup_mode=None,
 )
@@ -138,7 +155,8 @@ def sweep(
     """Run an experiment of thesis chapter 7 (a Hydra multirun on every core), collect its table, draw its figures.
 
     Takes experiment=NAME and any overrides, e.g. airl sweep experiment=fig05 profile=quick.
-    Jobs that finished in an earlier run of the same command are skipped (--partial: a table
+    Jobs that finished in an earlier run of the same command, or with the same config in another
+    sweep folder beside this one (copied from there), are skipped (--partial: a table
     and figures of those alone, running nothing). The folder is
     results/sweeps/<experiment>-<profile>/ unless hydra.sweep.dir=PATH says otherwise.
     The jobs run on one warm worker per core (hydra.launcher.n_jobs=N for fewer);

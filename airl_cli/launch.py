@@ -19,7 +19,7 @@ from airl_cli.io.files import describe_os_error, is_unwritable, writable_problem
 from airl_cli.io.run_folder import claimed_folder, holds_no_results, new_run_folder
 from airl_cli.paths import conf_dir
 from airl_cli.problem_defaults import with_problem_defaults
-from airl_cli.sweep.spec import override_key, split_override
+from airl_cli.overrides import override_key, split_override
 
 
 def config_groups() -> dict[str, list[str]]:

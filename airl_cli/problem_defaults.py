@@ -13,7 +13,7 @@ from pathlib import Path
 import yaml
 
 from airl_cli.paths import conf_dir
-from airl_cli.sweep.spec import split_override
+from airl_cli.overrides import split_override
 
 
 def default_dynamics() -> dict[str, str]:

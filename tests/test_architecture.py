@@ -68,7 +68,8 @@ def test_a_sweep_process_imports_no_solver_nor_table_code_before_its_jobs():
 #: The layers, bottom to top; a module may import its own layer and those below, never above.
 #: ``core`` is four of them: numerics, one MDP, several MDPs (the planner), learning a reward.
 #: ``airl sweep``'s machinery is the package ``sweep``, its Hydra job (``sweep.job``) and rows included; its
-#: ``sweep.spec`` imports no other module of airl and sits in base, below ``launch`` (which serves every command).
+#: ``sweep.spec`` imports only ``overrides`` and sits in base. ``launch`` (which serves every command)
+#: is a layer of its own below the sweep's: the sweep runs its jobs through it, never the other way.
 #: ``conf`` is the Hydra configs' package: it holds no code, but an installed (non-editable) airl
 #: ships it as ``airl_cli.conf`` with an ``__init__.py``, so the walk over the package finds it.
 LAYERS = (
@@ -76,11 +77,12 @@ LAYERS = (
     ("core.mdp", "core.mdp core.mdp.*"),
     ("core.mmdp", "core.mmdp core.mmdp.*"),
     ("core.irl", "core.irl core.irl.*"),
-    ("base", "alpha_values errors paths problem_defaults io io.* plain_progress compose_memo hydra_internals config_reader sweep.spec methods variants claims multimodel airl_cli conf conf.*"),
+    ("base", "alpha_values errors paths overrides problem_defaults io io.* plain_progress compose_memo hydra_internals config_reader sweep.spec methods variants claims multimodel airl_cli conf conf.*"),
     ("settings", "config envs"),
     ("use cases", "usecases usecases.* plotting plotting.*"),
     ("jobs", "jobs jobs.common jobs.fit jobs.generate jobs.inspect jobs.plan api"),
-    ("sweeps", "launch sweep sweep.* report hydra_plugins.*"),
+    ("launch", "launch"),
+    ("sweeps", "sweep sweep.* report hydra_plugins.*"),
     ("command line", "cli __main__"),
 )
 

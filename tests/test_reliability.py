@@ -489,3 +489,36 @@ def test_ctrl_c_says_how_to_resume(tmp_path, monkeypatch):
     result = runner.invoke(app, ["sweep", "experiment=fig13", "profile=quick", "--no-plot"])
     assert result.exit_code == 130
     assert "interrupted: run the same command again to resume" in result.output
+
+
+def test_a_job_finished_in_another_sweep_folder_is_reused_when_its_config_is_the_same(tmp_path):
+    """Issue 33: `airl sweep experiment=fig05 method=airl,mce` recomputed the jobs that had just
+    finished in fig05-full, because the folder differed."""
+    from airl_cli.hydra_internals import launcher_discoverable
+    from airl_cli.sweep.job import finished_elsewhere
+
+    launcher_discoverable()  # job_config composes as a sweep's job does, with the airl launcher
+    sweeps = tmp_path / "sweeps"
+    name = "demos.n=1,method=airl,seed=0"
+    overrides = ["experiment=fig05", "profile=quick", "demos.n=1", "method=airl", "seed=0"]
+    fake_finished_job(sweeps / "fig05-quick", name, overrides)
+    (sweeps / "fig05-quick" / name / "metrics.json").write_text("{}")
+    here = sweeps / "fig05-quick-method=airl,mce" / name
+    assert finished_elsewhere(OmegaConf.create(job_config(overrides)), here)
+    assert (here / ROWS).read_text() == "experiment,method\nfig05,airl\n" and (here / "metrics.json").read_text() == "{}"
+    # another setting: not the same job
+    other = sweeps / "fig05-quick-optim.lam=0.5" / name
+    assert not finished_elsewhere(OmegaConf.create(job_config([*overrides, "optim.lam=0.5"])), other)
+    assert not (other / ROWS).exists()
+
+
+def test_a_sweep_into_another_folder_reuses_the_finished_jobs(tmp_path):
+    sweeps = tmp_path / "sweeps"
+    first = runner.invoke(app, ["sweep", "experiment=fig13", "profile=quick", "method=airl", f"hydra.sweep.dir={sweeps / 'a'}", "--no-plot"])
+    assert first.exit_code == 0, first.output
+    second = runner.invoke(app, ["sweep", "experiment=fig13", "profile=quick", "method=airl,mce", f"hydra.sweep.dir={sweeps / 'b'}", "--no-plot"])
+    assert second.exit_code == 0, second.output
+    jobs = sorted(p.parent.name for p in (sweeps / "a").glob(f"*/{ROWS}"))
+    assert jobs
+    for job in jobs:  # copied, wall times included: not computed again
+        assert (sweeps / "b" / job / "timing.json").read_bytes() == (sweeps / "a" / job / "timing.json").read_bytes()

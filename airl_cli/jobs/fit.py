@@ -59,7 +59,7 @@ def ignored_settings(cfg: DictConfig, overrides: list[str], method: str) -> list
     """One sentence per kind of override that this command will not read: the problem's groups
     with data=FILE, the thesis's learner's groups with another method, a map with an environment
     that has none."""
-    from airl_cli.sweep.spec import split_override
+    from airl_cli.overrides import split_override
 
     set_here = [(item, split_override(item)[0].lstrip("+").split(".")[0], split_override(item)[0]) for item in overrides if "=" in item]
     notes = []
@@ -135,10 +135,13 @@ def summary_text(dataset: Dataset, settings: FitSettings, learned: Learned, rows
 
 def degenerate_sentence(info: dict) -> str:
     """One sentence for a certified w that is the zero reward in all but name (``core.degeneracy``)."""
+    if info["reward_effect"] <= info["tol"] * max(1.0, abs(info["objective"])):
+        why = f"it moves the game's payoff by at most {info['reward_effect']:.2g}, below the certificate's tolerance, so w = 0 is optimal too"
+    else:
+        why = f"w = 0 passes the certificate too (relative gap {info['zero_relative_gap']:.2g} at w = 0, within twice the tolerance)"
     return (
-        f"the learned reward is indistinguishable from zero: it moves the game's payoff by at most "
-        f"{info['reward_effect']:.2g}, below the certificate's tolerance, so w = 0 is optimal too and the "
-        "demonstrations do not constrain the reward (its direction is noise; see the README, 'A degenerate optimum')"
+        f"the learned reward is indistinguishable from zero: {why} and the demonstrations do not constrain the "
+        "reward (its direction is noise; see the README, 'A degenerate optimum')"
     )
 
 
@@ -261,7 +264,7 @@ def main(cfg: DictConfig) -> None:
     else:
         if note := size_note(cfg):
             err_console.print(note, soft_wrap=True)
-        with err_console.status("loading the planner (the first run after installing compiles it, about 10 s)"):
+        with err_console.status("loading the planner (the first run after installing compiles it and the QP solver: about 40 s, once)"):
             warm_up()
         run = fit_with_progress(cfg, folder, settings)
     out_console.print(run.text, end="", soft_wrap=True)

@@ -48,6 +48,40 @@ def finished_earlier(cfg: DictConfig, folder) -> bool:
     return False
 
 
+def finished_elsewhere(cfg: DictConfig, folder) -> bool:
+    """Whether the same job finished in another sweep folder beside this one (the sweeps root holds
+    ``<study>-<profile>[-<overrides>]/<job>/``): if so, its files are copied here, rows last.
+
+    ``airl sweep experiment=fig05 method=airl,mce`` after ``airl sweep experiment=fig05`` ran
+    140 jobs that had just finished in ``fig05-full``, because the folder differed. A job is the same
+    when its ``config.yaml`` is, as ``finished_earlier`` judges a resumed job (``folder.same_job``).
+    """
+    import shutil
+
+    from airl_cli.io.files import atomic_write
+
+    plain = OmegaConf.to_container(cfg, resolve=True)
+    for rows in sorted(folder.parent.parent.glob(f"*/{folder.name}/{ROWS}")):
+        other = rows.parent
+        if other == folder or not (other / "config.yaml").is_file():
+            continue
+        try:
+            before = OmegaConf.to_container(OmegaConf.create((other / "config.yaml").read_text()))
+        except Exception:  # an unreadable config.yaml: not this job  # noqa: BLE001
+            continue
+        if not (isinstance(before, dict) and same_job(before, plain)):
+            continue
+        folder.mkdir(parents=True, exist_ok=True)
+        for item in sorted(other.iterdir(), key=lambda p: p.name == ROWS):  # rows.csv last: the job's "done"
+            if item.is_file() and not item.name.startswith("."):
+                data = item.read_bytes()
+                atomic_write(folder / item.name, lambda handle, data=data: handle.write(data))
+            elif item.is_dir() and not (folder / item.name).exists():
+                shutil.copytree(item, folder / item.name)
+        return True
+    return False
+
+
 def share_cores() -> None:
     """Use at most the threads the sweep gave this job (``pool.THREADS_ENV``) in the planner's
     parallel backup: with two launcher workers on two cores, one thread each."""
@@ -63,7 +97,7 @@ def main(cfg: DictConfig) -> None:
     share_cores()
     compose_memo.install()  # this worker's next jobs compose from what this one loaded
     folder = output_dir()
-    if finished_earlier(cfg, folder):
+    if finished_earlier(cfg, folder) or finished_elsewhere(cfg, folder):
         return
     (folder / ERROR).unlink(missing_ok=True)
     from airl_cli.sweep.rows import (  # the solvers: in the job only

@@ -12,6 +12,8 @@ from pathlib import Path
 
 from omegaconf import DictConfig, OmegaConf
 
+from airl_cli.overrides import override_key, split_override  # noqa: F401 (the sweep's own use them from here)
+
 #: A job's rows for the results table; written last, so its presence means the job is done.
 ROWS = "rows.csv"
 #: A job's one-sentence error, when it stopped on bad input (its rows are then absent).
@@ -21,18 +23,6 @@ ERROR = "error.txt"
 #: ``quick_values``), the first two methods (or variants).
 QUICK_RUNS = 2
 QUICK_METHODS = 2
-
-
-def split_override(item: str) -> tuple[str, str, str]:
-    """(key, "=" or "", value) of a command-line override, the key without Hydra's leading ``+``
-    (add) or ``~`` (delete): ``+demos.n=10`` -> ("demos.n", "=", "10"), ``~seed`` -> ("seed", "", "")."""
-    key, sep, value = item.partition("=")
-    return key.lstrip("+~"), sep, value
-
-
-def override_key(item: str) -> str:
-    """The key an override sets or deletes (``split_override``'s first part)."""
-    return split_override(item)[0]
 
 
 def _sweep_values(what: str, *, _root_: DictConfig) -> str:

@@ -230,7 +230,7 @@ def _learn_airl(
             # how many strategies each player's equilibrium mixture uses (weight above 1e-8)
             "learner_support": int(np.sum(res.learner_mix > 1e-8)),
             "adversary_support": int(np.sum(res.adversary_mix > 1e-8)),
-            **_degeneracy(problem, targets, res.weights, res.objective, settings.certified.tol),
+            **_degeneracy(problem, targets, res, settings.certified.tol),
         }
         return Learned("airl", res.weights, None, res.history, info, (res.learner_policies, res.learner_mix))
     result = fit(problem, targets, rng=rng, options=settings.options, oracle=oracle, callback=callback)
@@ -272,10 +272,16 @@ def _oracle_name(settings: FitSettings) -> str:
     return "cadp" if planner.adversary == "markov" and planner.method != "exact" else planner.method
 
 
-def _degeneracy(problem: GameProblem, targets: np.ndarray, weights: np.ndarray, objective: float, tol: float) -> dict:
-    """Whether the certified w is the zero reward in all but name (``airl_cli.core.irl.degeneracy``).
-
-    ``objective`` is f at ``weights`` in the certificate's units (the loss scaled as the solve scaled it).
-    """
-    effect = reward_effect(problem.transitions[1:], problem.features, problem.initial, problem.horizon, weights, targets, discount=problem.discount)
-    return {"reward_effect": effect, "degenerate": is_degenerate(effect, objective, tol)}
+def _degeneracy(problem: GameProblem, targets: np.ndarray, res, tol: float) -> dict:
+    """Whether the certified w is the zero reward in all but name (``airl_cli.core.irl.degeneracy``):
+    the weights cannot move the payoff by more than the tolerance, or the zero reward passes the
+    certificate itself (the oracle's upper bound at w = 0 within twice the tolerance of the lower
+    bound, ``res.zero_upper``). Values in the certificate's units (the loss scaled as the solve scaled it)."""
+    effect = reward_effect(problem.transitions[1:], problem.features, problem.initial, problem.horizon, res.weights, targets, discount=problem.discount)
+    scale = max(1.0, abs(res.objective))
+    zero_gap = (res.zero_upper - res.lower) / scale
+    return {
+        "reward_effect": effect,
+        "zero_relative_gap": zero_gap,
+        "degenerate": is_degenerate(effect, res.objective, tol) or zero_gap <= 2 * tol,
+    }

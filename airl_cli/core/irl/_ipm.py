@@ -105,19 +105,29 @@ def _longest(s: np.ndarray, z: np.ndarray, ds: np.ndarray, dz: np.ndarray) -> fl
 
 
 @njit(cache=True)
-def mehrotra(C: np.ndarray, lam: float, L: np.ndarray, Phi: np.ndarray, tol: float, max_iterations: int):
-    """Returns (converged, x (N,), s (m + n,), z (m + n,), objective); see the module docstring.
+def mehrotra(C: np.ndarray, lam: float, L: np.ndarray, Phi: np.ndarray, tol: float, max_iterations: int, centre: np.ndarray, radius: float):
+    """Returns (converged, x (N,), s (m + 2b + n,), z (m + 2b + n,), objective); see the module docstring.
 
     Args: C (d,), lam > 0, L (n, m), Phi (m, d); tol, the relative accuracy of the duality gap
-    and of the constraints (stationarity: ``STATIONARITY`` tol).
+    and of the constraints (stationarity: ``STATIONARITY`` tol); centre (d,) and radius: with a
+    finite radius, w is kept in the box |w_i - centre_i| <= radius (b = d rows each side, after the
+    m adversary rows: G x + s = h with h = radius +- centre there), else b = 0.
     """
-    n, m = L.shape
+    n, m0 = L.shape
     d = C.size
     N = d + 1 + n
-    Gm = np.empty((m, N))
-    Gm[:, :d] = Phi
-    Gm[:, d] = -1.0
-    Gm[:, d + 1 :] = L.T
+    b = d if np.isfinite(radius) else 0
+    m = m0 + 2 * b
+    Gm = np.zeros((m, N))
+    Gm[:m0, :d] = Phi
+    Gm[:m0, d] = -1.0
+    Gm[:m0, d + 1 :] = L.T
+    h = np.zeros(m + n)
+    for i in range(b):
+        Gm[m0 + i, i] = 1.0
+        Gm[m0 + b + i, i] = -1.0
+        h[m0 + i] = radius + centre[i]
+        h[m0 + b + i] = radius - centre[i]
     GmT = np.ascontiguousarray(Gm.T)
     c = np.zeros(N)
     c[:d] = -C
@@ -131,14 +141,14 @@ def mehrotra(C: np.ndarray, lam: float, L: np.ndarray, Phi: np.ndarray, tol: flo
     x = np.zeros(N)
     x[:d] = C / lam
     x[d + 1 :] = 1.0 / n
-    x[d] = np.max(Gm @ x) + 1.0
-    s = np.maximum(-_G(Gm, x, d), 1.0)
+    x[d] = np.max(Gm[:m0] @ x) + 1.0 if m0 else 1.0
+    s = np.maximum(h - _G(Gm, x, d), 1.0)
     z = np.ones(m + n)
     y = 0.0
     for _ in range(max_iterations):
         rd = qdiag * x + c + _GT(GmT, z, d) + a * y  # stationarity
         rp = np.sum(x[d + 1 :]) - 1.0
-        rs = _G(Gm, x, d) + s
+        rs = _G(Gm, x, d) + s - h
         gap = s @ z
         objective = 0.5 * lam * (x[:d] @ x[:d]) - C @ x[:d] + x[d]
         if max(np.max(np.abs(rd)) / STATIONARITY, np.max(np.abs(rs))) <= tol * scale and abs(rp) <= tol and gap <= tol * (1.0 + abs(objective)):

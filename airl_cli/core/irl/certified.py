@@ -56,26 +56,20 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from airl_cli.core.irl.game import adversary_rewards, learner_best_policy
+from airl_cli.core.irl.certified_steps import Run, adversary_side, first_strategies, learner_side, polish, prune, region
+from airl_cli.core.irl.game import adversary_rewards
 from airl_cli.core.irl.game_problem import AdversaryOracle, GameProblem
 from airl_cli.core.irl.options import CertifiedOptions
 from airl_cli.core.irl.qp import TIGHT, MasterQP, MasterSolution
 from airl_cli.core.irl.strategy_sets import StrategySets
-from airl_cli.core.mdp.planning import backward_induction, state_marginals
 from airl_cli.core.numerics.threads import blas_on_one_thread
 
-#: A screening best response is added without asking the full oracle if it raises the restricted
-#: value by more than this fraction of the current gap.
-SCREEN_FRACTION = 0.1
 #: Every this many iterations, the strategies out of the optimum of the kept sets (and older than
-#: this) are dropped (``_prune``): the QP stays small. The bounds stay valid whatever the sets hold.
+#: ``certified_steps.PRUNE_AGE``) are dropped (``certified_steps.prune``): the QP stays small. The bounds stay valid whatever the sets hold.
 PRUNE_AFTER = 20
-PRUNE_AGE = 60
 #: The QP is solved to this share of the current relative gap (between ``LOOSEST`` and ``qp.TIGHT``).
 ACCURACY_SHARE = 0.5
 LOOSEST = 0.1
-#: The full oracle is asked at least once in this many iterations, even while screening succeeds.
-REFRESH_AFTER = 10
 #: The planner is skipped while the learner's improvement exceeds this fraction of the gap.
 BALANCE = 0.5
 
@@ -102,7 +96,8 @@ class CertifiedResult:
 
     Attributes:
         weights: (D, K) one row per demonstration dynamics (identical rows with sharing).
-        objective: f at the returned weights, as certified: the smallest upper bound found.
+        objective: the upper bound on f at the returned weights that certifies them: the smallest
+            found, or the kept sets' exact optimum's own when that one is within the tolerance.
         lower: the largest lower bound on min f found.
         gap: objective - lower (>= 0 up to the QP's tolerance).
         relative_gap: gap / max(1, |objective|), the quantity compared with ``tol``.
@@ -115,6 +110,8 @@ class CertifiedResult:
             action per time step and state): the game's own learner, an alternative to the
             optimal policy of the learned reward.
         qp_fallbacks: QP solves that Clarabel answered because the dense method did not converge (``core.qp``).
+        zero_upper: an upper bound on f(0), the oracle's best response at w = 0 against the final
+            mixture p: the zero reward is certified too when it is within the tolerance of ``lower``.
     """
 
     weights: np.ndarray
@@ -130,6 +127,7 @@ class CertifiedResult:
     adversary_mix: np.ndarray
     learner_policies: np.ndarray
     qp_fallbacks: int
+    zero_upper: float = float("inf")
 
 
 def check_options(options: CertifiedOptions) -> None:
@@ -189,15 +187,15 @@ def minimize(
         return np.broadcast_to(w, (D, K)).copy() if shared else w.reshape(D, K).copy()
 
     qp = MasterQP(C, lam)
-    sets = _start(StrategySets(problem, qp, shared), targets, oracle)
-    run = _Run(best_w=np.zeros(C.size))
+    run = Run(best_w=np.zeros(C.size))
+    sets = first_strategies(StrategySets(problem, qp, shared), targets, oracle, run)
     born_l, born_a = [0], [0]  # the iteration each kept strategy was added in
     rows: list[dict] = []
     stopped = "max_iterations"
     accuracy = LOOSEST
     for it in range(1, options.max_iterations + 1):
         t0 = time.perf_counter()
-        sol = qp.solve(accuracy)
+        sol = qp.solve(accuracy, region(run, lam))
         qp_seconds = time.perf_counter() - t0
         added_l, added_a = _ask_oracles(sets, sol, oracle, screen, per_dynamics, it, run)
         rows.append(_row(it, run, sol, qp, qp_seconds, start))
@@ -214,73 +212,44 @@ def minimize(
         born_l += [it] * (qp.n - len(born_l))
         born_a += [it] * (qp.m - len(born_a))
         if it % PRUNE_AFTER == 0:
-            born_l, born_a = _prune(sets, born_l, born_a, it)
-    final, polished = _polish(sets, oracle, per_dynamics, C, lam, run)
-    # the last row reports the bounds as returned (the polish is part of the last iteration)
+            born_l, born_a = prune(sets, born_l, born_a, it)
+    final, polished, final_upper, zero_upper = polish(sets, oracle, per_dynamics, C, lam, run)
+    # the last row reports the best bounds with the polish (part of the last iteration)
     rows[-1] = _row(len(rows), run, final, qp, rows[-1]["qp_seconds"] + polished, start)
     if stopped == "max_iterations" and rows[-1]["relative_gap"] <= options.tol:
         stopped = "tolerance"
-    return _result(per_dynamics(run.best_w), run, rows, stopped, final, sets)
+    certified = final_upper - run.lower <= options.tol * max(1.0, abs(final_upper))  # the sets' exact optimum, certified itself
+    answer, upper = (final.w, final_upper) if certified else (run.best_w, run.upper)
+    return _result(per_dynamics(answer), upper, run, rows, stopped, final, sets, zero_upper)
 
 
-def _ask_oracles(sets: StrategySets, sol: MasterSolution, oracle, screen, per_dynamics, it: int, run: _Run) -> tuple[bool, bool]:
+def _ask_oracles(sets: StrategySets, sol: MasterSolution, oracle, screen, per_dynamics, it: int, run: Run) -> tuple[bool, bool]:
     """The learner's oracle against q, then, unless the learner's side still accounts for most of
     the gap (``BALANCE``), the adversary's against (w, p): returns whether each added a strategy."""
     qp, problem = sets.qp, sets.problem
     w, p, q = sol.w, sol.p, sol.q
     tiny = 1e-9 * (1.0 + abs(sol.v))
-    gap_l = _learner_side(sets, q, qp.C, qp.lam, tiny, run)
+    gap_l = learner_side(sets, q, qp.C, qp.lam, tiny, run)
     added_l = gap_l > tiny
     if added_l and gap_l > BALANCE * (run.upper - run.lower):
         return True, False
     held = p @ qp.L[: p.size] + qp.Phi @ w  # (m,) each kept adversary strategy's value at (w, p)
     rewards = adversary_rewards(problem, np.tensordot(p, sets.learner_marginals[: p.size], axes=1), per_dynamics(w))
     reg = -float(w @ qp.C) + 0.5 * qp.lam * float(w @ w)
-    return added_l, _adversary_side(sets, rewards, oracle, screen, w, float(held.max()), reg, tiny, it, run)
+    return added_l, adversary_side(sets, rewards, oracle, screen, w, float(held.max()), reg, tiny, it, run)
 
 
-def _polish(sets: StrategySets, oracle: AdversaryOracle, per_dynamics, C: np.ndarray, lam: float, run: _Run) -> tuple[MasterSolution, float]:
-    """The kept sets' exact optimum (a tight solve), and the full oracle asked at its (w, p): its
-    w becomes the answer if its upper bound is no worse. The loose solves' points carry the
-    certificate, but their w is only known to within sqrt(2 gap / lambda) of the minimiser; the
-    tight optimum is the best estimate the sets give (on a degenerate game it is w = 0 itself).
-    Returns that solve and the seconds it took (QP and oracle)."""
-    t0 = time.perf_counter()
-    sol = sets.qp.solve(TIGHT)
-    problem = sets.problem
-    rewards = adversary_rewards(problem, np.tensordot(sol.p, sets.learner_marginals[: sol.p.size], axes=1), per_dynamics(sol.w))
-    value, _ = oracle(rewards)
-    run.planner_calls += 1
-    held = float(np.max(sol.p @ sets.qp.L + sets.qp.Phi @ sol.w))
-    upper = max(value, held) - float(sol.w @ C) + 0.5 * lam * float(sol.w @ sol.w)
-    if upper <= run.upper:
-        run.upper, run.best_w = upper, sol.w.copy()
-    return sol, time.perf_counter() - t0
-
-
-def _prune(sets: StrategySets, born_l: list[int], born_a: list[int], it: int) -> tuple[list[int], list[int]]:
-    """Drop the strategies out of the optimum of the kept sets (weight 0 in a tight solve) that were
-    added at least ``PRUNE_AFTER`` iterations ago. The loose solves give every strategy weight, so
-    they cannot tell; without pruning a 16 x 16 grid kept 370 learner strategies for a support
-    of 140, and the QP's cost grows with the cube. Returns the kept strategies' birth iterations."""
-    sol = sets.qp.solve(TIGHT)
-    old_l, old_a = np.array(born_l) <= it - PRUNE_AGE, np.array(born_a) <= it - PRUNE_AGE
-    keep_l = np.flatnonzero((sol.p > 0) | ~old_l)
-    keep_a = np.flatnonzero((sol.q > 0) | ~old_a)
-    if keep_l.size < len(born_l) or keep_a.size < len(born_a):
-        sets.keep(keep_l, keep_a)
-    return [born_l[i] for i in keep_l], [born_a[k] for k in keep_a]
-
-
-def _result(weights: np.ndarray, run: _Run, rows: list[dict], stopped: str, final: MasterSolution, sets: StrategySets) -> CertifiedResult:
-    """The ``CertifiedResult`` of a finished run: ``weights`` (D, K), the mixtures of the ``final`` solve."""
+def _result(weights: np.ndarray, upper: float, run: Run, rows: list[dict], stopped: str, final: MasterSolution, sets: StrategySets, zero_upper: float) -> CertifiedResult:
+    """The ``CertifiedResult`` of a finished run: ``weights`` (D, K) and the upper bound that
+    certifies them, the mixtures of the ``final`` solve."""
     p, q = final.p, final.q
+    gap = float(upper - run.lower)
     return CertifiedResult(
         weights=weights,
-        objective=float(run.upper),
+        objective=float(upper),
         lower=float(run.lower),
-        gap=float(run.upper - run.lower),
-        relative_gap=float(rows[-1]["relative_gap"]),
+        gap=gap,
+        relative_gap=gap / max(1.0, abs(upper)) if np.isfinite(gap) else float("inf"),
         converged=stopped != "max_iterations",
         stopped=stopped,
         history={c: np.array([r[c] for r in rows]) for c in HISTORY_COLUMNS},
@@ -289,77 +258,11 @@ def _result(weights: np.ndarray, run: _Run, rows: list[dict], stopped: str, fina
         adversary_mix=q,
         learner_policies=sets.learner_policies[: p.size].copy(),
         qp_fallbacks=sets.qp.fallbacks,
+        zero_upper=float(zero_upper),
     )
 
 
-def _start(sets: StrategySets, targets: np.ndarray, oracle: AdversaryOracle) -> StrategySets:
-    """The first strategies: the learner plays the optimal policy under tau of the demonstrations'
-    mean features, the adversary its best response to that at w = 0."""
-    problem = sets.problem
-    P, p0, T = problem.transitions, problem.initial, problem.horizon
-    policy, _ = backward_induction(P[0], problem.features @ targets.mean(axis=0), horizon=T)
-    sets.add_learner(policy, state_marginals(P[0], policy, p0))
-    sets.add_adversary(oracle(adversary_rewards(problem, sets.learner_marginals[0], np.zeros(targets.shape)))[1])
-    return sets
-
-
-@dataclass
-class _Run:
-    """The bounds and counters of one ``minimize`` run (the best upper bound's w with it)."""
-
-    best_w: np.ndarray
-    upper: float = np.inf
-    lower: float = -np.inf
-    planner_calls: int = 1  # the start's
-    screen_calls: int = 0
-    last_full: int = 0  # the iteration of the last full oracle call
-
-
-def _learner_side(sets: StrategySets, q: np.ndarray, C: np.ndarray, lam: float, tiny: float, run: _Run) -> float:
-    """The learner's best response against q: raises ``run.lower`` and, if it beats every known
-    learner strategy by more than ``tiny``, adds it as a column. Returns that improvement."""
-    problem = sets.problem
-    T, S = problem.horizon, problem.transitions.shape[1]
-    q_tau = q @ sets.adversary_tau
-    br_policy = learner_best_policy(problem, q_tau.reshape(T, S))
-    br = state_marginals(problem.transitions[0], br_policy, problem.initial)
-    br_loss = float(problem.loss_times(br).reshape(-1) @ q_tau)
-    g = q @ sets.qp.Phi - C
-    run.lower = max(run.lower, br_loss - float(g @ g) / (2.0 * lam))
-    gap_l = float(np.min(sets.learner_loss @ q_tau)) - br_loss
-    if gap_l > tiny:
-        sets.add_learner(br_policy, br)
-    return gap_l
-
-
-def _adversary_side(sets: StrategySets, rewards, oracle, screen, w, v: float, reg: float, tiny: float, it: int, run: _Run) -> bool:
-    """The adversary's best response against (w, p), ``rewards`` (M, T, S): the screen first (its
-    strategy is added if it beats v, the best kept strategy's value at (w, p); if by more than
-    ``SCREEN_FRACTION`` of the gap, the full oracle is not asked), else the full oracle: the better
-    of its value and v, plus ``reg``, bounds f(w) from above. Returns whether a row was added."""
-    added = weak = False
-    stale = it - run.last_full >= REFRESH_AFTER  # the upper bound is from an old w: refresh it
-    if screen is not None and np.isfinite(run.upper) and not stale:
-        value_s, marg_s = screen(rewards)
-        run.screen_calls += 1
-        if value_s - v > SCREEN_FRACTION * (run.upper - run.lower):
-            sets.add_adversary(marg_s)
-            return True
-        if value_s - v > tiny:  # too weak to skip the full oracle, but a violated row all the same
-            sets.add_adversary(marg_s)
-            weak = True
-    value, marg = oracle(rewards)
-    run.planner_calls += 1
-    run.last_full = it
-    if max(value, v) + reg < run.upper:
-        run.upper, run.best_w = max(value, v) + reg, w.copy()
-    added = value - v > tiny
-    if added and not (weak and np.array_equal(marg, marg_s)):
-        sets.add_adversary(marg)
-    return added
-
-
-def _row(it: int, run: _Run, sol: MasterSolution, qp: MasterQP, qp_seconds: float, start: float) -> dict:
+def _row(it: int, run: Run, sol: MasterSolution, qp: MasterQP, qp_seconds: float, start: float) -> dict:
     """One row of the history (``HISTORY_COLUMNS``)."""
     gap = run.upper - run.lower
     return dict(

@@ -103,10 +103,14 @@ class MasterQP:
         self._L.keep(learner, adversary)
         self._Phi.keep(adversary)
 
-    def solve(self, accuracy: float = TIGHT) -> MasterSolution:
-        """The QP solved to relative ``accuracy`` (>= ``TIGHT``) by ``solve_dense``, by Clarabel if that fails."""
+    def solve(self, accuracy: float = TIGHT, box: tuple[np.ndarray, float] | None = None) -> MasterSolution:
+        """The QP solved to relative ``accuracy`` (>= ``TIGHT``) by ``solve_dense``, by Clarabel if that fails.
+
+        ``box`` (centre (d,), radius) keeps w within radius of centre in every coordinate (the
+        certified learner's region that must hold the minimiser); the tight solve and Clarabel ignore it.
+        """
         accuracy = max(float(accuracy), TIGHT)
-        answer = solve_dense(self.C, self.lam, self.L, self.Phi, tol=accuracy, centred=accuracy > TIGHT)
+        answer = solve_dense(self.C, self.lam, self.L, self.Phi, tol=accuracy, centred=accuracy > TIGHT, box=box if accuracy > TIGHT else None)
         if answer is None:
             self.fallbacks += 1
             answer, accuracy = solve_clarabel(self.C, self.lam, self.L, self.Phi), TIGHT
@@ -190,7 +194,15 @@ def solve_clarabel(C: np.ndarray, lam: float, L: np.ndarray, Phi: np.ndarray) ->
 
 
 def solve_dense(
-    C: np.ndarray, lam: float, L: np.ndarray, Phi: np.ndarray, *, tol: float = TIGHT, max_iterations: int = 60, centred: bool = False
+    C: np.ndarray,
+    lam: float,
+    L: np.ndarray,
+    Phi: np.ndarray,
+    *,
+    tol: float = TIGHT,
+    max_iterations: int = 60,
+    centred: bool = False,
+    box: tuple[np.ndarray, float] | None = None,
 ) -> tuple[np.ndarray, float, np.ndarray, np.ndarray, float] | None:
     """The restricted QP from scratch by the dense interior-point method of the module docstring.
 
@@ -198,6 +210,7 @@ def solve_dense(
     of the constraints (the stationarity residual is held to ``core._ipm.STATIONARITY`` tol).
     centred: return the interior point's weights as they are (every one positive) instead of
     zeroing those below their complementary slack or dual.
+    box: (centre (d,), radius) keeps w in |w_i - centre_i| <= radius; None leaves it free.
     Returns w (d,), v, p (n,), q (m,) and the objective, or None if it did not converge within
     ``max_iterations`` steps.
     """
@@ -205,9 +218,11 @@ def solve_dense(
 
     C, L, Phi = (np.ascontiguousarray(x, dtype=np.float64) for x in (C, L, Phi))
     m = L.shape[1]
+    centre, radius = (np.zeros(C.size), np.inf) if box is None else (np.ascontiguousarray(box[0], dtype=np.float64), float(box[1]))
+    rows = m + (2 * C.size if np.isfinite(radius) else 0)  # the adversary's rows, then the box's
     with one_blas_thread():
         try:
-            converged, x, s, z, objective = mehrotra(C, float(lam), L, Phi, float(tol), int(max_iterations))
+            converged, x, s, z, objective = mehrotra(C, float(lam), L, Phi, float(tol), int(max_iterations), centre, radius)
         except np.linalg.LinAlgError:  # a factorisation that lost definiteness
             return None
     if not converged:
@@ -217,6 +232,6 @@ def solve_dense(
     # gap / dual); a pair whose primal side is the smaller one is taken as zero
     p, q = x[d + 1 :].copy(), z[:m].copy()
     if not centred:
-        p[p < z[m:]] = 0.0
+        p[p < z[rows:]] = 0.0
         q[q < s[:m]] = 0.0
     return x[:d].copy(), float(x[d]), _simplex(p), _simplex(q), float(objective)

@@ -106,6 +106,14 @@ def forward_step(PR, nxt, cnt, mu, node_state, node_action, node_succ, n_next): 
     M = PR.shape[3]
     out = np.zeros((M, n_next))
     for k in range(node_state.size):
+        # most nodes are plans for beliefs the policy never reaches: skip those without mass
+        reached = False
+        for j in range(M):
+            if mu[j, k] != 0.0:
+                reached = True
+                break
+        if not reached:
+            continue
         s = node_state[k]
         a = node_action[k]
         for r in range(cnt[s]):

@@ -135,7 +135,9 @@ def _fit(tmp_path, *overrides):
 def test_a_fit_whose_optimum_degenerates_says_so(tmp_path):
     """A random MDP with S = 50: the certified w is ~1e-4, and zero passes the certificate too."""
     result, metrics, summary = _fit(tmp_path, "mdp.n_states=50", "mdp.horizon=5", "seed=3")
-    assert metrics["degenerate"] is True and metrics["reward_effect"] <= 1e-4 * max(1.0, abs(metrics["objective"]))
+    # either criterion: the weights move the payoff by less than the tolerance, or w = 0 passes the certificate itself
+    assert metrics["degenerate"] is True
+    assert metrics["reward_effect"] <= 1e-4 * max(1.0, abs(metrics["objective"])) or metrics["zero_relative_gap"] <= 2e-4
     assert "indistinguishable from zero" in summary and "indistinguishable from zero" in result.stderr
     # the game's own learner is scored beside the reward's optimal policy
     assert all(0.0 <= row["equilibrium_score"] <= 1.0 for row in metrics["dynamics"])

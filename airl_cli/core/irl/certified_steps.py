@@ -1,0 +1,154 @@
+"""The steps of the certified learner's loop (``airl_cli.core.irl.certified.minimize``).
+
+Its state (``Run``: the bounds, the best upper bound's w, the oracle calls), the first strategies,
+each oracle's side (the learner's best response against q, which raises the lower bound; the
+adversary's against (w, p), which lowers the upper bound), the region that must hold the minimiser,
+pruning, and the final polish at the kept sets' exact optimum. Shapes as in ``certified``: w (d,),
+p (n,), q (m,), rewards (M, T, S).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from airl_cli.core.irl.game import adversary_rewards, learner_best_policy
+from airl_cli.core.irl.game_problem import AdversaryOracle
+from airl_cli.core.irl.qp import TIGHT, MasterSolution
+from airl_cli.core.irl.strategy_sets import StrategySets
+from airl_cli.core.mdp.planning import backward_induction, state_marginals
+
+#: A screening best response is added without asking the full oracle if it raises the restricted
+#: value by more than this fraction of the current gap.
+SCREEN_FRACTION = 0.1
+#: The full oracle is asked at least once in this many iterations, even while screening succeeds.
+REFRESH_AFTER = 10
+PRUNE_AGE = 60
+#: The loose solves keep w within this many times the radius that must hold the minimiser (``_region``).
+REGION_SAFETY = 2.0
+#: ... while the relative gap is above this: later, PBVI's upper bounds, which can be a little low,
+#: would make the region too small to hold the minimiser of the problem as PBVI sees it.
+REGION_UNTIL = 1e-3
+
+
+@dataclass
+class Run:
+    """The bounds and counters of one ``minimize`` run (the best upper bound's w with it)."""
+
+    best_w: np.ndarray
+    upper: float = np.inf
+    lower: float = -np.inf
+    planner_calls: int = 1  # the start's
+    screen_calls: int = 0
+    last_full: int = 0  # the iteration of the last full oracle call
+
+
+def first_strategies(sets: StrategySets, targets: np.ndarray, oracle: AdversaryOracle, run: Run) -> StrategySets:
+    """The first strategies: the learner plays the optimal policy under tau of the demonstrations'
+    mean features, the adversary its best response to that at w = 0 (the first upper bound, at w = 0)."""
+    problem = sets.problem
+    P, p0, T = problem.transitions, problem.initial, problem.horizon
+    policy, _ = backward_induction(P[0], problem.features @ targets.mean(axis=0), horizon=T)
+    sets.add_learner(policy, state_marginals(P[0], policy, p0))
+    value, marginals = oracle(adversary_rewards(problem, sets.learner_marginals[0], np.zeros(targets.shape)))
+    sets.add_adversary(marginals)
+    run.upper = value  # f(0) <= the adversary's best value against this learner at w = 0
+    return sets
+
+
+def learner_side(sets: StrategySets, q: np.ndarray, C: np.ndarray, lam: float, tiny: float, run: Run) -> float:
+    """The learner's best response against q: raises ``run.lower`` and, if it beats every known
+    learner strategy by more than ``tiny``, adds it as a column. Returns that improvement."""
+    problem = sets.problem
+    T, S = problem.horizon, problem.transitions.shape[1]
+    q_tau = q @ sets.adversary_tau
+    br_policy = learner_best_policy(problem, q_tau.reshape(T, S))
+    br = state_marginals(problem.transitions[0], br_policy, problem.initial)
+    br_loss = float(problem.loss_times(br).reshape(-1) @ q_tau)
+    g = q @ sets.qp.Phi - C
+    run.lower = max(run.lower, br_loss - float(g @ g) / (2.0 * lam))
+    gap_l = float(np.min(sets.learner_loss @ q_tau)) - br_loss
+    if gap_l > tiny:
+        sets.add_learner(br_policy, br)
+    return gap_l
+
+
+def adversary_side(sets: StrategySets, rewards, oracle, screen, w, v: float, reg: float, tiny: float, it: int, run: Run) -> bool:
+    """The adversary's best response against (w, p), ``rewards`` (M, T, S): the screen first (its
+    strategy is added if it beats v, the best kept strategy's value at (w, p); if by more than
+    ``SCREEN_FRACTION`` of the gap, the full oracle is not asked), else the full oracle: the better
+    of its value and v, plus ``reg``, bounds f(w) from above. Returns whether a row was added."""
+    added = weak = False
+    stale = it - run.last_full >= REFRESH_AFTER  # the upper bound is from an old w: refresh it
+    if screen is not None and np.isfinite(run.upper) and not stale:
+        value_s, marg_s = screen(rewards)
+        run.screen_calls += 1
+        if value_s - v > SCREEN_FRACTION * (run.upper - run.lower):
+            sets.add_adversary(marg_s)
+            return True
+        if value_s - v > tiny:  # too weak to skip the full oracle, but a violated row all the same
+            sets.add_adversary(marg_s)
+            weak = True
+    value, marg = oracle(rewards)
+    run.planner_calls += 1
+    run.last_full = it
+    if max(value, v) + reg < run.upper:
+        run.upper, run.best_w = max(value, v) + reg, w.copy()
+    added = value - v > tiny
+    if added and not (weak and np.array_equal(marg, marg_s)):
+        sets.add_adversary(marg)
+    return added
+
+
+def region(run: Run, lam: float) -> tuple[np.ndarray, float] | None:
+    """A box that holds the minimiser w* (centre (d,), half-width), or None before both bounds exist.
+
+    f is lambda-strongly convex, so lambda/2 |w* - w|^2 <= f(w) - f* <= upper - lower at the best
+    upper bound's w: w* lies within sqrt(2 (upper - lower) / lambda) of it. The loose solves keep
+    their w in that box (times ``REGION_SAFETY``, as PBVI's upper bound can be low), so the first
+    iterations, whose few strategies put the QP's unconstrained w far out, do not spend planner
+    calls there (35 -> 28 iterations at S = 200). Any w is a valid point for the bounds. None once
+    the relative gap is below ``REGION_UNTIL``.
+    """
+    gap = run.upper - run.lower
+    if not np.isfinite(gap) or gap <= REGION_UNTIL * max(1.0, abs(run.upper)):
+        return None
+    return run.best_w, REGION_SAFETY * float(np.sqrt(2.0 * gap / lam))
+
+
+def prune(sets: StrategySets, born_l: list[int], born_a: list[int], it: int) -> tuple[list[int], list[int]]:
+    """Drop the strategies out of the optimum of the kept sets (weight 0 in a tight solve) that were
+    added at least ``PRUNE_AFTER`` iterations ago. The loose solves give every strategy weight, so
+    they cannot tell; without pruning a 16 x 16 grid kept 370 learner strategies for a support
+    of 140, and the QP's cost grows with the cube. Returns the kept strategies' birth iterations."""
+    sol = sets.qp.solve(TIGHT)
+    old_l, old_a = np.array(born_l) <= it - PRUNE_AGE, np.array(born_a) <= it - PRUNE_AGE
+    keep_l = np.flatnonzero((sol.p > 0) | ~old_l)
+    keep_a = np.flatnonzero((sol.q > 0) | ~old_a)
+    if keep_l.size < len(born_l) or keep_a.size < len(born_a):
+        sets.keep(keep_l, keep_a)
+    return [born_l[i] for i in keep_l], [born_a[k] for k in keep_a]
+
+
+def polish(sets: StrategySets, oracle: AdversaryOracle, per_dynamics, C: np.ndarray, lam: float, run: Run) -> tuple[MasterSolution, float, float, float]:
+    """The kept sets' exact optimum (a tight solve), and the full oracle asked at its (w, p) and at
+    (0, p). Its w is the answer when its own upper bound certifies it (``minimize``): the loose
+    solves' points carry the certificate too, but where they land in the region the gap allows (w
+    within sqrt(2 gap / lambda) of the minimiser) depends on the path; the tight optimum is the
+    sets' own estimate. The bound at w = 0 tells whether the zero reward passes the certificate
+    too (a degenerate optimum, ``core.degeneracy``). Returns that solve, the seconds it took (QP
+    and oracle), its upper bound and the upper bound on f(0)."""
+    t0 = time.perf_counter()
+    sol = sets.qp.solve(TIGHT)
+    learner = np.tensordot(sol.p, sets.learner_marginals[: sol.p.size], axes=1)
+    bounds = []
+    for w in (sol.w, np.zeros_like(sol.w)):
+        value, _ = oracle(adversary_rewards(sets.problem, learner, per_dynamics(w)))
+        run.planner_calls += 1
+        held = float(np.max(sol.p @ sets.qp.L + sets.qp.Phi @ w))
+        bounds.append(max(value, held) - float(w @ C) + 0.5 * lam * float(w @ w))
+    if bounds[0] <= run.upper:
+        run.upper, run.best_w = bounds[0], sol.w.copy()
+    return sol, time.perf_counter() - t0, bounds[0], bounds[1]
