@@ -3,6 +3,7 @@
     from airl_cli import api
 
     ds = api.load_dataset("results/generate/2026-01-01_12-00-00/dataset.npz")   # or api.make_dataset("mdp=grid")
+    ds = api.dataset_from_env(my_env, my_env_windy)           # or from environment objects with a table
     learned = api.fit(ds, "method=mce")                      # any method; overrides as on the command line
     api.score(ds, learned)                                    # a DataFrame, one row per dynamics
     table = api.read_sweep("results/sweeps/fig05-quick")      # results.csv, with experiment.json as .attrs
@@ -31,7 +32,7 @@ from airl_cli.usecases.evaluate import score_learned
 from airl_cli.usecases.fit import Learned, learn
 from airl_cli.usecases.problem import build_dataset, learner_rng, with_loss
 
-__all__ = ["config", "load_dataset", "save_dataset", "make_dataset", "fit", "score", "read_sweep", "Dataset", "Learned"]
+__all__ = ["config", "load_dataset", "save_dataset", "make_dataset", "dataset_from_env", "fit", "score", "read_sweep", "Dataset", "Learned"]
 
 
 def config(*overrides: str) -> DictConfig:
@@ -55,6 +56,33 @@ def make_dataset(*overrides: str) -> Dataset:
     """Build the problem and demonstrations the overrides describe, as ``airl generate`` does."""
     dataset, _ = build_dataset(problem_settings(config(*overrides)))
     return dataset
+
+
+def dataset_from_env(env, *demo_envs, horizon: int = 20, n_demos: int = 100, seed: int = 0, discount: float = 1.0) -> Dataset:
+    """A dataset from environment objects with a transition table (gymnasium's toy-text ``env.P``,
+    seals' ``transition_matrix``; ``airl_cli.own_envs``): your own environment, or one built with
+    your own parameters.
+
+    Args:
+        env: tau, the dynamics the expert is optimal for (thesis §4.1); its reward of a state is w*
+            over one-hot state features (K = S), its terminal states absorbing.
+        demo_envs: the dynamics tau_1..tau_D the expert is demonstrated in (the same states and
+            actions); none: tau itself.
+        horizon: T, states per trajectory; n_demos: N per dynamics, sampled with ``seed``;
+        discount: gamma in (0, 1].
+
+    Raises:
+        ConfigError: an environment without a usable table (one sentence).
+    """
+    from airl_cli.config import DemoSettings
+    from airl_cli.core.mdp.problems import zero_one_loss
+    from airl_cli.own_envs import problem_of
+    from airl_cli.usecases.problem import Problem, demonstrated
+
+    made = problem_of([env, *(demo_envs or (env,))])
+    S = made.initial.size
+    problem = Problem(made.transitions, made.features, made.initial, int(horizon), made.true_weights, zero_one_loss(S), discount=float(discount))
+    return demonstrated(problem, DemoSettings("sampled", int(n_demos)), int(seed))[0]
 
 
 def fit(dataset: Dataset, *overrides: str, callback=None, planner_progress=None) -> Learned:

@@ -16,7 +16,7 @@ from omegaconf import DictConfig
 
 from airl_cli.config_reader import Cell, Reader, plain
 from airl_cli.core.irl.options import SCHEDULES, CertifiedOptions, FitOptions, PlannerOptions
-from airl_cli.envs import DEFAULT_VALUES, EnvMDPSettings, env_settings, env_value
+from airl_cli.envs import DEFAULT_VALUES, EnvMDPSettings, check_env_dynamics, env_settings, env_value, is_env_id
 from airl_cli.errors import ConfigError
 from airl_cli.methods import NAMES, REGISTRY
 
@@ -186,18 +186,17 @@ def _dynamics(node: Any, mdp: MDPSettings) -> DynamicsSettings:
     kind = r.choice("kind", ("gaussian", "same", "grid_layouts", "slip", "env_values"))
     name = str(r.raw("name", kind))
     if kind == "env_values":
-        if not isinstance(mdp, EnvMDPSettings):
-            raise ConfigError(f"'dynamics={name}' sets a parameter of a gymnasium or seals environment; use it with mdp=gymnasium or mdp=seals")
+        if not isinstance(mdp, EnvMDPSettings) or is_env_id(mdp.env):  # an environment by id: no parameter known
+            raise ConfigError(f"'dynamics={name}' sets a parameter of a gymnasium or seals environment airl names; use it with mdp=gymnasium or mdp=seals")
         values = r.raw("values", DEFAULT_VALUES[mdp.env])
         if not isinstance(values, (list, tuple)) or not values:
             raise ConfigError(f"'dynamics.values' must be a non-empty list of {mdp.env}'s parameter values, got {values!r}")
         return DynamicsSettings(name, kind, len(values), values=tuple(env_value(r, "values", mdp.env, v) for v in values))
-    if isinstance(mdp, EnvMDPSettings) and kind != "same":
-        raise ConfigError(f"'dynamics={name}' does not apply to mdp={mdp.name}; use dynamics=env_values (one dynamics per value of {mdp.env}'s parameter) or dynamics=same")
+    by_id = isinstance(mdp, EnvMDPSettings) and check_env_dynamics(mdp, kind, name)
+    if kind == "gaussian" and mdp.name != "random" and not by_id:
+        instead = "dynamics=same or dynamics=slip" if mdp.name == "objectworld" else "dynamics=same"
+        raise ConfigError(f"'dynamics={name}' perturbs a random MDP; use it with mdp=random (or use {instead})")
     if kind == "gaussian":
-        if mdp.name != "random":
-            instead = "dynamics=same or dynamics=slip" if mdp.name == "objectworld" else "dynamics=same"
-            raise ConfigError(f"'dynamics={name}' perturbs a random MDP; use it with mdp=random (or use {instead})")
         states = None if r.raw("sigma_states", None) is None else r.int("sigma_states", lo=1)
         return DynamicsSettings(name, kind, r.int("n_dynamics", lo=1), sigma=r.float("sigma", lo=0.0), sigma_states=states)
     if kind == "same":

@@ -23,6 +23,7 @@ import numpy as np
 from airl_cli.config_reader import Reader
 from airl_cli.core.mdp import tabular
 from airl_cli.errors import ConfigError
+from airl_cli.problem_defaults import is_env_id
 
 #: The environments of each package.
 ENVS = {"gymnasium": ("FrozenLake", "CliffWalking", "Taxi"), "seals": ("CliffWorld",)}
@@ -100,8 +101,24 @@ def env_value(r: Reader, key: str, env: str, value: Any) -> bool | float:
     return value if isinstance(value, bool) else float(value)
 
 
+def check_env_dynamics(mdp: EnvMDPSettings, kind: str, name: str) -> bool:
+    """Refuse (ConfigError) a dynamics an environment cannot take: a named one takes
+    ``dynamics=env_values`` (its parameter) or ``same``; one by id ``gaussian`` (perturbations of
+    its table) or ``same``. Returns whether the environment is one by id."""
+    by_id = is_env_id(mdp.env)
+    if kind not in (("same", "gaussian") if by_id else ("same", "env_values")):
+        use = "dynamics=gaussian (perturbations of its table)" if by_id else f"dynamics=env_values (one dynamics per value of {mdp.env}'s parameter)"
+        raise ConfigError(f"'dynamics={name}' does not apply to mdp={mdp.name} mdp.env={mdp.env}; use {use} or dynamics=same")
+    return by_id
+
+
 def env_settings(r: Reader, package: str) -> EnvMDPSettings:
     """The settings of ``mdp=gymnasium`` or ``mdp=seals``, read and checked (one sentence, ConfigError)."""
+    if package == "gymnasium" and is_env_id(r.raw("env")):  # any environment with a table, by its id
+        if r.raw("value", None) is not None:
+            raise ConfigError(f"'mdp.value' sets a parameter of {', '.join(ENVS['gymnasium'])}; an environment by id is made with its own defaults (mdp.value=null)")
+        r.choice("features", ("tile", "state"))  # checked; an environment by id has one feature per state whatever it says
+        return EnvMDPSettings(name=package, env=str(r.raw("env")), value=False, features="state", horizon=r.int("horizon", lo=2))
     env = r.choice("env", ENVS[package])
     kwargs: dict = {}
     if env == "FrozenLake":
@@ -283,7 +300,8 @@ def env_problem(package: str, env: str, values: tuple[bool | float, ...], *, fea
 
 
 def env_sizes(package: str, env: str, *, map_name: str = "4x4", width: int = 15, height: int = 6) -> tuple[int, int]:
-    """S and A of an environment, known without importing its package (for the memory check)."""
+    """S and A of a named environment, known without importing its package (for the memory check;
+    an environment by id: ``own_envs.env_sizes``)."""
     if package == "seals":
         return width * height, 4
     return {"FrozenLake": (64 if map_name == "8x8" else 16, 4), "CliffWalking": (48, 4), "Taxi": (500, 6)}[env]

@@ -16,6 +16,13 @@ from airl_cli.paths import conf_dir
 from airl_cli.overrides import split_override
 
 
+def is_env_id(name: object) -> bool:
+    """Whether ``mdp.env`` names an environment by its registered id (``FrozenLake-v1``,
+    ``seals/CliffWorld-v0``, your own ``MyGrid-v0``; ``airl_cli.own_envs``) rather than one of
+    ``airl_cli.envs.ENVS``: such an environment takes ``dynamics=gaussian`` by default."""
+    return isinstance(name, str) and ("-v" in name or "/" in name)
+
+
 def default_dynamics() -> dict[str, str]:
     """Problem (mdp option) -> its dynamics option."""
     return dict(yaml.safe_load((Path(conf_dir()) / "mdp" / "_dynamics.yaml").read_text()) or {})
@@ -34,4 +41,6 @@ def with_problem_defaults(overrides: list[str]) -> list[str]:
     if mdp is None or "dynamics" in chosen or "experiment" in chosen or "data" in chosen or "," in mdp:
         return list(overrides)
     dynamics = default_dynamics().get(mdp)
+    if mdp == "gymnasium" and is_env_id(chosen.get("mdp.env")):
+        dynamics = "gaussian"  # an environment by id has no parameter airl knows (airl_cli.own_envs)
     return list(overrides) if dynamics is None else [*overrides, f"dynamics={dynamics}"]

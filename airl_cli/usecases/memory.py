@@ -43,9 +43,11 @@ def problem_sizes(problem: ProblemSettings) -> dict:
     if mdp.name == "random":
         S, A = mdp.n_states, mdp.n_actions
     elif mdp.name in ("gymnasium", "seals"):
-        from airl_cli.envs import env_sizes
+        from airl_cli.envs import env_sizes, is_env_id
+        from airl_cli.own_envs import env_sizes as id_sizes
 
-        S, A = env_sizes(mdp.name, mdp.env, map_name=mdp.map_name, width=mdp.width, height=mdp.height)
+        by_id = is_env_id(mdp.env)
+        S, A = id_sizes(mdp.env) if by_id else env_sizes(mdp.name, mdp.env, map_name=mdp.map_name, width=mdp.width, height=mdp.height)
     else:  # the grid world and the objectworld: size x size cells
         from airl_cli.core.mdp.objectworld import OBJECTWORLD_ACTIONS
         from airl_cli.core.mdp.problems import GRID_ACTIONS

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from airl_cli import envs
-from airl_cli.config import EnvMDPSettings, GridMDPSettings, MDPSettings, ObjectworldSettings, ProblemSettings
+from airl_cli.config import DemoSettings, EnvMDPSettings, GridMDPSettings, MDPSettings, ObjectworldSettings, ProblemSettings
 from airl_cli.core.mdp import demos as core_demos
 from airl_cli.core.mdp import objectworld, problems
 from airl_cli.core.mdp.basics import discounted
@@ -152,6 +152,8 @@ def env_problem(settings: ProblemSettings) -> Problem:
     ``dynamics.values`` (or D copies of tau under ``dynamics=same``); no randomness."""
     mdp, dyn = settings.mdp, settings.dynamics
     assert isinstance(mdp, EnvMDPSettings)
+    if envs.is_env_id(mdp.env):
+        return _env_by_id(settings)
     values = dyn.values if dyn.kind == "env_values" else (mdp.value,) * dyn.n_dynamics
     sizes = dict(map_name=mdp.map_name) if mdp.env == "FrozenLake" else {}
     if mdp.name == "seals":
@@ -164,6 +166,26 @@ def env_problem(settings: ProblemSettings) -> Problem:
     return Problem(env.transitions, env.features, env.initial, mdp.horizon, env.true_weights, loss, discount=settings.discount)
 
 
+def _env_by_id(settings: ProblemSettings) -> Problem:
+    """An environment by its gymnasium id (``airl_cli.own_envs``): tau its own table, tau_j copies
+    of it (``dynamics=same``) or Gaussian perturbations of its rows (``dynamics=gaussian``, eq. 7.3,
+    from the "dynamics" stream), terminal states kept absorbing."""
+    from airl_cli import own_envs
+    from airl_cli.core.mdp import tabular
+
+    mdp, dyn = settings.mdp, settings.dynamics
+    env = own_envs.problem_of([own_envs.make_by_id(mdp.env)])
+    tau = env.transitions[0]
+    if dyn.kind == "gaussian":
+        sigma = problems.noise(dyn.sigma, dyn.sigma_states, tau.shape[0])
+        others = problems.gaussian_perturbations(streams(settings.seed)["dynamics"], tau, sigma=sigma, n_dynamics=dyn.n_dynamics)
+        others = np.stack([tabular.absorbing(P, env.terminal) for P in others])
+    else:
+        others = np.broadcast_to(tau, (dyn.n_dynamics,) + tau.shape)
+    loss = loss_matrix(resolved_loss(settings), env.features)
+    return Problem(np.concatenate([tau[None], others]), env.features, env.initial, mdp.horizon, env.true_weights, loss, discount=settings.discount)
+
+
 def expert_policy(problem: Problem) -> np.ndarray:
     """The demonstrator: the optimal policy (T-1, S) of w* . phi (discounted) under tau (thesis §4.1)."""
     R = discounted(problem.features @ problem.true_weights, problem.horizon, problem.discount)
@@ -173,14 +195,19 @@ def expert_policy(problem: Problem) -> np.ndarray:
 
 def build_dataset(settings: ProblemSettings) -> tuple[Dataset, np.ndarray]:
     """The dataset file's contents for ``settings``, and the expert's policy (T-1, S)."""
-    problem = build_problem(settings)
+    return demonstrated(build_problem(settings), settings.demos, settings.seed)
+
+
+def demonstrated(problem: Problem, demos: DemoSettings, seed: int) -> tuple[Dataset, np.ndarray]:
+    """``problem`` with its demonstrations (``demos``; sampled from the "demos" stream of ``seed``)
+    as a dataset, and the expert's policy (T-1, S): optimal under tau, acted out in each tau_j."""
     policy = expert_policy(problem)
     P, p0, phi = problem.transitions, problem.initial, problem.features
     fields: dict = {}
-    if settings.demos.kind == "sampled":
-        states, actions = core_demos.sample_trajectories(streams(settings.seed)["demos"], P[1:], policy, p0, settings.demos.n)
+    if demos.kind == "sampled":
+        states, actions = core_demos.sample_trajectories(streams(seed)["demos"], P[1:], policy, p0, demos.n)
         fields = dict(demo_states=states, demo_actions=actions)
-    elif settings.demos.kind == "exact":
+    elif demos.kind == "exact":
         fields = dict(feature_expectations=core_demos.expected_feature_sums(P[1:], policy, p0, phi, discount=problem.discount))
     else:
         states, actions = core_demos.most_likely_trajectory(P[0], policy, p0)

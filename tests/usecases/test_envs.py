@@ -279,3 +279,98 @@ def test_generate_and_fit_on_frozenlake_and_cliffworld(tmp_path, monkeypatch):
     assert result.exit_code == 0, result.output
     rows = json.loads((out / "metrics.json").read_text())["dynamics"]
     assert [r["dynamics"] for r in rows] == ["tau", "tau_1", "tau_2", "tau_3"]
+
+
+# --------------------------------------------------------------------------- any environment with a table (issue 33)
+
+
+def _chain_class():
+    """A toy-text environment of one's own (a gymnasium.Env, as gymnasium.make requires): 4 states
+    in a row, stay or move right (slipping back with probability ``slip``); the last pays 1."""
+    import gymnasium
+
+    class Chain(gymnasium.Env):
+        def __init__(self, slip: float = 0.0):
+            self.observation_space, self.action_space = gymnasium.spaces.Discrete(4), gymnasium.spaces.Discrete(2)
+            self.initial_state_distrib = np.array([1.0, 0.0, 0.0, 0.0])
+            right = [min(s + 1, 3) for s in range(4)]
+            self.P = {
+                s: {0: [(1.0, s, float(s == 3), False)], 1: [(1.0 - slip, right[s], float(right[s] == 3), False), (slip, s, float(s == 3), False)]}
+                for s in range(4)
+            }
+
+    return Chain
+
+
+def test_an_environment_by_id_is_its_own_table():
+    pytest.importorskip("gymnasium")
+    from airl_cli import api
+
+    by_id = api.make_dataset("mdp=gymnasium", "mdp.env=FrozenLake-v1", "dynamics=same")
+    named = api.make_dataset("mdp=gymnasium", "dynamics=same")  # FrozenLake with gymnasium's default success_rate 1/3
+    assert np.allclose(np.asarray(by_id.transitions), np.asarray(named.transitions))
+    assert by_id.features.shape == (16, 16) and by_id.true_weights[15] == 1.0 and by_id.true_weights[:15].sum() == 0.0
+    perturbed = api.make_dataset("mdp=gymnasium", "mdp.env=FrozenLake-v1")  # an id takes dynamics=gaussian by default
+    P = np.asarray(perturbed.transitions)
+    assert not np.allclose(P[1], P[0]) and np.allclose(P.sum(axis=-1), 1.0)
+
+
+def test_your_own_registered_environment_runs_by_its_id(tmp_path, monkeypatch):
+    gymnasium = pytest.importorskip("gymnasium")
+    if "AirlTestChain-v0" not in gymnasium.registry:
+        gymnasium.register("AirlTestChain-v0", entry_point=_chain_class())
+    monkeypatch.chdir(tmp_path)
+    result = runner.invoke(app, ["fit", "mdp=gymnasium", "mdp.env=AirlTestChain-v0", "mdp.horizon=5", "method=mce", f"hydra.run.dir={tmp_path / 'r'}"])
+    assert result.exit_code == 0, result.output
+    assert "S=4, A=2" in result.output
+
+
+def test_environment_objects_become_a_dataset():
+    pytest.importorskip("gymnasium")
+    from airl_cli import api
+
+    Chain = _chain_class()
+    ds = api.dataset_from_env(Chain(), Chain(slip=0.5), horizon=6, n_demos=30, seed=1)
+    assert np.asarray(ds.transitions).shape == (2, 4, 2, 4) and ds.demo_states.shape == (1, 30, 6)
+    assert ds.true_weights.tolist() == [0.0, 0.0, 0.0, 1.0]
+    assert np.allclose(np.asarray(ds.transitions)[1, 0, 1], [0.5, 0.5, 0.0, 0.0])
+    learned = api.fit(ds, "method=mce")
+    assert learned.weights[0][3] == max(learned.weights[0])  # the paying state is the one rewarded most
+
+
+def test_an_environment_without_a_table_or_id_is_one_sentence(tmp_path, monkeypatch):
+    pytest.importorskip("gymnasium")
+    from airl_cli import api
+
+    with pytest.raises(ConfigError, match="exposes no transition table"):
+        api.dataset_from_env(object())
+    monkeypatch.chdir(tmp_path)
+    result = runner.invoke(app, ["fit", "mdp=gymnasium", "mdp.env=NoSuchEnv-v0"])
+    assert result.exit_code == 2 and result.output.strip().splitlines() == ["error: 'mdp.env=NoSuchEnv-v0' cannot be made by gymnasium: Environment `NoSuchEnv` doesn't exist."], result.output
+
+
+def test_seals_ids_are_read_from_their_table_and_an_environment_without_one_is_refused(tmp_path, monkeypatch):
+    pytest.importorskip("seals")
+    from airl_cli import api
+    from airl_cli.own_envs import env_sizes
+
+    assert env_sizes("seals/CliffWorld7x4-v0") == (28, 4)  # its observations are vectors; its states are the table's
+    ds = api.make_dataset("mdp=gymnasium", "mdp.env=seals/Random-v0", "dynamics=same")  # a float32 table
+    assert np.allclose(np.asarray(ds.transitions).sum(axis=-1), 1.0, atol=1e-12)
+    monkeypatch.chdir(tmp_path)
+    result = runner.invoke(app, ["fit", "mdp=gymnasium", "mdp.env=CartPole-v1"])
+    assert result.exit_code == 2 and "exposes no transition table" in result.output and "Traceback" not in result.output
+    assert not (tmp_path / "results").exists()
+
+
+def test_environment_objects_give_the_named_problem_with_state_features():
+    gymnasium = pytest.importorskip("gymnasium")
+    from airl_cli import api
+
+    tau = gymnasium.make("FrozenLake-v1", is_slippery=False).unwrapped
+    ds = api.dataset_from_env(tau, gymnasium.make("FrozenLake-v1", success_rate=0.8).unwrapped, horizon=20, n_demos=100, seed=0)
+    named = api.make_dataset("mdp=gymnasium", "mdp.features=state", "mdp.value=false", "dynamics.values=[0.8]")
+    assert np.allclose(np.asarray(ds.transitions), np.asarray(named.transitions))
+    assert np.allclose(ds.true_weights, named.true_weights) and np.allclose(ds.features, named.features)
+    scores = api.score(ds, api.fit(ds))  # the README's example
+    assert scores["learner_score"].round(3).tolist() == [1.0, 0.985]
