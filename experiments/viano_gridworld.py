@@ -1,12 +1,14 @@
-"""Viano et al.'s GridWorld table, reproduced: `python experiments/viano_gridworld.py [--corner lost|stay] [--all-actions]`.
+"""Viano et al.'s GridWorld table, reproduced: `python experiments/viano_gridworld.py [--learner-epsilon 0|0.05|0.1] [--corner lost|stay] [--all-actions]`.
 
 Robust MCE IRL (Viano, Huang, Kamalaruban, Weller & Cevher, NeurIPS 2021), their GridWorld
 "mode 1" (10 x 10, reward -1, -100 inside, goal (0, 0)), in their setting: the expert soft-optimal
 (alpha_E = 1) under noise eps_E, its exact discounted feature expectations (gamma = 0.99, uniform
-start), the learner in the noise-free grid (eps_L = 0), the infinite-horizon form (value iteration
-to 1e-10), w0 = 0 and 200 Adam steps (lr 0.5, betas (0.9, 0.99), eps 1e-7). The metric: the
-undiscounted return of the deployed player pi_pl in the learner's grid from every start state
-(``airl_cli.core.mdp.viano_grid.total_return``, exact). alpha = 1 is MCE IRL.
+start), the learner in the grid of noise eps_L (default 0), the infinite-horizon form (value
+iteration to 1e-10), w0 = 0 and 200 Adam steps (lr 0.5, betas (0.9, 0.99), eps 1e-7). The metric:
+the undiscounted return of the deployed player pi_pl under noise eps_L as their agent draws it
+(``viano_grid.evaluation_dynamics``) from every start state (``viano_grid.total_return``, exact).
+alpha = 1 is MCE IRL. The published numbers are read from ``conf/experiment/viano_gridworld.yaml``
+(their paper's Table at eps_L = 0, their result files at every eps_L), as the sweep reads them.
 
 --corner: what happens to the noise mass their code drops in three corners (see
 ``airl_cli.core.mdp.viano_grid``); --all-actions: let every action exist everywhere (a move off the
@@ -21,20 +23,27 @@ import time
 import numpy as np
 
 from airl_cli.core.irl.robust_mce import discounted_feature_sum, robust_mce_irl, robust_soft_value_iteration
-from airl_cli.core.mdp.viano_grid import total_return, viano_grid
+from airl_cli.api import config
+from airl_cli.core.mdp.viano_grid import evaluation_dynamics, total_return, viano_grid
+from airl_cli.core.mdp.viano_grid import expert_return as viano_expert
 
 GAMMA = 0.99
 EPSILONS = (0.0, 0.05, 0.1, 0.15, 0.2)
 ALPHAS = (1.0, 0.95, 0.9, 0.85, 0.8)
-#: their Table (total return, eps_L = 0, columns eps_E = 0 ... 0.2), as quoted in issue 22
-PUBLISHED = {1.0: (-131.6, -164.2, -207.1, -255.3, -311.8), 0.8: (-147.8, -152.1, -150.6, -139.9, -132.5)}
-PUBLISHED_EXPERT = -128.8
 
 
-def learn_and_score(eps_E: float, alpha: float, *, corner: str, all_actions: bool) -> float:
+def published(learner_epsilon: float) -> tuple[dict[float, list[float]], float]:
+    """The published rows (alpha -> the return per eps_E) and the expert line at eps_L, from the
+    sweep's config; ({}, nan) where none is published."""
+    exp = config("experiment=viano_gridworld").experiment
+    rows = exp.published.get(str(float(learner_epsilon)), {})
+    return {float(a): list(v) for a, v in rows.items()}, float(exp.published_expert.get(str(float(learner_epsilon)), float("nan")))
+
+
+def learn_and_score(eps_E: float, alpha: float, *, corner: str, all_actions: bool, eps_L: float = 0.0) -> float:
     """The player's total return after learning from the eps_E expert with strength alpha."""
     P_E, allowed, phi, w_star, p0 = viano_grid(epsilon=eps_E, corner=corner)
-    P_L = viano_grid(epsilon=0.0, corner=corner)[0]
+    P_L = viano_grid(epsilon=eps_L, corner=corner)[0]
     allowed = _actions(allowed, all_actions)
     expert = robust_soft_value_iteration(P_E, phi @ w_star, alpha=1.0, discount=GAMMA, allowed=allowed)[0]
     target = discounted_feature_sum(P_E, expert, p0, phi, GAMMA)
@@ -42,7 +51,13 @@ def learn_and_score(eps_E: float, alpha: float, *, corner: str, all_actions: boo
     fit = robust_mce_irl(np.stack([P_E, P_L]), phi, p0, 2, target[None], alpha=alpha, discount=GAMMA, form="infinite",
                          optimizer="adam", lam=0.0, max_iterations=200, lr=0.5, allowed=allowed)
     player = robust_soft_value_iteration(P_L, phi @ fit.weights[0], alpha=alpha, discount=GAMMA, allowed=allowed)[0]
-    return total_return(P_L, player, w_star)
+    return total_return(_run_in(P_L, eps_L, all_actions), player, w_star)
+
+
+def _run_in(P_L: np.ndarray, eps_L: float, all_actions: bool) -> np.ndarray:
+    """The dynamics the metric runs in: their agent's noise among the moves that exist (with every
+    move existing, the learner's own dynamics)."""
+    return P_L if all_actions else evaluation_dynamics(epsilon=eps_L, n_states=P_L.shape[0])
 
 
 def _actions(allowed: np.ndarray, all_actions: bool) -> np.ndarray:
@@ -54,40 +69,33 @@ def _actions(allowed: np.ndarray, all_actions: bool) -> np.ndarray:
     return out
 
 
-def expert_return(*, corner: str, all_actions: bool) -> float:
+def expert_return(*, corner: str, all_actions: bool, eps_L: float = 0.0) -> float:
     """Their "expert" line: the optimal (hard) policy of the true reward in the learner's grid."""
-    P_L, allowed, phi, w_star, _ = viano_grid(epsilon=0.0, corner=corner)
-    r = phi @ w_star
-    V = np.zeros(r.size)
-    for _ in range(10_000):
-        Q = r[:, None] + GAMMA * (P_L @ V)
-        Q = np.where(_actions(allowed, all_actions), Q, -np.inf)
-        V = Q.max(axis=1)
-    return total_return(P_L, np.eye(4)[np.argmax(Q, axis=1)], w_star)
+    P_L, allowed, phi, w_star, _ = viano_grid(epsilon=eps_L, corner=corner)
+    return viano_expert(P_L, _actions(allowed, all_actions), phi @ w_star, w_star, GAMMA, P_eval=_run_in(P_L, eps_L, all_actions))
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--learner-epsilon", type=float, default=0.0, help="eps_L (published: 0, 0.05, 0.1)")
     parser.add_argument("--corner", choices=("lost", "stay"), default="lost")
     parser.add_argument("--all-actions", action="store_true")
     args = parser.parse_args()
+    eps_L = args.learner_epsilon
+    rows, expert_published = published(eps_L)
     start = time.perf_counter()
-    print(f"corner={args.corner} all_actions={args.all_actions}; columns eps_E = {', '.join(map(str, EPSILONS))}")
+    print(f"eps_L={eps_L:g} corner={args.corner} all_actions={args.all_actions}; columns eps_E = {', '.join(map(str, EPSILONS))}")
     print("| learner | " + " | ".join(f"eps_E = {e:g}" for e in EPSILONS) + " |")
     print("| --- |" + " --- |" * len(EPSILONS))
     for alpha in ALPHAS:
-        ours = [learn_and_score(e, alpha, corner=args.corner, all_actions=args.all_actions) for e in EPSILONS]
-        cells = []
-        for j, v in enumerate(ours):
-            if alpha in PUBLISHED:
-                pub = PUBLISHED[alpha][j]
-                cells.append(f"{v:.1f} ({pub:.1f}, {100 * (v - pub) / abs(pub):+.1f}%)")
-            else:
-                cells.append(f"{v:.1f}")
+        ours = [learn_and_score(e, alpha, corner=args.corner, all_actions=args.all_actions, eps_L=eps_L) for e in EPSILONS]
+        pub = rows.get(alpha)
+        cells = [f"{v:.1f}" if pub is None else f"{v:.1f} ({pub[j]:.1f}, {100 * (v - pub[j]) / abs(pub[j]):+.1f}%)" for j, v in enumerate(ours)]
         name = "MCE IRL (alpha = 1)" if alpha == 1.0 else f"alpha = {alpha:g}"
         print(f"| {name} | " + " | ".join(cells) + " |", flush=True)
-    e = expert_return(corner=args.corner, all_actions=args.all_actions)
-    print(f"| expert (optimal in eps_L = 0) | {e:.1f} ({PUBLISHED_EXPERT}) |")
+    e = expert_return(corner=args.corner, all_actions=args.all_actions, eps_L=eps_L)
+    theirs = "" if expert_published != expert_published else f" ({expert_published:.1f}, {100 * (e - expert_published) / abs(expert_published):+.1f}%)"
+    print(f"| expert (optimal in eps_L = {eps_L:g}) | {e:.1f}{theirs} |")
     print(f"({time.perf_counter() - start:.1f} s)")
 
 

@@ -162,7 +162,8 @@ def medians_text(experiment: dict, table: pd.DataFrame) -> str:
 
 def viano_text(experiment: dict, table: pd.DataFrame) -> str:
     """Viano et al.'s GridWorld: ours per alpha and eps_E, the published number in brackets."""
-    lines = ["", "total return (eps_L = 0) from every start state, ours (published, difference):"]
+    eps_L = ", ".join(f"{e:g}" for e in sorted(table["learner_epsilon"].unique()))
+    lines = ["", f"total return (eps_L = {eps_L}) from every start state, ours (published, difference):"]
     xs = sorted(table["x"].unique())
     lines.append(f"{'':>12}" + "".join(f"{experiment.get('x', 'x') + '=' + format(x, 'g'):>26}" for x in xs))
     labels = [m if m != "robust_mce" else f"alpha={a:g}" for m, a in zip(table["method"], table["alpha"])]

@@ -1,5 +1,6 @@
 """The job of ``airl sweep experiment=viano_gridworld``: robust MCE IRL on Viano et al.'s GridWorld,
-scored in their metric, one row with the published number beside ours.
+scored in their metric (under the learner's noise eps_L as their agent draws it), one row with the
+published number at that eps_L beside ours.
 
 The problem is built from the experiment's own keys (``airl_cli.core.mdp.viano_grid``), the learner
 from ``method.*`` (checked as for ``airl fit``); see experiments/README.md for the conventions.
@@ -16,7 +17,7 @@ from airl_cli.config import fit_settings, plain
 from airl_cli.core.irl.robust_mce import discounted_feature_sum, robust_mce_irl, robust_soft_value_iteration
 from airl_cli.core.mdp.demos import expected_feature_sums
 from airl_cli.core.mdp.planning import backward_induction
-from airl_cli.core.mdp.viano_grid import expert_return, finite_total_return, total_return, viano_grid
+from airl_cli.core.mdp.viano_grid import evaluation_dynamics, expert_return, finite_total_return, total_return, viano_grid
 from airl_cli.errors import ConfigError
 from airl_cli.io.dataset import Dataset
 from airl_cli.jobs.common import save_config
@@ -25,13 +26,19 @@ from airl_cli.usecases.fit import learn
 from airl_cli.usecases.problem import learner_rng, loss_matrix
 
 
-def published(exp: dict, alpha: float, epsilon: float) -> float:
-    """The published return for (alpha, eps_E), NaN where the experiment quotes none."""
+def published(exp: dict, alpha: float, epsilon: float, learner_epsilon: float) -> float:
+    """The published return for (alpha, eps_E) at the learner's noise eps_L, NaN where the
+    experiment quotes none (``experiment.published[eps_L][alpha]``, columns ``experiment.values``)."""
     values = list(exp["values"])
-    row = (exp.get("published") or {}).get(f"{alpha:.1f}")
+    row = (exp.get("published") or {}).get(str(float(learner_epsilon)), {}).get(str(float(alpha)))
     if row is None or epsilon not in values:
         return float("nan")
     return float(row[values.index(epsilon)])
+
+
+def published_expert(exp: dict, learner_epsilon: float) -> float:
+    """The published expert line at eps_L, NaN where the experiment quotes none."""
+    return float((exp.get("published_expert") or {}).get(str(float(learner_epsilon)), float("nan")))
 
 
 def viano_rows(cfg: DictConfig, folder) -> list[dict]:
@@ -47,16 +54,17 @@ def viano_rows(cfg: DictConfig, folder) -> list[dict]:
     start = time.perf_counter()
     P_E, allowed, phi, w_star, p0 = viano_grid(size=int(exp["size"]), epsilon=eps_E, corner=exp["corner"])
     P_L = viano_grid(size=int(exp["size"]), epsilon=eps_L, corner=exp["corner"])[0]
+    P_run = evaluation_dynamics(size=int(exp["size"]), epsilon=eps_L, n_states=P_L.shape[0])  # their metric's noise
     expert = robust_soft_value_iteration(P_E, phi @ w_star, alpha=1.0, discount=gamma, allowed=allowed)[0]
     target = discounted_feature_sum(P_E, expert, p0, phi, gamma)
     # transitions[1] is the learner's dynamics for the demonstrations c~_1 (index 0 is not used)
     fit = robust_mce_irl(np.stack([P_E, P_L]), phi, p0, 2, target[None], discount=gamma, allowed=allowed, **options)
     alpha = options["alpha"]
     player = robust_soft_value_iteration(P_L, phi @ fit.weights[0], alpha=alpha, discount=gamma, allowed=allowed, tol=1e-10)[0]
-    ours = total_return(P_L, player, w_star)
+    ours = total_return(P_run, player, w_star)
     seconds = time.perf_counter() - start
     save_config(cfg, folder)
-    theirs = published(exp, alpha, eps_E)
+    theirs = published(exp, alpha, eps_E, eps_L)
     return [
         {
             "experiment": exp["name"],
@@ -69,8 +77,8 @@ def viano_rows(cfg: DictConfig, folder) -> list[dict]:
             "total_return": ours,
             "published": theirs,
             "relative_difference": (ours - theirs) / abs(theirs) if np.isfinite(theirs) else float("nan"),
-            "expert_return": expert_return(P_L, allowed, phi @ w_star, w_star, gamma),
-            "published_expert": float(exp["published_expert"]),
+            "expert_return": expert_return(P_L, allowed, phi @ w_star, w_star, gamma, P_eval=P_run),
+            "published_expert": published_expert(exp, eps_L),
             "seconds": seconds,
         }
     ]

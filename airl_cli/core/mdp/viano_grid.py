@@ -16,10 +16,12 @@ row sums to 1 - epsilon/4. ``corner`` chooses what happens to that mass:
   sub-stochastic rows, and the rows sum to 1 as our dataset file requires;
 * "stay": it stays in the corner (rows sum to 1 on n^2 states: the plain reading of the text).
 
-The metric (their ``CompareAlphas.py``): the undiscounted return of a policy in the learner's
-dynamics from every start state, the start state's reward included, until the goal or 1000
-steps, averaged over the start states. ``total_return`` computes its expectation exactly
-(their number is a Monte-Carlo estimate with 1000 runs per start).
+The metric (their ``CompareAlphas.py``): the undiscounted return of a policy under the learner's
+noise eps_L from every start state, the start state's reward included, until the goal or 1000
+steps, averaged over the start states. Their agent draws its noisy move among the moves that
+exist at the cell, not as the dynamics the learner trains in do (``evaluation_dynamics``; the two
+agree at eps_L = 0). ``total_return`` computes its expectation exactly (their number is a
+Monte-Carlo estimate with 1000 runs per start).
 """
 
 from __future__ import annotations
@@ -86,6 +88,42 @@ def viano_grid(*, size: int = 10, epsilon: float = 0.0, corner: str = "lost") ->
     return P, allowed, phi, w_star, p0
 
 
+def evaluation_dynamics(*, size: int = 10, epsilon: float = 0.0, n_states: int | None = None) -> np.ndarray:
+    """The dynamics their metric runs a policy in (``Agent.choose_action`` and ``take_action`` of
+    their ``agent.py``): with probability epsilon the move is drawn uniformly among the moves that
+    *exist* at the cell (2 in a corner, 3 on an edge, 4 inside), not among all four as in the
+    dynamics the learner trains in (``viano_grid``); no mass is lost anywhere. At epsilon = 0 the
+    two agree.
+
+    Args:
+        size: n, the grid's side; epsilon: eps_L in [0, 1];
+        n_states: S', the size of the learner's state space (n^2, or n^2 + 1 with the extra state
+            of corner="lost", kept absorbing and never entered here); default n^2.
+
+    Returns:
+        (S', 4, S'): row (s, a) the next-state distribution of choosing a at s; the goal absorbing.
+    """
+    if not 0.0 <= epsilon <= 1.0 or size < 2:
+        raise ValueError(f"need epsilon in [0, 1] and size >= 2, got {epsilon}, {size}")
+    n = size
+    S = n * n
+    total = S if n_states is None else int(n_states)
+    P = np.zeros((total, 4, total))
+    for s in range(S):
+        r, c = divmod(s, n)
+        inside = [(r + dr) * n + c + dc for dr, dc in MOVES if 0 <= r + dr < n and 0 <= c + dc < n]
+        for a, (dr, dc) in enumerate(MOVES):
+            here = 0 <= r + dr < n and 0 <= c + dc < n
+            P[s, a, (r + dr) * n + c + dc if here else s] += 1.0 - epsilon
+            for t in inside:
+                P[s, a, t] += epsilon / len(inside)
+    P[0] = 0.0
+    P[0, :, 0] = 1.0
+    for s in range(S, total):
+        P[s, :, s] = 1.0
+    return P
+
+
 def total_return(P: np.ndarray, policy: np.ndarray, r: np.ndarray, *, goal: int = 0, starts: np.ndarray | None = None, limit: int = 1000) -> float:
     """Viano et al.'s metric, exactly: the expected undiscounted return from each start state,
     averaged over ``starts``.
@@ -112,20 +150,22 @@ def total_return(P: np.ndarray, policy: np.ndarray, r: np.ndarray, *, goal: int 
     return float(v[starts].mean())
 
 
-def expert_return(P: np.ndarray, allowed: np.ndarray, r: np.ndarray, r_true: np.ndarray, gamma: float) -> float:
-    """Viano et al.'s "expert" line: ``total_return`` of the optimal (hard) policy of the reward r,
-    by discounted value iteration to convergence (1e-10).
+def expert_return(P: np.ndarray, allowed: np.ndarray, r: np.ndarray, r_true: np.ndarray, gamma: float, *, P_eval: np.ndarray | None = None) -> float:
+    """Viano et al.'s "expert" line: ``total_return`` of the optimal (hard) policy of the reward r
+    in P, by discounted value iteration to convergence (1e-10), run in P_eval.
 
     Args:
-        P: (S', A, S') dynamics; allowed: (S', A) bool, the actions that exist; r: (S',) the state
-        reward planned for; r_true: (S,) the true rewards ``total_return`` scores with; gamma < 1.
+        P: (S', A, S') the dynamics planned in; allowed: (S', A) bool, the actions that exist;
+        r: (S',) the state reward planned for; r_true: (S,) the true rewards ``total_return``
+        scores with; gamma < 1; P_eval: (S', A, S') the dynamics it is scored in (default P;
+        their metric's: ``evaluation_dynamics``).
     """
     V = np.zeros(r.size)
     while True:
         Q = np.where(allowed, r[:, None] + gamma * (P @ V), -np.inf)
         V_new = Q.max(axis=1)
         if np.linalg.norm(V_new - V) < 1e-10:
-            return total_return(P, np.eye(P.shape[1])[np.argmax(Q, axis=1)], r_true)
+            return total_return(P if P_eval is None else P_eval, np.eye(P.shape[1])[np.argmax(Q, axis=1)], r_true)
         V = V_new
 
 

@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from airl_cli.core.mdp.viano_grid import total_return, viano_grid
+from airl_cli.core.mdp.viano_grid import evaluation_dynamics, total_return, viano_grid
 
 
 def their_dynamics(n, eps):
@@ -58,15 +58,60 @@ def test_total_return_by_hand():
     assert total_return(P, policy, w_star) == pytest.approx(-1.0)
 
 
+def test_their_metric_under_noise_by_hand():
+    # 2 x 2 grid, noise 0.5 drawn among the moves that exist (2 per cell), policy "left where it
+    # exists, else up". From 1: left, or down to 3 with 0.25; from 2: up, or right to 3 with 0.25;
+    # from 3: left, or up to 1 with 0.25. v1 = v2 = -1 + v3 / 4, v3 = -1 + v2: v3 = -8/3,
+    # v1 = v2 = -5/3; the mean over the four starts (0 at the goal) is -1.5.
+    P = evaluation_dynamics(size=2, epsilon=0.5)
+    assert P[3, 1].tolist() == [0.0, 0.25, 0.25, 0.5]  # "right" leaves the grid: stay, or one of the two moves
+    policy = np.zeros((4, 4))
+    policy[[0, 1, 3], 3] = 1.0
+    policy[2, 0] = 1.0
+    w_star = viano_grid(size=2, corner="stay")[3]
+    assert total_return(P, policy, w_star) == pytest.approx(-1.5, abs=1e-9)
+    # the training dynamics draw among all four (a move off the grid stays): they differ but at eps = 0
+    assert not np.allclose(P, viano_grid(size=2, epsilon=0.5, corner="stay")[0])
+    np.testing.assert_array_equal(evaluation_dynamics(size=3, epsilon=0.0), viano_grid(size=3, epsilon=0.0, corner="stay")[0])
+
+
+def test_their_metric_against_their_agent_simulated():
+    """Their Agent (agent.py), simulated: with probability eps a move among the existing ones, else the
+    policy's; the mean return over many runs agrees with the exact metric within 4 standard errors."""
+    rng = np.random.default_rng(0)
+    n, eps = 3, 0.3
+    _, allowed, _, w_star, _ = viano_grid(size=n, epsilon=eps, corner="stay")
+    policy = np.where(allowed[: n * n], 1.0, 0.0)
+    policy /= policy.sum(axis=1, keepdims=True)  # uniform over the moves that exist
+    returns = []
+    for start in np.repeat(np.arange(n * n), 400):
+        s, total = int(start), w_star[start]
+        for _ in range(1000):
+            if s == 0:
+                break
+            moves = np.flatnonzero(allowed[s])
+            a = rng.choice(moves) if rng.random() < eps else rng.choice(4, p=policy[s])
+            r, c = divmod(s, n)
+            dr, dc = ((-1, 0), (0, 1), (1, 0), (0, -1))[a]
+            s = (r + dr) * n + c + dc if 0 <= r + dr < n and 0 <= c + dc < n else s
+            total += w_star[s]
+        returns.append(total)
+    exact = total_return(evaluation_dynamics(size=n, epsilon=eps), policy, w_star)
+    assert abs(np.mean(returns) - exact) <= 4 * np.std(returns) / np.sqrt(len(returns)), (np.mean(returns), exact)
+
+
 def test_the_published_table_is_reproduced_within_five_percent():
     spec = importlib.util.spec_from_file_location("viano", Path(__file__).parents[3] / "experiments" / "viano_gridworld.py")
     viano = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(viano)
-    assert viano.expert_return(corner="lost", all_actions=False) == pytest.approx(-128.8, abs=0.05)
-    for alpha, published in viano.PUBLISHED.items():
-        for eps, pub in zip(viano.EPSILONS, published):
-            ours = viano.learn_and_score(eps, alpha, corner="lost", all_actions=False)
-            assert abs(ours - pub) <= 0.05 * abs(pub), (alpha, eps, ours, pub)
+    for eps_L in (0.0, 0.05, 0.1):  # their paper's Table, and their result files at a noisy learner
+        rows, expert = viano.published(eps_L)
+        ours = viano.expert_return(corner="lost", all_actions=False, eps_L=eps_L)
+        assert abs(ours - expert) <= 0.015 * abs(expert), (eps_L, ours, expert)
+        for alpha in (1.0, 0.9, 0.8):
+            for eps, pub in zip(viano.EPSILONS, rows[alpha]):
+                ours = viano.learn_and_score(eps, alpha, corner="lost", all_actions=False, eps_L=eps_L)
+                assert abs(ours - pub) <= 0.05 * abs(pub), (eps_L, alpha, eps, ours, pub)
 
 
 def test_the_sweep_reproduces_the_table_small_and_resumes(tmp_path, monkeypatch):
@@ -86,12 +131,17 @@ def test_the_sweep_reproduces_the_table_small_and_resumes(tmp_path, monkeypatch)
     table = pd.read_csv(folder / "results.csv")
     assert len(table) == 6 and sorted(table["alpha"].unique()) == [0.8, 0.9, 1.0]
     quoted = table.dropna(subset=["published"])
-    assert len(quoted) == 4 and (quoted["relative_difference"].abs() <= 0.05).all()
+    assert len(quoted) == 6 and (quoted["relative_difference"].abs() <= 0.05).all()
     assert "-309.6 (-311.8, +0.7%)" in result.output and "expert (optimal policy): -128.8" in result.output
     assert list((folder / "figures").glob("*.png")) and list((folder / "figures").glob("*.pdf"))
     assert damaged_jobs(folder, [p.parent.name for p in folder.glob("*/rows.csv")]) == {}
     again = runner.invoke(app, command)
     assert again.exit_code == 0 and "6 finished earlier" in again.output
+    # at a noisy learner: their metric's noise, their result files' rows, the title saying so
+    noisy = runner.invoke(app, [*command, "experiment.learner_epsilon=0.1"])
+    assert noisy.exit_code == 0, noisy.output
+    assert "total return (eps_L = 0.1)" in noisy.output and "(published -175.4)" in noisy.output
+    assert "-277.9 (-279.8, +0.7%)" in noisy.output  # MCE IRL at eps_E = 0.2
     # the report of chapter 7 leaves this sweep out instead of failing on it
     report = runner.invoke(app, ["report", "--profile", "quick"])
     assert "viano" not in report.output and "lacks the column" not in report.output
