@@ -109,7 +109,9 @@ def fit(dataset: Dataset, *overrides: str, callback=None, planner_progress=None)
 
 
 def score(dataset: Dataset, learned: Learned) -> pd.DataFrame:
-    """Normalised performance (thesis §7.2) of the learner and the demonstrator, and cos(w, w*), per dynamics.
+    """Normalised performance (thesis §7.2) and expected return of the learner and the demonstrator,
+    and cos(w, w*), per dynamics: tau, tau_1..tau_D, then the held-out test_1..test_E if the dataset
+    has them (``Dataset.test_transitions``).
 
     For method=airl (optim=exact) ``equilibrium_score`` is the game's own learner's: its mixture p of policies.
     """

@@ -43,7 +43,7 @@ def reading_of(overrides: str) -> str | None:
 
 
 def _airl(table: pd.DataFrame) -> pd.DataFrame:
-    t = table[(table["dynamics"] != "tau")]
+    t = table[table["dynamics"].astype(str).str.startswith("tau_")]  # the demonstration dynamics
     return t[t["method"] == "airl"] if "method" in t else t
 
 

@@ -15,6 +15,7 @@ from typing import Any
 from omegaconf import DictConfig
 
 from airl_cli.config_reader import Cell, Reader, plain
+from airl_cli.demo_settings import DemoSettings, read_demos
 from airl_cli.core.irl.options import SCHEDULES, CertifiedOptions, FitOptions, PlannerOptions
 from airl_cli.envs import DEFAULT_VALUES, EnvMDPSettings, check_env_dynamics, env_settings, env_value, is_env_id
 from airl_cli.errors import ConfigError
@@ -86,14 +87,8 @@ class DynamicsSettings:
     layouts: tuple[tuple[Cell, ...], ...] = ()
     slips: tuple[float, ...] = ()  # kind=slip: the objectworld's slip of each tau_j
     values: tuple[bool | float, ...] = ()  # kind=env_values: each tau_j's parameter value (mdp=gymnasium, seals)
-
-
-@dataclass(frozen=True)
-class DemoSettings:
-    """``demos=...``: what the learner is given."""
-
-    kind: str  # sampled | exact | optimal_path
-    n: int = 0
+    n_test: int = 0  # E held-out test dynamics, scored but never demonstrated (``Dataset.test_transitions``)
+    test_values: tuple[bool | float, ...] = ()  # kind=slip or env_values: each test dynamics' slip or value
 
 
 @dataclass(frozen=True)
@@ -191,23 +186,24 @@ def _dynamics(node: Any, mdp: MDPSettings) -> DynamicsSettings:
         values = r.raw("values", DEFAULT_VALUES[mdp.env])
         if not isinstance(values, (list, tuple)) or not values:
             raise ConfigError(f"'dynamics.values' must be a non-empty list of {mdp.env}'s parameter values, got {values!r}")
-        return DynamicsSettings(name, kind, len(values), values=tuple(env_value(r, "values", mdp.env, v) for v in values))
+        test = tuple(env_value(r, "test_values", mdp.env, v) for v in r.raw("test_values", None) or ())
+        return DynamicsSettings(name, kind, len(values), values=tuple(env_value(r, "values", mdp.env, v) for v in values), n_test=len(test), test_values=test)
     by_id = isinstance(mdp, EnvMDPSettings) and check_env_dynamics(mdp, kind, name)
     if kind == "gaussian" and mdp.name != "random" and not by_id:
         instead = "dynamics=same or dynamics=slip" if mdp.name == "objectworld" else "dynamics=same"
         raise ConfigError(f"'dynamics={name}' perturbs a random MDP; use it with mdp=random (or use {instead})")
     if kind == "gaussian":
         states = None if r.raw("sigma_states", None) is None else r.int("sigma_states", lo=1)
-        return DynamicsSettings(name, kind, r.int("n_dynamics", lo=1), sigma=r.float("sigma", lo=0.0), sigma_states=states)
+        return DynamicsSettings(name, kind, r.int("n_dynamics", lo=1), sigma=r.float("sigma", lo=0.0), sigma_states=states, n_test=r.int("n_test", lo=0))
     if kind == "same":
         return DynamicsSettings(name, kind, r.int("n_dynamics", lo=1))
     if kind == "slip":
         if mdp.name != "objectworld":
             raise ConfigError(f"'dynamics={name}' changes the objectworld's slip; use it with mdp=objectworld")
-        slips = r.floats("slips")
-        if not slips or not all(0.0 <= v <= 1.0 for v in slips):
-            raise ConfigError(f"'dynamics.slips' must be a non-empty list of numbers between 0 and 1, got {list(slips)}")
-        return DynamicsSettings(name, kind, len(slips), slips=slips)
+        slips, test = r.floats("slips"), r.floats("test_slips") if r.raw("test_slips", None) is not None else ()
+        if not slips or not all(0.0 <= v <= 1.0 for v in slips + test):
+            raise ConfigError(f"'dynamics.slips' must be a non-empty list and 'dynamics.test_slips' a list of numbers between 0 and 1, got {list(slips)} and {list(test)}")
+        return DynamicsSettings(name, kind, len(slips), slips=slips, n_test=len(test), test_values=test)
     if mdp.name != "grid":
         raise ConfigError(f"'dynamics={name}' places cross cells on the grid; use it with mdp=grid")
     raw_layouts = r.raw("layouts")
@@ -222,8 +218,7 @@ def _dynamics(node: Any, mdp: MDPSettings) -> DynamicsSettings:
 
 def loss_and_seed(cfg: DictConfig | Mapping) -> tuple[str, int]:
     """The loss kind and the seed: all that matters of the problem groups when data=PATH is given."""
-    top = Reader(plain(cfg), "")
-    return Reader(top.raw("loss"), "loss").choice("kind", LOSSES), top.int("seed", lo=0)
+    return Reader(Reader(plain(cfg), "").raw("loss"), "loss").choice("kind", LOSSES), Reader(plain(cfg), "").int("seed", lo=0)
 
 
 def problem_settings(cfg: DictConfig | Mapping) -> ProblemSettings:
@@ -232,9 +227,7 @@ def problem_settings(cfg: DictConfig | Mapping) -> ProblemSettings:
     top = Reader(c, "")
     mdp = _mdp(top.raw("mdp"))
     dynamics = _dynamics(top.raw("dynamics"), mdp)
-    d = Reader(top.raw("demos"), "demos")
-    kind = d.choice("kind", ("sampled", "exact", "optimal_path"))
-    demos = DemoSettings(kind, d.int("n", lo=1) if kind == "sampled" else 0)
+    demos = read_demos(top.raw("demos"))
     loss = Reader(top.raw("loss"), "loss").choice("kind", LOSSES)
     if loss == "squared_euclidean" and mdp.name in ("random", "gymnasium", "seals"):
         raise ConfigError(f"'loss=squared_euclidean' measures distances between grid cells, which mdp={mdp.name} does not give; use it with mdp=grid or mdp=objectworld")
@@ -243,7 +236,6 @@ def problem_settings(cfg: DictConfig | Mapping) -> ProblemSettings:
 
 
 # --------------------------------------------------------------------------- learning
-
 
 #: How the thesis's method minimises its objective: exactly with a certificate, or Table I's gradient steps.
 OPTIMIZERS = ("exact", "gradient")

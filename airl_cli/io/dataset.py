@@ -20,6 +20,16 @@ discount                 () float               optional; gamma in (0, 1], step 
                                                 gamma^t in feature sums and returns (absent: 1)
 allowed_actions          (S, A) bool            optional; the actions that exist in each state
                                                 (absent: all); only method=robust_mce takes it
+test_transitions         (E, S, A, S) float     optional; held-out test dynamics no
+                                                demonstration came from: every method is
+                                                scored in each too (needs true_weights)
+test_transition_next     (S, R') int            or, instead of test_transitions, their sparse
+test_transition_probs    (E, S, A, R') float    form (next states of their own)
+expert                   () str                 optional; "tau" (absent: the thesis's expert,
+                                                optimal under tau) or "own" (each tau_j's
+                                                demonstrations from an expert optimal in tau_j)
+expert_beta              () float               optional, with "own": a soft-optimal expert's
+                                                entropy weight (absent: hard-optimal)
 =======================  =====================  ==============================================
 
 Reading validates everything and raises ``DatasetError`` with one sentence naming the key.
@@ -42,7 +52,9 @@ import numpy as np
 from airl_cli.core.mdp.demos import feature_sums
 from airl_cli.core.mdp.sparse import SparseDynamics, sparse_dynamics
 from airl_cli.errors import DatasetError
-from airl_cli.io.dataset_checks import demonstrations, discount_and_actions, dynamics, fail, numeric, optional_arrays, probabilities, shape
+from airl_cli.io.dataset_checks import (
+    demonstrations, discount_and_actions, dynamics, expert_model, fail, held_out_dynamics, numeric, optional_arrays, probabilities, shape,
+)
 from airl_cli.io.files import atomic_write
 
 KEYS = (
@@ -59,6 +71,11 @@ KEYS = (
     "loss",
     "discount",
     "allowed_actions",
+    "test_transitions",
+    "test_transition_next",
+    "test_transition_probs",
+    "expert",
+    "expert_beta",
 )
 REQUIRED = ("features", "initial", "horizon")  # and the dynamics, in one of their two forms
 #: Dynamics larger than this as a dense (M, S, A, S) float64 array are written sparse.
@@ -80,6 +97,9 @@ class Dataset:
     loss: np.ndarray | None = None
     discount: float = 1.0
     allowed_actions: np.ndarray | None = None
+    test_transitions: np.ndarray | SparseDynamics | None = None  # (E, S, A, S): held out, never demonstrated
+    expert: str = "tau"  # how the demonstrations' expert is modelled: "tau" (thesis §4.1) or "own"
+    expert_beta: float | None = None  # expert "own": a soft-optimal expert's entropy weight; None: hard
 
     @property
     def n_states(self) -> int:
@@ -97,6 +117,11 @@ class Dataset:
     def n_dynamics(self) -> int:
         """D, the number of demonstration dynamics (M - 1)."""
         return int(self.transitions.shape[0]) - 1
+
+    @property
+    def n_test(self) -> int:
+        """E, the number of held-out test dynamics (0 without them)."""
+        return 0 if self.test_transitions is None else int(self.test_transitions.shape[0])
 
     @property
     def n_demos(self) -> int:
@@ -117,8 +142,9 @@ class Dataset:
         for f in fields(self):
             value = getattr(self, f.name)
             if isinstance(value, SparseDynamics):
-                out["transition_next"], out["transition_probs"] = value.next_states, value.probs
-            elif f.name == "discount" and value == 1.0:
+                prefix = "test_" if f.name == "test_transitions" else ""
+                out[prefix + "transition_next"], out[prefix + "transition_probs"] = value.next_states, value.probs
+            elif (f.name == "discount" and value == 1.0) or (f.name == "expert" and value == "tau"):
                 continue  # the thesis's setting, written as files before the key had it: absent
             elif value is not None:
                 out[f.name] = np.asarray(value)
@@ -171,6 +197,10 @@ def validate(raw: dict[str, np.ndarray]) -> Dataset:
     states, actions = demonstrations(raw, P, p0, T)
     fexp, w_star, loss = optional_arrays(raw, D, S, K)
     discount, allowed = discount_and_actions(raw, S, A)
+    test = held_out_dynamics(raw, S, A)
+    expert, beta = expert_model(raw)
+    if test is not None and w_star is None:
+        fail("held-out test dynamics ('test_transitions') are scored under the true reward: the key 'true_weights' is missing")
     return Dataset(
         transitions=P,
         features=phi,
@@ -183,6 +213,9 @@ def validate(raw: dict[str, np.ndarray]) -> Dataset:
         loss=loss,
         discount=discount,
         allowed_actions=allowed,
+        test_transitions=test,
+        expert=expert,
+        expert_beta=beta,
     )
 
 
@@ -246,6 +279,18 @@ def _read(path: Path) -> Dataset:
 ZIP64_ABOVE = 1 << 30
 
 
+def _choose_form(arrays: dict, prefix: str, P) -> None:
+    """Write dynamics (training, or ``prefix="test_"`` held out) sparse when their dense array would
+    exceed ``SPARSE_ABOVE`` bytes, else dense (the familiar key), whatever form they came in."""
+    dense, nxt, probs = prefix + "transitions", prefix + "transition_next", prefix + "transition_probs"
+    dense_bytes = 8 * int(np.prod(P.shape))
+    if dense in arrays and dense_bytes > SPARSE_ABOVE:
+        dyn = sparse_dynamics(arrays.pop(dense))
+        arrays[nxt], arrays[probs] = dyn.next_states, dyn.probs
+    elif dense not in arrays and dense_bytes <= SPARSE_ABOVE:
+        arrays[dense] = SparseDynamics(arrays.pop(nxt), arrays.pop(probs)).dense()
+
+
 def write_dataset(path: str | os.PathLike, dataset: Dataset) -> Path:
     """Validate and atomically write a dataset file; byte-identical for identical data.
 
@@ -254,12 +299,9 @@ def write_dataset(path: str | os.PathLike, dataset: Dataset) -> Path:
     """
     arrays = validate(dataset.arrays()).arrays()
     arrays["horizon"] = np.asarray(int(arrays["horizon"]), dtype=np.int64)
-    dense_bytes = 8 * int(np.prod(dataset.transitions.shape))
-    if "transitions" in arrays and dense_bytes > SPARSE_ABOVE:
-        dyn = sparse_dynamics(arrays.pop("transitions"))
-        arrays["transition_next"], arrays["transition_probs"] = dyn.next_states, dyn.probs
-    elif "transitions" not in arrays and dense_bytes <= SPARSE_ABOVE:  # small: the familiar dense key
-        arrays["transitions"] = SparseDynamics(arrays.pop("transition_next"), arrays.pop("transition_probs")).dense()
+    _choose_form(arrays, "", dataset.transitions)
+    if dataset.test_transitions is not None:
+        _choose_form(arrays, "test_", dataset.test_transitions)
 
     def write(handle) -> None:
         # each array is streamed into its entry: an in-memory copy of it (twice over, as bytes)

@@ -14,6 +14,7 @@ from airl_cli.errors import DatasetError
 
 #: The two keys of the sparse form of the dynamics.
 SPARSE_KEYS = ("transition_next", "transition_probs")
+TEST_KEYS = ("test_transitions", "test_transition_next", "test_transition_probs")
 
 
 def fail(message: str) -> None:
@@ -48,53 +49,70 @@ def probabilities(key: str, x: np.ndarray) -> None:
         fail(str(err))
 
 
-def dynamics(raw: dict[str, np.ndarray]) -> np.ndarray | SparseDynamics:
-    """The (M, S, A, S) dynamics from the dense key, or a ``SparseDynamics`` from the two sparse ones, checked."""
-    sparse = [k for k in SPARSE_KEYS if k in raw]
-    if "transitions" in raw and sparse:
-        fail(f"give the dynamics once: either 'transitions' or 'transition_next' with 'transition_probs', not both ('{sparse[0]}' is there too)")
-    if "transitions" not in raw and len(sparse) < 2:
-        missing = "the required key 'transitions' is missing" if not sparse else f"'{sparse[0]}' is given without '{({*SPARSE_KEYS} - {sparse[0]}).pop()}'"
-        fail(f"{missing}; give the dynamics as 'transitions' (M, S, A, S) or as 'transition_next' (S, R) with 'transition_probs' (M, S, A, R)")
-    if "transitions" in raw:
-        P = numeric("transitions", np.asarray(raw["transitions"]))
+def dynamics(raw: dict[str, np.ndarray], prefix: str = "") -> np.ndarray | SparseDynamics:
+    """The (M, S, A, S) dynamics from the dense key, or a ``SparseDynamics`` from the two sparse ones,
+    checked. ``prefix="test_"``: the held-out test dynamics (E, S, A, S), keys 'test_transitions'
+    or 'test_transition_next' with 'test_transition_probs' (M >= 1 instead of M >= 2)."""
+    dense, nxt_key, probs_key = (prefix + k for k in ("transitions", *SPARSE_KEYS))
+    sparse = [k for k in (nxt_key, probs_key) if k in raw]
+    if dense in raw and sparse:
+        fail(f"give the dynamics once: either '{dense}' or '{nxt_key}' with '{probs_key}', not both ('{sparse[0]}' is there too)")
+    if dense not in raw and len(sparse) < 2:
+        missing = f"the required key '{dense}' is missing" if not sparse else f"'{sparse[0]}' is given without '{({nxt_key, probs_key} - {sparse[0]}).pop()}'"
+        fail(f"{missing}; give the dynamics as '{dense}' (M, S, A, S) or as '{nxt_key}' (S, R) with '{probs_key}' (M, S, A, R)")
+    if dense in raw:
+        P = numeric(dense, np.asarray(raw[dense]))
         if P.ndim != 4 or P.shape[1] != P.shape[3]:
-            fail(f"key 'transitions' must have shape (M, S, A, S), but has shape {P.shape}")
-        key = "transitions"
+            fail(f"key '{dense}' must have shape (M, S, A, S), but has shape {P.shape}")
+        key = dense
     else:
-        P = sparse_keys(raw)
-        key = "transition_probs"
+        P = sparse_keys(raw, prefix)
+        key = probs_key
     M, S, A, _ = P.shape
-    if M < 2:
-        fail(f"key '{key}' must stack tau and at least one tau_j (M >= 2), but has shape {np.shape(raw[key])}")
+    if M < (1 if prefix else 2):
+        what = "at least one test dynamics (E >= 1)" if prefix else "tau and at least one tau_j (M >= 2)"
+        fail(f"key '{key}' must stack {what}, but has shape {np.shape(raw[key])}")
     if S < 1 or A < 1:
         fail(f"key '{key}' needs at least one state and one action, but has shape {np.shape(raw[key])}")
     probabilities(key, P.probs if isinstance(P, SparseDynamics) else P)
     return P
 
 
-def sparse_keys(raw: dict[str, np.ndarray]) -> SparseDynamics:
+def held_out_dynamics(raw: dict[str, np.ndarray], S: int, A: int) -> np.ndarray | SparseDynamics | None:
+    """The held-out test dynamics (E, S, A, S) no demonstration came from, checked against the
+    training dynamics' S and A; None when the file has none."""
+    if not any(k in raw for k in TEST_KEYS):
+        return None
+    P = dynamics(raw, "test_")
+    if P.shape[1:3] != (S, A):
+        key = "test_transitions" if "test_transitions" in raw else "test_transition_probs"
+        fail(f"key '{key}' must have S = {S} states and A = {A} actions as 'transitions' has, but has shape {np.shape(raw[key])}")
+    return P
+
+
+def sparse_keys(raw: dict[str, np.ndarray], prefix: str = "") -> SparseDynamics:
     """The dynamics of the sparse keys, kept sparse: next states (S, R) and their probabilities (M, S, A, R)."""
-    nxt = numeric("transition_next", np.asarray(raw["transition_next"]), integer=True)
-    probs = numeric("transition_probs", np.asarray(raw["transition_probs"]))
+    nxt_key, probs_key = prefix + SPARSE_KEYS[0], prefix + SPARSE_KEYS[1]
+    nxt = numeric(nxt_key, np.asarray(raw[nxt_key]), integer=True)
+    probs = numeric(probs_key, np.asarray(raw[probs_key]))
     if nxt.ndim != 2 or nxt.shape[1] < 1:
-        fail(f"key 'transition_next' must have shape (S, R) with R >= 1, but has shape {nxt.shape}")
+        fail(f"key '{nxt_key}' must have shape (S, R) with R >= 1, but has shape {nxt.shape}")
     S, R = nxt.shape
     if probs.ndim != 4 or probs.shape[1] != S or probs.shape[3] != R:
-        fail(f"key 'transition_probs' must have shape (M, S, A, R) = (M, {S}, A, {R}) (S, R from 'transition_next'), but has shape {probs.shape}")
+        fail(f"key '{probs_key}' must have shape (M, S, A, R) = (M, {S}, A, {R}) (S, R from '{nxt_key}'), but has shape {probs.shape}")
     if nxt.min() < -1 or nxt.max() >= S:
         idx = tuple(int(i) for i in np.argwhere((nxt < -1) | (nxt >= S))[0])
-        fail(f"key 'transition_next' has state index {nxt[idx]} at {idx}, outside [0, {S}) (-1 pads a row)")
+        fail(f"key '{nxt_key}' has state index {nxt[idx]} at {idx}, outside [0, {S}) (-1 pads a row)")
     pad = np.broadcast_to(nxt[None, :, None, :] < 0, probs.shape)
     if np.any(probs[pad] != 0):
         j, s, a, r = (int(i) for i in np.argwhere(pad & (probs != 0))[0])
-        fail(f"key 'transition_probs' gives probability {probs[j, s, a, r]:.3g} at {(j, s, a, r)} to a padding entry (-1) of 'transition_next'")
+        fail(f"key '{probs_key}' gives probability {probs[j, s, a, r]:.3g} at {(j, s, a, r)} to a padding entry (-1) of '{nxt_key}'")
     keyed = np.where(nxt >= 0, nxt, -1 - np.arange(R)[None, :])  # padding entries never collide
     ordered = np.sort(keyed, axis=1)
     dup = np.argwhere(ordered[:, 1:] == ordered[:, :-1])
     if dup.size:
         s = int(dup[0, 0])
-        fail(f"key 'transition_next' lists next state {ordered[s, dup[0, 1]]} twice in row {s}")
+        fail(f"key '{nxt_key}' lists next state {ordered[s, dup[0, 1]]} twice in row {s}")
     return SparseDynamics(nxt, probs)
 
 
@@ -185,3 +203,23 @@ def discount_and_actions(raw: dict, S: int, A: int) -> tuple[float, np.ndarray |
         if not allowed.any(axis=1).all():
             fail(f"key 'allowed_actions' leaves state {int(np.argmin(allowed.any(axis=1)))} without an action")
     return discount, allowed
+
+
+def expert_model(raw: dict) -> tuple[str, float | None]:
+    """How the demonstrations' expert is modelled: 'expert' ("tau", the thesis's, when absent, or
+    "own") and 'expert_beta' (a soft-optimal own expert's entropy weight > 0; None: hard)."""
+    expert = "tau"
+    if "expert" in raw:
+        e = np.asarray(raw["expert"])
+        if e.shape != () or e.dtype.kind != "U" or str(e) not in ("tau", "own"):
+            fail(f"key 'expert' must be the string 'tau' or 'own', but is {e.tolist()!r}")
+        expert = str(e)
+    beta = None
+    if "expert_beta" in raw:
+        b = numeric("expert_beta", np.asarray(raw["expert_beta"]))
+        if b.shape != () or not float(b) > 0.0:
+            fail(f"key 'expert_beta' must be one number > 0, but is {b.tolist()!r}")
+        if expert != "own":
+            fail("key 'expert_beta' (a soft-optimal expert of each dynamics' own) needs 'expert' = 'own'")
+        beta = float(b)
+    return expert, beta

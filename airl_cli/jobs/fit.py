@@ -120,14 +120,7 @@ def summary_text(dataset: Dataset, settings: FitSettings, learned: Learned, rows
                 lines.append(f"  w_{j}: " + np.array2string(row, precision=4, separator=", "))
     if rows and rows[0]["learner_score"] is not None:
         lines += ["", "normalised performance under the true reward (thesis §7.2):", ""]
-        mixed = rows[0]["equilibrium_score"] is not None
-        lines.append(f"  {'dynamics':<10}{'learner':>9}{'demonstrator':>14}{'cos(w, w*)':>12}" + (f"{'game p':>9}" if mixed else ""))
-        for r in rows:
-            cos = "-" if r["cosine_similarity"] is None else f"{r['cosine_similarity']:.3f}"
-            p = f"{r['equilibrium_score']:>9.4f}" if mixed else ""
-            lines.append(f"  {r['dynamics']:<10}{r['learner_score']:>9.4f}{r['demonstrator_score']:>14.4f}{cos:>12}{p}")
-        if mixed:
-            lines.append("  (learner: the optimal policy of the learned reward; game p: the equilibrium's own mixture of policies)")
+        lines += _score_table(rows, held_out=dataset.n_test > 0)
     else:
         lines += ["", "the dataset has no true weights: nothing to score against"]
     return "\n".join(lines) + "\n"
@@ -143,6 +136,22 @@ def degenerate_sentence(info: dict) -> str:
         f"the learned reward is indistinguishable from zero: {why} and the demonstrations do not constrain the "
         "reward (its direction is noise; see the README, 'A degenerate optimum')"
     )
+
+
+def _score_table(rows: list[dict], *, held_out: bool) -> list[str]:
+    """The summary's score table, one line per dynamics; with held-out test dynamics the expected
+    returns too (a return compares across dynamics, a normalised score does not)."""
+    mixed = rows[0]["equilibrium_score"] is not None
+    returns = f"{'return':>10}{'demo return':>13}" if held_out else ""
+    lines = [f"  {'dynamics':<10}{'learner':>9}{'demonstrator':>14}{'cos(w, w*)':>12}" + (f"{'game p':>9}" if mixed else "") + returns]
+    for r in rows:
+        cos = "-" if r["cosine_similarity"] is None else f"{r['cosine_similarity']:.3f}"
+        p = f"{r['equilibrium_score']:>9.4f}" if mixed else ""
+        ret = f"{r['learner_return']:>10.4g}{r['demonstrator_return']:>13.4g}" if held_out else ""
+        lines.append(f"  {r['dynamics']:<10}{r['learner_score']:>9.4f}{r['demonstrator_score']:>14.4f}{cos:>12}{p}{ret}")
+    notes = ["learner: the optimal policy of the learned reward; game p: the equilibrium's own mixture of policies"] if mixed else []
+    notes += ["test_e: held-out dynamics no demonstration came from; return: expected return under the true reward"] if held_out else []
+    return lines + [f"  ({'; '.join(notes)})"] if notes else lines
 
 
 def _objective_lines(info: dict) -> list[str]:

@@ -24,6 +24,11 @@ def describe(path: str) -> str:
         f"  states S={ds.n_states}, actions A={ds.n_actions}, features K={ds.n_features}, horizon T={ds.horizon}",
         f"  dynamics: tau and D={ds.n_dynamics} demonstration dynamics" + _form(ds),
     ]
+    if ds.n_test:
+        lines.append(f"  held-out test dynamics: E={ds.n_test}, no demonstration came from them; every method is scored in each (test_1..test_{ds.n_test})")
+    if ds.expert == "own":
+        how = "hard-optimal" if ds.expert_beta is None else f"soft-optimal, entropy weight beta={ds.expert_beta:g}"
+        lines.append(f"  expert: each tau_j's own, {how} in tau_j (the demonstrator is scored so too)")
     if ds.demo_states is not None:
         acts = "with actions" if ds.demo_actions is not None else "states only"
         lines.append(f"  demonstrations: N={ds.n_demos} per dynamics ({acts})")

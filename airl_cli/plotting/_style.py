@@ -103,7 +103,7 @@ def _dynamics(df: pd.DataFrame, meta: Mapping[str, Any], what: str) -> list[str]
     present = set(df["dynamics"].astype(str))
     wanted = meta.get("dynamics")
     if not wanted:
-        wanted = sorted((d for d in present if d != "tau"), key=_dynamics_key) or sorted(present, key=_dynamics_key)
+        wanted = sorted((d for d in present if d.startswith("tau_")), key=_dynamics_key) or sorted(present, key=_dynamics_key)
     wanted = [str(d) for d in wanted]
     absent = [d for d in wanted if d not in present]
     if absent:

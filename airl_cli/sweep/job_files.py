@@ -35,7 +35,7 @@ FIT_COLUMNS = (
     "experiment", "method", "seed", "run", "x", "x_name", "mdp", "dynamics_kind", "n_dynamics", "n_features",
     "n_demos", "demos", "sigma", "weight_sharing", "loss", "dynamics", "learner_score", "demonstrator_score",
     "cosine_similarity", "seconds", "optimizer", "objective", "relative_gap", "converged", "degenerate",
-    "equilibrium_score", "weight_scale",
+    "equilibrium_score", "weight_scale", "n_test", "learner_return", "demonstrator_return",
 )  # fmt: skip
 #: The columns of the alpha-vector experiment's one row (thesis Figs. 2-3).
 ALPHA_COLUMNS = ("experiment", "seed", "n_exact", "n_envelope", "n_pbvi", "n_beliefs", "max_value_gap", "seconds")
@@ -50,14 +50,14 @@ ALPHA_ARRAYS = ("exact", "exact_envelope", "pbvi", "t", "s")
 #: The config groups whose every setting becomes a column of the results table.
 SETTING_GROUPS = ("mdp", "dynamics", "demos", "loss", "method", "pbvi", "game", "optim")
 
-_INTEGERS = {"seed", "run", "n_dynamics", "n_features", "n_demos", "n_exact", "n_envelope", "n_pbvi", "n_beliefs"}
+_INTEGERS = {"seed", "run", "n_dynamics", "n_test", "n_features", "n_demos", "n_exact", "n_envelope", "n_pbvi", "n_beliefs"}
 _FLOATS = {
     "x", "sigma", "learner_score", "demonstrator_score", "cosine_similarity", "seconds", "objective", "relative_gap", "max_value_gap",
-    "equilibrium_score", "weight_scale",
+    "equilibrium_score", "weight_scale", "learner_return", "demonstrator_return",
 }  # fmt: skip
 _BOOLS = {"weight_sharing", "converged", "degenerate"}
 #: Cells that differ from one dynamics' row to the next (all others are the job's, the same in each row).
-_PER_DYNAMICS = ("dynamics", "learner_score", "demonstrator_score", "cosine_similarity", "equilibrium_score")
+_PER_DYNAMICS = ("dynamics", "learner_score", "demonstrator_score", "cosine_similarity", "equilibrium_score", "learner_return", "demonstrator_return")
 
 
 class Damaged(Exception):
@@ -213,7 +213,7 @@ def _check_fit(folder: Path, config: dict, header: list[str], rows: list[list[st
     exact = method == "airl" and first["optimizer"] == "exact"
     empty = set() if method == "airl" else {"optimizer", "objective"}
     empty |= set() if exact else {"relative_gap", "converged", "degenerate", "equilibrium_score"}
-    empty |= set() if metrics["scored"] else {"learner_score", "demonstrator_score", "cosine_similarity", "equilibrium_score"}
+    empty |= set() if metrics["scored"] else {"learner_score", "demonstrator_score", "cosine_similarity", "equilibrium_score", "learner_return", "demonstrator_return"}
     empty |= set() if _learns_reward(method) else {"cosine_similarity", "weight_scale"}  # a policy, no weights
     _check_types(ROWS, header, rows, empty | {k for k, v in settings.items() if v == ""})
     x_key = str(config["experiment"].get("x_key") or "seed")
@@ -226,19 +226,19 @@ def _check_fit(folder: Path, config: dict, header: list[str], rows: list[list[st
             raise Damaged(f"{ROWS} has {column}={first[column]!r}, the job's config {value!r}")
     if not isinstance(x, (int, float)) or float(first["x"]) != float(x):
         raise Damaged(f"{ROWS} has x={first['x']!r}, the job's {x_key} is {x!r}")
-    n = int(first["n_dynamics"]) + 1
-    labels = ["tau"] + [f"tau_{j}" for j in range(1, len(rows))]
-    if len(rows) != n or [r[header.index("dynamics")] for r in rows] != labels:
-        raise Damaged(f"{ROWS} has {len(rows)} rows, not one for each of the {n} dynamics")
+    D, E = int(first["n_dynamics"]), int(first["n_test"])
+    labels = ["tau"] + [f"tau_{j}" for j in range(1, D + 1)] + [f"test_{e}" for e in range(1, E + 1)]
+    if [r[header.index("dynamics")] for r in rows] != labels:
+        raise Damaged(f"{ROWS} has {len(rows)} rows, not one for each of the {len(labels)} dynamics")
     same = [i for i, c in enumerate(header) if c not in _PER_DYNAMICS]
     if any([r[i] for i in same] != [rows[0][i] for i in same] for r in rows):
         raise Damaged(f"{ROWS}'s rows disagree on the job's settings")
-    _check_outputs(folder, header, rows, metrics, int(first["n_features"]))
+    _check_outputs(folder, header, rows, metrics, int(first["n_features"]), D)
     if config.get("data") is None:  # built in the job
         _check_npz(folder / "dataset.npz", ("transitions", "features", "initial", "horizon"))
 
 
-def _check_outputs(folder: Path, header: list[str], rows: list[list[str]], metrics: dict, n_features: int) -> None:
+def _check_outputs(folder: Path, header: list[str], rows: list[list[str]], metrics: dict, n_features: int, D: int) -> None:
     """The fit's other files: metrics.json's scores are the rows', weights.json holds (D, K) numbers
     (or policy.npy a whole array), timing.json the rows' fit time; history.csv and summary.txt whole."""
     scores = metrics["dynamics"]
@@ -252,7 +252,6 @@ def _check_outputs(folder: Path, header: list[str], rows: list[list[str]], metri
         _npy_shape(_bytes(folder / "policy.npy"), "policy.npy")
     else:
         w = _json(folder / "weights.json", ("shared", "weights"))["weights"]
-        D = len(rows) - 1
         if not (isinstance(w, list) and len(w) == D and all(isinstance(r, list) and len(r) == n_features for r in w)):
             raise Damaged(f"weights.json does not hold {D} x {n_features} weights")
         if not all(isinstance(v, (int, float)) and not isinstance(v, bool) for r in w for v in r):
@@ -270,7 +269,7 @@ def _check_outputs(folder: Path, header: list[str], rows: list[list[str]], metri
     # a scored summary ends with the last dynamics' row, or with a note in parentheses under it
     # (method=airl, optim=exact: what its "game p" column is)
     ends = summary[-2:] if summary[-1].startswith("  (") and summary[-1].endswith(")") else summary[-1:]
-    if not summary[0].startswith("airl fit: method=") or (metrics["scored"] and not ends[0].startswith(f"  tau_{len(rows) - 1} ")):
+    if not summary[0].startswith("airl fit: method=") or (metrics["scored"] and not ends[0].startswith(f"  {rows[-1][header.index('dynamics')]} ")):
         raise Damaged("summary.txt is cut short")
 
 

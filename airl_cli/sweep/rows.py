@@ -80,6 +80,9 @@ def fit_rows(cfg: DictConfig, folder) -> list[dict]:
                 **fit_facts,
                 "equilibrium_score": np.nan if row["equilibrium_score"] is None else row["equilibrium_score"],
                 "weight_scale": weight_scale,
+                "n_test": ds.n_test,
+                "learner_return": np.nan if row["learner_return"] is None else row["learner_return"],
+                "demonstrator_return": np.nan if row["demonstrator_return"] is None else row["demonstrator_return"],
                 **settings,
             }
         )

@@ -144,20 +144,29 @@ def medians_text(experiment: dict, table: pd.DataFrame) -> str:
         return variants_text(experiment, table)
     if experiment.get("kind") == "alphas" or "learner_score" not in table:
         return ""
-    rows = table[table["dynamics"].isin(experiment.get("dynamics") or table["dynamics"].unique())]
-    rows = rows.dropna(subset=["learner_score"])
-    if rows.empty:
+    held_out = table["dynamics"].astype(str).str.startswith("test_")
+    demonstrated = table[~held_out]
+    rows = demonstrated[demonstrated["dynamics"].isin(experiment.get("dynamics") or demonstrated["dynamics"].unique())]
+    lines = _median_block(rows.dropna(subset=["learner_score"]), experiment.get("x", "x"), "")
+    if not lines:
         return ""
-    learner = rows.pivot_table(index="x", columns="method", values="learner_score", aggfunc="median")
-    learner["demonstrator"] = rows.groupby("x")["demonstrator_score"].median()
-    x_name = experiment.get("x", "x")
-    head = f"{x_name:>12}" + "".join(f"{m:>13}" for m in learner.columns)
-    lines = ["", f"median normalised performance over runs and {', '.join(sorted(rows['dynamics'].unique()))}:", head]
-    for x, r in learner.iterrows():
-        lines.append(f"{x:>12g}" + "".join(f"{v:>13.4f}" for v in r))
+    lines += _median_block(table[held_out].dropna(subset=["learner_score"]), experiment.get("x", "x"), " (held out, never demonstrated)")
     if experiment.get("thesis"):
         lines.append(f"thesis: {experiment['thesis']}")
     return "\n".join(lines) + "\n\n"
+
+
+def _median_block(rows: pd.DataFrame, x_name: str, what: str) -> list[str]:
+    """Lines of the median learner score per swept value and method, the demonstrator's beside it."""
+    if rows.empty:
+        return []
+    learner = rows.pivot_table(index="x", columns="method", values="learner_score", aggfunc="median")
+    learner["demonstrator"] = rows.groupby("x")["demonstrator_score"].median()
+    head = f"{x_name:>12}" + "".join(f"{m:>13}" for m in learner.columns)
+    lines = ["", f"median normalised performance over runs and {', '.join(sorted(rows['dynamics'].unique()))}{what}:", head]
+    for x, r in learner.iterrows():
+        lines.append(f"{x:>12g}" + "".join(f"{v:>13.4f}" for v in r))
+    return lines
 
 
 def viano_text(experiment: dict, table: pd.DataFrame) -> str:

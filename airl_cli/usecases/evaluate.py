@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from airl_cli.core.mdp.basics import discounted
-from airl_cli.core.mdp.planning import backward_induction
+from airl_cli.core.mdp.planning import backward_induction, expected_return, optimal_expert
 from airl_cli.core.mdp.scores import cosine_similarity, mixture_performance, performance, return_bounds
 from airl_cli.io.dataset import Dataset
 
@@ -15,21 +15,34 @@ def dynamics_name(j: int) -> str:
     return "tau" if j == 0 else f"tau_{j}"
 
 
+def test_name(e: int) -> str:
+    """'test_e' (e = 1..E) for the held-out test dynamics."""
+    return f"test_{e}"
+
+
 def weights_for(weights: np.ndarray, j: int) -> np.ndarray:
     """The learner's weights for dynamics j: w_j for j >= 1; under tau (j = 0, never demonstrated)
-    the mean of the w_j (with weight sharing all rows are equal)."""
+    and any held-out dynamics the mean of the w_j (with weight sharing all rows are equal)."""
     return weights.mean(axis=0) if j == 0 else weights[j - 1]
 
 
-def learner_policy(dataset: Dataset, weights: np.ndarray, j: int) -> np.ndarray:
-    """The learner's policy (T-1, S) for dynamics j: optimal for its w . phi (discounted) under tau_j.
+def learner_policy(dataset: Dataset, weights: np.ndarray, j: int, P=None) -> np.ndarray:
+    """The learner's policy (T-1, S) for dynamics j: optimal for its w . phi (discounted) under tau_j
+    (or under ``P`` (S, A, S), a held-out dynamics, with j = 0's weights).
 
     ``weights`` (D, K), or (D, T, K) for a time-dependent reward r_t(s) = w_{j,t} . phi(s)
     (game.matching=per_step)."""
     w = weights_for(weights, j)
     R = dataset.features @ w if w.ndim == 1 else (dataset.features @ w.T).T
-    policy, _ = backward_induction(dataset.transitions[j], discounted(R, dataset.horizon, dataset.discount))
+    policy, _ = backward_induction(dataset.transitions[j] if P is None else P, discounted(R, dataset.horizon, dataset.discount))
     return policy
+
+
+def scored_dynamics(dataset: Dataset) -> list[tuple[str, object]]:
+    """(name, (S, A, S) dynamics) of every dynamics scored: tau, tau_1..tau_D, then the held-out
+    test_1..test_E (``Dataset.test_transitions``)."""
+    out = [(dynamics_name(j), dataset.transitions[j]) for j in range(dataset.transitions.shape[0])]
+    return out + [(test_name(e + 1), dataset.test_transitions[e]) for e in range(dataset.n_test)]
 
 
 def score_rows(
@@ -38,32 +51,39 @@ def score_rows(
     policies: list[np.ndarray] | None = None,
     equilibrium: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> list[dict]:
-    """Per dynamics j = 0..D: the learner's and the demonstrator's normalised performance and cos(w, w*).
+    """Per dynamics (``scored_dynamics``: tau, tau_1..tau_D, test_1..test_E): the learner's and the
+    demonstrator's normalised performance and expected return, and cos(w, w*).
 
-    The demonstrator is the optimal policy of w* . phi under tau, run in tau_j. The learner's
-    policy per dynamics comes from ``weights`` (D, K), or is given directly as ``policies`` (for
-    methods that learn a policy, not a reward). ``equilibrium`` = (policies (n, T-1, S), mix (n,))
-    is the game's own learner (method=airl): its score, the mix-weighted performance of its
-    policies, is ``equilibrium_score`` (None without it). Scores are None when the dataset has no
-    true weights; the cosine is None without weights.
+    The demonstrator is the optimal policy of w* . phi under tau, run in each dynamics (thesis
+    §4.1), or, for a dataset whose expert is each dynamics' own (``Dataset.expert`` "own"), the
+    policy optimal (hard, or soft with ``expert_beta``) in that dynamics itself. The learner's policy per dynamics is optimal for its weights (D, K) there (a held-out
+    dynamics takes tau's: the mean w), or is given directly as ``policies``, one per scored
+    dynamics (for methods that learn a policy, not a reward). ``equilibrium`` = (policies (n, T-1,
+    S), mix (n,)) is the game's own learner (method=airl): its score, the mix-weighted performance
+    of its policies, is ``equilibrium_score`` (None without it). Scores and returns are None when
+    the dataset has no true weights; the cosine is None without weights.
     """
     rows = []
     w_star = dataset.true_weights
-    expert = None
+    expert = R = None
     if w_star is not None:
-        expert, _ = backward_induction(dataset.transitions[0], discounted(dataset.features @ w_star, dataset.horizon, dataset.discount))
-    for j in range(dataset.transitions.shape[0]):
-        P = dataset.transitions[j]
-        policy = policies[j] if policies is not None else learner_policy(dataset, weights, j)
-        row = {"dynamics": dynamics_name(j), "learner_score": None, "demonstrator_score": None, "cosine_similarity": None}
+        # step t's reward weighted by gamma^t (mdp.discount; 1 in the thesis)
+        R = discounted(dataset.features @ w_star, dataset.horizon, dataset.discount)
+        expert, _ = backward_induction(dataset.transitions[0], R)
+    for i, (name, P) in enumerate(scored_dynamics(dataset)):
+        j = i if name.startswith("tau") else 0
+        if w_star is not None and dataset.expert == "own":
+            expert = optimal_expert(P, dataset.features @ w_star, dataset.horizon, discount=dataset.discount, beta=dataset.expert_beta)
+        policy = policies[i] if policies is not None else learner_policy(dataset, weights, j, P)
+        row = {"dynamics": name, "learner_score": None, "demonstrator_score": None, "cosine_similarity": None}
         row["equilibrium_score"] = None
+        row["learner_return"] = row["demonstrator_return"] = None
         if w_star is not None:
-            # step t's reward weighted by gamma^t (mdp.discount; 1 in the thesis)
-            R = discounted(dataset.features @ w_star, dataset.horizon, dataset.discount)
-            # r-bar and R-bar of this dynamics, once for every policy scored in it
-            bounds = return_bounds(P, R, dataset.initial)
+            bounds = return_bounds(P, R, dataset.initial)  # r-bar and R-bar of this dynamics, once
             row["learner_score"] = performance(P, R, policy, dataset.initial, bounds=bounds)
             row["demonstrator_score"] = performance(P, R, expert, dataset.initial, bounds=bounds)
+            row["learner_return"] = expected_return(P, R, policy, dataset.initial)
+            row["demonstrator_return"] = expected_return(P, R, expert, dataset.initial)
             if equilibrium is not None:
                 row["equilibrium_score"] = mixture_performance(P, R, *equilibrium, dataset.initial, bounds=bounds)
             if weights is not None:
@@ -74,8 +94,8 @@ def score_rows(
 
 def score_learned(dataset: Dataset, learned) -> list[dict]:
     """``score_rows`` for a ``usecases.fit.Learned``: its weights, or its one policy for every dynamics, and its equilibrium."""
-    n = dataset.transitions.shape[0]
-    policies = None if learned.policy is None else [learned.policy] * n
+    scored = scored_dynamics(dataset)
+    policies = None if learned.policy is None else [learned.policy] * len(scored)
     if learned.step_weights is not None:  # a time-dependent reward: its own policies
-        policies = [learner_policy(dataset, learned.step_weights, j) for j in range(n)]
+        policies = [learner_policy(dataset, learned.step_weights, i if name.startswith("tau") else 0, P) for i, (name, P) in enumerate(scored)]
     return score_rows(dataset, learned.weights, policies, learned.equilibrium)

@@ -16,14 +16,14 @@ from airl_cli.config import DemoSettings, EnvMDPSettings, GridMDPSettings, MDPSe
 from airl_cli.core.mdp import demos as core_demos
 from airl_cli.core.mdp import objectworld, problems
 from airl_cli.core.mdp.basics import discounted
-from airl_cli.core.mdp.planning import backward_induction
+from airl_cli.core.mdp.planning import backward_induction, optimal_expert
 from airl_cli.core.mdp.scores import performance
 from airl_cli.core.mdp.sparse import SparseDynamics
 from airl_cli.errors import ConfigError
 from airl_cli.io.dataset import Dataset
 
 #: Named random streams, in spawn order (append only: existing streams keep their numbers).
-STREAMS = ("mdp", "dynamics", "demos", "fit", "method")
+STREAMS = ("mdp", "dynamics", "demos", "fit", "method", "test")  # a new name goes last: the others keep their streams
 
 
 def streams(seed: int) -> dict[str, np.random.Generator]:
@@ -50,6 +50,7 @@ class Problem:
     loss: np.ndarray  # (S, S)
     coordinates: np.ndarray | None = None  # (S, 2) grid cells (row, col), or None
     discount: float = 1.0  # gamma: step t weighted by gamma^t
+    test_transitions: np.ndarray | SparseDynamics | None = None  # (E, S, A, S) held out: scored, never demonstrated
 
 
 def resolved_loss(settings: ProblemSettings) -> str:
@@ -132,10 +133,13 @@ def build_problem(settings: ProblemSettings) -> Problem:
     if isinstance(mdp, ObjectworldSettings):
         # a cell reaches at most 5 cells: the dynamics stay sparse (core.sparse), even at S = 4,096
         slips = dyn.slips if dyn.kind == "slip" else (mdp.slip,) * dyn.n_dynamics
-        return Problem(objectworld.slip_sparse(mdp.size, (mdp.slip, *slips)), phi, p0, mdp.horizon, w_star, loss, coords, settings.discount)
+        test = objectworld.slip_sparse(mdp.size, dyn.test_values) if dyn.n_test else None
+        return Problem(objectworld.slip_sparse(mdp.size, (mdp.slip, *slips)), phi, p0, mdp.horizon, w_star, loss, coords, settings.discount, test)
+    test = None
     if dyn.kind == "gaussian":
         sigma = problems.noise(dyn.sigma, dyn.sigma_states, tau.shape[0])
         others = problems.gaussian_perturbations(rng["dynamics"], tau, sigma=sigma, n_dynamics=dyn.n_dynamics)
+        test = problems.gaussian_perturbations(rng["test"], tau, sigma=sigma, n_dynamics=dyn.n_test) if dyn.n_test else None
     elif dyn.kind == "same":
         others = np.broadcast_to(tau, (dyn.n_dynamics,) + tau.shape)
     else:
@@ -144,7 +148,7 @@ def build_problem(settings: ProblemSettings) -> Problem:
             [problems.grid_world(epsilon=mdp.epsilon, crosses=layout, size=mdp.size, start=mdp.start) for layout in dyn.layouts]
         )
     transitions = np.concatenate([tau[None], others], axis=0)
-    return Problem(transitions, phi, p0, mdp.horizon, w_star, loss, coords, settings.discount)
+    return Problem(transitions, phi, p0, mdp.horizon, w_star, loss, coords, settings.discount, test)
 
 
 def env_problem(settings: ProblemSettings) -> Problem:
@@ -160,10 +164,11 @@ def env_problem(settings: ProblemSettings) -> Problem:
         sizes = dict(width=mdp.width, height=mdp.height, horizon=mdp.horizon - 1)
     try:
         env = envs.env_problem(mdp.name, mdp.env, (mdp.value, *values), features=mdp.features, **sizes)
+        test = envs.env_problem(mdp.name, mdp.env, (mdp.value, *dyn.test_values), features=mdp.features, **sizes).transitions[1:] if dyn.n_test else None
     except ValueError as e:  # the table breaks an assumption of airl_cli.core.mdp.tabular
         raise ConfigError(f"{mdp.env}'s transition table cannot be read as a problem: {e}") from None
     loss = loss_matrix(resolved_loss(settings), env.features)
-    return Problem(env.transitions, env.features, env.initial, mdp.horizon, env.true_weights, loss, discount=settings.discount)
+    return Problem(env.transitions, env.features, env.initial, mdp.horizon, env.true_weights, loss, discount=settings.discount, test_transitions=test)
 
 
 def _env_by_id(settings: ProblemSettings) -> Problem:
@@ -176,14 +181,18 @@ def _env_by_id(settings: ProblemSettings) -> Problem:
     mdp, dyn = settings.mdp, settings.dynamics
     env = own_envs.problem_of([own_envs.make_by_id(mdp.env)])
     tau = env.transitions[0]
+    test = None
     if dyn.kind == "gaussian":
         sigma = problems.noise(dyn.sigma, dyn.sigma_states, tau.shape[0])
-        others = problems.gaussian_perturbations(streams(settings.seed)["dynamics"], tau, sigma=sigma, n_dynamics=dyn.n_dynamics)
+        rng = streams(settings.seed)
+        others = problems.gaussian_perturbations(rng["dynamics"], tau, sigma=sigma, n_dynamics=dyn.n_dynamics)
         others = np.stack([tabular.absorbing(P, env.terminal) for P in others])
+        if dyn.n_test:
+            test = np.stack([tabular.absorbing(P, env.terminal) for P in problems.gaussian_perturbations(rng["test"], tau, sigma=sigma, n_dynamics=dyn.n_test)])
     else:
         others = np.broadcast_to(tau, (dyn.n_dynamics,) + tau.shape)
     loss = loss_matrix(resolved_loss(settings), env.features)
-    return Problem(np.concatenate([tau[None], others]), env.features, env.initial, mdp.horizon, env.true_weights, loss, discount=settings.discount)
+    return Problem(np.concatenate([tau[None], others]), env.features, env.initial, mdp.horizon, env.true_weights, loss, discount=settings.discount, test_transitions=test)
 
 
 def expert_policy(problem: Problem) -> np.ndarray:
@@ -200,11 +209,24 @@ def build_dataset(settings: ProblemSettings) -> tuple[Dataset, np.ndarray]:
 
 def demonstrated(problem: Problem, demos: DemoSettings, seed: int) -> tuple[Dataset, np.ndarray]:
     """``problem`` with its demonstrations (``demos``; sampled from the "demos" stream of ``seed``)
-    as a dataset, and the expert's policy (T-1, S): optimal under tau, acted out in each tau_j."""
+    as a dataset, and the expert's policy (T-1, S): optimal under tau, acted out in each tau_j
+    (``demos.expert="tau"``, thesis §4.1). With ``demos.expert="own"`` each tau_j's demonstrations
+    come from an expert optimal in tau_j itself (``planning.optimal_expert``: hard, or soft with
+    ``demos.beta``); tau's expert is still the one returned."""
     policy = expert_policy(problem)
     P, p0, phi = problem.transitions, problem.initial, problem.features
     fields: dict = {}
-    if demos.kind == "sampled":
+    if demos.expert == "own":
+        r = phi @ problem.true_weights
+        own = [optimal_expert(P[j], r, problem.horizon, discount=problem.discount, beta=demos.beta) for j in range(1, P.shape[0])]
+        if demos.kind == "sampled":  # one block of draws per dynamics, in order, from the "demos" stream
+            rng = streams(seed)["demos"]
+            drawn = [core_demos.sample_trajectories(rng, P[j + 1], pi, p0, demos.n) for j, pi in enumerate(own)]
+            fields = dict(demo_states=np.stack([s for s, _ in drawn]), demo_actions=np.stack([a for _, a in drawn]))
+        else:
+            fields = dict(feature_expectations=np.stack([core_demos.expected_feature_sums(P[j + 1], pi, p0, phi, discount=problem.discount) for j, pi in enumerate(own)]))
+        fields.update(expert="own", expert_beta=demos.beta)
+    elif demos.kind == "sampled":
         states, actions = core_demos.sample_trajectories(streams(seed)["demos"], P[1:], policy, p0, demos.n)
         fields = dict(demo_states=states, demo_actions=actions)
     elif demos.kind == "exact":
@@ -231,6 +253,7 @@ def demonstrated(problem: Problem, demos: DemoSettings, seed: int) -> tuple[Data
         true_weights=problem.true_weights,
         loss=problem.loss,
         discount=problem.discount,
+        test_transitions=problem.test_transitions,
         **fields,
     )
     return dataset, policy

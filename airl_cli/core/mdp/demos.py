@@ -33,15 +33,16 @@ def sample_trajectories(
     p0: np.ndarray,
     n: int,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Sample ``n`` trajectories of a deterministic policy under one or several dynamics.
+    """Sample ``n`` trajectories of a policy under one or several dynamics.
 
     All randomness is one block of uniforms drawn up front, shape (D, n, T), so the result
     depends only on the generator's state; s_1 ~ p0, a_t = policy[t, s_t],
-    s_{t+1} ~ P_j[s_t, a_t, :].
+    s_{t+1} ~ P_j[s_t, a_t, :]. A stochastic policy draws a second block, (D, n, T-1), after
+    the first: a_t ~ policy[t, s_t, :] (a deterministic policy's draws are unchanged by it).
 
     Args:
         P: (S, A, S) or (D, S, A, S), dense or sparse (``core.sparse``).
-        policy: (T-1, S) int, the same policy under every dynamics.
+        policy: (T-1, S) int, or (T-1, S, A) float (stochastic), the same under every dynamics.
         p0: (S,) initial distribution.
         n: number of trajectories per dynamics, N >= 1.
 
@@ -61,6 +62,9 @@ def sample_trajectories(
     D = probs.shape[0]
     T = policy.shape[0] + 1
     u = rng.random((D, n, T))
+    stochastic = np.asarray(policy).ndim == 3
+    if stochastic:
+        ua, CA = rng.random((D, n, T - 1)), _inverse_cdf(np.asarray(policy, dtype=np.float64))  # (T-1, S, A)
     C0 = _inverse_cdf(np.asarray(p0, dtype=np.float64))
     CP = _inverse_cdf(probs)  # (D, S, A, S), or (D, S, A, R) over the reachable next states
     states = np.empty((D, n, T), dtype=np.int64)
@@ -69,7 +73,7 @@ def sample_trajectories(
     d_idx = np.arange(D)[:, None]
     for t in range(T - 1):
         s = states[:, :, t]
-        a = policy[t][s]
+        a = np.sum(CA[t][s] <= ua[:, :, t, None], axis=-1) if stochastic else policy[t][s]
         actions[:, :, t] = a
         rows = CP[d_idx, s, a]  # (D, n, S) or (D, n, R)
         pick = np.sum(rows <= u[:, :, t + 1, None], axis=-1)

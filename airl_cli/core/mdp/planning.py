@@ -89,6 +89,20 @@ def soft_backward_induction(P: np.ndarray, R: np.ndarray, *, discount: float = 1
     return policy, V
 
 
+def optimal_expert(P, r: np.ndarray, horizon: int, *, discount: float = 1.0, beta: float | None = None) -> np.ndarray:
+    """An expert optimal for the state reward r in the dynamics P: hard (``beta`` None: backward
+    induction on gamma^t r, a (T-1, S) int policy) or soft-optimal with entropy weight beta > 0
+    (soft backward induction on r / beta, Q_t = r / beta + gamma E[V_{t+1}]: a (T-1, S, A) policy).
+
+    Args:
+        P: (S, A, S), dense or sparse; r: (S,); horizon: T; discount: gamma in (0, 1].
+    """
+    r = np.asarray(r, dtype=np.float64)
+    if beta is None:
+        return backward_induction(P, discounted(r, horizon, discount))[0]
+    return soft_backward_induction(P, np.tile(r / beta, (horizon, 1)), discount=discount)[0]
+
+
 def _next_state_matrix(P: np.ndarray, policy_t: np.ndarray) -> np.ndarray:
     """Transition matrix (S, S) of one time step under a deterministic (S,) or stochastic (S, A) rule."""
     if policy_t.ndim == 1:

@@ -1,0 +1,187 @@
+"""Held-out test dynamics (issue 34): a dataset key for dynamics no demonstration came from, every
+method scored in each, and the built-in problems drawing them."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from airl_cli import api
+from airl_cli.cli import app
+from airl_cli.core.mdp.scores import return_bounds
+from airl_cli.core.mdp.sparse import sparse_dynamics
+from airl_cli.errors import DatasetError
+from airl_cli.io.dataset import Dataset, read_dataset, validate, write_dataset
+
+runner = CliRunner()
+
+
+def _small(n_test: int = 2, seed: int = 0) -> Dataset:
+    """The default problem at S = 8 with ``n_test`` held-out dynamics."""
+    return api.make_dataset("mdp.n_states=8", "mdp.horizon=5", "demos.n=20", f"dynamics.n_test={n_test}", f"seed={seed}")
+
+
+def test_the_built_in_draws_leave_the_training_dynamics_as_they_were():
+    with_test, without = _small(2), _small(0)
+    assert with_test.n_test == 2 and without.n_test == 0 and without.test_transitions is None
+    np.testing.assert_array_equal(with_test.transitions, without.transitions)  # their own seed stream
+    np.testing.assert_array_equal(with_test.demo_states, without.demo_states)
+    P = np.asarray(with_test.test_transitions)
+    assert P.shape == (2, 8, 5, 8) and np.allclose(P.sum(axis=-1), 1.0)
+    assert not np.allclose(P[0], P[1]) and not any(np.allclose(P[0], Q) for Q in np.asarray(with_test.transitions))
+
+
+def test_a_test_dynamics_equal_to_a_demonstration_dynamics_scores_as_it_does():
+    ds = _small(0)
+    P = np.asarray(ds.transitions)
+    ds = Dataset(**{**ds.__dict__, "test_transitions": P[[1, 0]]})  # test_1 = tau_1, test_2 = tau
+    for method in ("airl", "mce"):
+        rows = {r["dynamics"]: r for r in api.score(ds, api.fit(ds, f"method={method}")).to_dict("records")}
+        for test, same in (("test_1", "tau_1"), ("test_2", "tau")):
+            for key in ("learner_score", "demonstrator_score", "learner_return", "demonstrator_return"):
+                assert rows[test][key] == pytest.approx(rows[same][key], abs=1e-9), (method, test, key)
+    # the demonstrator is optimal in tau: its return there is the best achievable, R-bar (thesis §7.2)
+    R = np.tile(ds.features @ ds.true_weights, (ds.horizon, 1))
+    assert rows["tau"]["demonstrator_return"] == pytest.approx(return_bounds(P[0], R, ds.initial)[1], rel=1e-12)
+
+
+def test_test_dynamics_round_trip_dense_and_sparse(tmp_path):
+    ds = _small(2)
+    dense = write_dataset(tmp_path / "dense.npz", ds)
+    np.testing.assert_array_equal(read_dataset(dense).test_transitions, ds.test_transitions)
+    arrays = ds.arrays()
+    sparse = sparse_dynamics(arrays.pop("test_transitions"))
+    arrays["test_transition_next"], arrays["test_transition_probs"] = sparse.next_states, sparse.probs
+    back = validate(arrays)
+    np.testing.assert_allclose(np.asarray(back.test_transitions.dense()), ds.test_transitions)
+
+
+@pytest.mark.parametrize(
+    "change, message",
+    [
+        (lambda a: a.update(test_transitions=a["test_transitions"][:, :5]), "key 'test_transitions' must have shape (M, S, A, S)"),
+        (lambda a: a.update(test_transitions=a["test_transitions"][:, :, :3]), "key 'test_transitions' must have S = 8 states and A = 5 actions"),
+        (lambda a: a.update(test_transitions=a["test_transitions"] * 2), "key 'test_transitions'"),
+        (lambda a: a.pop("true_weights"), "the key 'true_weights' is missing"),
+        (lambda a: a.update(test_transition_next=np.zeros((8, 2), dtype=int)), "either 'test_transitions' or 'test_transition_next'"),
+    ],
+)
+def test_bad_test_dynamics_are_one_sentence_naming_the_key(change, message):
+    arrays = _small(2).arrays()
+    change(arrays)
+    with pytest.raises(DatasetError) as err:
+        validate(arrays)
+    assert message in str(err.value) and "\n" not in str(err.value)
+
+
+def test_every_method_is_scored_in_the_test_dynamics_by_fit_and_inspect(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    path = write_dataset(tmp_path / "d.npz", _small(2))
+    shown = runner.invoke(app, ["inspect", str(path)])
+    assert shown.exit_code == 0 and "held-out test dynamics: E=2" in shown.output
+    for method in ("airl", "mce", "robust_mce", "projection", "mmp", "bc"):
+        out = tmp_path / method
+        result = runner.invoke(app, ["fit", f"data={path}", f"method={method}", f"hydra.run.dir={out}"])
+        assert result.exit_code == 0, (method, result.output)
+        rows = json.loads((out / "metrics.json").read_text())["dynamics"]
+        assert [r["dynamics"] for r in rows] == ["tau", "tau_1", "tau_2", "tau_3", "test_1", "test_2"], method
+        assert all(0.0 <= r["learner_score"] <= 1.0 and np.isfinite(r["learner_return"]) for r in rows), method
+        summary = (out / "summary.txt").read_text()
+        assert "  test_2 " in summary and "demo return" in summary, method
+
+
+def test_objectworld_and_environments_draw_their_test_dynamics():
+    world = api.make_dataset("mdp=objectworld", "mdp.size=6", "demos.n=10", "dynamics.test_slips=[0.5,0.0]")
+    assert world.n_test == 2 and world.n_dynamics == 3
+    P = world.test_transitions.dense()
+    assert np.allclose(P[1], np.asarray(world.transitions.dense())[0])  # slip 0 is tau's own
+    pytest.importorskip("gymnasium")
+    lake = api.make_dataset("mdp=gymnasium", "dynamics.test_values=[0.9]")
+    named = api.make_dataset("mdp=gymnasium", "dynamics.values=[0.9]")
+    np.testing.assert_allclose(lake.test_transitions[0], np.asarray(named.transitions)[1])
+
+
+def test_a_sweep_writes_the_test_rows_and_resumes_them(tmp_path, monkeypatch):
+    import pandas as pd
+
+    monkeypatch.chdir(tmp_path)
+    command = ["sweep", "experiment=fig05", "profile=quick", "hydra/launcher=basic", "method=airl,mce", "dynamics.n_test=2"]
+    result = runner.invoke(app, command)
+    assert result.exit_code == 0, result.output
+    folder = next((tmp_path / "results" / "sweeps").iterdir())
+    table = pd.read_csv(folder / "results.csv")
+    tests = table[table["dynamics"].str.startswith("test_")]
+    assert len(tests) == 2 * len(table[table["dynamics"] == "tau"]) and tests["learner_return"].notna().all()
+    again = runner.invoke(app, command)
+    assert again.exit_code == 0 and "finished earlier" in again.output and "damaged" not in again.output.lower()
+
+
+# --------------------------------------------------------------------------- the field's other expert model
+
+
+def test_each_dynamics_own_expert_hard_and_soft():
+    from airl_cli.core.mdp.planning import backward_induction, soft_backward_induction
+
+    base = ("mdp.n_states=8", "mdp.horizon=5", "demos=exact")
+    tau = api.make_dataset(*base)
+    own = api.make_dataset(*base, "demos.expert=own")
+    soft = api.make_dataset(*base, "demos.expert=own", "demos.beta=0.5")
+    assert own.expert == "own" and own.expert_beta is None and soft.expert_beta == 0.5 and tau.expert == "tau"
+    P, phi, r = np.asarray(own.transitions), own.features, own.features @ own.true_weights
+    T = own.horizon
+    for j in (1, 2, 3):  # by hand: each tau_j's optimal (hard) and soft-optimal policy, run in tau_j
+        hard = backward_induction(P[j], np.tile(r, (T, 1)))[0]
+        from airl_cli.core.mdp.demos import expected_feature_sums
+
+        np.testing.assert_allclose(own.feature_expectations[j - 1], expected_feature_sums(P[j], hard, own.initial, phi))
+        pi = soft_backward_induction(P[j], np.tile(r / 0.5, (T, 1)))[0]
+        np.testing.assert_allclose(soft.feature_expectations[j - 1], expected_feature_sums(P[j], pi, own.initial, phi))
+    assert not np.allclose(own.feature_expectations, tau.feature_expectations)
+    # the demonstrator is scored as what it is: a hard expert of its own dynamics is optimal there
+    rows = api.score(own, api.fit(own, "method=mce"))
+    assert np.allclose(rows["demonstrator_score"], 1.0)
+    soft_rows = api.score(soft, api.fit(soft, "method=mce"))
+    assert (soft_rows["demonstrator_score"] < 1.0).all()
+
+
+def test_own_experts_sampled_round_trip_and_every_method_runs(tmp_path, monkeypatch):
+    ds = api.make_dataset("mdp.n_states=8", "mdp.horizon=5", "demos.n=30", "demos.expert=own", "demos.beta=0.3", "dynamics.n_test=1")
+    assert ds.demo_states.shape == (3, 30, 5) and ds.demo_actions.shape == (3, 30, 4)
+    path = write_dataset(tmp_path / "own.npz", ds)
+    back = read_dataset(path)
+    assert back.expert == "own" and back.expert_beta == 0.3
+    monkeypatch.chdir(tmp_path)
+    shown = runner.invoke(app, ["inspect", str(path)])
+    assert "expert: each tau_j's own, soft-optimal, entropy weight beta=0.3" in shown.output
+    for method in ("airl", "mce", "robust_mce", "bc"):
+        result = runner.invoke(app, ["fit", f"data={path}", f"method={method}", f"hydra.run.dir={tmp_path / method}"])
+        assert result.exit_code == 0, (method, result.output)
+    # a file of the thesis's expert is written as before: no 'expert' key
+    assert "expert" not in _small(0).arrays()
+
+
+@pytest.mark.parametrize(
+    "overrides, message",
+    [
+        (("demos.beta=0.5",), "set demos.expert=own with it"),
+        (("demos=optimal_path", "demos.expert=own"), "use demos.expert=tau with it"),
+        (("demos.expert=mine",), "demos.expert"),
+        (("demos.expert=own", "demos.beta=0"), "demos.beta"),
+    ],
+)
+def test_bad_expert_settings_are_one_sentence(overrides, message, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    result = runner.invoke(app, ["generate", *overrides])
+    assert result.exit_code == 2 and message in result.output and len(result.output.strip().splitlines()) == 1, result.output
+    assert not (tmp_path / "results").exists()
+
+
+def test_bad_expert_keys_are_one_sentence():
+    arrays = _small(0).arrays()
+    with pytest.raises(DatasetError, match="key 'expert' must be the string 'tau' or 'own'"):
+        validate({**arrays, "expert": np.asarray("mine")})
+    with pytest.raises(DatasetError, match="needs 'expert' = 'own'"):
+        validate({**arrays, "expert_beta": np.asarray(0.5)})
