@@ -20,7 +20,7 @@ from airl_cli.io.files import atomic_write, write_json, write_text
 from airl_cli.jobs.common import check_memory, err_console, out_console, output_dir, run_job, save_config, size_note, warm_up
 from airl_cli.paths import conf_dir
 from airl_cli.plain_progress import PlainProgress
-from airl_cli.usecases.evaluate import score_learned
+from airl_cli.usecases.evaluate import identifiability_lines, score_learned
 from airl_cli.usecases.fit import Learned, check_supported, learn
 from airl_cli.usecases.problem import build_dataset, learner_rng, with_loss
 
@@ -105,6 +105,8 @@ def summary_text(dataset: Dataset, settings: FitSettings, learned: Learned, rows
         f"problem   S={dataset.n_states}, A={dataset.n_actions}, K={dataset.n_features}, T={dataset.horizon}, D={dataset.n_dynamics}{given}",
         f"fit       {how}",  # the time is in timing.json: the summary is the same bytes for the same config
     ]
+    if dataset.expert == "own":  # the field's expert model: can these dynamics identify its reward?
+        lines += [f"identify  {line}" for line in identifiability_lines(dataset)]
     if learned.method == "airl":
         lines += _objective_lines(info)
         if info.get("degenerate"):

@@ -8,6 +8,7 @@ from airl_cli.core.mdp.sparse import SparseDynamics
 from airl_cli.errors import AirlError, refuse
 from airl_cli.io.dataset import read_dataset
 from airl_cli.jobs.common import err_console, out_console
+from airl_cli.usecases.evaluate import identifiability_lines
 
 
 def _form(ds) -> str:
@@ -40,6 +41,7 @@ def describe(path: str) -> str:
         lines.append(f"  discount: gamma = {ds.discount:g}, step t weighted by gamma^t (method=airl refuses it)")
     if ds.allowed_actions is not None:
         lines.append(f"  actions: {int(ds.allowed_actions.sum())} of {ds.allowed_actions.size} (state, action) pairs exist (method=robust_mce only)")
+    lines += [f"  {line}" for line in identifiability_lines(ds)]
     lines.append("  feature sums c~_j:")
     for j, row in enumerate(ds.feature_targets(), start=1):
         lines.append(f"    tau_{j}: " + np.array2string(row, precision=4, separator=", "))

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from airl_cli.core.mdp import identifiability
 from airl_cli.core.mdp.basics import discounted
 from airl_cli.core.mdp.planning import backward_induction, expected_return, optimal_expert
 from airl_cli.core.mdp.scores import cosine_similarity, mixture_performance, performance, return_bounds
@@ -99,3 +100,22 @@ def score_learned(dataset: Dataset, learned) -> list[dict]:
     if learned.step_weights is not None:  # a time-dependent reward: its own policies
         policies = [learner_policy(dataset, learned.step_weights, i if name.startswith("tau") else 0, P) for i, (name, P) in enumerate(scored)]
     return score_rows(dataset, learned.weights, policies, learned.equilibrium)
+
+
+#: The dense rank test's size limit: D * S at most this many columns (an SVD of (D S A) x (K + D S)).
+RANK_TEST_LIMIT = 3000
+
+
+def identifiability_lines(dataset: Dataset) -> list[str]:
+    """Whether the demonstration dynamics tau_1..tau_D identify the reward of soft-optimal experts
+    (Rolland et al. 2022, ``core.mdp.identifiability``): the tabular test (D >= 2) and the features
+    form for w, at the dataset's discount; or why it is not run."""
+    P, D, S = dataset.transitions, dataset.n_dynamics, dataset.n_states
+    if dataset.discount >= 1.0:
+        return ["identifiability (Rolland et al. 2022): its rank test needs a discount gamma < 1 (this dataset's is 1)"]
+    if D * S > RANK_TEST_LIMIT:
+        return [f"identifiability (Rolland et al. 2022): not run, D * S = {D * S} is above the dense test's {RANK_TEST_LIMIT}"]
+    dense = np.stack([np.asarray(P[j].dense() if hasattr(P[j], "dense") else P[j]) for j in range(1, D + 1)])
+    psi = np.repeat(dataset.features, dataset.n_actions, axis=0)  # a state's features for each of its actions
+    lines = [identifiability.rank_test(dense, dataset.discount).sentence(D)] if D >= 2 else []
+    return lines + [identifiability.features_rank_test(dense, psi, dataset.discount).sentence(D)]

@@ -185,3 +185,18 @@ def test_bad_expert_keys_are_one_sentence():
         validate({**arrays, "expert": np.asarray("mine")})
     with pytest.raises(DatasetError, match="needs 'expert' = 'own'"):
         validate({**arrays, "expert_beta": np.asarray(0.5)})
+
+
+def test_identifiability_is_reported_by_inspect_and_by_fit_for_own_experts(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    own = api.make_dataset("mdp.n_states=18", "mdp.horizon=5", "demos=exact", "demos.expert=own", "demos.beta=1.0", "mdp.discount=0.9",
+                           "dynamics.n_dynamics=2")
+    path = write_dataset(tmp_path / "own.npz", own)
+    shown = runner.invoke(app, ["inspect", str(path)])
+    assert "reward identified up to a constant by these 2 dynamics (Rolland et al. 2022): rank 35 of 35" in shown.output, shown.output
+    assert "features form" in shown.output
+    result = runner.invoke(app, ["fit", f"data={path}", "method=mce", f"hydra.run.dir={tmp_path / 'fit'}"])
+    assert result.exit_code == 0, result.output
+    assert "identify  reward identified up to a constant" in (tmp_path / "fit" / "summary.txt").read_text()
+    undiscounted = write_dataset(tmp_path / "t.npz", _small(0))
+    assert "needs a discount gamma < 1" in runner.invoke(app, ["inspect", str(undiscounted)]).output
