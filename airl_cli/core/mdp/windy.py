@@ -1,0 +1,72 @@
+"""The windy gridworld of Schlaginhaufen & Kamgarpour (2023-24; their code andrschl/tabular_gym,
+MIT licence: ``env/gridworld.py``, ``env/windy_gridworld.py``, ``experiments/get_windy_experts.py``)
+and its soft-optimal experts, written out from their code.
+
+A W x H grid, state s = x + W y of the cell (x, y); actions 0 E (+1, 0), 1 N (0, +1), 2 W (-1, 0),
+3 S (0, -1). With probability 1 - level the intended move happens (a move off the grid stays);
+with probability ``level`` the wind adds its own step to it, s + a + wind, each coordinate clipped
+to the grid:
+
+    P(s' | s, a) = (1 - level) [s' = move(s, a)] + level [s' = clip(s + a + wind)]
+
+Their experts are soft-optimal in the discounted infinite-horizon problem with causal entropy
+weight beta (``algs/cmdp.py``: the objective sum mu r / (1 - gamma) + beta sum nu H(pi(.|s)) /
+(1 - gamma)), whose solution is soft value iteration on a reward r(s, a):
+
+    Q = r + gamma P V,   V(s) = beta log sum_a exp(Q(s, a) / beta),   pi(a|s) = exp((Q - V) / beta)
+
+and mu(s, a) = d(s) pi(a|s) with d = (1 - gamma) (I - gamma P_pi^T)^-1 nu0 the normalised
+occupancy (their ``policy2stateactionocc``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.special import logsumexp
+
+#: Action moves (dx, dy), their order: E, N, W, S.
+MOVES = np.array([[1, 0], [0, 1], [-1, 0], [0, -1]])
+#: Wind steps by direction; SW and the other diagonals blow both ways at once.
+WINDS = {"E": (1, 0), "N": (0, 1), "W": (-1, 0), "S": (0, -1), "NE": (1, 1), "NW": (-1, 1), "SE": (1, -1), "SW": (-1, -1)}
+
+
+def windy_dynamics(width: int = 6, height: int = 6, *, level: float = 0.5, direction: str = "N") -> np.ndarray:
+    """P (S, 4, S), S = width * height (module docstring).
+
+    Raises:
+        ValueError: a level outside [0, 1], an unknown direction or a grid smaller than 2 x 2.
+    """
+    if not 0.0 <= level <= 1.0 or direction not in WINDS or width < 2 or height < 2:
+        raise ValueError(f"need level in [0, 1], direction in {sorted(WINDS)} and a grid of at least 2 x 2, got {level}, {direction!r}, {width} x {height}")
+    S = width * height
+    x, y = np.arange(S) % width, np.arange(S) // width
+    P = np.zeros((S, 4, S))
+    wx, wy = WINDS[direction]
+    for a, (dx, dy) in enumerate(MOVES):
+        nx, ny = x + dx, y + dy
+        inside = (0 <= nx) & (nx < width) & (0 <= ny) & (ny < height)
+        base = np.where(inside, nx + width * ny, np.arange(S))
+        blown = np.clip(x + dx + wx, 0, width - 1) + width * np.clip(y + dy + wy, 0, height - 1)
+        np.add.at(P, (np.arange(S), a, base), 1.0 - level)
+        np.add.at(P, (np.arange(S), a, blown), level)
+    return P
+
+
+def soft_optimal(P: np.ndarray, r: np.ndarray, *, beta: float, gamma: float, tol: float = 1e-14, max_iterations: int = 100_000) -> np.ndarray:
+    """The soft-optimal policy pi (S, A) of the reward r (S, A) in P (S, A, S): soft value iteration
+    with entropy weight beta > 0 and discount gamma in (0, 1) until V moves by less than ``tol``."""
+    V = np.zeros(P.shape[0])
+    for _ in range(max_iterations):
+        Q = r + gamma * P @ V
+        V_new = beta * logsumexp(Q / beta, axis=1)
+        if np.max(np.abs(V_new - V)) < tol:
+            break
+        V = V_new
+    return np.exp((Q - V_new[:, None]) / beta)
+
+
+def occupancy(P: np.ndarray, pi: np.ndarray, nu0: np.ndarray, gamma: float) -> np.ndarray:
+    """The normalised discounted state-action occupancy mu (S, A) of pi (S, A) from nu0 (S,)."""
+    P_pi = np.einsum("sa,sat->st", pi, P)
+    d = np.linalg.solve(np.eye(P.shape[0]) - gamma * P_pi.T, (1.0 - gamma) * nu0)
+    return d[:, None] * pi

@@ -1,0 +1,39 @@
+"""The windy gridworld of Schlaginhaufen & Kamgarpour against their committed expert data."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from airl_cli.core.mdp.windy import occupancy, soft_optimal, windy_dynamics
+
+HERE = Path(__file__).parent  # windy_*.csv: their files, unchanged (windy_data.md)
+
+
+def _csv(name: str) -> np.ndarray:
+    return np.loadtxt(HERE / f"windy_{name}.csv", delimiter=",", skiprows=1)
+
+
+@pytest.mark.parametrize("k, direction", [(0, "N"), (1, "E")])
+def test_their_experts_are_the_soft_optimal_policies_of_their_reward_under_their_wind(k, direction):
+    P = windy_dynamics(6, 6, level=0.5, direction=direction)
+    pi = soft_optimal(P, _csv("rE"), beta=0.3, gamma=0.9)
+    # their files carry 16 significant digits; the policies agree to 1e-13, the occupancies too
+    np.testing.assert_allclose(pi, _csv(f"piE{k}"), atol=1e-13, rtol=0)
+    np.testing.assert_allclose(occupancy(P, pi, np.full(36, 1 / 36), 0.9), _csv(f"muE{k}"), atol=1e-13, rtol=0)
+
+
+def test_the_dynamics_by_hand():
+    P = windy_dynamics(3, 3, level=0.5, direction="N")
+    np.testing.assert_allclose(P.sum(axis=-1), 1.0)
+    # cell (1, 1) = 4, east: half to (2, 1) = 5, half blown on to (2, 2) = 8
+    assert P[4, 0, 5] == 0.5 and P[4, 0, 8] == 0.5
+    # cell (0, 2) = 6 (top left), north: off the grid, stays; the wind clips to the top row too
+    assert P[6, 1, 6] == 1.0
+    # south-west wind from (2, 2) = 8 going west: half to (1, 2) = 7, half to (0, 1) = 3
+    Q = windy_dynamics(3, 3, level=0.5, direction="SW")
+    assert Q[8, 2, 7] == 0.5 and Q[8, 2, 3] == 0.5
+    with pytest.raises(ValueError, match="direction"):
+        windy_dynamics(direction="up")
