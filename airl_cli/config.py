@@ -17,6 +17,7 @@ from omegaconf import DictConfig
 from airl_cli.config_reader import Cell, Reader, plain
 from airl_cli.demo_settings import DemoSettings, read_demos
 from airl_cli.dynamics_settings import DynamicsSettings, read_dynamics
+from airl_cli.core.mdp.windy import WINDS
 from airl_cli.core.irl.options import SCHEDULES, CertifiedOptions, FitOptions, PlannerOptions
 from airl_cli.envs import EnvMDPSettings, env_settings
 from airl_cli.errors import ConfigError
@@ -73,7 +74,21 @@ class ObjectworldSettings:
     name: str = "objectworld"
 
 
-MDPSettings = RandomMDPSettings | GridMDPSettings | ObjectworldSettings | EnvMDPSettings
+@dataclass(frozen=True)
+class WindyMDPSettings:
+    """``mdp=windy``: the windy gridworld of Schlaginhaufen & Kamgarpour (``core.mdp.windy``); tau's
+    wind ``level`` and ``direction``; w* +-1 on ``n_rewarded`` random states (K = S one-hot)."""
+
+    width: int
+    height: int
+    horizon: int
+    level: float
+    direction: str
+    n_rewarded: int
+    name: str = "windy"
+
+
+MDPSettings = RandomMDPSettings | GridMDPSettings | ObjectworldSettings | EnvMDPSettings | WindyMDPSettings
 
 
 @dataclass(frozen=True)
@@ -97,9 +112,13 @@ TRANSITIONS = ("uniform", "dirichlet", "sparse")
 
 def _mdp(node: Any) -> MDPSettings:
     r = Reader(node, "mdp")
-    name = r.choice("name", ("random", "grid", "objectworld", "gymnasium", "seals"))
+    name = r.choice("name", ("random", "grid", "objectworld", "gymnasium", "seals", "windy"))
     if name == "objectworld":
         return _objectworld(r)
+    if name == "windy":
+        width, height = r.int("width", lo=2), r.int("height", lo=2)
+        return WindyMDPSettings(width, height, r.int("horizon", lo=2), r.float("level", lo=0.0, hi=1.0), r.choice("direction", tuple(WINDS)),
+                                r.int("n_rewarded", lo=1, hi=width * height))
     if name in ("gymnasium", "seals"):
         return env_settings(r, name)
     if name == "random":

@@ -26,6 +26,8 @@ class DynamicsSettings:
     layouts: tuple[tuple[Cell, ...], ...] = ()
     slips: tuple[float, ...] = ()  # kind=slip: the objectworld's slip of each tau_j
     values: tuple[bool | float, ...] = ()  # kind=env_values: each tau_j's parameter value (mdp=gymnasium, seals)
+    directions: tuple[str, ...] = ()  # kind=wind: each tau_j's wind direction (its level in ``values``)
+    test_directions: tuple[str, ...] = ()  # kind=wind: each test dynamics' (its level in ``test_values``)
     n_test: int = 0  # E held-out test dynamics, scored but never demonstrated (``Dataset.test_transitions``)
     test_values: tuple[bool | float, ...] = ()  # kind=slip or env_values: each test dynamics' slip or value
 
@@ -33,8 +35,10 @@ class DynamicsSettings:
 def read_dynamics(node: Any, mdp: Any) -> DynamicsSettings:
     """The ``dynamics`` group for the problem ``mdp`` (an ``MDPSettings``), read and checked."""
     r = Reader(node, "dynamics")
-    kind = r.choice("kind", ("gaussian", "same", "grid_layouts", "slip", "env_values"))
+    kind = r.choice("kind", ("gaussian", "same", "grid_layouts", "slip", "env_values", "wind"))
     name = str(r.raw("name", kind))
+    if kind == "wind" or mdp.name == "windy":
+        return _wind(r, kind, name, mdp)
     if kind == "env_values":
         if not isinstance(mdp, EnvMDPSettings) or is_env_id(mdp.env):  # an environment by id: no parameter known
             raise ConfigError(f"'dynamics={name}' sets a parameter of a gymnasium or seals environment airl names; use it with mdp=gymnasium or mdp=seals")
@@ -69,3 +73,25 @@ def read_dynamics(node: Any, mdp: Any) -> DynamicsSettings:
         if mdp.start in layout:
             raise ConfigError(f"'dynamics.layouts' puts a cross on the START cell {list(mdp.start)}")
     return DynamicsSettings(name, kind, len(layouts), layouts=layouts)
+
+
+def _wind(r: Reader, kind: str, name: str, mdp: Any) -> DynamicsSettings:
+    """``dynamics=wind`` (mdp=windy only): tau_j of wind level ``levels[j-1]`` from ``directions[j-1]``,
+    held-out ones from ``test_levels`` and ``test_directions``."""
+    from airl_cli.core.mdp.windy import WINDS
+
+    if mdp.name != "windy" or kind not in ("wind", "same"):
+        raise ConfigError(f"'dynamics={name}' does not apply to mdp={mdp.name}; mdp=windy takes dynamics=wind or dynamics=same" if mdp.name == "windy"
+                          else f"'dynamics={name}' blows wind over the windy gridworld; use it with mdp=windy")
+    if kind == "same":
+        return DynamicsSettings(name, kind, r.int("n_dynamics", lo=1))
+    out = {}
+    for levels, directions in (("levels", "directions"), ("test_levels", "test_directions")):
+        lv, dv = r.floats(levels), r.raw(directions)
+        if not isinstance(dv, (list, tuple)) or len(dv) != len(lv) or any(d not in WINDS for d in dv) or not all(0.0 <= v <= 1.0 for v in lv):
+            raise ConfigError(f"'dynamics.{levels}' and 'dynamics.{directions}' must be lists of the same length, levels in [0, 1] and directions among {sorted(WINDS)}, got {list(lv)} and {dv!r}")
+        out[levels] = (tuple(lv), tuple(str(d) for d in dv))
+    if not out["levels"][0]:
+        raise ConfigError("'dynamics.levels' must name at least one demonstration dynamics")
+    (levels, directions), (test_levels, test_directions) = out["levels"], out["test_levels"]
+    return DynamicsSettings(name, kind, len(levels), values=levels, directions=directions, n_test=len(test_levels), test_values=test_levels, test_directions=test_directions)

@@ -48,6 +48,8 @@ def problem_sizes(problem: ProblemSettings) -> dict:
 
         by_id = is_env_id(mdp.env)
         S, A = id_sizes(mdp.env) if by_id else env_sizes(mdp.name, mdp.env, map_name=mdp.map_name, width=mdp.width, height=mdp.height)
+    elif mdp.name == "windy":
+        S, A = mdp.width * mdp.height, 4
     else:  # the grid world and the objectworld: size x size cells
         from airl_cli.core.mdp.objectworld import OBJECTWORLD_ACTIONS
         from airl_cli.core.mdp.problems import GRID_ACTIONS
@@ -55,7 +57,7 @@ def problem_sizes(problem: ProblemSettings) -> dict:
         S, A = mdp.size**2, len(OBJECTWORLD_ACTIONS if mdp.name == "objectworld" else GRID_ACTIONS)
     n = problem.demos.n if problem.demos.kind == "sampled" else 1
     # the most next states a state reaches: a grid cell its neighbours and itself
-    R = None if mdp.name in ("random", "gymnasium", "seals") else 5
+    R = None if mdp.name in ("random", "gymnasium", "seals", "windy") else 5
     if mdp.name == "random" and mdp.transition == "sparse":
         R = mdp.n_next * mdp.n_actions * (problem.dynamics.n_dynamics + 1)
     return {"n_states": S, "n_actions": A, "horizon": mdp.horizon, "n_dynamics": problem.dynamics.n_dynamics, "n_demos": n, "n_next": R}

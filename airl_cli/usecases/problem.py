@@ -12,9 +12,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from airl_cli import envs
-from airl_cli.config import DemoSettings, EnvMDPSettings, GridMDPSettings, MDPSettings, ObjectworldSettings, ProblemSettings
+from airl_cli.config import DemoSettings, EnvMDPSettings, GridMDPSettings, MDPSettings, ObjectworldSettings, ProblemSettings, WindyMDPSettings
 from airl_cli.core.mdp import demos as core_demos
-from airl_cli.core.mdp import objectworld, problems
+from airl_cli.core.mdp import objectworld, problems, windy
 from airl_cli.core.mdp.basics import discounted
 from airl_cli.core.mdp.planning import backward_induction, optimal_expert
 from airl_cli.core.mdp.scores import performance
@@ -96,6 +96,12 @@ def base_problem(mdp: MDPSettings, rng: np.random.Generator) -> tuple[np.ndarray
         phi = problems.grid_features(size=mdp.size, start=mdp.start, goals=mdp.goals, dangers=mdp.dangers)
         p0 = problems.grid_initial(size=mdp.size, start=mdp.start)
         return tau, phi, np.array(mdp.true_weights), p0, problems.grid_coordinates(mdp.size)
+    if isinstance(mdp, WindyMDPSettings):  # w*: +-1 on n_rewarded states, drawn as they draw (s, a) entries
+        S = mdp.width * mdp.height
+        w_star = np.zeros(S)
+        w_star[rng.choice(S, size=mdp.n_rewarded, replace=False)] = rng.choice([-1.0, 1.0], size=mdp.n_rewarded)
+        tau = windy.windy_dynamics(mdp.width, mdp.height, level=mdp.level, direction=mdp.direction)
+        return tau, np.eye(S), w_star, np.full(S, 1.0 / S), None
     if isinstance(mdp, ObjectworldSettings):
         world = objectworld.objectworld(
             rng,
@@ -136,7 +142,13 @@ def build_problem(settings: ProblemSettings) -> Problem:
         test = objectworld.slip_sparse(mdp.size, dyn.test_values) if dyn.n_test else None
         return Problem(objectworld.slip_sparse(mdp.size, (mdp.slip, *slips)), phi, p0, mdp.horizon, w_star, loss, coords, settings.discount, test)
     test = None
-    if dyn.kind == "gaussian":
+    if dyn.kind == "wind":
+        def blow(levels, directions):
+            return np.stack([windy.windy_dynamics(mdp.width, mdp.height, level=v, direction=d) for v, d in zip(levels, directions)])
+
+        others = blow(dyn.values, dyn.directions)
+        test = blow(dyn.test_values, dyn.test_directions) if dyn.n_test else None
+    elif dyn.kind == "gaussian":
         sigma = problems.noise(dyn.sigma, dyn.sigma_states, tau.shape[0])
         others = problems.gaussian_perturbations(rng["dynamics"], tau, sigma=sigma, n_dynamics=dyn.n_dynamics)
         test = problems.gaussian_perturbations(rng["test"], tau, sigma=sigma, n_dynamics=dyn.n_test) if dyn.n_test else None

@@ -200,3 +200,36 @@ def test_identifiability_is_reported_by_inspect_and_by_fit_for_own_experts(tmp_p
     assert "identify  reward identified up to a constant" in (tmp_path / "fit" / "summary.txt").read_text()
     undiscounted = write_dataset(tmp_path / "t.npz", _small(0))
     assert "needs a discount gamma < 1" in runner.invoke(app, ["inspect", str(undiscounted)]).output
+
+
+# --------------------------------------------------------------------------- the windy gridworld as a problem
+
+
+def test_mdp_windy_blows_their_winds_and_holds_out_theirs():
+    from airl_cli.core.mdp.windy import windy_dynamics
+
+    ds = api.make_dataset("mdp=windy", "dynamics=wind", "demos=exact", "demos.expert=own", "demos.beta=0.3")
+    P, test = np.asarray(ds.transitions), np.asarray(ds.test_transitions)
+    np.testing.assert_array_equal(P[0], windy_dynamics(6, 6, level=0.0))
+    np.testing.assert_array_equal(P[1], windy_dynamics(6, 6, level=0.5, direction="N"))
+    np.testing.assert_array_equal(P[2], windy_dynamics(6, 6, level=0.5, direction="E"))
+    np.testing.assert_array_equal(test[1], windy_dynamics(6, 6, level=0.5, direction="SW"))
+    assert np.count_nonzero(ds.true_weights) == 10 and set(np.unique(ds.true_weights)) <= {-1.0, 0.0, 1.0}
+    assert ds.discount == 0.9 and ds.features.shape == (36, 36)
+
+
+def test_airl_fit_on_the_windy_grid_and_its_refusals(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    result = runner.invoke(app, ["fit", "mdp=windy", "demos.expert=own", "demos.beta=0.3", "method=mce", f"hydra.run.dir={tmp_path / 'w'}"])
+    assert result.exit_code == 0, result.output  # dynamics=wind is the windy grid's own default
+    rows = json.loads((tmp_path / "w" / "metrics.json").read_text())["dynamics"]
+    assert [r["dynamics"] for r in rows] == ["tau", "tau_1", "tau_2", "test_1", "test_2"]
+    for overrides, message in (
+        (["mdp=windy", "dynamics=gaussian"], "mdp=windy takes dynamics=wind or dynamics=same"),
+        (["dynamics=wind"], "use it with mdp=windy"),
+        (["mdp=windy", "dynamics.directions=[N]"], "must be lists of the same length"),
+        (["mdp=windy", "mdp.direction=up"], "mdp.direction"),
+    ):
+        bad = runner.invoke(app, ["fit", *overrides])
+        assert bad.exit_code == 2 and message in bad.output and len(bad.output.strip().splitlines()) == 1, (overrides, bad.output)
+    assert not (tmp_path / "results").exists()
