@@ -66,6 +66,9 @@ def _dynamics_key(name: str) -> tuple[int, str]:
 
 def _dynamics_label(name: str) -> str:
     match = re.fullmatch(r"tau(?:_(\d+))?", str(name))
+    held_out = re.fullmatch(r"test_(\d+)", str(name))
+    if held_out:
+        return f"held-out dynamics test$_{{{held_out.group(1)}}}$ (never demonstrated)"
     if not match:
         return f"dynamics {name}"
     if match.group(1) is None:
