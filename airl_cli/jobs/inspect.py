@@ -38,7 +38,7 @@ def describe(path: str) -> str:
     lines.append("  true weights: " + ("given, runs will be scored" if ds.true_weights is not None else "absent, runs cannot be scored"))
     lines.append("  loss: " + ("given (S, S)" if ds.loss is not None else "absent, the config's loss will be used"))
     if ds.discount < 1.0:
-        lines.append(f"  discount: gamma = {ds.discount:g}, step t weighted by gamma^t (method=airl refuses it)")
+        lines.append(f"  discount: gamma = {ds.discount:g}, step t weighted by gamma^t (optim=gradient refuses it; the certified learner takes it)")
     if ds.allowed_actions is not None:
         lines.append(f"  actions: {int(ds.allowed_actions.sum())} of {ds.allowed_actions.size} (state, action) pairs exist (method=robust_mce only)")
     lines += [f"  {line}" for line in identifiability_lines(ds)]

@@ -195,6 +195,7 @@ def test_identifiability_is_reported_by_inspect_and_by_fit_for_own_experts(tmp_p
     shown = runner.invoke(app, ["inspect", str(path)])
     assert "reward identified up to a constant by these 2 dynamics (Rolland et al. 2022): rank 35 of 35" in shown.output, shown.output
     assert "features form" in shown.output
+    assert "gamma = 0.9, step t weighted by gamma^t (optim=gradient refuses it; the certified learner takes it)" in shown.output
     result = runner.invoke(app, ["fit", f"data={path}", "method=mce", f"hydra.run.dir={tmp_path / 'fit'}"])
     assert result.exit_code == 0, result.output
     assert "identify  reward identified up to a constant" in (tmp_path / "fit" / "summary.txt").read_text()
