@@ -7,7 +7,7 @@ import numpy as np
 from airl_cli.core.mdp import identifiability
 from airl_cli.core.mdp.basics import discounted
 from airl_cli.core.mdp.planning import backward_induction, expected_return, optimal_expert
-from airl_cli.core.mdp.scores import cosine_similarity, mixture_performance, performance, return_bounds
+from airl_cli.core.mdp.scores import cosine_similarity, mixture_performance, normalised, return_bounds
 from airl_cli.io.dataset import Dataset
 
 
@@ -69,22 +69,23 @@ def score_rows(
     expert = R = None
     if w_star is not None:
         # step t's reward weighted by gamma^t (mdp.discount; 1 in the thesis)
-        R = discounted(dataset.features @ w_star, dataset.horizon, dataset.discount)
-        expert, _ = backward_induction(dataset.transitions[0], R)
+        r = dataset.features @ w_star
+        R = discounted(r, dataset.horizon, dataset.discount)
+        expert = optimal_expert(dataset.transitions[0], r, dataset.horizon, discount=dataset.discount)
     for i, (name, P) in enumerate(scored_dynamics(dataset)):
         j = i if name.startswith("tau") else 0
         if w_star is not None and dataset.expert == "own":
-            expert = optimal_expert(P, dataset.features @ w_star, dataset.horizon, discount=dataset.discount, beta=dataset.expert_beta)
+            expert = optimal_expert(P, r, dataset.horizon, discount=dataset.discount, beta=dataset.expert_beta)
         policy = policies[i] if policies is not None else learner_policy(dataset, weights, j, P)
         row = {"dynamics": name, "learner_score": None, "demonstrator_score": None, "cosine_similarity": None}
         row["equilibrium_score"] = None
         row["learner_return"] = row["demonstrator_return"] = None
         if w_star is not None:
             bounds = return_bounds(P, R, dataset.initial)  # r-bar and R-bar of this dynamics, once
-            row["learner_score"] = performance(P, R, policy, dataset.initial, bounds=bounds)
-            row["demonstrator_score"] = performance(P, R, expert, dataset.initial, bounds=bounds)
             row["learner_return"] = expected_return(P, R, policy, dataset.initial)
             row["demonstrator_return"] = expected_return(P, R, expert, dataset.initial)
+            row["learner_score"] = normalised(row["learner_return"], bounds)  # one evaluation per policy
+            row["demonstrator_score"] = normalised(row["demonstrator_return"], bounds)
             if equilibrium is not None:
                 row["equilibrium_score"] = mixture_performance(P, R, *equilibrium, dataset.initial, bounds=bounds)
             if weights is not None:

@@ -15,8 +15,7 @@ from airl_cli import envs
 from airl_cli.config import DemoSettings, EnvMDPSettings, GridMDPSettings, MDPSettings, ObjectworldSettings, ProblemSettings, WindyMDPSettings
 from airl_cli.core.mdp import demos as core_demos
 from airl_cli.core.mdp import objectworld, problems, windy
-from airl_cli.core.mdp.basics import discounted
-from airl_cli.core.mdp.planning import backward_induction, optimal_expert
+from airl_cli.core.mdp.planning import optimal_expert
 from airl_cli.core.mdp.scores import performance
 from airl_cli.core.mdp.sparse import SparseDynamics
 from airl_cli.errors import ConfigError
@@ -209,9 +208,7 @@ def _env_by_id(settings: ProblemSettings) -> Problem:
 
 def expert_policy(problem: Problem) -> np.ndarray:
     """The demonstrator: the optimal policy (T-1, S) of w* . phi (discounted) under tau (thesis §4.1)."""
-    R = discounted(problem.features @ problem.true_weights, problem.horizon, problem.discount)
-    policy, _ = backward_induction(problem.transitions[0], R)
-    return policy
+    return optimal_expert(problem.transitions[0], problem.features @ problem.true_weights, problem.horizon, discount=problem.discount)
 
 
 def build_dataset(settings: ProblemSettings) -> tuple[Dataset, np.ndarray]:

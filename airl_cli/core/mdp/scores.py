@@ -73,6 +73,13 @@ def mixture_performance(
     R = discounted(R, policies.shape[1] + 1, discount)
     r_min, r_max = return_bounds(P, R, p0) if bounds is None else bounds
     value = sum(float(m) * expected_return(P, R, pi, p0) for m, pi in zip(mix, policies) if m > 0)
+    return normalised(value, (r_min, r_max))
+
+
+def normalised(value: float, bounds: tuple[float, float]) -> float:
+    """(value - r-bar) / (R-bar - r-bar) of an expected return, ``bounds`` = ``return_bounds``;
+    1.0 when every policy earns the same (thesis §7.2)."""
+    r_min, r_max = bounds
     span = r_max - r_min
     if span <= 1e-12 * max(1.0, abs(r_max)):
         return 1.0
