@@ -55,6 +55,34 @@ def check_group_choices(overrides: list[str]) -> None:
         for option in value.split(","):
             if option and option not in groups[key]:
                 refuse(f"'{option}' is not an option of the config group '{key}'; choose one of: {', '.join(groups[key])}")
+    _check_problem_choice(overrides)
+
+
+def _check_problem_choice(overrides: list[str]) -> None:
+    """Refuse ``problem=NAME`` beside a choice it would be merged into or lost under, in one sentence.
+
+    A problem (``conf/problem/``) picks the mdp and dynamics groups and sets their values; beside
+    ``mdp=``/``dynamics=`` its values would land in another problem's settings, beside ``data=`` it
+    would not be read, and an experiment that picks its own problem would silently win over it.
+    """
+    chosen = {}
+    for item in overrides:
+        key, sep, value = split_override(item)
+        if sep:
+            chosen[key.lstrip("+")] = value
+    problem = chosen.get("problem")
+    if problem in (None, "", "null"):
+        return
+    clash = [f"{k}=" for k in ("mdp", "dynamics", "data") if k in chosen]
+    if clash:
+        refuse(
+            f"'problem={problem}' picks the problem and its dynamics itself; drop {' and '.join(clash)} "
+            "(change its values with mdp.KEY=VALUE or dynamics.KEY=VALUE), or drop problem="
+        )
+    path = Path(conf_dir()) / "experiment" / f"{chosen.get('experiment')}.yaml"
+    defaults = _yaml(path)[0].get("defaults", []) if path.is_file() else []
+    if any(isinstance(e, dict) and "override /mdp" in e for e in defaults):
+        refuse(f"'experiment={chosen['experiment']}' picks its own problem; drop problem={problem} (experiment=transfer sweeps the problems of conf/problem/)")
 
 
 def _yaml(path: Path) -> tuple[dict, bool]:
@@ -82,10 +110,11 @@ def _known_keys(overrides: list[str], primary_name: str = "airl") -> tuple[dict[
         name, sep, value = split_override(item)
         if sep and name in groups:
             on_command_line[name] = value.split(",")[0]
-    # an experiment picks its own options (``override /mdp: gymnasium``); the command line's win
-    experiment = root / "experiment" / f"{on_command_line.get('experiment', chosen.get('experiment'))}.yaml"
-    if experiment.is_file():
-        for entry in _yaml(experiment)[0].get("defaults", []):
+    # a problem, an experiment or a variant picks its own options (``override /mdp: gymnasium``);
+    # the command line's win
+    for bundle in ("problem", "experiment", "variant"):
+        path = root / bundle / f"{on_command_line.get(bundle, chosen.get(bundle))}.yaml"
+        for entry in _yaml(path)[0].get("defaults", []) if path.is_file() else []:
             for key, value in (entry.items() if isinstance(entry, dict) else ()):
                 if key.startswith("override /"):
                     chosen[key.removeprefix("override /")] = value

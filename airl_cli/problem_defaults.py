@@ -30,7 +30,7 @@ def default_dynamics() -> dict[str, str]:
 
 def with_problem_defaults(overrides: list[str]) -> list[str]:
     """``overrides`` plus ``dynamics=OPTION`` for the problem they pick, if they pick no dynamics,
-    no experiment and no dataset file; unchanged otherwise (and for a comma-separated sweep over
+    no experiment, no named problem (``problem=``, which brings its own) and no dataset file; unchanged otherwise (and for a comma-separated sweep over
     problems)."""
     chosen = {}
     for item in overrides:
@@ -38,7 +38,7 @@ def with_problem_defaults(overrides: list[str]) -> list[str]:
         if sep:
             chosen[key.lstrip("+")] = value
     mdp = chosen.get("mdp")
-    if mdp is None or "dynamics" in chosen or "experiment" in chosen or "data" in chosen or "," in mdp:
+    if mdp is None or any(k in chosen for k in ("dynamics", "experiment", "data", "problem")) or "," in mdp:
         return list(overrides)
     dynamics = default_dynamics().get(mdp)
     if mdp == "gymnasium" and is_env_id(chosen.get("mdp.env")):

@@ -52,6 +52,7 @@ from airl_cli.plotting.scores import (
     run_bars,
     times,
 )
+from airl_cli.plotting.transfer import TRANSFER_COLUMNS, transfer
 from airl_cli.plotting.variants import VARIANTS_COLUMNS, variants
 from airl_cli.plotting.viano import RETURNS_COLUMNS, returns
 
@@ -73,8 +74,8 @@ __all__ = [
 # the sweep folder
 
 
-_DRAWERS = {"histogram": histogram, "curves": curves, "run_bars": run_bars, "cosine": cosine, "times": times, "returns": returns, "variants": variants}
-_NEEDS = {"histogram": HISTOGRAM_COLUMNS, "curves": CURVES_COLUMNS, "run_bars": RUN_BARS_COLUMNS, "times": TIMES_COLUMNS, "returns": RETURNS_COLUMNS, "variants": VARIANTS_COLUMNS}
+_DRAWERS = {"histogram": histogram, "curves": curves, "run_bars": run_bars, "cosine": cosine, "times": times, "returns": returns, "variants": variants, "transfer": transfer}
+_NEEDS = {"histogram": HISTOGRAM_COLUMNS, "curves": CURVES_COLUMNS, "run_bars": RUN_BARS_COLUMNS, "times": TIMES_COLUMNS, "returns": RETURNS_COLUMNS, "variants": VARIANTS_COLUMNS, "transfer": TRANSFER_COLUMNS}
 
 
 def _unfinished(folder: Path) -> str:

@@ -1,6 +1,6 @@
 """What a sweep is, below every module that runs one: its file names, its quick profile, its plan.
 
-The ``airl.sweep`` resolver (``${airl.sweep:runs|values|methods|variants}`` in ``conf/experiment/*.yaml``)
+The ``airl.sweep`` resolver (``${airl.sweep:runs|values|methods|variants|problems}`` in ``conf/experiment/*.yaml``)
 is registered on import, in the sweep process and in every worker that composes a job's config.
 Nothing here imports another module of ``airl_cli``.
 """
@@ -26,7 +26,7 @@ QUICK_METHODS = 2
 
 
 def _sweep_values(what: str, *, _root_: DictConfig) -> str:
-    """``${airl.sweep:runs|values|methods|variants}``: the sweep of the experiment under the current profile."""
+    """``${airl.sweep:runs|values|methods|variants|problems}``: the sweep of the experiment under the current profile."""
     exp = _root_.experiment
     quick = _root_.profile.name == "quick"
     if what == "runs":
@@ -38,10 +38,12 @@ def _sweep_values(what: str, *, _root_: DictConfig) -> str:
             # an experiment whose swept values are the problem's size shrinks them (quick_values)
             values = list(exp.get("quick_values") or dict.fromkeys([values[0], values[-1]]))
         return ",".join(str(v) for v in values)
+    if what == "problems":  # conf/problem/ bundles, each a problem with its dynamics: every one, quick or not
+        return ",".join(exp[what])
     if what in ("methods", "variants"):  # variants: conf/variant/ bundles, each a method and its settings
         names = list(exp[what])
         return ",".join(names[:QUICK_METHODS] if quick else names)
-    raise ValueError(f"airl.sweep takes runs, values, methods or variants, not {what!r}")
+    raise ValueError(f"airl.sweep takes runs, values, methods, variants or problems, not {what!r}")
 
 
 OmegaConf.register_new_resolver("airl.sweep", _sweep_values, replace=True)

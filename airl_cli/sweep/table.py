@@ -19,6 +19,7 @@ from airl_cli.sweep.folder import check_folder, unwritable
 from airl_cli.sweep.job_files import damaged_jobs
 from airl_cli.sweep.pool import call
 from airl_cli.sweep.spec import ROWS, SweepPlan
+from airl_cli.transfer import transfer_summary
 from airl_cli.variants import variants_summary
 
 if TYPE_CHECKING:
@@ -142,6 +143,8 @@ def medians_text(experiment: dict, table: pd.DataFrame) -> str:
         return viano_text(experiment, table)
     if experiment.get("summary") == "variants" and "learner_score" in table:
         return variants_text(experiment, table)
+    if experiment.get("summary") == "transfer" and "learner_score" in table:
+        return transfer_text(experiment, table)
     if experiment.get("kind") == "alphas" or "learner_score" not in table:
         return ""
     held_out = table["dynamics"].astype(str).str.startswith("test_")
@@ -208,6 +211,26 @@ def variants_text(experiment: dict, table: pd.DataFrame) -> str:
             f"{r['x']:>9g} {r['variant']:<17}{flagged:>8}{r['w_median']:>18.2g}{r['cos_median']:>7.2f}{r['learner_median']:>9.3f}"
             f"{game_p:>8}{r['demonstrator_median']:>7.3f}{str(r['above']) + '/' + str(r['pairs']):>9}"
         )
+    if experiment.get("thesis"):
+        lines.append(f"thesis: {experiment['thesis']}")
+    return "\n".join(lines) + "\n\n"
+
+
+def transfer_text(experiment: dict, table: pd.DataFrame) -> str:
+    """``transfer_summary`` for the terminal: per problem and expert model, each method's median score
+    in the held-out dynamics, the demonstrated tau_j's in brackets, the demonstrator's last."""
+    summary = transfer_summary(experiment, table)
+    methods = list(dict.fromkeys(summary["method"]))
+    lines = ["", "median normalised performance over runs in the held-out dynamics test_e (never demonstrated); in brackets, in the demonstrated tau_j:"]
+    lines.append(f"{'problem':<12}{'expert':<7}" + "".join(f"{m:>15}" for m in methods) + f"{'demonstrator':>14}")
+    for (problem, expert), g in summary.groupby(["problem", "expert"], sort=False):
+        by = g.set_index("method")
+        cells = [f"{by.at[m, 'held_out']:.3f} ({by.at[m, 'demonstrated']:.3f})" if m in by.index else "" for m in methods]
+        lines.append(f"{problem:<12}{expert:<7}" + "".join(f"{c:>15}" for c in cells) + f"{g['demonstrator_held_out'].median():>14.3f}")
+    others = summary[summary["method"] != "airl"]
+    if others["pairs"].sum():
+        tally = ", ".join(f"{m} {g['above_airl'].sum()}/{g['below_airl'].sum()} of {g['pairs'].sum()}" for m, g in others.groupby("method", sort=False))
+        lines.append(f"pairs (run, held-out dynamics) more than 0.01 above/below airl on the same data: {tally}")
     if experiment.get("thesis"):
         lines.append(f"thesis: {experiment['thesis']}")
     return "\n".join(lines) + "\n\n"
