@@ -101,3 +101,10 @@ def test_the_terminal_table_and_the_figure_of_a_transfer_table(tmp_path):
     assert len(fig.axes) == 2 and [a.get_title() for a in fig.axes][1].startswith("each tau_j's own expert")
     with pytest.raises(ValueError, match="held-out"):
         transfer(table[~table["dynamics"].str.startswith("test_")], meta)
+
+
+def test_the_report_shows_the_held_out_table():
+    from airl_cli.report import summary
+
+    text = summary("transfer", {"kind": "fit", "summary": "transfer", "methods": ["airl", "mce"], "x": "n_demos", "x_label": "N"}, _table())
+    assert "| CliffWorld | own | 0.650 (0.850) | 0.700 (0.900) | 0.600 |" in text
