@@ -8,7 +8,7 @@ state reaches, ``cnt`` (S,) of them; beliefs ``B`` (nb, M); nodes grouped by sta
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
 
 @njit(cache=True)
@@ -89,9 +89,12 @@ def expand_once(PR, CR, nxt, cnt, B, n_old, u, sample, tol):  # pragma: no cover
     return n
 
 
-@njit(cache=True)
+@njit(cache=True, parallel=True)
 def forward_step(PR, nxt, cnt, mu, node_state, node_action, node_succ, n_next):  # pragma: no cover - compiled
     """Push the node distribution of one time step to the next, for every model.
+
+    The models are pushed in parallel (numba threads, one model's row each): every sum is
+    accumulated in the same order as on one thread, so the result is the same bits.
 
     Args:
         PR: (S, A, R, M) dynamics over the reachable next states ``nxt`` (S, R), ``cnt`` (S,).
@@ -105,22 +108,16 @@ def forward_step(PR, nxt, cnt, mu, node_state, node_action, node_succ, n_next): 
     """
     M = PR.shape[3]
     out = np.zeros((M, n_next))
-    for k in range(node_state.size):
-        # most nodes are plans for beliefs the policy never reaches: skip those without mass
-        reached = False
-        for j in range(M):
-            if mu[j, k] != 0.0:
-                reached = True
-                break
-        if not reached:
-            continue
-        s = node_state[k]
-        a = node_action[k]
-        for r in range(cnt[s]):
-            for j in range(M):
+    for j in prange(M):
+        row = out[j]
+        for k in range(node_state.size):
+            m = mu[j, k]
+            if m == 0.0:  # most nodes are plans for beliefs the policy never reaches under model j
+                continue
+            s = node_state[k]
+            a = node_action[k]
+            for r in range(cnt[s]):
                 p = PR[s, a, r, j]
                 if p != 0.0:
-                    m = mu[j, k]
-                    if m != 0.0:
-                        out[j, node_succ[k, r]] += m * p
+                    row[node_succ[k, r]] += m * p
     return out
