@@ -19,7 +19,7 @@ from airl_cli.io.files import describe_os_error, is_unwritable, writable_problem
 from airl_cli.io.run_folder import claimed_folder, holds_no_results, new_run_folder
 from airl_cli.paths import conf_dir
 from airl_cli.problem_defaults import with_problem_defaults
-from airl_cli.overrides import override_key, split_override
+from airl_cli.overrides import chosen_values, override_key, split_override
 
 
 def config_groups() -> dict[str, list[str]]:
@@ -65,11 +65,7 @@ def _check_problem_choice(overrides: list[str]) -> None:
     ``mdp=``/``dynamics=`` its values would land in another problem's settings, beside ``data=`` it
     would not be read, and an experiment that picks its own problem would silently win over it.
     """
-    chosen = {}
-    for item in overrides:
-        key, sep, value = split_override(item)
-        if sep:
-            chosen[key.lstrip("+")] = value
+    chosen = chosen_values(overrides)
     problem = chosen.get("problem")
     if problem in (None, "", "null"):
         return

@@ -17,3 +17,13 @@ def split_override(item: str) -> tuple[str, str, str]:
 def override_key(item: str) -> str:
     """The key an override sets or deletes (``split_override``'s first part)."""
     return split_override(item)[0]
+
+
+def chosen_values(overrides: list[str]) -> dict[str, str]:
+    """key -> value of every ``KEY=VALUE`` override (the last one wins), keys as ``split_override`` gives them."""
+    chosen = {}
+    for item in overrides:
+        key, sep, value = split_override(item)
+        if sep:
+            chosen[key] = value
+    return chosen

@@ -13,7 +13,7 @@ from pathlib import Path
 import yaml
 
 from airl_cli.paths import conf_dir
-from airl_cli.overrides import split_override
+from airl_cli.overrides import chosen_values
 
 
 def is_env_id(name: object) -> bool:
@@ -30,13 +30,9 @@ def default_dynamics() -> dict[str, str]:
 
 def with_problem_defaults(overrides: list[str]) -> list[str]:
     """``overrides`` plus ``dynamics=OPTION`` for the problem they pick, if they pick no dynamics,
-    no experiment, no named problem (``problem=``, which brings its own) and no dataset file; unchanged otherwise (and for a comma-separated sweep over
-    problems)."""
-    chosen = {}
-    for item in overrides:
-        key, sep, value = split_override(item)
-        if sep:
-            chosen[key.lstrip("+")] = value
+    no experiment, no named problem (``problem=``, which brings its own) and no dataset file;
+    unchanged otherwise (and for a comma-separated sweep over problems)."""
+    chosen = chosen_values(overrides)
     mdp = chosen.get("mdp")
     if mdp is None or any(k in chosen for k in ("dynamics", "experiment", "data", "problem")) or "," in mdp:
         return list(overrides)
