@@ -43,7 +43,7 @@ def config(*overrides: str) -> DictConfig:
 
 
 def load_dataset(path: str | os.PathLike) -> Dataset:
-    """Read and check a dataset file (the schema of the README); raises ``DatasetError`` naming the key."""
+    """Read and check a dataset file (the schema of docs/own-problem.md, "The dataset file"); raises ``DatasetError`` naming the key."""
     return read_dataset(path)
 
 
@@ -64,9 +64,9 @@ def dataset_from_env(env, *demo_envs, horizon: int = 20, n_demos: int = 100, see
     your own parameters.
 
     Args:
-        env: tau, the dynamics the expert is optimal for (thesis §4.1); its reward of a state is w*
+        env (object): tau, the dynamics the expert is optimal for (thesis §4.1); its reward of a state is w*
             over one-hot state features (K = S), its terminal states absorbing.
-        demo_envs: the dynamics tau_1..tau_D the expert is demonstrated in (the same states and
+        demo_envs (object): the dynamics tau_1..tau_D the expert is demonstrated in (the same states and
             actions); none: tau itself.
         horizon: T, states per trajectory; n_demos: N per dynamics, sampled with ``seed``;
         discount: gamma in (0, 1].
@@ -93,8 +93,8 @@ def fit(dataset: Dataset, *overrides: str, callback=None, planner_progress=None)
         overrides: as on the command line, e.g. ``"method=mce"``, ``"optim.weight_sharing=false"``,
             ``"seed=3"``; the problem groups (mdp, dynamics, demos) are ignored, as with
             ``airl fit data=PATH``.
-        callback: called with each history row of the learner (method=airl), as the progress bar is.
-        planner_progress: called as ``planner_progress(done, total)`` after each time step inside
+        callback (Callable[[dict], None] | None): called with each history row of the learner (method=airl), as the progress bar is.
+        planner_progress (Callable[[int, int], None] | None): called as ``planner_progress(done, total)`` after each time step inside
             every planner call (method=airl): a long call's progress.
 
     Returns:

@@ -1,4 +1,6 @@
-"""What the README quotes is what airl does: its error examples, and the paths its examples name."""
+"""What the documentation quotes is what airl does: its error examples, the paths its examples name,
+its numbers. The README is the front page; the text it held moved into the pages of docs/, so each
+check reads the README and every page (``documented()``), wherever the text now stands."""
 
 from __future__ import annotations
 
@@ -11,8 +13,15 @@ from typer.testing import CliRunner
 
 from airl_cli.cli import app
 
-README = Path(__file__).resolve().parent.parent / "README.md"
+ROOT = Path(__file__).resolve().parent.parent
+README = ROOT / "README.md"
 runner = CliRunner()
+
+
+def documented() -> str:
+    """The README and every Markdown page of the documentation site (docs/), one text."""
+    pages = [README, *sorted((ROOT / "docs").rglob("*.md"))]
+    return "\n\n".join(page.read_text() for page in pages)
 
 
 @pytest.fixture(autouse=True)
@@ -21,8 +30,8 @@ def in_tmp(tmp_path, monkeypatch):
 
 
 def test_the_quoted_bad_value_error_is_the_one_airl_prints(tmp_path):
-    quoted = re.search(r"\(`(error: 'optim\.lam' must be [^`]*)`\)", README.read_text())
-    assert quoted, "the README quotes the error of a bad optim.lam"
+    quoted = re.search(r"\(`(error: 'optim\.lam' must be [^`]*)`\)", documented())
+    assert quoted, "the documentation quotes the error of a bad optim.lam"
     value = quoted.group(1).rsplit("got ", 1)[1]
     result = runner.invoke(app, ["fit", f"optim.lam={value}", f"hydra.run.dir={tmp_path / 'r'}"])
     assert result.exit_code == 2
@@ -30,26 +39,31 @@ def test_the_quoted_bad_value_error_is_the_one_airl_prints(tmp_path):
 
 
 def test_the_plan_examples_use_data_a_users_install_has():
-    """The README's `airl plan` examples once pointed at ../shared/..., which a user's clone lacks."""
+    """The `airl plan` examples once pointed at ../shared/..., which a user's clone lacks: every
+    plan.input the documentation names (in a command or in running text) is a shipped benchmark
+    or the illustrative problem.npz."""
     from airl_cli.io.mmdp_files import BENCHMARK, benchmark_names
 
-    text = README.read_text()
-    inputs = re.findall(r"^airl plan plan\.input=(\S+)", text, flags=re.M)
-    assert inputs and "../" not in text.split("## The multiple-MDP planner on its own")[1]
+    text = documented()
+    assert re.findall(r"^airl plan plan\.input=(\S+)", text, flags=re.M), "the documentation has airl plan examples"
+    inputs = re.findall(r"plan\.input=([^\s`'\")]+)", text)
+    assert "../shared" not in text
     for value in inputs:
+        if value in ("PATH", "PATH]"):  # the synopsis
+            continue
         assert value.startswith(BENCHMARK) and value[len(BENCHMARK) :] in benchmark_names() or value == "problem.npz", value
 
 
 @pytest.mark.slow  # the default fit, 10-40 s
 def test_the_seed_0_numbers_are_what_a_fresh_install_gives(tmp_path):
-    """The README's "what to expect from `airl fit`" sentence, to the three decimals it quotes."""
-    text = " ".join(README.read_text().split())
+    """The "what to expect from `airl fit`" sentence (Getting started), to the three decimals it quotes."""
+    text = " ".join(documented().split())
     found = re.search(
         r"with seed 0 the learner scores ([\d.]+) / ([\d.]+) / ([\d.]+) under τ_1 / τ_2 / τ_3 against the "
         r"demonstrator's ([\d.]+) / ([\d.]+) / ([\d.]+), with cos\(w, w\*\) = ([\d.]+)",
         text,
     )
-    assert found, "the README quotes the seed-0 scores"
+    assert found, "the documentation quotes the seed-0 scores"
     out = tmp_path / "run"
     result = runner.invoke(app, ["fit", f"hydra.run.dir={out}"])
     assert result.exit_code == 0, result.output
@@ -60,11 +74,12 @@ def test_the_seed_0_numbers_are_what_a_fresh_install_gives(tmp_path):
 
 
 def test_the_layout_tree_names_every_module_and_package():
-    """README's Layout tree stays in step with the package: every module and sub-package of airl_cli
-    (the core's modules by name, the others by file or folder name) appears in it."""
+    """The Layout tree (docs/development.md) stays in step with the package: every module and
+    sub-package of airl_cli (the core's modules by name, the others by file or folder name) appears in it."""
     import airl_cli
 
-    text = README.read_text()
+    text = documented()
+    assert text.count("Layout, one line per module or package") == 1, "one Layout tree in the documentation"
     tree = text.split("Layout, one line per module or package")[1].split("```text")[1].split("```")[0]
     root = Path(airl_cli.__file__).parent
     names = []
@@ -75,7 +90,7 @@ def test_the_layout_tree_names_every_module_and_package():
     for sub in ("core/numerics", "core/mdp", "core/mmdp", "core/irl", "io", "usecases", "sweep", "jobs"):
         names += [sub.rpartition("/")[2] + "/"] + [p.stem for p in (root / sub).glob("*.py") if not p.name.startswith("_")]
     missing = [n for n in names if n not in tree]
-    assert not missing, f"README's Layout tree does not name: {missing}"
+    assert not missing, f"the Layout tree (docs/development.md) does not name: {missing}"
 
 
 def test_the_job_counts_experiments_readme_quotes_are_the_sweeps():
@@ -83,7 +98,7 @@ def test_the_job_counts_experiments_readme_quotes_are_the_sweeps():
     from the experiments' configs (``sweep.plan``), checked here (they said 150 for a 180-job sweep)."""
     from airl_cli.sweep.plan import plan
 
-    text = (README.parent / "experiments" / "README.md").read_text()
+    text = (ROOT / "experiments" / "README.md").read_text()
     quoted: dict[str, int] = {}
     for name, jobs in re.findall(r"^\| (\w+)(?: \+ \w+ \(one sweep\))? \| (\d+) \| [\d.]+", text, flags=re.M):
         quoted[name] = int(jobs)

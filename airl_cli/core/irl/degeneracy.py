@@ -33,7 +33,7 @@ def reward_effect(
     """B(w) of eq. (1) above: the most the weights can move any adversary's payoff.
 
     Args:
-        transitions: (D, S, A, S) the demonstration dynamics tau_1..tau_D (dense, or the
+        transitions (np.ndarray | SparseDynamics): (D, S, A, S) the demonstration dynamics tau_1..tau_D (dense, or the
             ``SparseDynamics`` of those models).
         phi: (S, K) state features.
         p0: (S,) the initial distribution.

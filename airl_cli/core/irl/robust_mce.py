@@ -221,7 +221,7 @@ def robust_mce_irl(
     """Robust MCE IRL with one w shared by the demonstration dynamics (the gradient summed over them).
 
     Args:
-        transitions: (M, S, A, S), index 0 = tau (not used); tau_j (j >= 1) is the learner's dynamics
+        transitions (np.ndarray | SparseDynamics): (M, S, A, S), index 0 = tau (not used); tau_j (j >= 1) is the learner's dynamics
             for the demonstrations c~_j.
         features: (S, K) phi; initial: (S,) p0; horizon: T (states); targets: (D, K) c~_j, the
             demonstrations' feature sums discounted as ``discount`` says.

@@ -95,7 +95,7 @@ def optimal_expert(P, r: np.ndarray, horizon: int, *, discount: float = 1.0, bet
     (soft backward induction on r / beta, Q_t = r / beta + gamma E[V_{t+1}]: a (T-1, S, A) policy).
 
     Args:
-        P: (S, A, S), dense or sparse; r: (S,); horizon: T; discount: gamma in (0, 1].
+        P (np.ndarray | SparseModel): (S, A, S), dense or sparse; r: (S,); horizon: T; discount: gamma in (0, 1].
     """
     r = np.asarray(r, dtype=np.float64)
     if beta is None:

@@ -260,7 +260,9 @@ def plan(
         method: pbvi | exact | mean (``multimodel.solve``) or wsu | mvp | cadp (Markov heuristics).
         transitions: (M, S, A, S); rewards: stationary (M, S, A, S) r_j(s, a, s') or (M, S, A);
         initial: (S,); horizon: T decisions; discount: gamma; prior: (M,) lambda or None (uniform);
-        iterations, expansion, rng: PBVI's options.
+        iterations: PBVI's iterations (at most 2^(iterations-1) belief points).
+        expansion: PBVI's belief expansion, "sample" or "all".
+        rng: PBVI's random generator (belief sampling).
         progress: PBVI only: called as ``progress(done, total)`` after each backed-up time step.
     """
     if method not in PLAN_METHODS:

@@ -39,7 +39,7 @@ class PolicyGraph:
         action: per t < T-1, (n_t,) the action the node takes.
         successor: per t < T-1, (n_t, R) the node at t+1 to move to for each next state
             ``reach[s, r]`` of the node's state s (-1 on the padding).
-        alpha: per t, (n_t, M) the node's exact value under each model: alpha[t][k, j] =
+        alpha: per t, (n_t, M) the node's exact value under each model: ``alpha[t][k, j]`` =
             E_j[sum_{u >= t} R_j(u, s_u) | at node k at time t].
         offsets: per t, (S+1,) node ranges per state.
         start: (S,) the node at t = 0 for each initial state.

@@ -1,0 +1,239 @@
+"""The documentation site (mkdocs.yml, docs/) without building it: every page is in the navigation,
+every command page names every option of its command, and every ``bash`` block of the README and
+the pages names real things.
+
+What the bash-block check does and does not do: it runs no command. For each line of a ``bash``
+block not marked illustrative (the line ``<!-- illustrative -->`` just before its fence), every
+command joined by ``&&`` must be one this project knows, and must name only what exists:
+
+- ``airl ...``: the subcommand, each option (from the Typer app itself), and for the Hydra commands
+  each override's config group, option and key, checked by the same functions ``airl`` runs before
+  any work (``launch.check_group_choices``, ``launch.check_keys``), so a misspelt key or group fails
+  here as it would fail for a reader; for plot, report and inspect, at most as many arguments as
+  the command takes;
+- ``pip install``: the extras named exist in pyproject.toml; ``python[3] FILE.py``: the file exists;
+- ``pytest``, ``mkdocs build|serve``, ``python3 -m venv``, ``. .venv/bin/activate``: known as they are.
+
+Whether a command then succeeds is for the tests of each command (and, for the tutorials, the
+strict docs build that CI runs: ``mkdocs build --strict`` executes them).
+"""
+
+from __future__ import annotations
+
+import ast
+import re
+import shlex
+import tomllib
+from pathlib import Path
+
+import pytest
+import typer
+import typer.main
+import yaml
+
+from airl_cli.cli import app
+
+ROOT = Path(__file__).resolve().parent.parent
+DOCS = ROOT / "docs"
+ILLUSTRATIVE = "<!-- illustrative -->"
+HYDRA_COMMANDS = {"generate": "airl", "fit": "airl", "sweep": "airl", "plan": "airl_plan"}
+
+
+def _nav_paths(node) -> list[str]:
+    """Every page path of a mkdocs ``nav`` (nested lists of paths and {title: path-or-list})."""
+    if isinstance(node, str):
+        return [node]
+    if isinstance(node, list):
+        return [p for item in node for p in _nav_paths(item)]
+    if isinstance(node, dict):
+        return [p for value in node.values() for p in _nav_paths(value)]
+    return []
+
+
+def _generated_pages() -> dict[str, str]:
+    """The pages the hook adds from outside docs/ (site path -> repository path), read from its source."""
+    source = (DOCS / "hooks" / "repo_pages.py").read_text()
+    for node in ast.parse(source).body:
+        if isinstance(node, ast.Assign) and any(getattr(t, "id", None) == "PAGES" for t in node.targets):
+            return {site: repo for repo, site in ast.literal_eval(node.value).items()}
+    raise AssertionError("docs/hooks/repo_pages.py defines PAGES")
+
+
+def test_every_page_is_in_the_nav_and_every_nav_entry_exists():
+    config = yaml.safe_load((ROOT / "mkdocs.yml").read_text())
+    nav = _nav_paths(config["nav"])
+    assert len(nav) == len(set(nav)), "a page is in the nav twice"
+    generated = _generated_pages()
+    pages = {p.relative_to(DOCS).as_posix() for p in DOCS.rglob("*") if p.suffix in (".md", ".ipynb") and "hooks" not in p.parts}
+    assert not pages - set(nav), f"pages missing from the nav in mkdocs.yml: {sorted(pages - set(nav))}"
+    missing = [p for p in nav if p not in pages and p not in generated]
+    assert not missing, f"nav entries with no page: {missing}"
+    assert all((ROOT / repo).is_file() for repo in generated.values())
+
+
+def _commands() -> dict:
+    """The subcommands of ``airl``, as the command line builds them (Typer's own click commands)."""
+    return dict(typer.main.get_command(app).commands)
+
+
+def _is_option(param) -> bool:
+    return param.param_type_name == "option"
+
+
+def _arguments(command) -> list:
+    return [p for p in command.params if p.param_type_name == "argument"]
+
+
+def _options(command) -> set[str]:
+    """Every option name of a command (both spellings of a pair such as --plot/--no-plot), and --help."""
+    names = {"--help"}
+    for param in command.params:
+        if _is_option(param):
+            names.update(param.opts)
+            names.update(param.secondary_opts)
+    return names
+
+
+def test_every_command_page_names_every_option_of_its_command():
+    pages = {name: (DOCS / "commands" / f"{name}.md").read_text() for name in _commands()}
+    for name, command in _commands().items():
+        missing = [opt for opt in sorted(_options(command)) if f"`{opt}" not in pages[name]]
+        missing += [p.name.upper() for p in _arguments(command) if f"`{p.name.upper()}`" not in pages[name]]
+        assert not missing, f"docs/commands/{name}.md does not name {missing}"
+    assert all(len(_options(c)) > 1 for c in _commands().values() if c.name != "plot" and c.name != "inspect")
+    root = _options(typer.main.get_command(app))
+    assert "--version" in root
+    index = (DOCS / "commands" / "index.md").read_text()
+    assert not [opt for opt in root if f"`{opt}" not in index], "docs/commands/index.md names the options of airl itself"
+
+
+def test_every_setting_of_the_plan_group_and_of_each_method_has_its_row():
+    from airl_cli.methods import REGISTRY
+
+    plan_keys = yaml.safe_load((ROOT / "conf" / "plan" / "default.yaml").read_text())
+    page = (DOCS / "commands" / "plan.md").read_text()
+    assert not [k for k in plan_keys if f"`plan.{k}`" not in page]
+    for name, method in REGISTRY.items():
+        page = (DOCS / "methods" / f"{name.replace('_', '-')}.md").read_text()
+        missing = [o.key for o in method.options if f"`method.{o.key}`" not in page]
+        assert not missing, f"docs/methods/{name.replace('_', '-')}.md does not name method.{missing}"
+
+
+def _bash_blocks() -> list[tuple[str, int, list[str]]]:
+    """(file, line of the fence, the block's lines) of every ```bash block not marked illustrative."""
+    blocks = []
+    for path in [ROOT / "README.md", *sorted(DOCS.rglob("*.md"))]:
+        lines = path.read_text().split("\n")
+        i = 0
+        while i < len(lines):
+            if lines[i].strip() == "```bash":
+                end = next(k for k in range(i + 1, len(lines)) if lines[k].strip().startswith("```"))
+                marked = i > 0 and lines[i - 1].strip() == ILLUSTRATIVE
+                if not marked:
+                    blocks.append((path.relative_to(ROOT).as_posix(), i + 1, lines[i + 1 : end]))
+                i = end
+            i += 1
+    return blocks
+
+
+def _refused(check, *args) -> str | None:
+    """The sentence a check refuses with (it prints it and exits 2), or None."""
+    import contextlib
+    import io
+
+    err = io.StringIO()
+    try:
+        with contextlib.redirect_stderr(err), contextlib.redirect_stdout(err):
+            check(*args)
+    except (typer.Exit, SystemExit):
+        return err.getvalue().strip() or "refused"
+    return None
+
+
+def _check_airl(words: list[str]) -> str | None:
+    """Why an ``airl ...`` command names something that does not exist, or None."""
+    from airl_cli.launch import check_group_choices, check_keys
+    from airl_cli.problem_defaults import with_problem_defaults
+
+    commands = _commands()
+    if not words or words[0].startswith("-"):
+        unknown = [w for w in words if w not in _options(typer.main.get_command(app))]
+        return f"not an option of airl: {unknown}" if unknown else None
+    name, rest = words[0], words[1:]
+    if name not in commands:
+        return f"not a command: {name}"
+    command = commands[name]
+    takes_value = {opt for p in command.params if _is_option(p) and not p.is_flag for opt in p.opts}
+    options, values, args = [], [], []
+    i = 0
+    while i < len(rest):
+        word = rest[i]
+        if word.startswith("-"):
+            options.append(word)
+            if word in takes_value:
+                i += 1
+        else:
+            (values if name in HYDRA_COMMANDS else args).append(word)
+        i += 1
+    unknown = [o for o in options if o not in _options(command)]
+    if unknown:
+        return f"not an option of airl {name}: {unknown}"
+    if name not in HYDRA_COMMANDS:
+        arguments = _arguments(command)
+        return f"airl {name} takes {len(arguments)} argument(s), given {args}" if len(args) > len(arguments) else None
+    if [v for v in values if "=" not in v]:
+        return f"not an override (GROUP=OPTION or KEY=VALUE): {[v for v in values if '=' not in v]}"
+    if name in ("fit", "generate"):
+        values = with_problem_defaults(values)
+    return _refused(check_group_choices, values) or _refused(check_keys, values, HYDRA_COMMANDS[name])
+
+
+def _check_command(words: list[str], extras: set[str]) -> str | None:
+    """Why one command (no ``&&``) names something that does not exist, or None."""
+    while words and re.fullmatch(r"[A-Z_]+=\S*", words[0]):  # environment variables first
+        words = words[1:]
+    if words[:1] == ["taskset"]:
+        words = words[3:]
+    if not words:
+        return None
+    program, rest = words[0], words[1:]
+    if program == "airl":
+        return _check_airl(rest)
+    if program == "pip" and rest[:1] == ["install"]:
+        named = [w for w in rest[1:] if not w.startswith("-")]
+        bad = [w for w in named if not re.fullmatch(r"\.(\[[\w,]+\])?", w) or not set(re.findall(r"\w+", w)) <= extras]
+        return f"pip install of something but this project or its extras {sorted(extras)}: {bad}" if bad else None
+    if program in ("python", "python3"):
+        if rest[:2] == ["-m", "venv"]:
+            return None
+        script = rest[0] if rest else ""
+        return None if script.endswith(".py") and (ROOT / script).is_file() else f"no script {script!r} in the repository"
+    if program in ("pytest", ".") or (program == "mkdocs" and rest[:1] in (["build"], ["serve"])):
+        return None
+    return f"unknown program {program!r}: mark the block {ILLUSTRATIVE} if it is not meant to be checked"
+
+
+def test_every_bash_block_names_real_commands_options_and_settings():
+    extras = set(tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["optional-dependencies"])
+    blocks = _bash_blocks()
+    assert len(blocks) >= 30, "the README and the pages have their bash blocks"
+    problems = []
+    for path, line, lines in blocks:
+        for k, text in enumerate(lines):
+            words = shlex.split(text, comments=True)
+            command: list[str] = []
+            for word in [*words, "&&"]:
+                if word != "&&":
+                    command.append(word)
+                    continue
+                why = _check_command(command, extras)
+                if why:
+                    problems.append(f"{path}:{line + 1 + k}: {text.strip()}\n    {why}")
+                command = []
+    assert not problems, "\n".join(problems)
+
+
+@pytest.mark.parametrize("bad", ["airl fit mdp.nstates=5", "airl fitt", "airl sweep --partal experiment=fig05", "pip install .[nope]", "airl plot a b"])
+def test_the_bash_check_catches_what_it_claims_to(bad):
+    extras = set(tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["optional-dependencies"])
+    assert _check_command(shlex.split(bad), extras)
