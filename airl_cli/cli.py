@@ -251,7 +251,7 @@ def report(
 
 
 @app.command()
-def inspect(path: str = typer.Argument(..., help="A dataset file (.npz) of the schema in the README.")) -> None:
+def inspect(path: str = typer.Argument(..., help="A dataset file (.npz) of the schema in docs/own-problem.md, 'The dataset file'.")) -> None:
     """Check a dataset file against the schema and describe it; exit 2 with the reason if it is bad."""
     from airl_cli.jobs.inspect import main as inspect_main
 

@@ -5,7 +5,7 @@ Each environment is built once per parameter value (tau's ``mdp.value``, then ea
 ``dynamics.values``): its own transition table becomes the dynamics (``airl_cli.core.mdp.tabular``),
 its terminal states absorbing. The features are one-hot, of the tile type (``features=tile``) or of
 the state (``features=state``); w* is the environment's reward as a function of the state, read
-from its table, as ``TILES`` and the README's "Environments from gymnasium and seals" say.
+from its table, as ``TILES`` and docs/own-problem.md, "Environments from gymnasium and seals", say.
 
 The packages are an optional extra (``pip install '.[envs]'`` in airl's folder); they are imported only when
 such a problem is built, and their absence is one sentence (``ConfigError``).

@@ -40,7 +40,7 @@ class AirlError(Exception):
 
 
 class DatasetError(AirlError):
-    """The dataset file is missing, malformed, or inconsistent (README, 'Bring your own MDP and demonstrations')."""
+    """The dataset file is missing, malformed, or inconsistent (docs/own-problem.md, 'The dataset file')."""
 
 
 class ConfigError(AirlError):

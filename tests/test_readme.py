@@ -94,11 +94,13 @@ def test_the_layout_tree_names_every_module_and_package():
 
 
 def test_the_job_counts_experiments_readme_quotes_are_the_sweeps():
-    """experiments/README.md's wall-time table and commands quote each sweep's jobs: the counts come
+    """experiments/README.md's wall-time table and the experiment pages' commands (docs/experiments/)
+    quote each sweep's jobs: the counts come
     from the experiments' configs (``sweep.plan``), checked here (they said 150 for a 180-job sweep)."""
     from airl_cli.sweep.plan import plan
 
-    text = (ROOT / "experiments" / "README.md").read_text()
+    pages = [ROOT / "experiments" / "README.md", *sorted((ROOT / "docs" / "experiments").glob("*.md"))]
+    text = "\n".join(p.read_text() for p in pages)
     quoted: dict[str, int] = {}
     for name, jobs in re.findall(r"^\| (\w+)(?: \+ \w+ \(one sweep\))? \| (\d+) \| [\d.]+", text, flags=re.M):
         quoted[name] = int(jobs)

@@ -1,4 +1,4 @@
-"""The dataset file (README, 'Bring your own MDP and demonstrations'): one ``.npz`` that ``airl generate`` writes and ``airl fit`` reads.
+"""The dataset file (docs/own-problem.md, 'The dataset file'): one ``.npz`` that ``airl generate`` writes and ``airl fit`` reads.
 
 A user brings their own MDP and demonstrations by writing these keys with ``numpy.savez``:
 
@@ -137,7 +137,7 @@ class Dataset:
         return feature_sums(self.demo_states, self.features, discount=self.discount).mean(axis=1)
 
     def arrays(self) -> dict[str, np.ndarray]:
-        """The keys present, in the README's order, as arrays (sparse dynamics as their two keys)."""
+        """The keys present, in the order of docs/own-problem.md, as arrays (sparse dynamics as their two keys)."""
         out = {}
         for f in fields(self):
             value = getattr(self, f.name)
@@ -155,7 +155,7 @@ class Dataset:
 
 
 def validate(raw: dict[str, np.ndarray]) -> Dataset:
-    """Check the arrays of a dataset file against the schema of the README and build a ``Dataset``.
+    """Check the arrays of a dataset file against the schema of docs/own-problem.md and build a ``Dataset``.
 
     Args:
         raw: key -> array, as loaded from the file.

@@ -136,7 +136,7 @@ def degenerate_sentence(info: dict) -> str:
         why = f"w = 0 passes the certificate too (relative gap {info['zero_relative_gap']:.2g} at w = 0, within twice the tolerance)"
     return (
         f"the learned reward is indistinguishable from zero: {why} and the demonstrations do not constrain the "
-        "reward (its direction is noise; see the README, 'A degenerate optimum')"
+        "reward (its direction is noise; see the documentation, docs/method.md, 'A degenerate optimum')"
     )
 
 

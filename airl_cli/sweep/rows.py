@@ -64,7 +64,7 @@ def fit_rows(cfg: DictConfig, folder) -> list[dict]:
         "degenerate": info["degenerate"] if certified else np.nan,
     }
     settings = setting_columns(c)
-    # max |w|: a certified w this small beside a flagged fit is the zero reward (README, "A degenerate optimum")
+    # max |w|: a certified w this small beside a flagged fit is the zero reward (docs/method.md, "A degenerate optimum")
     weights = run.learned.weights
     weight_scale = np.nan if weights is None else float(np.max(np.abs(weights)))
     out = []
