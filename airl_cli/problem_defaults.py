@@ -18,7 +18,7 @@ from airl_cli.overrides import chosen_values
 
 def is_env_id(name: object) -> bool:
     """Whether ``mdp.env`` names an environment by its registered id (``FrozenLake-v1``,
-    ``seals/CliffWorld-v0``, your own ``MyGrid-v0``; ``airl_cli.own_envs``) rather than one of
+    ``seals/CliffWorld7x4-v0``, your own ``MyGrid-v0``; ``airl_cli.own_envs``) rather than one of
     ``airl_cli.envs.ENVS``: such an environment takes ``dynamics=gaussian`` by default."""
     return isinstance(name, str) and ("-v" in name or "/" in name)
 

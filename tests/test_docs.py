@@ -14,7 +14,10 @@ command joined by ``&&`` must be one this project knows, and must name only what
 - ``pip install``: the extras named exist in pyproject.toml; ``python[3] FILE.py``: the file exists;
 - ``pytest``, ``mkdocs build|serve``, ``python3 -m venv``, ``. .venv/bin/activate``: known as they are.
 
-Whether a command then succeeds is for the tests of each command (and, for the tutorials, the
+Every ``airl generate|fit|sweep`` line is then dry-run (``_dry_run``): composed by Hydra and put
+through the checks the command itself runs before any work, so a bad value, a missing environment
+or a refused combination fails here. The README's 60-second tour runs end to end (a slow test).
+Whether a long command then succeeds is for the tests of each command (and, for the tutorials, the
 strict docs build that CI runs: ``mkdocs build --strict`` executes them).
 """
 
@@ -237,3 +240,86 @@ def test_every_bash_block_names_real_commands_options_and_settings():
 def test_the_bash_check_catches_what_it_claims_to(bad):
     extras = set(tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["optional-dependencies"])
     assert _check_command(shlex.split(bad), extras)
+
+
+#: Lines the dry run leaves to the static check above: a placeholder for the reader's own file or
+#: package, a multirun or a printout (Hydra's own paths), a launcher whose extra is not installed.
+_NOT_DRY_RUN = re.compile(r"<\w|mypackage|problem\.npz|(^| )-m( |$)|--cfg|--help|hydra/launcher=(ray|submitit)")
+
+
+def _airl_lines() -> list[tuple[str, list[str]]]:
+    """(where, words after ``airl``) of every ``airl generate|fit|sweep`` command of the checked bash blocks."""
+    out = []
+    for path, line, lines in _bash_blocks():
+        for k, text in enumerate(lines):
+            for part in " ".join(shlex.split(text, comments=True)).split(" && "):
+                words = shlex.split(part)
+                if words[:1] == ["airl"] and words[1:2] in (["generate"], ["fit"], ["sweep"]) and not _NOT_DRY_RUN.search(part):
+                    out.append((f"{path}:{line + 1 + k}", words[1:]))
+    return out
+
+
+def _dry_run(command: str, rest: list[str]) -> str | None:
+    """Why ``airl COMMAND REST`` would be refused before any work, or None: composed by Hydra and
+    put through the checks the command runs first (``launch.preflight``: the settings, the memory,
+    the dataset file; ``sweep.plan``: the sweep's jobs and its first job's settings)."""
+    from airl_cli.errors import AirlError
+    from airl_cli.launch import preflight
+    from airl_cli.problem_defaults import with_problem_defaults
+    from airl_cli.sweep.plan import plan
+
+    values = [w for w in rest if not w.startswith("-")]
+    try:
+        return _refused(plan, values) if command == "sweep" else _refused(preflight, command, with_problem_defaults(values))
+    except AirlError as err:  # sweep.plan raises its sentence
+        return str(err)
+
+
+@pytest.fixture
+def pages_files(tmp_path, monkeypatch):
+    """A folder where the pages' ``mine.npz`` and ``grid/dataset.npz`` exist."""
+    from airl_cli import api
+
+    monkeypatch.chdir(tmp_path)
+    grid = api.make_dataset("mdp=grid", "dynamics=grid_suboptimal", "demos=exact", "seed=3")
+    api.save_dataset(tmp_path / "mine.npz", grid)
+    (tmp_path / "grid").mkdir()
+    api.save_dataset(tmp_path / "grid" / "dataset.npz", grid)
+    return tmp_path
+
+
+def test_every_generate_fit_and_sweep_line_passes_its_dry_run(pages_files):
+    """More than names: each ``airl generate|fit|sweep`` line of the pages passes ``_dry_run``. The
+    jobs themselves do not run here (full sweeps take minutes); each command's own tests run them,
+    and the tutorials run in the strict docs build."""
+    from airl_cli import compose_memo
+
+    lines = _airl_lines()
+    assert len(lines) >= 60, "the pages have their airl commands"
+    with compose_memo.active():
+        problems = [f"{where}: airl {' '.join(words)}\n    {why}" for where, words in lines if (why := _dry_run(words[0], words[1:]))]
+    assert not problems, "\n".join(problems)
+    assert not (pages_files / "results").exists(), "a dry run makes no folder"
+
+
+@pytest.mark.parametrize("bad", ["fit mdp.discount=2", "fit data=nothere.npz", "sweep experiment=fig05 optim.lam=-1", "generate mdp.size=300 mdp=objectworld"])
+def test_the_dry_run_refuses_what_the_command_would(pages_files, bad):
+    words = bad.split()
+    assert _dry_run(words[0], words[1:])
+
+
+@pytest.mark.slow
+def test_the_readmes_tour_runs_end_to_end(tmp_path):
+    """The README's "60-second tour", line by line as a reader runs it, in a fresh folder (about a minute)."""
+    import subprocess
+    import sys
+
+    text = (ROOT / "README.md").read_text()
+    block = text.split("## A 60-second tour")[1].split("```bash")[1].split("```")[0]
+    lines = [shlex.split(line, comments=True) for line in block.strip().splitlines()]
+    assert len(lines) >= 5 and all(words[0] == "airl" for words in lines)
+    for words in lines:
+        done = subprocess.run([sys.executable, "-m", "airl_cli", *words[1:]], cwd=tmp_path, capture_output=True, text=True, timeout=600)
+        assert done.returncode == 0, f"{' '.join(words)}: {done.stderr}"
+    assert (tmp_path / "fit" / "figures" / "convergence.png").is_file()
+    assert (tmp_path / "results" / "sweeps" / "fig05-quick" / "figures").is_dir()
