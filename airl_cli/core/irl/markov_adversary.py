@@ -1,6 +1,6 @@
 """The adversary restricted to Markov policies: a variant of the game of thesis §5.3.
 
-In the thesis (Def. 5.3.1) the adversary plays one deterministic history-dependent policy in
+In the thesis (§6.1; its strategies mixed as in Def. 5.3.1) the adversary plays one deterministic history-dependent policy in
 every dynamics at once: the loss is scored under tau, the feature sums under tau_1..tau_D, and its
 best response is a policy that is best over several MDPs (chapter 6):
 

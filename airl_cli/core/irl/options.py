@@ -26,7 +26,7 @@ class PlannerOptions:
         a function of the data alone; None draws it from the fit's generator instead.
     screen_beliefs: the certified learner first asks PBVI restricted to the first this many
         beliefs (a cheap, weaker best response; 0 turns screening off).
-    adversary: "history" (thesis Def. 5.3.1: one history-dependent policy over every dynamics)
+    adversary: "history" (thesis §6.1: one history-dependent policy over every dynamics)
         or "markov" (a Markov policy, ``airl_cli.core.irl.markov_adversary``: CADP, or enumeration
         with method "exact").
     """
