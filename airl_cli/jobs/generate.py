@@ -7,7 +7,7 @@ import numpy as np
 from omegaconf import DictConfig
 from rich.progress import Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
 
-from airl_cli.config import EnvMDPSettings, ProblemSettings, problem_settings
+from airl_cli.config import EnvMDPSettings, ProblemSettings, WindyMDPSettings, problem_settings
 from airl_cli.core.mdp.problems import noise
 from airl_cli.envs import env_parameter
 from airl_cli.io.dataset import Dataset, write_dataset
@@ -29,6 +29,8 @@ def describe(settings: ProblemSettings, dataset: Dataset) -> list[tuple[str, str
     elif isinstance(mdp, EnvMDPSettings):
         where = f" {mdp.map_name}" if mdp.env == "FrozenLake" else (f" {mdp.width}x{mdp.height}" if mdp.name == "seals" else "")
         problem = f"{mdp.name} {mdp.env}{where}, {env_parameter(mdp.env, mdp.value)}, features={mdp.features} ({sizes})"
+    elif isinstance(mdp, WindyMDPSettings):
+        problem = f"windy gridworld {mdp.width}x{mdp.height}, tau's wind {mdp.direction} {mdp.level:g}, w* +-1 on {mdp.n_rewarded} states ({sizes})"
     else:
         problem = (
             f"objectworld {mdp.size}x{mdp.size}, {mdp.n_objects} objects of {mdp.n_colours} colours, "
@@ -43,6 +45,10 @@ def describe(settings: ProblemSettings, dataset: Dataset) -> list[tuple[str, str
         dynamics += "; " + ", ".join(f"tau_{j + 1}: {env_parameter(mdp.env, v)}" for j, v in enumerate(dyn.values))
     if dyn.kind == "slip":
         dynamics += "; slips " + ", ".join(f"tau_{j + 1}: {slip:g}" for j, slip in enumerate(dyn.slips))
+    if dyn.kind == "wind":
+        dynamics += "; winds " + ", ".join(f"tau_{j + 1}: {d} {v:g}" for j, (d, v) in enumerate(zip(dyn.directions, dyn.values)))
+    if dataset.n_test:
+        dynamics += f"; {dataset.n_test} held-out test dynamics"
     if dyn.kind == "grid_layouts":
         dynamics += "; crosses " + "; ".join(
             f"tau_{j + 1}: " + (" ".join(f"({r},{c})" for r, c in layout) or "none") for j, layout in enumerate(dyn.layouts)
@@ -52,6 +58,8 @@ def describe(settings: ProblemSettings, dataset: Dataset) -> list[tuple[str, str
         "exact": "exact expected feature sums per dynamics",
         "optimal_path": "the expert's most likely path under tau, as the one demonstration under every tau_j",
     }[demos.kind]
+    if demos.expert == "own":
+        what += "; each tau_j's own expert, " + (f"soft-optimal (beta={demos.beta:g})" if demos.beta else "optimal") + " in tau_j"
     return [("problem", problem), ("dynamics", dynamics), ("demos", what), ("loss", resolved_loss(settings)), ("seed", str(settings.seed))]
 
 

@@ -33,6 +33,17 @@ def test_every_named_problem_has_three_held_out_dynamics(problem):
     assert ds.n_dynamics >= 2  # demonstrated dynamics, none of them held out
 
 
+@pytest.mark.parametrize("problem", PROBLEMS)
+def test_airl_generate_describes_every_named_problem(tmp_path, problem):
+    """airl generate mdp=windy once stopped on a traceback (its summary knew no windy grid)."""
+    if problem in ("cliffworld", "frozenlake"):
+        pytest.importorskip("seals" if problem == "cliffworld" else "gymnasium", reason="needs the extra: pip install '.[envs]'")
+    result = runner.invoke(app, ["generate", f"problem={problem}", "demos.n=5", "demos.expert=own", f"hydra.run.dir={tmp_path / 'g'}"])
+    assert result.exit_code == 0, result.output
+    summary = (tmp_path / "g" / "summary.txt").read_text()
+    assert "3 held-out test dynamics" in summary and "each tau_j's own expert, optimal in tau_j" in summary
+
+
 def test_the_full_sweep_is_every_problem_expert_method_and_run():
     sweep = plan(["experiment=transfer"])
     assert len(sweep.jobs) == 5 * 2 * 6 * 10
