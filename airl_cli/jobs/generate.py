@@ -15,6 +15,7 @@ from airl_cli.io.files import write_text
 from airl_cli.jobs.common import check_build_memory, err_console, out_console, output_dir, run_job, save_config
 from airl_cli.paths import conf_dir
 from airl_cli.plain_progress import PlainProgress
+from airl_cli.problem_defaults import is_env_id
 from airl_cli.usecases.problem import build_dataset, expert_scores, resolved_loss
 
 
@@ -26,6 +27,8 @@ def describe(settings: ProblemSettings, dataset: Dataset) -> list[tuple[str, str
         problem = f"random MDP ({sizes})"
     elif mdp.name == "grid":
         problem = f"grid world {mdp.size}x{mdp.size}, epsilon={mdp.epsilon:g} ({sizes})"
+    elif isinstance(mdp, EnvMDPSettings) and is_env_id(mdp.env):
+        problem = f"{mdp.env}, made by gymnasium.make with its own defaults, one-hot state features ({sizes})"
     elif isinstance(mdp, EnvMDPSettings):
         where = f" {mdp.map_name}" if mdp.env == "FrozenLake" else (f" {mdp.width}x{mdp.height}" if mdp.name == "seals" else "")
         problem = f"{mdp.name} {mdp.env}{where}, {env_parameter(mdp.env, mdp.value)}, features={mdp.features} ({sizes})"

@@ -124,3 +124,17 @@ def test_help_lists_config_groups():
         for option in options:
             assert option in result.output
     assert {"mdp", "dynamics", "demos", "loss"} <= set(config_groups())
+
+
+@pytest.mark.parametrize(
+    "overrides",
+    [["mdp=windy"], ["mdp=seals"], ["mdp=gymnasium", "mdp.env=FrozenLake-v1"], ["mdp=gymnasium", "mdp.env=seals/CliffWorld7x4-v0", "dynamics.n_test=2"]],
+)
+def test_every_kind_of_problem_is_generated_and_described(tmp_path, overrides):
+    """airl generate stopped on a traceback for the windy grid and for an environment by id: its
+    summary did not know them (the fit of the same problems ran)."""
+    pytest.importorskip("seals", reason="needs the extra: pip install '.[envs]'")
+    result, out = generate(tmp_path, "run", *overrides, "demos.n=3")
+    assert result.exit_code == 0, result.output
+    problem_line = next(line for line in (out / "summary.txt").read_text().splitlines() if line.startswith("problem"))
+    assert ("windy gridworld" if overrides == ["mdp=windy"] else "CliffWorld" if "seals" in " ".join(overrides) else "FrozenLake") in problem_line
