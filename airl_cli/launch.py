@@ -63,7 +63,8 @@ def _check_problem_choice(overrides: list[str]) -> None:
 
     A problem (``conf/problem/``) picks the mdp and dynamics groups and sets their values; beside
     ``mdp=``/``dynamics=`` its values would land in another problem's settings, beside ``data=`` it
-    would not be read, and an experiment that picks its own problem would silently win over it.
+    would not be read, and an experiment that does not sweep problems (``hydra.sweeper.params``) has
+    its own problem, which would silently win over it or ignore it.
     """
     chosen = chosen_values(overrides)
     problem = chosen.get("problem")
@@ -76,8 +77,8 @@ def _check_problem_choice(overrides: list[str]) -> None:
             "(change its values with mdp.KEY=VALUE or dynamics.KEY=VALUE), or drop problem="
         )
     path = Path(conf_dir()) / "experiment" / f"{chosen.get('experiment')}.yaml"
-    defaults = _yaml(path)[0].get("defaults", []) if path.is_file() else []
-    if any(isinstance(e, dict) and "override /mdp" in e for e in defaults):
+    params = ((_yaml(path)[0].get("hydra") or {}).get("sweeper") or {}).get("params") or {} if path.is_file() else None
+    if params is not None and "problem" not in params:  # an experiment that does not sweep problems has its own
         refuse(f"'experiment={chosen['experiment']}' picks its own problem; drop problem={problem} (experiment=transfer sweeps the problems of conf/problem/)")
 
 

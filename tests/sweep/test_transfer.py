@@ -58,6 +58,8 @@ def test_the_full_sweep_is_every_problem_expert_method_and_run():
         (["fit", "problem=windy", "dynamics=slip"], "drop dynamics="),
         (["fit", "problem=windy", "data=x.npz"], "drop data="),
         (["sweep", "experiment=frozenlake", "problem=windy"], "picks its own problem"),
+        (["sweep", "experiment=size_random_markov", "problem=windy"], "picks its own problem"),  # its problem comes from size_random
+        (["sweep", "experiment=viano_finite", "problem=windy"], "picks its own problem"),  # its grid is not an mdp option
     ],
 )
 def test_a_problem_beside_a_choice_it_would_be_lost_under_is_refused(tmp_path, args, says):
