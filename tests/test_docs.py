@@ -323,3 +323,21 @@ def test_the_readmes_tour_runs_end_to_end(tmp_path):
         assert done.returncode == 0, f"{' '.join(words)}: {done.stderr}"
     assert (tmp_path / "fit" / "figures" / "convergence.png").is_file()
     assert (tmp_path / "results" / "sweeps" / "fig05-quick" / "figures").is_dir()
+
+
+def test_no_list_runs_into_the_paragraph_before_it():
+    """Python-Markdown (the site's) runs "- item" lines into a paragraph line just above them, where
+    GitHub shows a list: every list in the pages starts after a blank line."""
+    item = re.compile(r"^\s*(?:[-*+]|\d+\.)\s+\S")
+    pages = [ROOT / "README.md", ROOT / "experiments" / "README.md", ROOT / "results" / "README.md", *sorted(DOCS.rglob("*.md"))]
+    bad = []
+    for path in pages:
+        fenced, previous = False, ""
+        for number, line in enumerate(path.read_text().split("\n"), 1):
+            if line.lstrip().startswith(("```", "~~~")):
+                fenced = not fenced
+            elif not fenced and item.match(line) and previous.strip() and not previous[:1].isspace():
+                if not (item.match(previous) or previous.lstrip().startswith(("|", "#", ">"))):
+                    bad.append(f"{path.relative_to(ROOT)}:{number}: {line.strip()[:60]}")
+            previous = "" if fenced else line
+    assert not bad, "a blank line before these lists:\n" + "\n".join(bad)
