@@ -22,7 +22,7 @@ from airl_cli.errors import AirlError
 from airl_cli.io.files import atomic_write, write_text
 from airl_cli.methods import NAMES
 from airl_cli.paths import conf_dir
-from airl_cli.transfer import transfer_summary
+from airl_cli.transfer import held_out_grid, transfer_summary
 from airl_cli.variants import variants_summary
 
 START, END = "<!-- claims table: written by make_report.py -->", "<!-- end of the claims table -->"
@@ -213,13 +213,11 @@ def variants(meta: dict, table: pd.DataFrame) -> str:
 def transfer(meta: dict, table: pd.DataFrame) -> str:
     """Per problem and expert model (``airl_cli.transfer``): each method's median in the held-out
     dynamics, the demonstrated tau_j's in brackets, and the demonstrator's."""
-    s = transfer_summary(meta, table)
-    names = list(dict.fromkeys(s["method"]))
+    names, grid = held_out_grid(transfer_summary(meta, table))
     lines = ["| problem | expert | " + " | ".join(names) + " | demonstrator |", "|---|---|" + "---|" * (len(names) + 1)]
-    for (problem, expert), g in s.groupby(["problem", "expert"], sort=False):
-        by = g.set_index("method")
-        cells = [f"{fmt(by.at[m, 'held_out'])} ({fmt(by.at[m, 'demonstrated'])})" if m in by.index else "" for m in names]
-        lines.append(f"| {problem} | {expert} | " + " | ".join(cells) + f" | {fmt(g['demonstrator_held_out'].median())} |")
+    for problem, expert, cells, demonstrator in grid:
+        text = ["" if c is None else f"{fmt(c[0])} ({fmt(c[1])})" for c in cells]
+        lines.append(f"| {problem} | {expert} | " + " | ".join(text) + f" | {fmt(demonstrator)} |")
     return "Median over runs in the held-out dynamics test_e (in brackets: in the demonstrated τ_j).\n\n" + "\n".join(lines)
 
 

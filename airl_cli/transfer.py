@@ -45,18 +45,19 @@ def transfer_summary(experiment: dict, table: pd.DataFrame) -> pd.DataFrame:
     """
     import pandas as pd
 
+    dynamics = table["dynamics"].astype(str)
     rows = table.assign(
         problem=problem_names(table),
         expert=table["demos.expert"].fillna("tau") if "demos.expert" in table else "tau",
         _order=table["mdp"].map(lambda m: _ORDER.index(m) if m in _ORDER else len(_ORDER)),
+        _held=dynamics.str.startswith("test_"),
+        _demonstrated=dynamics.str.fullmatch(r"tau_\d+"),
     )
-    dynamics = rows["dynamics"].astype(str)
-    held = rows[dynamics.str.startswith("test_")]
+    held = rows[rows["_held"]]
     airl = held[held["method"] == "airl"].set_index(["problem", "expert", "seed", "dynamics"])["learner_score"]
     out = []
     for (order, problem, expert, method), g in rows.groupby(["_order", "problem", "expert", "method"], sort=False):
-        h = g[g["dynamics"].astype(str).str.startswith("test_")]
-        demonstrated = g[g["dynamics"].astype(str).str.fullmatch(r"tau_\d+")]
+        h, demonstrated = g[g["_held"]], g[g["_demonstrated"]]
         paired = h.set_index(["problem", "expert", "seed", "dynamics"])["learner_score"] - airl
         paired = paired.dropna()
         out.append({
@@ -77,3 +78,16 @@ def transfer_summary(experiment: dict, table: pd.DataFrame) -> pd.DataFrame:
         _m=summary["method"].map(methods.index),
     )
     return summary.sort_values(["_order", "_e", "_m"], kind="stable").drop(columns=["_order", "_e", "_m"]).reset_index(drop=True)
+
+
+def held_out_grid(summary: pd.DataFrame) -> tuple[list[str], list[tuple[str, str, list[tuple[float, float] | None], float]]]:
+    """``transfer_summary`` as a grid, for the sweep's terminal table and the report: the methods,
+    and per (problem, expert model) each method's (held-out median, demonstrated median), None
+    where it has no rows, and the demonstrator's held-out median."""
+    methods = list(dict.fromkeys(summary["method"]))
+    grid = []
+    for (problem, expert), g in summary.groupby(["problem", "expert"], sort=False):
+        by = g.set_index("method")
+        cells = [(by.at[m, "held_out"], by.at[m, "demonstrated"]) if m in by.index else None for m in methods]
+        grid.append((problem, expert, cells, g["demonstrator_held_out"].median()))
+    return methods, grid

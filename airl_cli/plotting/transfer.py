@@ -31,8 +31,7 @@ def transfer(df: pd.DataFrame, meta: Mapping[str, Any]) -> Figure:
     summary = transfer_summary(dict(meta), df)
     if summary.empty or not summary["held_out"].notna().any():
         raise ValueError("The transfer figure needs rows in held-out dynamics (test_e); this table has none.")
-    experts = [e for e in (*EXPERTS, *summary["expert"]) if e in set(summary["expert"])]
-    experts = list(dict.fromkeys(experts))
+    experts = sorted(set(summary["expert"]), key=lambda e: (EXPERTS.index(e) if e in EXPERTS else len(EXPERTS), e))
     problems = list(dict.fromkeys(summary["problem"]))
     methods = list(dict.fromkeys(summary["method"]))
     fig = Figure(figsize=(5.6 * len(experts), 4.6))

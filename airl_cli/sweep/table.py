@@ -19,7 +19,7 @@ from airl_cli.sweep.folder import check_folder, unwritable
 from airl_cli.sweep.job_files import damaged_jobs
 from airl_cli.sweep.pool import call
 from airl_cli.sweep.spec import ROWS, SweepPlan
-from airl_cli.transfer import transfer_summary
+from airl_cli.transfer import held_out_grid, transfer_summary
 from airl_cli.variants import variants_summary
 
 if TYPE_CHECKING:
@@ -220,13 +220,12 @@ def transfer_text(experiment: dict, table: pd.DataFrame) -> str:
     """``transfer_summary`` for the terminal: per problem and expert model, each method's median score
     in the held-out dynamics, the demonstrated tau_j's in brackets, the demonstrator's last."""
     summary = transfer_summary(experiment, table)
-    methods = list(dict.fromkeys(summary["method"]))
+    methods, grid = held_out_grid(summary)
     lines = ["", "median normalised performance over runs in the held-out dynamics test_e (never demonstrated); in brackets, in the demonstrated tau_j:"]
     lines.append(f"{'problem':<12}{'expert':<7}" + "".join(f"{m:>15}" for m in methods) + f"{'demonstrator':>14}")
-    for (problem, expert), g in summary.groupby(["problem", "expert"], sort=False):
-        by = g.set_index("method")
-        cells = [f"{by.at[m, 'held_out']:.3f} ({by.at[m, 'demonstrated']:.3f})" if m in by.index else "" for m in methods]
-        lines.append(f"{problem:<12}{expert:<7}" + "".join(f"{c:>15}" for c in cells) + f"{g['demonstrator_held_out'].median():>14.3f}")
+    for problem, expert, cells, demonstrator in grid:
+        text = ["" if c is None else f"{c[0]:.3f} ({c[1]:.3f})" for c in cells]
+        lines.append(f"{problem:<12}{expert:<7}" + "".join(f"{c:>15}" for c in text) + f"{demonstrator:>14.3f}")
     others = summary[summary["method"] != "airl"]
     if others["pairs"].sum():
         tally = ", ".join(f"{m} {g['above_airl'].sum()}/{g['below_airl'].sum()} of {g['pairs'].sum()}" for m, g in others.groupby("method", sort=False))

@@ -39,11 +39,12 @@ def learner_policy(dataset: Dataset, weights: np.ndarray, j: int, P=None) -> np.
     return policy
 
 
-def scored_dynamics(dataset: Dataset) -> list[tuple[str, object]]:
-    """(name, (S, A, S) dynamics) of every dynamics scored: tau, tau_1..tau_D, then the held-out
-    test_1..test_E (``Dataset.test_transitions``)."""
-    out = [(dynamics_name(j), dataset.transitions[j]) for j in range(dataset.transitions.shape[0])]
-    return out + [(test_name(e + 1), dataset.test_transitions[e]) for e in range(dataset.n_test)]
+def scored_dynamics(dataset: Dataset) -> list[tuple[str, int, object]]:
+    """(name, j, (S, A, S) dynamics) of every dynamics scored: tau, tau_1..tau_D, then the held-out
+    test_1..test_E (``Dataset.test_transitions``); j picks the learner's weights (``weights_for``):
+    tau_j's own, tau's (0) for a held-out dynamics."""
+    out = [(dynamics_name(j), j, dataset.transitions[j]) for j in range(dataset.transitions.shape[0])]
+    return out + [(test_name(e + 1), 0, dataset.test_transitions[e]) for e in range(dataset.n_test)]
 
 
 def score_rows(
@@ -72,8 +73,7 @@ def score_rows(
         r = dataset.features @ w_star
         R = discounted(r, dataset.horizon, dataset.discount)
         expert = optimal_expert(dataset.transitions[0], r, dataset.horizon, discount=dataset.discount)
-    for i, (name, P) in enumerate(scored_dynamics(dataset)):
-        j = i if name.startswith("tau") else 0
+    for i, (name, j, P) in enumerate(scored_dynamics(dataset)):
         if w_star is not None and dataset.expert == "own":
             expert = optimal_expert(P, r, dataset.horizon, discount=dataset.discount, beta=dataset.expert_beta)
         policy = policies[i] if policies is not None else learner_policy(dataset, weights, j, P)
@@ -99,7 +99,7 @@ def score_learned(dataset: Dataset, learned) -> list[dict]:
     scored = scored_dynamics(dataset)
     policies = None if learned.policy is None else [learned.policy] * len(scored)
     if learned.step_weights is not None:  # a time-dependent reward: its own policies
-        policies = [learner_policy(dataset, learned.step_weights, i if name.startswith("tau") else 0, P) for i, (name, P) in enumerate(scored)]
+        policies = [learner_policy(dataset, learned.step_weights, j, P) for _, j, P in scored]
     return score_rows(dataset, learned.weights, policies, learned.equilibrium)
 
 

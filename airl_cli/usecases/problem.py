@@ -148,9 +148,7 @@ def build_problem(settings: ProblemSettings) -> Problem:
         others = blow(dyn.values, dyn.directions)
         test = blow(dyn.test_values, dyn.test_directions) if dyn.n_test else None
     elif dyn.kind == "gaussian":
-        sigma = problems.noise(dyn.sigma, dyn.sigma_states, tau.shape[0])
-        others = problems.gaussian_perturbations(rng["dynamics"], tau, sigma=sigma, n_dynamics=dyn.n_dynamics)
-        test = problems.gaussian_perturbations(rng["test"], tau, sigma=sigma, n_dynamics=dyn.n_test) if dyn.n_test else None
+        others, test = gaussian_dynamics(rng, tau, dyn)
     elif dyn.kind == "same":
         others = np.broadcast_to(tau, (dyn.n_dynamics,) + tau.shape)
     else:
@@ -160,6 +158,15 @@ def build_problem(settings: ProblemSettings) -> Problem:
         )
     transitions = np.concatenate([tau[None], others], axis=0)
     return Problem(transitions, phi, p0, mdp.horizon, w_star, loss, coords, settings.discount, test)
+
+
+def gaussian_dynamics(rng: dict[str, np.random.Generator], tau: np.ndarray, dyn) -> tuple[np.ndarray, np.ndarray | None]:
+    """``dynamics=gaussian`` (eq. 7.3): tau_1..tau_D (D, S, A, S) from the "dynamics" stream, and the
+    E held-out test dynamics (E, S, A, S) from the "test" stream, or None without them."""
+    sigma = problems.noise(dyn.sigma, dyn.sigma_states, tau.shape[0])
+    others = problems.gaussian_perturbations(rng["dynamics"], tau, sigma=sigma, n_dynamics=dyn.n_dynamics)
+    test = problems.gaussian_perturbations(rng["test"], tau, sigma=sigma, n_dynamics=dyn.n_test) if dyn.n_test else None
+    return others, test
 
 
 def env_problem(settings: ProblemSettings) -> Problem:
@@ -194,12 +201,9 @@ def _env_by_id(settings: ProblemSettings) -> Problem:
     tau = env.transitions[0]
     test = None
     if dyn.kind == "gaussian":
-        sigma = problems.noise(dyn.sigma, dyn.sigma_states, tau.shape[0])
-        rng = streams(settings.seed)
-        others = problems.gaussian_perturbations(rng["dynamics"], tau, sigma=sigma, n_dynamics=dyn.n_dynamics)
-        others = np.stack([tabular.absorbing(P, env.terminal) for P in others])
-        if dyn.n_test:
-            test = np.stack([tabular.absorbing(P, env.terminal) for P in problems.gaussian_perturbations(rng["test"], tau, sigma=sigma, n_dynamics=dyn.n_test)])
+        drawn, held = gaussian_dynamics(streams(settings.seed), tau, dyn)
+        others = np.stack([tabular.absorbing(P, env.terminal) for P in drawn])
+        test = None if held is None else np.stack([tabular.absorbing(P, env.terminal) for P in held])
     else:
         others = np.broadcast_to(tau, (dyn.n_dynamics,) + tau.shape)
     loss = loss_matrix(resolved_loss(settings), env.features)
