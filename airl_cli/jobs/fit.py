@@ -129,7 +129,13 @@ def summary_text(dataset: Dataset, settings: FitSettings, learned: Learned, rows
 
 
 def degenerate_sentence(info: dict) -> str:
-    """One sentence for a certified w that is the zero reward in all but name (``core.degeneracy``)."""
+    """One sentence for a certified w that is the zero reward, or is it in all but name (``core.degeneracy``)."""
+    if info.get("zero_answer"):
+        return (
+            "the certified answer is the zero reward: w = 0 is optimal to the tolerance (its upper bound on f(0) is "
+            "exact, a plan under tau alone), so the demonstrations do not constrain the reward and the learner's "
+            "policy is not learned from them (see the documentation, docs/method.md, 'A degenerate optimum')"
+        )
     if info["reward_effect"] <= info["tol"] * max(1.0, abs(info["objective"])):
         why = f"it moves the game's payoff by at most {info['reward_effect']:.2g}, below the certificate's tolerance, so w = 0 is optimal too"
     else:

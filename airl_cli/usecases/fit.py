@@ -210,6 +210,8 @@ def _learn_airl(
     if settings.optimizer == "exact":
         res = minimize(problem, targets, oracle, screen=screen, options=settings.certified, callback=callback)
         h = res.history
+        zero = bool(res.converged and not np.any(res.weights))  # certified by the exact bound on f(0)
+        name = "exact" if zero else _oracle_name(settings)
         info = {
             "optimizer": "exact",
             "stopped": res.stopped,
@@ -221,7 +223,8 @@ def _learn_airl(
             "tol": settings.certified.tol,
             "oracle": _oracle_name(settings),
             "adversary": settings.options.planner.adversary,
-            "certificate": certificate(res.relative_gap, settings.certified.tol, res.converged, _oracle_name(settings)),
+            "certificate": certificate(res.relative_gap, settings.certified.tol, res.converged, name),
+            "zero_answer": zero,
             "iterations": int(h["iteration"][-1]),
             "planner_calls": int(h["planner_calls"][-1]),
             "screen_calls": int(h["screen_calls"][-1]),

@@ -27,7 +27,11 @@ Every iteration yields two bounds on f* = min_w f(w):
     upper = max(v, adversary's best-response value at (w, p)) - w . C + (lambda/2) |w|^2 >= f(w)
     lower = min_i (L q)_i - |Phi q - C|^2 / (2 lambda)       (learner's best response against q)
 
-(the lower bound is min_w of the affine-plus-quadratic minorant of f at q). The fit stops when
+(the lower bound is min_w of the affine-plus-quadratic minorant of f at q). At w = 0 only tau counts,
+and f(0) has exact bounds of its own, single-MDP plans (``zero_bound``): every planner call also
+takes the upper one at its learner mixture, and once it nears the lower bound on f* the game at
+w = 0 is played out beside the fit; min(upper, that bound on f(0)) is the best upper bound on f*,
+and w = 0 the answer when that bound is the one that certifies (a degenerate optimum). The fit stops when
 min(upper) - max(lower) <= tol * max(1, |min(upper)|), or when neither oracle improves (the QP's
 answer is then exactly optimal for the oracles), or at an iteration cap, which is recorded. No step
 size, no random start: the answer depends only on the data and the oracles. The certificate is
@@ -56,7 +60,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from airl_cli.core.irl.certified_steps import Run, adversary_side, first_strategies, learner_side, polish, prune, region
+from airl_cli.core.irl.certified_steps import Run, adversary_side, first_strategies, learner_side, polish, probe_zero, prune, region, zero_side
 from airl_cli.core.irl.game import adversary_rewards
 from airl_cli.core.irl.game_problem import AdversaryOracle, GameProblem
 from airl_cli.core.irl.options import CertifiedOptions
@@ -110,8 +114,10 @@ class CertifiedResult:
             action per time step and state): the game's own learner, an alternative to the
             optimal policy of the learned reward.
         qp_fallbacks: QP solves that Clarabel answered because the dense method did not converge (``core.qp``).
-        zero_upper: an upper bound on f(0), the oracle's best response at w = 0 against the final
-            mixture p: the zero reward is certified too when it is within the tolerance of ``lower``.
+        zero_upper: the smallest exact upper bound on f(0) found (``zero_bound``: the adversary's
+            best response at w = 0, a single-MDP plan under tau, against the learner's mixtures,
+            the final one among them): the zero reward is certified too when it is within the
+            tolerance of ``lower``, and is the answer when only it certifies.
     """
 
     weights: np.ndarray
@@ -154,11 +160,11 @@ def minimize(
 
     Each iteration solves the QP, asks the learner's oracle (cheap) for a better column and, unless
     the learner's improvement is still more than ``BALANCE`` of the current gap, the adversary's
-    oracle for a better row (which also refreshes the upper bound at the current w). A ``screen`` (a cheaper, weaker
-    adversary oracle, e.g. PBVI on a few beliefs) is asked first: a strategy it finds is added
-    without calling ``oracle`` if it raises the restricted value by more than ``SCREEN_FRACTION``
-    of the current gap; one that raises it less is added too (a violated row), and ``oracle`` is
-    asked. Only ``oracle`` yields upper bounds, so the certificate is ``oracle``'s.
+    oracle for a better row (which also refreshes the upper bound at the current w). A ``screen`` (a
+    cheaper, weaker adversary oracle, e.g. PBVI on a few beliefs) is asked first: its strategy is
+    added without calling ``oracle`` if it raises the restricted value by more than
+    ``SCREEN_FRACTION`` of the gap, else added (a violated row) and ``oracle`` asked. Upper bounds
+    come from ``oracle`` and from the exact bound on f(0) (``zero_bound``) only.
 
     Args:
         problem: the game's problem (dynamics with tau at index 0, phi, p0, loss, T).
@@ -190,14 +196,13 @@ def minimize(
     run = Run(best_w=np.zeros(C.size))
     sets = first_strategies(StrategySets(problem, qp, shared), targets, oracle, run)
     born_l, born_a = [0], [0]  # the iteration each kept strategy was added in
-    rows: list[dict] = []
-    stopped = "max_iterations"
-    accuracy = LOOSEST
+    rows, stopped, accuracy = [], "max_iterations", LOOSEST
     for it in range(1, options.max_iterations + 1):
         t0 = time.perf_counter()
         sol = qp.solve(accuracy, region(run, lam))
         qp_seconds = time.perf_counter() - t0
         added_l, added_a = _ask_oracles(sets, sol, oracle, screen, per_dynamics, it, run)
+        zero_side(sets, run, options.tol)
         rows.append(_row(it, run, sol, qp, qp_seconds, start))
         if callback is not None:
             callback(rows[-1])
@@ -207,20 +212,27 @@ def minimize(
         if not (added_l or added_a) and sol.accuracy <= TIGHT:
             stopped = "no_improvement"
             break
-        # a loose solve whose point neither oracle improves on is tightened, else the gap sets it
-        accuracy = TIGHT if not (added_l or added_a) else min(LOOSEST, max(TIGHT, ACCURACY_SHARE * rows[-1]["relative_gap"]))
+        # a loose solve neither oracle improves on is tightened, else the planner's gap sets it
+        accuracy = TIGHT if not (added_l or added_a) else min(LOOSEST, max(TIGHT, ACCURACY_SHARE * _relative(run.upper - run.lower, run.upper)))
         born_l += [it] * (qp.n - len(born_l))
         born_a += [it] * (qp.m - len(born_a))
         if it % PRUNE_AFTER == 0:
             born_l, born_a = prune(sets, born_l, born_a, it)
-    final, polished, final_upper, zero_upper = polish(sets, oracle, per_dynamics, C, lam, run)
+    final, polished, final_upper = polish(sets, oracle, per_dynamics, C, lam, run)
     # the last row reports the best bounds with the polish (part of the last iteration)
     rows[-1] = _row(len(rows), run, final, qp, rows[-1]["qp_seconds"] + polished, start)
     if stopped == "max_iterations" and rows[-1]["relative_gap"] <= options.tol:
         stopped = "tolerance"
-    certified = final_upper - run.lower <= options.tol * max(1.0, abs(final_upper))  # the sets' exact optimum, certified itself
-    answer, upper = (final.w, final_upper) if certified else (run.best_w, run.upper)
-    return _result(per_dynamics(answer), upper, run, rows, stopped, final, sets, zero_upper)
+    answer, upper = _answer(final, final_upper, run, options.tol)
+    return _result(per_dynamics(answer), upper, run, rows, stopped, final, sets)
+
+
+def _answer(final: MasterSolution, final_upper: float, run: Run, tol: float) -> tuple[np.ndarray, float]:
+    """The returned w (d,) and the upper bound that certifies it: the kept sets' exact optimum if
+    its own bound certifies it, else the best upper bound's point (w = 0 when the bound on f(0) is the best)."""
+    if final_upper - run.lower <= tol * max(1.0, abs(final_upper)):
+        return final.w, final_upper
+    return (run.best_w, run.upper) if run.upper <= run.zero_upper else (np.zeros_like(run.best_w), run.zero_upper)
 
 
 def _ask_oracles(sets: StrategySets, sol: MasterSolution, oracle, screen, per_dynamics, it: int, run: Run) -> tuple[bool, bool]:
@@ -235,11 +247,12 @@ def _ask_oracles(sets: StrategySets, sol: MasterSolution, oracle, screen, per_dy
         return True, False
     held = p @ qp.L[: p.size] + qp.Phi @ w  # (m,) each kept adversary strategy's value at (w, p)
     rewards = adversary_rewards(problem, np.tensordot(p, sets.learner_marginals[: p.size], axes=1), per_dynamics(w))
+    probe_zero(sets, rewards, run)
     reg = -float(w @ qp.C) + 0.5 * qp.lam * float(w @ w)
     return added_l, adversary_side(sets, rewards, oracle, screen, w, float(held.max()), reg, tiny, it, run)
 
 
-def _result(weights: np.ndarray, upper: float, run: Run, rows: list[dict], stopped: str, final: MasterSolution, sets: StrategySets, zero_upper: float) -> CertifiedResult:
+def _result(weights: np.ndarray, upper: float, run: Run, rows: list[dict], stopped: str, final: MasterSolution, sets: StrategySets) -> CertifiedResult:
     """The ``CertifiedResult`` of a finished run: ``weights`` (D, K) and the upper bound that
     certifies them, the mixtures of the ``final`` solve."""
     p, q = final.p, final.q
@@ -258,19 +271,26 @@ def _result(weights: np.ndarray, upper: float, run: Run, rows: list[dict], stopp
         adversary_mix=q,
         learner_policies=sets.learner_policies[: p.size].copy(),
         qp_fallbacks=sets.qp.fallbacks,
-        zero_upper=float(zero_upper),
+        zero_upper=float(run.zero_upper),
     )
 
 
+def _relative(gap: float, upper: float) -> float:
+    """gap / max(1, |upper|), inf while either bound is missing."""
+    return gap / max(1.0, abs(upper)) if np.isfinite(gap) else np.inf
+
+
 def _row(it: int, run: Run, sol: MasterSolution, qp: MasterQP, qp_seconds: float, start: float) -> dict:
-    """One row of the history (``HISTORY_COLUMNS``)."""
-    gap = run.upper - run.lower
+    """One row of the history (``HISTORY_COLUMNS``): the best upper bound on f* is the planner's or
+    the exact one on f(0) (``zero_bound``), whichever is smaller."""
+    upper = min(run.upper, run.zero_upper)
+    gap = upper - run.lower
     return dict(
         iteration=it,
-        upper=run.upper,
+        upper=upper,
         lower=run.lower,
         gap=gap,
-        relative_gap=gap / max(1.0, abs(run.upper)) if np.isfinite(gap) else np.inf,
+        relative_gap=_relative(gap, upper),
         objective=sol.objective,
         qp_accuracy=sol.accuracy,
         learner_strategies=qp.n,

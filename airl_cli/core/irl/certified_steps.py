@@ -18,6 +18,7 @@ from airl_cli.core.irl.game import adversary_rewards, learner_best_policy
 from airl_cli.core.irl.game_problem import AdversaryOracle
 from airl_cli.core.irl.qp import TIGHT, MasterSolution
 from airl_cli.core.irl.strategy_sets import StrategySets
+from airl_cli.core.irl.zero_bound import ZeroBound, best_at_zero
 from airl_cli.core.mdp.planning import backward_induction, state_marginals
 
 #: A screening best response is added without asking the full oracle if it raises the restricted
@@ -31,6 +32,11 @@ REGION_SAFETY = 2.0
 #: ... while the relative gap is above this: later, PBVI's upper bounds, which can be a little low,
 #: would make the region too small to hold the minimiser of the problem as PBVI sees it.
 REGION_UNTIL = 1e-3
+#: The game at w = 0 (``zero_bound``) is played once an exact upper bound on f(0) comes within this
+#: many tolerances of the lower bound on f*, ...
+ZERO_NEAR = 10.0
+#: ... for at most this many of its double-oracle iterations per iteration of the learner.
+ZERO_STEPS = 10
 
 
 @dataclass
@@ -43,6 +49,9 @@ class Run:
     planner_calls: int = 1  # the start's
     screen_calls: int = 0
     last_full: int = 0  # the iteration of the last full oracle call
+    zero_upper: float = np.inf  # the smallest exact upper bound on f(0) (``zero_bound``)
+    zero: ZeroBound | None = None  # the game at w = 0, once w = 0 comes close (``zero_side``)
+    zero_closed: bool = False  # True once w = 0 cannot be the certified answer any more
 
 
 def first_strategies(sets: StrategySets, targets: np.ndarray, oracle: AdversaryOracle, run: Run) -> StrategySets:
@@ -102,6 +111,35 @@ def adversary_side(sets: StrategySets, rewards, oracle, screen, w, v: float, reg
     return added
 
 
+def probe_zero(sets: StrategySets, rewards: np.ndarray, run: Run) -> None:
+    """The adversary's exact best response at w = 0 to the learner mixture whose adversary rewards
+    (M, T, S) the planner was just given (row 0 does not depend on w): an upper bound on f(0)
+    (``zero_bound`` eq. 1), one backward induction under tau. Lowers ``run.zero_upper``."""
+    if not run.zero_closed:
+        run.zero_upper = min(run.zero_upper, best_at_zero(sets.problem, rewards[0])[0])
+
+
+def zero_side(sets: StrategySets, run: Run, tol: float) -> None:
+    """Play the game at w = 0 (``zero_bound``) while the zero reward may pass the certificate.
+
+    It starts once ``run.zero_upper`` is within ``ZERO_NEAR`` tolerances of the lower bound, runs
+    ``ZERO_STEPS`` double-oracle iterations per call, and stops for good once its lower bound on
+    f(0) exceeds the best upper bound on f* by more than the tolerance (w = 0 is then not optimal
+    to the tolerance). Lowers ``run.zero_upper``.
+    """
+    if run.zero_closed:
+        return
+    scale = tol * max(1.0, abs(min(run.upper, run.zero_upper)))
+    if run.zero is None:
+        if not run.zero_upper - run.lower <= ZERO_NEAR * scale:
+            return
+        run.zero = ZeroBound(sets.problem, sets.learner_policies, sets.learner_marginals)
+    run.zero.advance(ZERO_STEPS, 0.5 * scale)
+    run.zero_upper = min(run.zero_upper, run.zero.upper)
+    if run.zero.lower > run.upper + scale:
+        run.zero, run.zero_closed = None, True
+
+
 def region(run: Run, lam: float) -> tuple[np.ndarray, float] | None:
     """A box that holds the minimiser w* (centre (d,), half-width), or None before both bounds exist.
 
@@ -132,23 +170,24 @@ def prune(sets: StrategySets, born_l: list[int], born_a: list[int], it: int) -> 
     return [born_l[i] for i in keep_l], [born_a[k] for k in keep_a]
 
 
-def polish(sets: StrategySets, oracle: AdversaryOracle, per_dynamics, C: np.ndarray, lam: float, run: Run) -> tuple[MasterSolution, float, float, float]:
-    """The kept sets' exact optimum (a tight solve), and the full oracle asked at its (w, p) and at
-    (0, p). Its w is the answer when its own upper bound certifies it (``minimize``): the loose
-    solves' points carry the certificate too, but where they land in the region the gap allows (w
-    within sqrt(2 gap / lambda) of the minimiser) depends on the path; the tight optimum is the
-    sets' own estimate. The bound at w = 0 tells whether the zero reward passes the certificate
-    too (a degenerate optimum, ``core.degeneracy``). Returns that solve, the seconds it took (QP
-    and oracle), its upper bound and the upper bound on f(0)."""
+def polish(sets: StrategySets, oracle: AdversaryOracle, per_dynamics, C: np.ndarray, lam: float, run: Run) -> tuple[MasterSolution, float, float]:
+    """The kept sets' exact optimum (a tight solve), the full oracle asked at its (w, p), and the
+    exact bound on f(0) at (0, p) (``probe_zero``). Its w is the answer when its own upper bound
+    certifies it (``minimize``): the loose solves' points carry the certificate too, but where they
+    land in the region the gap allows (w within sqrt(2 gap / lambda) of the minimiser) depends on
+    the path; the tight optimum is the sets' own estimate. The bound at w = 0 tells whether the
+    zero reward passes the certificate too (a degenerate optimum, ``core.degeneracy``). Returns
+    that solve, the seconds it took (QP and oracles) and its upper bound."""
     t0 = time.perf_counter()
     sol = sets.qp.solve(TIGHT)
     learner = np.tensordot(sol.p, sets.learner_marginals[: sol.p.size], axes=1)
-    bounds = []
-    for w in (sol.w, np.zeros_like(sol.w)):
-        value, _ = oracle(adversary_rewards(sets.problem, learner, per_dynamics(w)))
-        run.planner_calls += 1
-        held = float(np.max(sol.p @ sets.qp.L + sets.qp.Phi @ w))
-        bounds.append(max(value, held) - float(w @ C) + 0.5 * lam * float(w @ w))
-    if bounds[0] <= run.upper:
-        run.upper, run.best_w = bounds[0], sol.w.copy()
-    return sol, time.perf_counter() - t0, bounds[0], bounds[1]
+    rewards = adversary_rewards(sets.problem, learner, per_dynamics(sol.w))
+    value, _ = oracle(rewards)
+    run.planner_calls += 1
+    held = float(np.max(sol.p @ sets.qp.L + sets.qp.Phi @ sol.w))
+    upper = max(value, held) - float(sol.w @ C) + 0.5 * lam * float(sol.w @ sol.w)
+    if upper <= run.upper:
+        run.upper, run.best_w = upper, sol.w.copy()
+    run.zero_closed = False  # the final bound on f(0) is wanted whatever the fit found
+    probe_zero(sets, rewards, run)
+    return sol, time.perf_counter() - t0, upper
