@@ -134,7 +134,7 @@ def zero_side(sets: StrategySets, run: Run, tol: float) -> None:
         if not run.zero_upper - run.lower <= ZERO_NEAR * scale:
             return
         run.zero = ZeroBound(sets.problem, sets.learner_policies, sets.learner_marginals)
-    run.zero.advance(ZERO_STEPS, 0.5 * scale)
+    run.zero.advance(ZERO_STEPS, 0.2 * scale)
     run.zero_upper = min(run.zero_upper, run.zero.upper)
     if run.zero.lower > run.upper + scale:
         run.zero, run.zero_closed = None, True
