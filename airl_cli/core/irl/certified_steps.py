@@ -39,7 +39,7 @@ ZERO_NEAR = 10.0
 ZERO_STEPS = 10
 #: ... and only while it has taken at most this share of the fit's time (its restricted game
 #: grows: on a degenerate 20-state fit, 500 of its iterations once took 28 s against 4 s for the rest).
-ZERO_SHARE = 0.25
+ZERO_SHARE = 0.1
 
 
 @dataclass
