@@ -202,7 +202,7 @@ def minimize(
         sol = qp.solve(accuracy, region(run, lam))
         qp_seconds = time.perf_counter() - t0
         added_l, added_a = _ask_oracles(sets, sol, oracle, screen, per_dynamics, it, run)
-        zero_side(sets, run, options.tol, time.perf_counter() - start)
+        zero_side(sets, run, options.tol)
         rows.append(_row(it, run, sol, qp, qp_seconds, start))
         if callback is not None:
             callback(rows[-1])

@@ -37,9 +37,11 @@ REGION_UNTIL = 1e-3
 ZERO_NEAR = 10.0
 #: ... for at most this many of its double-oracle iterations per iteration of the learner, ...
 ZERO_STEPS = 10
-#: ... and only while it has taken at most this share of the fit's time (its restricted game
-#: grows: on a degenerate 20-state fit, 500 of its iterations once took 28 s against 4 s for the rest).
-ZERO_SHARE = 0.1
+#: ... and only while its restricted game holds at most this many strategies of each player: it
+#: grows by one or two an iteration, and each solve costs more (on a degenerate 20-state fit, 500
+#: of its iterations once took 28 s against 4 s for the rest). A count, not a time: the answer
+#: must not depend on the machine.
+ZERO_MAX_STRATEGIES = 80
 
 
 @dataclass
@@ -55,7 +57,6 @@ class Run:
     zero_upper: float = np.inf  # the smallest exact upper bound on f(0) (``zero_bound``)
     zero: ZeroBound | None = None  # the game at w = 0, once w = 0 comes close (``zero_side``)
     zero_closed: bool = False  # True once w = 0 cannot be the certified answer any more
-    zero_seconds: float = 0.0  # the time the game at w = 0 has taken
 
 
 def first_strategies(sets: StrategySets, targets: np.ndarray, oracle: AdversaryOracle, run: Run) -> StrategySets:
@@ -123,18 +124,17 @@ def probe_zero(sets: StrategySets, rewards: np.ndarray, run: Run) -> None:
         run.zero_upper = min(run.zero_upper, best_at_zero(sets.problem, rewards[0])[0])
 
 
-def zero_side(sets: StrategySets, run: Run, tol: float, elapsed: float) -> None:
+def zero_side(sets: StrategySets, run: Run, tol: float) -> None:
     """Play the game at w = 0 (``zero_bound``) while the zero reward may pass the certificate.
 
     It starts once ``run.zero_upper`` is within ``ZERO_NEAR`` tolerances of the lower bound, runs
-    ``ZERO_STEPS`` double-oracle iterations per call while it has taken at most ``ZERO_SHARE`` of
-    the ``elapsed`` seconds of the fit, and stops for good once its lower bound on f(0) exceeds the
-    best upper bound on f* by more than the tolerance (w = 0 is then not optimal to the
-    tolerance). Lowers ``run.zero_upper``.
+    ``ZERO_STEPS`` double-oracle iterations per call while its game holds at most
+    ``ZERO_MAX_STRATEGIES`` strategies of each player, and stops for good once its lower bound on
+    f(0) exceeds the best upper bound on f* by more than the tolerance (w = 0 is then not optimal
+    to the tolerance). Lowers ``run.zero_upper``.
     """
-    if run.zero_closed or run.zero_seconds > ZERO_SHARE * elapsed:
+    if run.zero_closed or (run.zero is not None and max(run.zero.sizes) > ZERO_MAX_STRATEGIES):
         return
-    t0 = time.perf_counter()
     scale = tol * max(1.0, abs(min(run.upper, run.zero_upper)))
     if run.zero is None:
         if not run.zero_upper - run.lower <= ZERO_NEAR * scale:
@@ -144,7 +144,6 @@ def zero_side(sets: StrategySets, run: Run, tol: float, elapsed: float) -> None:
     run.zero_upper = min(run.zero_upper, run.zero.upper)
     if run.zero.lower > run.upper + scale:
         run.zero, run.zero_closed = None, True
-    run.zero_seconds += time.perf_counter() - t0
 
 
 def region(run: Run, lam: float) -> tuple[np.ndarray, float] | None:

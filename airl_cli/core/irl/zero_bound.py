@@ -62,6 +62,11 @@ class ZeroBound:
         self.upper, self.lower, self.steps = np.inf, -np.inf, 0
         self._adversary(self._game.learner_marginals.mean(axis=0))
 
+    @property
+    def sizes(self) -> tuple[int, int]:
+        """(n, m): the learner and adversary strategies its restricted game holds."""
+        return self._game.sizes
+
     def _adversary(self, learner_tau: np.ndarray) -> None:
         """The adversary's exact best response to the learner mixture with marginals (T, S): lowers
         ``upper``, and is added unless the restricted game already holds it."""
