@@ -30,8 +30,9 @@ Every iteration yields two bounds on f* = min_w f(w):
 (the lower bound is min_w of the affine-plus-quadratic minorant of f at q). At w = 0 only tau counts,
 and f(0) has exact bounds of its own, single-MDP plans (``zero_bound``): every planner call also
 takes the upper one at its learner mixture, and once it nears the lower bound on f* the game at
-w = 0 is played out beside the fit; min(upper, that bound on f(0)) is the best upper bound on f*,
-and w = 0 the answer when that bound is the one that certifies (a degenerate optimum). The fit stops when
+w = 0 is played out beside the fit, and bounds f at the QP's point too: f(w) <= f(0) + B(w) +
+(lambda/2)|w|^2 (B as in ``degeneracy``), which certifies a vanishing w (a degenerate optimum) long
+before the planner's bound does. The fit stops when
 min(upper) - max(lower) <= tol * max(1, |min(upper)|), or when neither oracle improves (the QP's
 answer is then exactly optimal for the oracles), or at an iteration cap, which is recorded. No step
 size, no random start: the answer depends only on the data and the oracles. The certificate is
@@ -117,7 +118,7 @@ class CertifiedResult:
         zero_upper: the smallest exact upper bound on f(0) found (``zero_bound``: the adversary's
             best response at w = 0, a single-MDP plan under tau, against the learner's mixtures,
             the final one among them): the zero reward is certified too when it is within the
-            tolerance of ``lower``, and is the answer when only it certifies.
+            tolerance of ``lower`` (it is the answer only if no other point is certified).
     """
 
     weights: np.ndarray
@@ -202,7 +203,7 @@ def minimize(
         sol = qp.solve(accuracy, region(run, lam))
         qp_seconds = time.perf_counter() - t0
         added_l, added_a = _ask_oracles(sets, sol, oracle, screen, per_dynamics, it, run)
-        zero_side(sets, run, options.tol)
+        zero_side(sets, run, options.tol, sol.w, per_dynamics(sol.w), targets)
         rows.append(_row(it, run, sol, qp, qp_seconds, start))
         if callback is not None:
             callback(rows[-1])
@@ -212,13 +213,13 @@ def minimize(
         if not (added_l or added_a) and sol.accuracy <= TIGHT:
             stopped = "no_improvement"
             break
-        # a loose solve neither oracle improves on is tightened, else the planner's gap sets it
-        accuracy = TIGHT if not (added_l or added_a) else min(LOOSEST, max(TIGHT, ACCURACY_SHARE * _relative(run.upper - run.lower, run.upper)))
+        # a loose solve whose point neither oracle improves on is tightened, else the gap sets it
+        accuracy = TIGHT if not (added_l or added_a) else min(LOOSEST, max(TIGHT, ACCURACY_SHARE * rows[-1]["relative_gap"]))
         born_l += [it] * (qp.n - len(born_l))
         born_a += [it] * (qp.m - len(born_a))
         if it % PRUNE_AFTER == 0:
             born_l, born_a = prune(sets, born_l, born_a, it)
-    final, polished, final_upper = polish(sets, oracle, per_dynamics, C, lam, run)
+    final, polished, final_upper = polish(sets, oracle, per_dynamics, C, lam, run, targets)
     # the last row reports the best bounds with the polish (part of the last iteration)
     rows[-1] = _row(len(rows), run, final, qp, rows[-1]["qp_seconds"] + polished, start)
     if stopped == "max_iterations" and rows[-1]["relative_gap"] <= options.tol:
@@ -229,10 +230,13 @@ def minimize(
 
 def _answer(final: MasterSolution, final_upper: float, run: Run, tol: float) -> tuple[np.ndarray, float]:
     """The returned w (d,) and the upper bound that certifies it: the kept sets' exact optimum if
-    its own bound certifies it, else the best upper bound's point (w = 0 when the bound on f(0) is the best)."""
+    its own bound certifies it, else the best upper bound's point if that one does, else w = 0
+    when the bound on f(0) is the smaller (the zero reward is then the only certified point)."""
     if final_upper - run.lower <= tol * max(1.0, abs(final_upper)):
         return final.w, final_upper
-    return (run.best_w, run.upper) if run.upper <= run.zero_upper else (np.zeros_like(run.best_w), run.zero_upper)
+    if run.upper - run.lower <= tol * max(1.0, abs(run.upper)) or run.upper <= run.zero_upper:
+        return run.best_w, run.upper
+    return np.zeros_like(run.best_w), run.zero_upper
 
 
 def _ask_oracles(sets: StrategySets, sol: MasterSolution, oracle, screen, per_dynamics, it: int, run: Run) -> tuple[bool, bool]:
@@ -281,16 +285,14 @@ def _relative(gap: float, upper: float) -> float:
 
 
 def _row(it: int, run: Run, sol: MasterSolution, qp: MasterQP, qp_seconds: float, start: float) -> dict:
-    """One row of the history (``HISTORY_COLUMNS``): the best upper bound on f* is the planner's or
-    the exact one on f(0) (``zero_bound``), whichever is smaller."""
-    upper = min(run.upper, run.zero_upper)
-    gap = upper - run.lower
+    """One row of the history (``HISTORY_COLUMNS``)."""
+    gap = run.upper - run.lower
     return dict(
         iteration=it,
-        upper=upper,
+        upper=run.upper,
         lower=run.lower,
         gap=gap,
-        relative_gap=_relative(gap, upper),
+        relative_gap=_relative(gap, run.upper),
         objective=sol.objective,
         qp_accuracy=sol.accuracy,
         learner_strategies=qp.n,

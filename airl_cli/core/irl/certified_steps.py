@@ -18,6 +18,7 @@ from airl_cli.core.irl.game import adversary_rewards, learner_best_policy
 from airl_cli.core.irl.game_problem import AdversaryOracle
 from airl_cli.core.irl.qp import TIGHT, MasterSolution
 from airl_cli.core.irl.strategy_sets import StrategySets
+from airl_cli.core.irl.degeneracy import reward_effect
 from airl_cli.core.irl.zero_bound import ZeroBound, best_at_zero
 from airl_cli.core.mdp.planning import backward_induction, state_marginals
 
@@ -124,26 +125,43 @@ def probe_zero(sets: StrategySets, rewards: np.ndarray, run: Run) -> None:
         run.zero_upper = min(run.zero_upper, best_at_zero(sets.problem, rewards[0])[0])
 
 
-def zero_side(sets: StrategySets, run: Run, tol: float) -> None:
-    """Play the game at w = 0 (``zero_bound``) while the zero reward may pass the certificate.
+def zero_side(sets: StrategySets, run: Run, tol: float, w: np.ndarray, weights: np.ndarray, targets: np.ndarray) -> None:
+    """Play the game at w = 0 (``zero_bound``) while the zero reward may pass the certificate, and
+    bound f at the QP's point through it.
 
-    It starts once ``run.zero_upper`` is within ``ZERO_NEAR`` tolerances of the lower bound, runs
-    ``ZERO_STEPS`` double-oracle iterations per call while its game holds at most
+    The game starts once ``run.zero_upper`` is within ``ZERO_NEAR`` tolerances of the lower bound,
+    runs ``ZERO_STEPS`` double-oracle iterations per call while it holds at most
     ``ZERO_MAX_STRATEGIES`` strategies of each player, and stops for good once its lower bound on
     f(0) exceeds the best upper bound on f* by more than the tolerance (w = 0 is then not optimal
-    to the tolerance). Lowers ``run.zero_upper``.
+    to the tolerance). Lowers ``run.zero_upper``. While it is played, the QP's point w (d,) (its
+    ``weights`` (D, K) per dynamics; ``targets`` (D, K)) gets the exact bound
+    f(w) <= f(0) + B(w) + (lambda/2)|w|^2 (``zero_upper_at``), which can lower ``run.upper``.
     """
-    if run.zero_closed or (run.zero is not None and max(run.zero.sizes) > ZERO_MAX_STRATEGIES):
+    if run.zero_closed:
         return
     scale = tol * max(1.0, abs(min(run.upper, run.zero_upper)))
     if run.zero is None:
         if not run.zero_upper - run.lower <= ZERO_NEAR * scale:
             return
         run.zero = ZeroBound(sets.problem, sets.learner_policies, sets.learner_marginals)
-    run.zero.advance(ZERO_STEPS, 0.2 * scale)
-    run.zero_upper = min(run.zero_upper, run.zero.upper)
+    if max(run.zero.sizes) <= ZERO_MAX_STRATEGIES:
+        run.zero.advance(ZERO_STEPS, 0.2 * scale)
+        run.zero_upper = min(run.zero_upper, run.zero.upper)
     if run.zero.lower > run.upper + scale:
         run.zero, run.zero_closed = None, True
+        return
+    upper = zero_upper_at(sets, run.zero_upper, w, weights, targets)
+    if upper < run.upper:
+        run.upper, run.best_w = upper, w.copy()
+
+
+def zero_upper_at(sets: StrategySets, zero_upper: float, w: np.ndarray, weights: np.ndarray, targets: np.ndarray) -> float:
+    """An exact upper bound on f(w) from one on f(0): f(w) <= f(0) + B(w) + (lambda/2)|w|^2, where
+    B(w) (``core.irl.degeneracy``) bounds how far the weights move any adversary's payoff (two
+    backward inductions per dynamics). w (d,) as the QP holds it, ``weights`` (D, K) per dynamics."""
+    problem = sets.problem
+    effect = reward_effect(problem.transitions[1:], problem.features, problem.initial, problem.horizon, weights, targets, discount=problem.discount)
+    return zero_upper + effect + 0.5 * sets.qp.lam * float(w @ w)
 
 
 def region(run: Run, lam: float) -> tuple[np.ndarray, float] | None:
@@ -176,14 +194,15 @@ def prune(sets: StrategySets, born_l: list[int], born_a: list[int], it: int) -> 
     return [born_l[i] for i in keep_l], [born_a[k] for k in keep_a]
 
 
-def polish(sets: StrategySets, oracle: AdversaryOracle, per_dynamics, C: np.ndarray, lam: float, run: Run) -> tuple[MasterSolution, float, float]:
+def polish(sets: StrategySets, oracle: AdversaryOracle, per_dynamics, C: np.ndarray, lam: float, run: Run, targets: np.ndarray) -> tuple[MasterSolution, float, float]:
     """The kept sets' exact optimum (a tight solve), the full oracle asked at its (w, p), and the
     exact bound on f(0) at (0, p) (``probe_zero``). Its w is the answer when its own upper bound
     certifies it (``minimize``): the loose solves' points carry the certificate too, but where they
     land in the region the gap allows (w within sqrt(2 gap / lambda) of the minimiser) depends on
     the path; the tight optimum is the sets' own estimate. The bound at w = 0 tells whether the
-    zero reward passes the certificate too (a degenerate optimum, ``core.degeneracy``). Returns
-    that solve, the seconds it took (QP and oracles) and its upper bound."""
+    zero reward passes the certificate too (a degenerate optimum, ``core.degeneracy``); when the
+    game at w = 0 was played, the bound through f(0) (``zero_upper_at``) bounds f at the tight
+    optimum too. Returns that solve, the seconds it took (QP and oracles) and its upper bound."""
     t0 = time.perf_counter()
     sol = sets.qp.solve(TIGHT)
     learner = np.tensordot(sol.p, sets.learner_marginals[: sol.p.size], axes=1)
@@ -196,4 +215,6 @@ def polish(sets: StrategySets, oracle: AdversaryOracle, per_dynamics, C: np.ndar
         run.upper, run.best_w = upper, sol.w.copy()
     run.zero_closed = False  # the final bound on f(0) is wanted whatever the fit found
     probe_zero(sets, rewards, run)
+    if run.zero is not None:  # the game at w = 0 was played: bound f(w) through f(0) too
+        upper = min(upper, zero_upper_at(sets, run.zero_upper, sol.w, per_dynamics(sol.w), targets))
     return sol, time.perf_counter() - t0, upper

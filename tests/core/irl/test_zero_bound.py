@@ -11,6 +11,9 @@ from scipy.optimize import linprog
 from test_certified import T, enumerated_game, exact_oracle, f_brute, game_value, learner_marginals, tiny
 
 from airl_cli.core.irl.certified import CertifiedOptions, minimize
+from airl_cli.core.irl.certified_steps import zero_upper_at
+from airl_cli.core.irl.qp import MasterQP
+from airl_cli.core.irl.strategy_sets import StrategySets
 from airl_cli.core.irl.zero_bound import ZeroBound, best_at_zero
 from airl_cli.core.mdp.planning import backward_induction, state_marginals
 
@@ -80,15 +83,21 @@ def test_a_degenerate_game_is_certified_at_zero(seed):
     assert res.objective - f0 <= 1e-6 * max(1.0, abs(f0))
 
 
-def test_the_zero_reward_is_the_answer_when_its_bound_certifies_first():
-    """On this game the exact bound on f(0) meets the lower bound before the planner's side does
-    (and the kept sets' tight optimum does not certify itself): the answer is w = 0, certified by
-    that bound, which is f(0) of the enumerated game to the tolerance."""
-    problem, targets, L, Phi = _degenerate(3)
-    lam, C, tol = 0.05, targets.sum(axis=0), 1e-4
-    res = minimize(problem, targets, exact_oracle(problem), options=CertifiedOptions(lam=lam, tol=tol))
-    f0 = game_value(L)
-    assert res.converged and not np.any(res.weights)
-    assert res.objective == res.zero_upper and f0 - 1e-9 <= res.objective <= f0 + tol * max(1.0, f0)
-    assert res.lower <= f0 + 1e-9 and res.objective - res.lower <= tol * max(1.0, abs(res.objective))
-    assert f_brute(np.zeros(C.size), L, Phi, C, lam) == pytest.approx(f0)
+@pytest.mark.parametrize("seed,loss", [(0, "zero_one"), (1, "random"), (2, "zero_one")])
+def test_the_bound_through_f0_bounds_f_at_every_w(seed, loss):
+    """f(w) <= f(0) + B(w) + (lambda/2)|w|^2 (``certified_steps.zero_upper_at``) against f of the
+    enumerated game, at small and large w, shared and not."""
+    problem, targets = tiny(seed, S=3, loss=loss)
+    problem = problem.with_scaled_loss()
+    lam = 0.05
+    rng = np.random.default_rng(seed)
+    for shared in (True, False):
+        L, Phi, C = enumerated_game(problem, targets, shared)
+        sets = StrategySets(problem, MasterQP(C, lam), shared)
+        f0 = game_value(L)
+        for scale in (1e-4, 1e-2, 1.0):
+            w = rng.normal(scale=scale, size=C.size)
+            weights = np.broadcast_to(w, targets.shape).copy() if shared else w.reshape(targets.shape)
+            bound = zero_upper_at(sets, f0, w, weights, targets)
+            assert f_brute(w, L, Phi, C, lam) <= bound + 1e-9
+            assert bound - f0 <= 10 * scale * np.abs(targets).sum() + lam * w @ w  # small w: a small bound
