@@ -251,7 +251,8 @@ def _ask_oracles(sets: StrategySets, sol: MasterSolution, oracle, screen, per_dy
         return True, False
     held = p @ qp.L[: p.size] + qp.Phi @ w  # (m,) each kept adversary strategy's value at (w, p)
     rewards = adversary_rewards(problem, np.tensordot(p, sets.learner_marginals[: p.size], axes=1), per_dynamics(w))
-    probe_zero(sets, rewards, run)
+    if not run.zero_closed:  # w = 0 may still pass the certificate
+        probe_zero(sets, rewards, run)
     reg = -float(w @ qp.C) + 0.5 * qp.lam * float(w @ w)
     return added_l, adversary_side(sets, rewards, oracle, screen, w, float(held.max()), reg, tiny, it, run)
 
@@ -266,7 +267,7 @@ def _result(weights: np.ndarray, upper: float, run: Run, rows: list[dict], stopp
         objective=float(upper),
         lower=float(run.lower),
         gap=gap,
-        relative_gap=gap / max(1.0, abs(upper)) if np.isfinite(gap) else float("inf"),
+        relative_gap=_relative(gap, upper),
         converged=stopped != "max_iterations",
         stopped=stopped,
         history={c: np.array([r[c] for r in rows]) for c in HISTORY_COLUMNS},

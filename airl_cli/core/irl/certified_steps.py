@@ -14,11 +14,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from airl_cli.core.irl.degeneracy import reward_effect
 from airl_cli.core.irl.game import adversary_rewards, learner_best_policy
 from airl_cli.core.irl.game_problem import AdversaryOracle
 from airl_cli.core.irl.qp import TIGHT, MasterSolution
 from airl_cli.core.irl.strategy_sets import StrategySets
-from airl_cli.core.irl.degeneracy import reward_effect
 from airl_cli.core.irl.zero_bound import ZeroBound, best_at_zero
 from airl_cli.core.mdp.planning import backward_induction, state_marginals
 
@@ -121,8 +121,7 @@ def probe_zero(sets: StrategySets, rewards: np.ndarray, run: Run) -> None:
     """The adversary's exact best response at w = 0 to the learner mixture whose adversary rewards
     (M, T, S) the planner was just given (row 0 does not depend on w): an upper bound on f(0)
     (``zero_bound`` eq. 1), one backward induction under tau. Lowers ``run.zero_upper``."""
-    if not run.zero_closed:
-        run.zero_upper = min(run.zero_upper, best_at_zero(sets.problem, rewards[0])[0])
+    run.zero_upper = min(run.zero_upper, best_at_zero(sets.problem, rewards[0])[0])
 
 
 def zero_side(sets: StrategySets, run: Run, tol: float, w: np.ndarray, weights: np.ndarray, targets: np.ndarray) -> None:
@@ -213,8 +212,7 @@ def polish(sets: StrategySets, oracle: AdversaryOracle, per_dynamics, C: np.ndar
     upper = max(value, held) - float(sol.w @ C) + 0.5 * lam * float(sol.w @ sol.w)
     if upper <= run.upper:
         run.upper, run.best_w = upper, sol.w.copy()
-    run.zero_closed = False  # the final bound on f(0) is wanted whatever the fit found
-    probe_zero(sets, rewards, run)
+    probe_zero(sets, rewards, run)  # the final bound on f(0), wanted whatever the fit found
     if run.zero is not None:  # the game at w = 0 was played: bound f(w) through f(0) too
         upper = min(upper, zero_upper_at(sets, run.zero_upper, sol.w, per_dynamics(sol.w), targets))
     return sol, time.perf_counter() - t0, upper

@@ -223,7 +223,7 @@ class OracleResult:
         return last.adversary_value - last.learner_value
 
 
-def _known(strategies: np.ndarray, marginals: np.ndarray) -> bool:
+def is_known(strategies: np.ndarray, marginals: np.ndarray) -> bool:
     """Whether ``marginals`` equals one of ``strategies`` (its first axis) to 1e-12, entry by entry."""
     if len(strategies) == 0:
         return False
@@ -282,7 +282,7 @@ def double_oracle(
         v_learner = float((l_row + game.feature_part()) @ q)
         # a strategy already in the game cannot lower its value: a gap then is the LP's tolerance
         # (with a tight threshold, re-adding it loops until the iteration cap)
-        add_l = v - v_learner > tol and not _known(game.learner_marginals, l_marg)
+        add_l = v - v_learner > tol and not is_known(game.learner_marginals, l_marg)
         v_adv, add_a = np.nan, False
         if add_l:
             game.add_learner(l_policy, l_marg)
@@ -293,7 +293,7 @@ def double_oracle(
             calls += 1
             v_adv = max(v_best, v)
             tau, feats = game.adversary_column(a_marg)  # what the game sees of it
-            known = _known(game.adversary_tau, tau) and _known(game.adversary_features, feats[None])
+            known = is_known(game.adversary_tau, tau) and is_known(game.adversary_features, feats[None])
             add_a = v_best - v > tol and not known
             if add_a:
                 game.add_adversary(a_marg)

@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from airl_cli.core.irl.game import RestrictedGame, learner_best_policy
+from airl_cli.core.irl.game import RestrictedGame, adversary_rewards, is_known, learner_best_policy
 from airl_cli.core.irl.game_problem import GameProblem
 from airl_cli.core.mdp.planning import backward_induction, state_marginals
 
@@ -70,14 +70,13 @@ class ZeroBound:
     def _adversary(self, learner_tau: np.ndarray) -> None:
         """The adversary's exact best response to the learner mixture with marginals (T, S): lowers
         ``upper``, and is added unless the restricted game already holds it."""
-        R0 = self._game.problem.loss_times(learner_tau) * self._game.problem.step_weights[:, None]
-        problem = self._game.problem
-        value, policy = best_at_zero(problem, R0)
+        problem, game = self._game.problem, self._game
+        zero = np.zeros((problem.n_models - 1, problem.n_features))
+        value, policy = best_at_zero(problem, adversary_rewards(problem, learner_tau, zero)[0])
         self.upper = min(self.upper, value)
         marginals = np.stack([state_marginals(P_j, policy, problem.initial) for P_j in problem.transitions])
-        tau, _ = self._game.adversary_column(marginals)
-        if not np.any(np.all(self._game.adversary_tau == tau, axis=1)):
-            self._game.add_adversary(marginals)
+        if not is_known(game.adversary_tau, game.adversary_column(marginals)[0]):
+            game.add_adversary(marginals)
 
     def advance(self, max_steps: int, enough: float) -> None:
         """Run up to ``max_steps`` double-oracle iterations, fewer once upper - lower <= ``enough``."""
@@ -93,6 +92,6 @@ class ZeroBound:
             policy = learner_best_policy(problem, q_tau.reshape(T, S))
             marginals = state_marginals(problem.transitions[0], policy, problem.initial)
             self.lower = max(self.lower, float(game.learner_row(marginals) @ q_tau))
-            if not np.any(np.all(game.learner_policies == policy, axis=(1, 2))):
+            if not is_known(game.learner_marginals, marginals):
                 game.add_learner(policy, marginals)
             self._adversary(learner_tau)
