@@ -61,7 +61,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from airl_cli.core.irl.certified_steps import Run, adversary_side, first_strategies, learner_side, polish, probe_zero, prune, region, zero_side
+from airl_cli.core.irl.certified_steps import REFRESH_AFTER, Run, adversary_side, first_strategies, learner_side, polish, probe_zero, prune, region, zero_side
 from airl_cli.core.irl.game import adversary_rewards
 from airl_cli.core.irl.game_problem import AdversaryOracle, GameProblem
 from airl_cli.core.irl.options import CertifiedOptions
@@ -75,7 +75,12 @@ PRUNE_AFTER = 20
 #: The QP is solved to this share of the current relative gap (between ``LOOSEST`` and ``qp.TIGHT``).
 ACCURACY_SHARE = 0.5
 LOOSEST = 0.1
-#: The planner is skipped while the learner's improvement exceeds this fraction of the gap.
+#: The planner is skipped while the learner's improvement exceeds this fraction of the gap, unless
+#: it was last asked ``REFRESH_AFTER`` iterations ago or the QP's value is below the lower bound
+#: (the kept adversary rows then miss a violated one: f(w) >= f* >= lower > the QP's value).
+#: Without those two checks, the learner's columns and the pruning could go on alone for hundreds of
+#: iterations (a 16 x 16 zero-one grid: 1,000 iterations, no progress, the QP's value falling 0.07
+#: below the lower bound).
 BALANCE = 0.5
 
 HISTORY_COLUMNS = (
@@ -241,13 +246,14 @@ def _answer(final: MasterSolution, final_upper: float, run: Run, tol: float) -> 
 
 def _ask_oracles(sets: StrategySets, sol: MasterSolution, oracle, screen, per_dynamics, it: int, run: Run) -> tuple[bool, bool]:
     """The learner's oracle against q, then, unless the learner's side still accounts for most of
-    the gap (``BALANCE``), the adversary's against (w, p): returns whether each added a strategy."""
+    the gap (``BALANCE``, with its two exceptions), the adversary's against (w, p): returns whether
+    each added a strategy."""
     qp, problem = sets.qp, sets.problem
     w, p, q = sol.w, sol.p, sol.q
     tiny = 1e-9 * (1.0 + abs(sol.v))
     gap_l = learner_side(sets, q, qp.C, qp.lam, tiny, run)
     added_l = gap_l > tiny
-    if added_l and gap_l > BALANCE * (run.upper - run.lower):
+    if added_l and gap_l > BALANCE * (run.upper - run.lower) and sol.objective >= run.lower and it - run.last_full < REFRESH_AFTER:
         return True, False
     held = p @ qp.L[: p.size] + qp.Phi @ w  # (m,) each kept adversary strategy's value at (w, p)
     rewards = adversary_rewards(problem, np.tensordot(p, sets.learner_marginals[: p.size], axes=1), per_dynamics(w))
