@@ -124,6 +124,9 @@ class CertifiedResult:
             best response at w = 0, a single-MDP plan under tau, against the learner's mixtures,
             the final one among them): the zero reward is certified too when it is within the
             tolerance of ``lower`` (it is the answer only if no other point is certified).
+        upper_rewards: (M, T, S) the adversary's rewards (eq. 6.26-6.28) at which its oracle gave
+            ``objective`` (``upper_at`` checks that bound with another oracle), or None when
+            ``objective`` is the exact bound through f(0) (``zero_bound``), which needs no planner.
     """
 
     weights: np.ndarray
@@ -140,6 +143,7 @@ class CertifiedResult:
     learner_policies: np.ndarray
     qp_fallbacks: int
     zero_upper: float = float("inf")
+    upper_rewards: np.ndarray | None = None
 
 
 def check_options(options: CertifiedOptions) -> None:
@@ -224,24 +228,41 @@ def minimize(
         born_a += [it] * (qp.m - len(born_a))
         if it % PRUNE_AFTER == 0:
             born_l, born_a = prune(sets, born_l, born_a, it)
-    final, polished, final_upper = polish(sets, oracle, per_dynamics, C, lam, run, targets)
+    final, polished, final_upper, final_rewards = polish(sets, oracle, per_dynamics, C, lam, run, targets)
     # the last row reports the best bounds with the polish (part of the last iteration)
     rows[-1] = _row(len(rows), run, final, qp, rows[-1]["qp_seconds"] + polished, start)
     if stopped == "max_iterations" and rows[-1]["relative_gap"] <= options.tol:
         stopped = "tolerance"
-    answer, upper = _answer(final, final_upper, run, options.tol)
-    return _result(per_dynamics(answer), upper, run, rows, stopped, final, sets)
+    answer, upper, rewards = _answer(final, (final_upper, final_rewards), run, options.tol)
+    return _result(per_dynamics(answer), upper, rewards, run, rows, stopped, final, sets)
 
 
-def _answer(final: MasterSolution, final_upper: float, run: Run, tol: float) -> tuple[np.ndarray, float]:
-    """The returned w (d,) and the upper bound that certifies it: the kept sets' exact optimum if
-    its own bound certifies it, else the best upper bound's point if that one does, else w = 0
-    when the bound on f(0) is the smaller (the zero reward is then the only certified point)."""
-    if final_upper - run.lower <= tol * max(1.0, abs(final_upper)):
-        return final.w, final_upper
+def _answer(final: MasterSolution, final_upper: tuple[float, np.ndarray | None], run: Run, tol: float) -> tuple[np.ndarray, float, np.ndarray | None]:
+    """The returned w (d,), the upper bound that certifies it and the adversary's rewards (M, T, S)
+    the planner gave that bound at (None when it is exact, through f(0), ``zero_bound``): the kept
+    sets' exact optimum if its own bound (``final_upper``: the bound, its rewards) certifies it, else
+    the best upper bound's point if that one does, else w = 0 when the bound on f(0) is the smaller
+    (the zero reward is then the only certified point)."""
+    if final_upper[0] - run.lower <= tol * max(1.0, abs(final_upper[0])):
+        return final.w, *final_upper
     if run.upper - run.lower <= tol * max(1.0, abs(run.upper)) or run.upper <= run.zero_upper:
-        return run.best_w, run.upper
-    return np.zeros_like(run.best_w), run.zero_upper
+        return run.best_w, run.upper, run.upper_rewards
+    return np.zeros_like(run.best_w), run.zero_upper, None
+
+
+def upper_at(targets: np.ndarray, result: CertifiedResult, oracle: AdversaryOracle, options: CertifiedOptions = CertifiedOptions()) -> float:
+    """The upper bound on f (eq. 5.9) at ``result``'s weights w that another adversary oracle gives
+    where the fit's planner gave ``result.objective`` (at ``result.upper_rewards``, the same w and
+    learner mixture): max(result.objective, its value + reg(w)), reg(w) = -w . C + (lambda/2)|w|^2.
+    With a denser PBVI as ``oracle`` it re-checks a certificate that holds against the fit's
+    planner: how much higher it lies is the planner's resolution at the answer. ``result.objective``
+    itself when that bound is exact (``upper_rewards`` None). ``options`` as in ``minimize``;
+    ``targets`` (D, K)."""
+    if result.upper_rewards is None:
+        return result.objective
+    value, _ = oracle(result.upper_rewards)
+    w, C = (result.weights[0], targets.sum(axis=0)) if options.weight_sharing else (result.weights.reshape(-1), targets.reshape(-1))
+    return max(result.objective, value - float(w @ C) + 0.5 * options.lam * float(w @ w))
 
 
 def _ask_oracles(sets: StrategySets, sol: MasterSolution, oracle, screen, per_dynamics, it: int, run: Run) -> tuple[bool, bool]:
@@ -263,9 +284,9 @@ def _ask_oracles(sets: StrategySets, sol: MasterSolution, oracle, screen, per_dy
     return added_l, adversary_side(sets, rewards, oracle, screen, w, float(held.max()), reg, tiny, it, run)
 
 
-def _result(weights: np.ndarray, upper: float, run: Run, rows: list[dict], stopped: str, final: MasterSolution, sets: StrategySets) -> CertifiedResult:
-    """The ``CertifiedResult`` of a finished run: ``weights`` (D, K) and the upper bound that
-    certifies them, the mixtures of the ``final`` solve."""
+def _result(weights: np.ndarray, upper: float, rewards: np.ndarray | None, run: Run, rows: list[dict], stopped: str, final: MasterSolution, sets: StrategySets) -> CertifiedResult:
+    """The ``CertifiedResult`` of a finished run: ``weights`` (D, K), the upper bound that
+    certifies them and the rewards the planner gave it at, the mixtures of the ``final`` solve."""
     p, q = final.p, final.q
     gap = float(upper - run.lower)
     return CertifiedResult(
@@ -283,6 +304,7 @@ def _result(weights: np.ndarray, upper: float, run: Run, rows: list[dict], stopp
         learner_policies=sets.learner_policies[: p.size].copy(),
         qp_fallbacks=sets.qp.fallbacks,
         zero_upper=float(run.zero_upper),
+        upper_rewards=rewards,
     )
 
 

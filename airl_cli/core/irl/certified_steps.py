@@ -58,6 +58,9 @@ class Run:
     zero_upper: float = np.inf  # the smallest exact upper bound on f(0) (``zero_bound``)
     zero: ZeroBound | None = None  # the game at w = 0, once w = 0 comes close (``zero_side``)
     zero_closed: bool = False  # True once w = 0 cannot be the certified answer any more
+    #: the adversary's rewards (M, T, S) at which the planner gave ``upper`` (to check it with another
+    #: planner, ``certified.upper_at``); None while ``upper`` is the exact bound through f(0)
+    upper_rewards: np.ndarray | None = None
 
 
 def first_strategies(sets: StrategySets, targets: np.ndarray, oracle: AdversaryOracle, run: Run) -> StrategySets:
@@ -67,9 +70,10 @@ def first_strategies(sets: StrategySets, targets: np.ndarray, oracle: AdversaryO
     P, p0, T = problem.transitions, problem.initial, problem.horizon
     policy, _ = backward_induction(P[0], problem.features @ targets.mean(axis=0), horizon=T)
     sets.add_learner(policy, state_marginals(P[0], policy, p0))
-    value, marginals = oracle(adversary_rewards(problem, sets.learner_marginals[0], np.zeros(targets.shape)))
+    rewards = adversary_rewards(problem, sets.learner_marginals[0], np.zeros(targets.shape))
+    value, marginals = oracle(rewards)
     sets.add_adversary(marginals)
-    run.upper = value  # f(0) <= the adversary's best value against this learner at w = 0
+    run.upper, run.upper_rewards = value, rewards  # f(0) <= the adversary's best value against this learner at w = 0
     return sets
 
 
@@ -110,7 +114,7 @@ def adversary_side(sets: StrategySets, rewards, oracle, screen, w, v: float, reg
     run.planner_calls += 1
     run.last_full = it
     if max(value, v) + reg < run.upper:
-        run.upper, run.best_w = max(value, v) + reg, w.copy()
+        run.upper, run.best_w, run.upper_rewards = max(value, v) + reg, w.copy(), rewards
     added = value - v > tiny
     if added and not (weak and np.array_equal(marg, marg_s)):
         sets.add_adversary(marg)
@@ -151,7 +155,7 @@ def zero_side(sets: StrategySets, run: Run, tol: float, w: np.ndarray, weights: 
         return
     upper = zero_upper_at(sets, run.zero_upper, w, weights, targets)
     if upper < run.upper:
-        run.upper, run.best_w = upper, w.copy()
+        run.upper, run.best_w, run.upper_rewards = upper, w.copy(), None
 
 
 def zero_upper_at(sets: StrategySets, zero_upper: float, w: np.ndarray, weights: np.ndarray, targets: np.ndarray) -> float:
@@ -193,7 +197,7 @@ def prune(sets: StrategySets, born_l: list[int], born_a: list[int], it: int) -> 
     return [born_l[i] for i in keep_l], [born_a[k] for k in keep_a]
 
 
-def polish(sets: StrategySets, oracle: AdversaryOracle, per_dynamics, C: np.ndarray, lam: float, run: Run, targets: np.ndarray) -> tuple[MasterSolution, float, float]:
+def polish(sets: StrategySets, oracle: AdversaryOracle, per_dynamics, C: np.ndarray, lam: float, run: Run, targets: np.ndarray) -> tuple[MasterSolution, float, float, np.ndarray | None]:
     """The kept sets' exact optimum (a tight solve), the full oracle asked at its (w, p), and the
     exact bound on f(0) at (0, p) (``probe_zero``). Its w is the answer when its own upper bound
     certifies it (``minimize``): the loose solves' points carry the certificate too, but where they
@@ -201,7 +205,8 @@ def polish(sets: StrategySets, oracle: AdversaryOracle, per_dynamics, C: np.ndar
     the path; the tight optimum is the sets' own estimate. The bound at w = 0 tells whether the
     zero reward passes the certificate too (a degenerate optimum, ``core.degeneracy``); when the
     game at w = 0 was played, the bound through f(0) (``zero_upper_at``) bounds f at the tight
-    optimum too. Returns that solve, the seconds it took (QP and oracles) and its upper bound."""
+    optimum too. Returns that solve, the seconds it took (QP and oracles), its upper bound and the
+    rewards (M, T, S) the planner gave it at (None when it is the exact one through f(0))."""
     t0 = time.perf_counter()
     sol = sets.qp.solve(TIGHT)
     learner = np.tensordot(sol.p, sets.learner_marginals[: sol.p.size], axes=1)
@@ -211,8 +216,10 @@ def polish(sets: StrategySets, oracle: AdversaryOracle, per_dynamics, C: np.ndar
     held = float(np.max(sol.p @ sets.qp.L + sets.qp.Phi @ sol.w))
     upper = max(value, held) - float(sol.w @ C) + 0.5 * lam * float(sol.w @ sol.w)
     if upper <= run.upper:
-        run.upper, run.best_w = upper, sol.w.copy()
+        run.upper, run.best_w, run.upper_rewards = upper, sol.w.copy(), rewards
     probe_zero(sets, rewards, run)  # the final bound on f(0), wanted whatever the fit found
     if run.zero is not None:  # the game at w = 0 was played: bound f(w) through f(0) too
-        upper = min(upper, zero_upper_at(sets, run.zero_upper, sol.w, per_dynamics(sol.w), targets))
-    return sol, time.perf_counter() - t0, upper
+        through_zero = zero_upper_at(sets, run.zero_upper, sol.w, per_dynamics(sol.w), targets)
+        if through_zero < upper:
+            upper, rewards = through_zero, None
+    return sol, time.perf_counter() - t0, upper, rewards

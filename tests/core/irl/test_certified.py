@@ -10,7 +10,7 @@ from scipy.optimize import linprog
 from scipy.optimize import minimize as scipy_minimize
 from tiny import random_dynamics
 
-from airl_cli.core.irl.certified import CertifiedOptions, minimize
+from airl_cli.core.irl.certified import CertifiedOptions, minimize, upper_at
 from airl_cli.core.irl.game import objective_at
 from airl_cli.core.irl.game_problem import GameProblem
 from airl_cli.core.irl.learn import FitOptions, PlannerOptions, fit, make_oracle
@@ -217,6 +217,47 @@ def test_a_loose_tolerance_stops_early_with_a_valid_certificate():
     assert res.stopped == "tolerance" and res.relative_gap <= 1e-2
     # the returned w is within the certified gap of the minimum
     assert f_star - 1e-7 <= f_brute(res.weights[0], L, Phi, C, lam) <= f_star + res.gap + 1e-7
+
+
+def _weak_fit(seed):
+    """A fit on tiny(seed) against a weak oracle, the best of a random third of the adversary's
+    policies (as a fit with PBVI is against PBVI's belief set): (problem, targets, options, result)."""
+    problem, targets = tiny(seed, S=2)
+    marginals = adversary_marginals(problem)
+    subset = marginals[np.random.default_rng(seed).random(len(marginals)) < 0.3]
+
+    def weak(R):
+        values = np.einsum("mjts,jts->m", subset, R)
+        return float(values.max()), subset[int(np.argmax(values))]
+
+    options = CertifiedOptions(lam=0.05, tol=1e-9)
+    return problem, targets, options, minimize(problem, targets, weak, options=options), weak
+
+
+@pytest.mark.parametrize("seed", [0, 1, 3])
+def test_a_stronger_oracle_rechecks_the_answer_s_bound_where_the_fit_s_planner_gave_it(seed):
+    """``upper_at`` with the exact oracle is the bound an exact planner gives at the rewards where
+    the weak oracle gave the fit's (brute force over every policy), never below the fit's, and it
+    bounds f at the answer from above; the weak oracle's certificate does not."""
+    problem, targets, options, res, weak = _weak_fit(seed)
+    assert res.converged and res.upper_rewards is not None
+    L, Phi, C = enumerated_game(problem, targets, True)
+    w, lam = res.weights[0], options.lam
+    checked = upper_at(targets, res, exact_oracle(problem), options)
+    best = float(np.einsum("mjts,jts->m", adversary_marginals(problem), res.upper_rewards).max())  # every policy's payoff there
+    assert checked == pytest.approx(max(res.objective, best - w @ C + 0.5 * lam * w @ w), abs=1e-9)
+    assert checked >= f_brute(w, L, Phi, C, lam) - 1e-9 >= brute_minimum(L, Phi, C, lam)[1] - 2e-9
+    assert upper_at(targets, res, weak, options) == pytest.approx(res.objective, abs=1e-9)  # the fit's own planner: no change
+
+
+def test_the_weak_oracle_s_certificate_is_raised_by_the_exact_check_on_some_seed():
+    """The check can tell: on one of these games the weak oracle certifies a bound that the exact
+    planner raises (the answer's f lies above the weak certificate)."""
+    raised = []
+    for seed in (0, 1, 3):
+        problem, targets, options, res, _ = _weak_fit(seed)
+        raised.append(upper_at(targets, res, exact_oracle(problem), options) - res.objective)
+    assert max(raised) > 1e-3, raised
 
 
 def test_the_cap_is_reported():

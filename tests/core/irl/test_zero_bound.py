@@ -10,7 +10,7 @@ import pytest
 from scipy.optimize import linprog
 from test_certified import T, enumerated_game, exact_oracle, f_brute, game_value, learner_marginals, tiny
 
-from airl_cli.core.irl.certified import CertifiedOptions, minimize
+from airl_cli.core.irl.certified import CertifiedOptions, minimize, upper_at
 from airl_cli.core.irl.certified_steps import zero_upper_at
 from airl_cli.core.irl.qp import MasterQP
 from airl_cli.core.irl.strategy_sets import StrategySets
@@ -81,6 +81,9 @@ def test_a_degenerate_game_is_certified_at_zero(seed):
     # whatever w is returned, the certificate holds for it against the enumerated game
     assert f_brute(res.weights[0], L, Phi, C, lam) <= res.objective + 1e-9
     assert res.objective - f0 <= 1e-6 * max(1.0, abs(f0))
+    # a bound through f(0) needs no planner: a second planner's check leaves it as it is
+    checked = upper_at(targets, res, exact_oracle(problem), CertifiedOptions(lam=lam, tol=1e-6))
+    assert checked == res.objective if res.upper_rewards is None else checked >= f_brute(res.weights[0], L, Phi, C, lam) - 1e-9
 
 
 @pytest.mark.parametrize("seed,loss", [(0, "zero_one"), (1, "random"), (2, "zero_one")])
