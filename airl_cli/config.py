@@ -15,10 +15,10 @@ from typing import Any
 from omegaconf import DictConfig
 
 from airl_cli.config_reader import Cell, Reader, plain
+from airl_cli.core.irl.options import PBVI_MAX_ITERATIONS, SCHEDULES, CertifiedOptions, FitOptions, PlannerOptions
+from airl_cli.core.mdp.windy import WINDS
 from airl_cli.demo_settings import DemoSettings, read_demos
 from airl_cli.dynamics_settings import DynamicsSettings, read_dynamics
-from airl_cli.core.mdp.windy import WINDS
-from airl_cli.core.irl.options import SCHEDULES, CertifiedOptions, FitOptions, PlannerOptions
 from airl_cli.envs import EnvMDPSettings, env_settings
 from airl_cli.errors import ConfigError
 from airl_cli.methods import NAMES, REGISTRY
@@ -242,13 +242,14 @@ def _planner(node: Any) -> PlannerOptions:
     r = Reader(node, "pbvi")
     return PlannerOptions(
         method=r.choice("method", ("pbvi", "exact", "mean")),
-        iterations=r.int("iterations", lo=1, hi=20),
+        iterations=r.int("iterations", lo=1, hi=PBVI_MAX_ITERATIONS),
         expansion=r.choice("expansion", ("sample", "all")),
         expectations=r.choice("expectations", ("exact", "monte_carlo")),
         n_samples=r.int("n_samples", lo=1),
         reuse_beliefs=_bool(r, "reuse_beliefs"),
         belief_seed=None if r.raw("belief_seed", None) is None else r.int("belief_seed", lo=0),
         screen_beliefs=r.int("screen_beliefs", lo=0, default=0),
+        check_iterations=r.int("check_iterations", lo=0, hi=12, default=2),
     )
 
 

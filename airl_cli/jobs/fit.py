@@ -300,11 +300,17 @@ def fit_warnings(info: dict) -> list[str]:
     certificate), a degenerate optimum (a certificate that says nothing of the reward)."""
     out = []
     if info.get("optimizer") == "exact" and not info.get("converged", True):
-        out.append(
+        sentence = (
             f"NOT converged: {info['iterations']} iterations reached optim.max_iterations with relative gap "
             f"{info['relative_gap']:.2g} above optim.tol={info['tol']:g}; the weights carry no certificate "
             "(raise optim.max_iterations, or loosen optim.tol)"
         )
+        if info.get("planner_resolution", 0.0) > info["relative_gap"]:  # a finer gap would be finer than PBVI
+            sentence += (
+                f"; the planner's resolution at the answer, {info['planner_resolution']:.2g} (PBVI on "
+                f"{info['check_beliefs']} beliefs bounds it that much higher), is already coarser than the gap"
+            )
+        out.append(sentence)
     if info.get("degenerate"):
         out.append(degenerate_sentence(info))
     return out

@@ -4,21 +4,24 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
 from airl_cli.config import FitSettings
 from airl_cli.core.irl import baselines, mmp, robust_mce
-from airl_cli.core.irl.certified import minimize
-from airl_cli.core.irl.game import objective_at
+from airl_cli.core.irl.certified import minimize, upper_at
 from airl_cli.core.irl.degeneracy import is_degenerate, reward_effect
+from airl_cli.core.irl.game import objective_at
 from airl_cli.core.irl.game_problem import GameProblem, scaled
 from airl_cli.core.irl.learn import fit, make_oracles
+from airl_cli.core.irl.options import PBVI_MAX_ITERATIONS
 from airl_cli.core.irl.per_step import step_blocks, step_features, step_targets
+from airl_cli.core.mdp.sparse import sparse_dynamics
 from airl_cli.errors import ConfigError
 from airl_cli.io.dataset import Dataset
 from airl_cli.methods import REGISTRY
+from airl_cli.usecases.memory import affordable_iterations
 
 
 @dataclass(frozen=True)
@@ -178,22 +181,33 @@ def _learn_mmp(dataset: Dataset, settings: FitSettings, *_) -> Learned:
     return _weights_learned("mmp", res)
 
 
-def certificate(relative_gap: float, tol: float, converged: bool, oracle: str) -> str:
+def certificate(relative_gap: float, tol: float, converged: bool, oracle: str, check: dict | None = None) -> str:
     """One phrase for the summary: how far from the minimum the fit is proven to be.
 
     The bounds are exact when the adversary's oracle is (pbvi.method=exact). PBVI's best response
     can fall short of the true one, so its upper bound can too: then the gap is relative to PBVI,
-    and a negative gap shows that PBVI missed better adversary strategies.
+    and a negative gap shows that PBVI missed better adversary strategies. ``check``
+    (``_planner_check``) says what a denser PBVI's bound at the answer makes of the gap.
     """
     if not converged:
-        return f"NOT converged: the iteration cap was reached with relative gap {relative_gap:.2g} (tolerance {tol:g})"
-    text = f"optimal to {tol:g} (relative gap {relative_gap:.2g})"
-    if oracle == "pbvi":
+        text = f"NOT converged: the iteration cap was reached with relative gap {relative_gap:.2g} (tolerance {tol:g})"
+    elif oracle == "pbvi":
         text = f"optimal to {tol:g} against PBVI's best responses (relative gap {relative_gap:.2g})"
         if relative_gap < -1e-9:
             text += "; the gap is negative because PBVI missed better adversary strategies: more pbvi.iterations sharpen it"
-    elif oracle != "exact":
-        text += f" against the {oracle} oracle's best responses"
+    else:
+        text = f"optimal to {tol:g} (relative gap {relative_gap:.2g})"
+        if oracle != "exact":
+            text += f" against the {oracle} oracle's best responses"
+    if check:
+        dense = f"PBVI on {check['check_beliefs']} beliefs"
+        if check["planner_resolution"] > tol:
+            text += (
+                f"; {dense} bounds the answer {check['planner_resolution']:.2g} higher (relative gap {check['checked_relative_gap']:.2g} against it):"
+                " the gap is against the planner's best responses, which a denser belief set still improves"
+            )
+        else:
+            text += f"; {dense} finds nothing better at the answer (relative gap {check['checked_relative_gap']:.2g} against it)"
     return text
 
 
@@ -212,6 +226,7 @@ def _learn_airl(
         h = res.history
         zero = bool(res.converged and not np.any(res.weights))  # certified by the exact bound on f(0)
         name = "exact" if zero else _oracle_name(settings)
+        check = _planner_check(problem, targets, res, settings, rng)
         info = {
             "optimizer": "exact",
             "stopped": res.stopped,
@@ -223,13 +238,14 @@ def _learn_airl(
             "tol": settings.certified.tol,
             "oracle": _oracle_name(settings),
             "adversary": settings.options.planner.adversary,
-            "certificate": certificate(res.relative_gap, settings.certified.tol, res.converged, name),
+            "certificate": certificate(res.relative_gap, settings.certified.tol, res.converged, name, check),
             "zero_answer": zero,
             "iterations": int(h["iteration"][-1]),
             "planner_calls": int(h["planner_calls"][-1]),
             "screen_calls": int(h["screen_calls"][-1]),
             "qp_fallbacks": res.qp_fallbacks,
             "n_beliefs": int(n_beliefs),
+            **check,
             # how many strategies each player's equilibrium mixture uses (weight above 1e-8)
             "learner_support": int(np.sum(res.learner_mix > 1e-8)),
             "adversary_support": int(np.sum(res.adversary_mix > 1e-8)),
@@ -266,6 +282,31 @@ def _learn_airl(
         }
         history["above_optimum"] = history["objective"] - best.objective
     return Learned("airl", result.weights, None, history, info)
+
+
+def _planner_check(problem: GameProblem, targets: np.ndarray, res, settings: FitSettings, rng: np.random.Generator) -> dict:
+    """The answer bounded once more by a denser PBVI (``pbvi.check_iterations`` more iterations,
+    ``certified.upper_at``): how much higher its bound lies (relative, ``planner_resolution``) and
+    the gap against it. Empty when the planner is not PBVI's history-dependent adversary, the
+    check is off, or the answer's bound is exact (through f(0)) and needs no planner."""
+    planner = settings.options.planner
+    if planner.method != "pbvi" or planner.adversary != "history" or res.upper_rewards is None:
+        return {}
+    M, T, S = res.upper_rewards.shape
+    wanted = min(planner.iterations + planner.check_iterations, PBVI_MAX_ITERATIONS)
+    iterations = affordable_iterations(S, T, M, sparse_dynamics(problem.transitions).next_states.shape[1], planner.iterations, wanted)
+    if iterations == planner.iterations:
+        return {}
+    dense = replace(planner, iterations=iterations, screen_beliefs=0)
+    oracle, _, n_beliefs = make_oracles(problem, dense, rng)
+    upper = upper_at(targets, res, oracle, settings.certified)
+    scale = max(1.0, abs(res.objective))
+    return {
+        "check_beliefs": int(n_beliefs),
+        "checked_objective": upper,
+        "checked_relative_gap": (upper - res.lower) / max(1.0, abs(upper)),
+        "planner_resolution": (upper - res.objective) / scale,
+    }
 
 
 def _oracle_name(settings: FitSettings) -> str:

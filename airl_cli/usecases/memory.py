@@ -8,7 +8,7 @@ import os
 from pathlib import Path
 
 from airl_cli.config import FitSettings, ProblemSettings
-from airl_cli.core.mmdp.budget import GB, Estimate, estimate_fit, fewer_iterations, total_with_iterations
+from airl_cli.core.mmdp.budget import GB, Estimate, estimate_fit, fewer_iterations, graph_bytes, total_with_iterations
 
 
 def available_memory() -> int:
@@ -34,6 +34,16 @@ def available_memory() -> int:
         except (OSError, ValueError):
             free = 1 << 62
     return free
+
+
+def affordable_iterations(n_states: int, horizon: int, n_models: int, n_next: int, iterations: int, wanted: int) -> int:
+    """The most PBVI iterations, from ``iterations`` up to ``wanted``, whose policy graph
+    (``budget.graph_bytes``) takes at most half the memory free now: for a planner called after
+    the fit (``pbvi.check_iterations``), whose graph the fit's own memory check did not count."""
+    free = available_memory()
+    while wanted > iterations and graph_bytes(n_states, horizon, n_models, n_next, wanted) > free / 2:
+        wanted -= 1
+    return max(wanted, iterations)
 
 
 def problem_sizes(problem: ProblemSettings) -> dict:

@@ -50,6 +50,24 @@ def test_fit_in_process_writes_every_file(tmp_path):
     assert history["relative_gap"].iloc[-1] <= 1e-4
     assert "optimal to 0.0001 against PBVI's best responses" in (out / "summary.txt").read_text()
     assert "learner" in result.output and str(out) in result.output
+    # the answer's bound checked by a denser PBVI (pbvi.check_iterations more iterations)
+    assert metrics["check_beliefs"] > metrics["n_beliefs"] and metrics["planner_resolution"] >= 0.0
+    scale = max(1.0, abs(metrics["objective"]))
+    assert metrics["checked_objective"] == pytest.approx(metrics["objective"] + metrics["planner_resolution"] * scale)
+    assert metrics["checked_relative_gap"] >= metrics["relative_gap"] - 1e-12
+    assert f"PBVI on {metrics['check_beliefs']} beliefs" in (out / "summary.txt").read_text()
+
+
+def test_the_denser_planner_s_check_can_be_turned_off_and_refuses_a_bad_value(tmp_path):
+    out = tmp_path / "run"
+    result = run("fit", f"hydra.run.dir={out}", *SMALL, "pbvi.check_iterations=0")
+    assert result.exit_code == 0, result.output
+    metrics = json.loads((out / "metrics.json").read_text())
+    assert metrics["converged"] and "planner_resolution" not in metrics and "check_beliefs" not in metrics
+    assert "PBVI on" not in (out / "summary.txt").read_text()
+    result = run("fit", f"hydra.run.dir={tmp_path / 'bad'}", *SMALL, "pbvi.check_iterations=-1")
+    assert result.exit_code == 2 and "pbvi.check_iterations" in result.output and "Traceback" not in result.output
+    assert not (tmp_path / "bad").exists()
 
 
 def test_fit_without_weight_sharing(tmp_path):
@@ -241,3 +259,16 @@ def test_the_planner_is_not_starved_while_the_learner_keeps_improving(tmp_path):
     assert not (history["objective"].to_numpy()[skipped] < history["lower"].to_numpy()[skipped] - 1e-9).any()
     runs = np.diff(np.flatnonzero(np.r_[True, np.diff(history["planner_calls"].to_numpy()) > 0, True]))
     assert runs.max() <= REFRESH_AFTER
+
+
+def test_a_fit_at_its_cap_says_when_the_planner_is_coarser_than_its_gap():
+    """NOT converged with a gap finer than the planner's resolution: raising the cap would chase PBVI."""
+    from airl_cli.jobs.fit import fit_warnings
+
+    info = {"optimizer": "exact", "converged": False, "iterations": 500, "relative_gap": 1.2e-3, "tol": 1e-4}
+    (plain,) = fit_warnings(info)
+    assert plain.startswith("NOT converged") and "resolution" not in plain
+    (coarse,) = fit_warnings(info | {"planner_resolution": 6.2e-3, "check_beliefs": 147})
+    assert coarse.startswith(plain) and "resolution at the answer, 0.0062 (PBVI on 147 beliefs" in coarse
+    (fine,) = fit_warnings(info | {"planner_resolution": 1e-4, "check_beliefs": 147})
+    assert fine == plain

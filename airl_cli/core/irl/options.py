@@ -14,6 +14,10 @@ from dataclasses import dataclass, field
 SCHEDULES = ("inverse_sqrt", "inverse", "constant")
 
 
+#: The most PBVI iterations a configuration may ask for: up to 2^(iterations-1) belief points each.
+PBVI_MAX_ITERATIONS = 20
+
+
 @dataclass(frozen=True)
 class PlannerOptions:
     """How the adversary's best response is computed (thesis §5.3.1, chapter 6).
@@ -29,6 +33,9 @@ class PlannerOptions:
     adversary: "history" (thesis §6.1: one history-dependent policy over every dynamics)
         or "markov" (a Markov policy, ``airl_cli.core.irl.markov_adversary``: CADP, or enumeration
         with method "exact").
+    check_iterations: the certified learner's answer is bounded once more by PBVI with this many
+        more iterations (a denser belief set), which measures the planner's resolution there
+        (``certified.upper_at``); 0 turns the check off.
     """
 
     method: str = "pbvi"
@@ -40,6 +47,7 @@ class PlannerOptions:
     belief_seed: int | None = 0
     screen_beliefs: int = 0
     adversary: str = "history"
+    check_iterations: int = 2
 
 
 @dataclass(frozen=True)

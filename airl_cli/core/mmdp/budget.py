@@ -103,16 +103,18 @@ def estimate_fit(
     if method == "airl":
         if planner == "pbvi":
             nb = max_beliefs(iterations)
-            # Nodes per (t, s): at most one per belief point; measured, the belief set reaches
-            # 2^(iterations-2)+1 points (65 at 8 iterations, 257 at 10) and de-duplication keeps
-            # 0.4-0.8 node per point. Half the bound, plus one, is above every measurement.
-            nodes = nb // 2 + 1
-            # successors (T, S*nodes, R) int64 and alpha-vectors (T, S*nodes, M) float64, plus
-            # one backup's scratch (S, nodes, R)
-            parts["policy graph"] = T * S * nodes * (R + M) * 8 + S * nodes * R * 8
+            parts["policy graph"] = graph_bytes(S, T, M, R, iterations)
         else:
             parts["policy graph"] = T * S * (R + M) * 8
     return Estimate(total=sum(parts.values()), parts=parts, n_beliefs=nb)
+
+
+def graph_bytes(n_states: int, horizon: int, n_models: int, n_next: int, iterations: int) -> int:
+    """Bytes of PBVI's policy graph with this many iterations, for S states, T steps, M models and
+    R next states reachable from a state at most: successors (T, S*nodes, R) int64, alpha-vectors
+    (T, S*nodes, M) float64 and one backup's scratch (S, nodes, R), with ``_nodes`` per (t, s)."""
+    S, T, M, R, nodes = n_states, horizon, n_models, n_next, _nodes(iterations)
+    return T * S * nodes * (R + M) * 8 + S * nodes * R * 8
 
 
 def fewer_iterations(estimate: Estimate, available: float, *, iterations: int) -> int | None:
@@ -134,5 +136,8 @@ def total_with_iterations(estimate: Estimate, iterations: int, fewer: int) -> fl
 
 
 def _nodes(iterations: int) -> int:
-    """Nodes per (t, s) that ``estimate_fit`` counts for this many PBVI iterations."""
+    """Nodes per (t, s) that ``estimate_fit`` counts for this many PBVI iterations: at most one per
+    belief point; measured, the belief set reaches 2^(iterations-2)+1 points (65 at 8 iterations,
+    257 at 10) and de-duplication keeps 0.4-0.8 node per point. Half the bound, plus one, is above
+    every measurement."""
     return max_beliefs(iterations) // 2 + 1
