@@ -47,7 +47,7 @@ class PlannerOptions:
     belief_seed: int | None = 0
     screen_beliefs: int = 0
     adversary: str = "history"
-    check_iterations: int = 2
+    check_iterations: int = 1
 
 
 @dataclass(frozen=True)
