@@ -129,7 +129,8 @@ def summary_text(dataset: Dataset, settings: FitSettings, learned: Learned, rows
 
 
 def degenerate_sentence(info: dict) -> str:
-    """One sentence for a certified w that is the zero reward, or is it in all but name (``core.degeneracy``)."""
+    """One sentence for a certified w that is the zero reward, is it in all but name (it moves the payoff
+    by less than the tolerance), or is barely constrained (w = 0 passes the certificate too, ``core.degeneracy``)."""
     if info.get("zero_answer"):
         return (
             "the certified answer is the zero reward: w = 0 is optimal to the tolerance (its upper bound on f(0) is "
@@ -137,12 +138,18 @@ def degenerate_sentence(info: dict) -> str:
             "policy is not learned from them (see the documentation, docs/method.md, 'A degenerate optimum')"
         )
     if info["reward_effect"] <= info["tol"] * max(1.0, abs(info["objective"])):
-        why = f"it moves the game's payoff by at most {info['reward_effect']:.2g}, below the certificate's tolerance, so w = 0 is optimal too"
-    else:
-        why = f"w = 0 passes the certificate too (relative gap {info['zero_relative_gap']:.2g} at w = 0, within twice the tolerance)"
+        return (
+            f"the learned reward is indistinguishable from zero: it moves the game's payoff by at most {info['reward_effect']:.2g}, "
+            "below the certificate's tolerance, so w = 0 is optimal too and the demonstrations do not constrain the "
+            "reward (its direction is noise; see the documentation, docs/method.md, 'A degenerate optimum')"
+        )
+    # w moves the payoff by more than the tolerance: its direction can carry signal (measured, a
+    # median cos(w, w*) of 0.83 on such fits of the degeneracy experiment, 0.47 on the ones above)
     return (
-        f"the learned reward is indistinguishable from zero: {why} and the demonstrations do not constrain the "
-        "reward (its direction is noise; see the documentation, docs/method.md, 'A degenerate optimum')"
+        f"the learned reward is barely constrained: w = 0 passes the certificate too (relative gap "
+        f"{info['zero_relative_gap']:.2g} at w = 0, within twice the tolerance), so the demonstrations hardly tell this "
+        f"reward from the zero reward, though it moves the game's payoff by {info['reward_effect']:.2g} and its direction "
+        "may still carry signal (see the documentation, docs/method.md, 'A degenerate optimum')"
     )
 
 
