@@ -2,8 +2,20 @@
 
 from __future__ import annotations
 
+import signal
+
 import numpy as np
 import pytest
+
+
+def pytest_configure(config):
+    """Tests that send Ctrl-C to a child command (tests/jobs/test_interrupt.py) need the child to
+    take it, as a terminal's child does. A pytest started in the background of a non-interactive
+    shell (``(pytest &)``, some CI runners) inherits SIGINT ignored, which every child inherits across
+    exec and Python keeps (the Unix convention airl follows too): those tests then timed out or saw
+    the job finish. A Python handler is reset to the default on exec, so the children get Ctrl-C back."""
+    if signal.getsignal(signal.SIGINT) == signal.SIG_IGN:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
 
 
 @pytest.fixture
