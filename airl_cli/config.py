@@ -249,7 +249,8 @@ def _planner(node: Any) -> PlannerOptions:
         reuse_beliefs=_bool(r, "reuse_beliefs"),
         belief_seed=None if r.raw("belief_seed", None) is None else r.int("belief_seed", lo=0),
         screen_beliefs=r.int("screen_beliefs", lo=0, default=0),
-        check_iterations=r.int("check_iterations", lo=0, hi=12, default=1),
+        check_iterations=r.int("check_iterations", lo=0, hi=12, default=0),
+        check_rounds=r.int("check_rounds", lo=0, hi=20, default=2),
     )
 
 

@@ -72,7 +72,7 @@ def test_the_seed_0_numbers_are_what_a_fresh_install_gives(tmp_path):
     got.append(rows["tau_1"]["cosine_similarity"])
     assert [f"{x:.3f}" for x in got] == list(found.groups())
     # and the denser planner's check of the answer that the first fit's output quotes
-    check = re.search(r"PBVI on (\d+) beliefs bounds the answer ([\d.]+) higher", text)
+    check = re.search(r"PBVI on (\d+) beliefs \(grown where its policy goes\) bounds the answer ([\d.]+) higher", text)
     assert check, "the documentation quotes the denser planner's check"
     metrics = json.loads((out / "metrics.json").read_text())
     assert (str(metrics["check_beliefs"]), f"{metrics['planner_resolution']:.2g}") == check.groups()

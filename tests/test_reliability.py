@@ -524,18 +524,21 @@ def test_a_sweep_into_another_folder_reuses_the_finished_jobs(tmp_path):
         assert (sweeps / "b" / job / "timing.json").read_bytes() == (sweeps / "a" / job / "timing.json").read_bytes()
 
 
-def test_the_denser_planner_s_check_takes_only_the_iterations_that_fit_in_free_memory(monkeypatch):
-    """pbvi.check_iterations runs after the fit's memory check, with a larger policy graph: it is
-    lowered to what half the free memory holds (none beyond the fit's own: no check)."""
+def test_the_planner_s_check_takes_only_the_iterations_and_rounds_that_fit_in_free_memory(monkeypatch):
+    """pbvi.check_iterations and pbvi.check_rounds run after the fit's memory check, with a larger
+    policy graph: they are lowered to what half the free memory holds, rounds first (none beyond
+    the fit's own: no check)."""
     from airl_cli.core.mmdp.budget import graph_bytes
     from airl_cli.usecases import memory
 
     size = (16384, 20, 4, 5)  # a 128 x 128 grid: S, T, M, R
     monkeypatch.setattr(memory, "available_memory", lambda: 1 << 50)
-    assert memory.affordable_iterations(*size, 8, 10) == 10
+    assert memory.affordable_check(*size, 8, 10, 3, 8) == (10, 3)
+    monkeypatch.setattr(memory, "available_memory", lambda: 2 * graph_bytes(*size, 9, extra_nodes=16))
+    assert memory.affordable_check(*size, 8, 9, 3, 8) == (9, 2)
     monkeypatch.setattr(memory, "available_memory", lambda: 2 * graph_bytes(*size, 9))
-    assert memory.affordable_iterations(*size, 8, 10) == 9
+    assert memory.affordable_check(*size, 8, 10, 3, 8) == (9, 0)
     monkeypatch.setattr(memory, "available_memory", lambda: graph_bytes(*size, 8))
-    assert memory.affordable_iterations(*size, 8, 10) == 8
+    assert memory.affordable_check(*size, 8, 10, 3, 8) == (8, 0)
     # estimate_fit counts the same graph for the fit itself
     assert estimate_fit(n_states=16384, n_actions=5, horizon=20, n_dynamics=3, n_demos=0, iterations=9, n_next=5).parts["policy graph"] == graph_bytes(*size, 9)

@@ -14,14 +14,15 @@ from airl_cli.core.irl.certified import minimize, upper_at
 from airl_cli.core.irl.degeneracy import is_degenerate, reward_effect
 from airl_cli.core.irl.game import objective_at
 from airl_cli.core.irl.game_problem import GameProblem, scaled
-from airl_cli.core.irl.learn import fit, make_oracles
+from airl_cli.core.irl.learn import belief_set, fit, make_oracles
 from airl_cli.core.irl.options import PBVI_MAX_ITERATIONS
 from airl_cli.core.irl.per_step import step_blocks, step_features, step_targets
 from airl_cli.core.mdp.sparse import sparse_dynamics
+from airl_cli.core.mmdp.refine import PER_ROUND, refine
 from airl_cli.errors import ConfigError
 from airl_cli.io.dataset import Dataset
 from airl_cli.methods import REGISTRY
-from airl_cli.usecases.memory import affordable_iterations
+from airl_cli.usecases.memory import affordable_check
 
 
 @dataclass(frozen=True)
@@ -200,11 +201,11 @@ def certificate(relative_gap: float, tol: float, converged: bool, oracle: str, c
         if oracle != "exact":
             text += f" against the {oracle} oracle's best responses"
     if check:
-        dense = f"PBVI on {check['check_beliefs']} beliefs"
+        dense = f"PBVI on {check['check_beliefs']} beliefs (grown where its policy goes)"
         if check["planner_resolution"] > tol:
             text += (
                 f"; {dense} bounds the answer {check['planner_resolution']:.2g} higher (relative gap {check['checked_relative_gap']:.2g} against it):"
-                " the gap is against the planner's best responses, which a denser belief set still improves"
+                " the gap is against the planner's best responses, which a finer belief set still improves"
             )
         else:
             text += f"; {dense} finds nothing better at the answer (relative gap {check['checked_relative_gap']:.2g} against it)"
@@ -285,24 +286,32 @@ def _learn_airl(
 
 
 def _planner_check(problem: GameProblem, targets: np.ndarray, res, settings: FitSettings, rng: np.random.Generator) -> dict:
-    """The answer bounded once more by a denser PBVI (``pbvi.check_iterations`` more iterations,
-    ``certified.upper_at``): how much higher its bound lies (relative, ``planner_resolution``) and
-    the gap against it. Empty when the planner is not PBVI's history-dependent adversary, the
-    check is off, or the answer's bound is exact (through f(0)) and needs no planner."""
+    """The answer bounded once more by a finer PBVI (``certified.upper_at``): the fit's belief set
+    with ``pbvi.check_iterations`` more iterations, then ``pbvi.check_rounds`` rounds of beliefs
+    grown where the planner's own policy goes (``mmdp.refine``): how much higher its bound lies
+    (relative, ``planner_resolution``) and the gap against it. Empty when the planner is not PBVI's
+    history-dependent adversary, the check is off, or the answer's bound is exact (through f(0))
+    and needs no planner."""
     planner = settings.options.planner
     if planner.method != "pbvi" or planner.adversary != "history" or res.upper_rewards is None:
         return {}
     M, T, S = res.upper_rewards.shape
+    P = sparse_dynamics(problem.transitions)
     wanted = min(planner.iterations + planner.check_iterations, PBVI_MAX_ITERATIONS)
-    iterations = affordable_iterations(S, T, M, sparse_dynamics(problem.transitions).next_states.shape[1], planner.iterations, wanted)
-    if iterations == planner.iterations:
+    iterations, rounds = affordable_check(S, T, M, P.next_states.shape[1], planner.iterations, wanted, planner.check_rounds, PER_ROUND)
+    if iterations == planner.iterations and rounds == 0:
         return {}
-    dense = replace(planner, iterations=iterations, screen_beliefs=0)
-    oracle, _, n_beliefs = make_oracles(problem, dense, rng)
+    beliefs = belief_set(P, replace(planner, iterations=iterations), rng)
+    checked = {}
+
+    def oracle(R: np.ndarray) -> tuple[float, np.ndarray]:
+        sol, checked["beliefs"] = refine(P, R, problem.initial, beliefs, rounds=rounds)
+        return sol.value, sol.marginals
+
     upper = upper_at(targets, res, oracle, settings.certified)
     scale = max(1.0, abs(res.objective))
     return {
-        "check_beliefs": int(n_beliefs),
+        "check_beliefs": int(len(checked["beliefs"])),
         "checked_objective": upper,
         "checked_relative_gap": (upper - res.lower) / max(1.0, abs(upper)),
         "planner_resolution": (upper - res.objective) / scale,

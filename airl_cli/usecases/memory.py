@@ -36,14 +36,22 @@ def available_memory() -> int:
     return free
 
 
-def affordable_iterations(n_states: int, horizon: int, n_models: int, n_next: int, iterations: int, wanted: int) -> int:
-    """The most PBVI iterations, from ``iterations`` up to ``wanted``, whose policy graph
-    (``budget.graph_bytes``) takes at most half the memory free now: for a planner called after
-    the fit (``pbvi.check_iterations``), whose graph the fit's own memory check did not count."""
+def affordable_check(n_states: int, horizon: int, n_models: int, n_next: int, iterations: int, wanted: int, rounds: int, per_round: int) -> tuple[int, int]:
+    """The finest check of a certified answer (``pbvi.check_iterations``, ``pbvi.check_rounds``) whose
+    policy graph (``budget.graph_bytes``) takes at most half the memory free now, as (PBVI
+    iterations, from ``iterations`` up to ``wanted``; rounds, each adding up to ``per_round``
+    beliefs): the check runs after the fit, whose own memory check did not count it. Rounds give
+    way first, then iterations."""
     free = available_memory()
-    while wanted > iterations and graph_bytes(n_states, horizon, n_models, n_next, wanted) > free / 2:
+
+    def fits(it: int, r: int) -> bool:
+        return graph_bytes(n_states, horizon, n_models, n_next, it, extra_nodes=r * per_round) <= free / 2
+
+    while rounds > 0 and not fits(wanted, rounds):
+        rounds -= 1
+    while wanted > iterations and not fits(wanted, rounds):
         wanted -= 1
-    return max(wanted, iterations)
+    return max(wanted, iterations), rounds
 
 
 def problem_sizes(problem: ProblemSettings) -> dict:

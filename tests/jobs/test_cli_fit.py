@@ -50,7 +50,7 @@ def test_fit_in_process_writes_every_file(tmp_path):
     assert history["relative_gap"].iloc[-1] <= 1e-4
     assert "optimal to 0.0001 against PBVI's best responses" in (out / "summary.txt").read_text()
     assert "learner" in result.output and str(out) in result.output
-    # the answer's bound checked by a denser PBVI (pbvi.check_iterations more iterations)
+    # the answer's bound checked by a finer PBVI (pbvi.check_rounds of beliefs grown along its policy)
     assert metrics["check_beliefs"] > metrics["n_beliefs"] and metrics["planner_resolution"] >= 0.0
     scale = max(1.0, abs(metrics["objective"]))
     assert metrics["checked_objective"] == pytest.approx(metrics["objective"] + metrics["planner_resolution"] * scale)
@@ -58,15 +58,18 @@ def test_fit_in_process_writes_every_file(tmp_path):
     assert f"PBVI on {metrics['check_beliefs']} beliefs" in (out / "summary.txt").read_text()
 
 
-def test_the_denser_planner_s_check_can_be_turned_off_and_refuses_a_bad_value(tmp_path):
+def test_the_planner_s_check_can_be_turned_off_and_refuses_a_bad_value(tmp_path):
     out = tmp_path / "run"
-    result = run("fit", f"hydra.run.dir={out}", *SMALL, "pbvi.check_iterations=0")
+    result = run("fit", f"hydra.run.dir={out}", *SMALL, "pbvi.check_rounds=0")
     assert result.exit_code == 0, result.output
     metrics = json.loads((out / "metrics.json").read_text())
     assert metrics["converged"] and "planner_resolution" not in metrics and "check_beliefs" not in metrics
     assert "PBVI on" not in (out / "summary.txt").read_text()
     result = run("fit", f"hydra.run.dir={tmp_path / 'bad'}", *SMALL, "pbvi.check_iterations=-1")
     assert result.exit_code == 2 and "pbvi.check_iterations" in result.output and "Traceback" not in result.output
+    assert not (tmp_path / "bad").exists()
+    result = run("fit", f"hydra.run.dir={tmp_path / 'bad'}", *SMALL, "pbvi.check_rounds=21")
+    assert result.exit_code == 2 and "pbvi.check_rounds" in result.output and "Traceback" not in result.output
     assert not (tmp_path / "bad").exists()
 
 

@@ -93,8 +93,7 @@ def make_oracles(
     n_beliefs = 0
     if options.method == "pbvi":
         if options.reuse_beliefs:
-            belief_rng = rng if options.belief_seed is None else np.random.default_rng(options.belief_seed)
-            beliefs = expand_beliefs(P, iterations=options.iterations, rng=belief_rng, expansion=options.expansion)
+            beliefs = belief_set(P, options, rng)
             n_beliefs = len(beliefs)
         else:
             n_beliefs = len(expand_beliefs(P, iterations=options.iterations, rng=np.random.default_rng(0), expansion=options.expansion))
@@ -122,6 +121,13 @@ def make_oracles(
     if beliefs is not None and 0 < options.screen_beliefs < n_beliefs:
         screen = oracle_at(beliefs[: options.screen_beliefs])
     return oracle_at(beliefs, progress), screen, n_beliefs
+
+
+def belief_set(P, options: PlannerOptions, rng: np.random.Generator) -> np.ndarray:
+    """(nb, M) the belief set a fit's PBVI reuses (``reuse_beliefs``): ``expand_beliefs`` with the
+    options' iterations and expansion, sampled from ``belief_seed`` if set, else from ``rng``."""
+    belief_rng = rng if options.belief_seed is None else np.random.default_rng(options.belief_seed)
+    return expand_beliefs(P, iterations=options.iterations, rng=belief_rng, expansion=options.expansion)
 
 
 def make_oracle(problem: GameProblem, options: PlannerOptions, rng: np.random.Generator) -> tuple[AdversaryOracle, int]:

@@ -33,9 +33,11 @@ class PlannerOptions:
     adversary: "history" (thesis §6.1: one history-dependent policy over every dynamics)
         or "markov" (a Markov policy, ``airl_cli.core.irl.markov_adversary``: CADP, or enumeration
         with method "exact").
-    check_iterations: the certified learner's answer is bounded once more by PBVI with this many
-        more iterations (a denser belief set), which measures the planner's resolution there
-        (``certified.upper_at``); 0 turns the check off.
+    check_iterations, check_rounds: the certified learner's answer is bounded once more by PBVI
+        (``certified.upper_at``) on a finer belief set: the thesis's expansion with
+        ``check_iterations`` more iterations, then ``check_rounds`` rounds of beliefs grown where
+        the planner's own policy goes (``mmdp.refine``), which measures the planner's resolution
+        there; both 0 turn the check off.
     """
 
     method: str = "pbvi"
@@ -47,7 +49,8 @@ class PlannerOptions:
     belief_seed: int | None = 0
     screen_beliefs: int = 0
     adversary: str = "history"
-    check_iterations: int = 1
+    check_iterations: int = 0
+    check_rounds: int = 2
 
 
 @dataclass(frozen=True)

@@ -109,11 +109,12 @@ def estimate_fit(
     return Estimate(total=sum(parts.values()), parts=parts, n_beliefs=nb)
 
 
-def graph_bytes(n_states: int, horizon: int, n_models: int, n_next: int, iterations: int) -> int:
+def graph_bytes(n_states: int, horizon: int, n_models: int, n_next: int, iterations: int, extra_nodes: int = 0) -> int:
     """Bytes of PBVI's policy graph with this many iterations, for S states, T steps, M models and
     R next states reachable from a state at most: successors (T, S*nodes, R) int64, alpha-vectors
-    (T, S*nodes, M) float64 and one backup's scratch (S, nodes, R), with ``_nodes`` per (t, s)."""
-    S, T, M, R, nodes = n_states, horizon, n_models, n_next, _nodes(iterations)
+    (T, S*nodes, M) float64 and one backup's scratch (S, nodes, R), with ``_nodes`` per (t, s),
+    plus ``extra_nodes`` for beliefs added to the set (one node per belief at most)."""
+    S, T, M, R, nodes = n_states, horizon, n_models, n_next, _nodes(iterations) + extra_nodes
     return T * S * nodes * (R + M) * 8 + S * nodes * R * 8
 
 
