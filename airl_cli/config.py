@@ -251,6 +251,7 @@ def _planner(node: Any) -> PlannerOptions:
         screen_beliefs=r.int("screen_beliefs", lo=0, default=0),
         check_iterations=r.int("check_iterations", lo=0, hi=12, default=0),
         check_rounds=r.int("check_rounds", lo=0, hi=20, default=2),
+        sharpen_rounds=r.int("sharpen_rounds", lo=0, hi=20, default=0),
     )
 
 

@@ -16,6 +16,7 @@ per-time state rewards::
 
     B = expand_beliefs(P, iterations=8, rng=np.random.default_rng(0))  # depends on P only
     sol2 = solve(P, R2, p0, beliefs=B)                                   # reuse it for new rewards
+    sol3, B3 = refine(P, R, p0, B, rounds=2)   # B grown where the policy goes: at least sol's value
 
 The multi-model MDP literature's problems fit too: rewards (M, T, S, A) or (M, T, S, A, S) over T
 decisions (or stationary ones with ``horizon=T``), ``discount=gamma`` and ``prior=lambda`` (the
@@ -39,5 +40,6 @@ from airl_cli.core.mmdp.planner import (
     expand_beliefs,
     solve,
 )
+from airl_cli.core.mmdp.refine import refine
 
-__all__ = ["PolicyGraph", "Solution", "exact_alpha_vectors", "expand_beliefs", "solve", "upper_envelope_1d"]
+__all__ = ["PolicyGraph", "Solution", "exact_alpha_vectors", "expand_beliefs", "refine", "solve", "upper_envelope_1d"]

@@ -82,7 +82,7 @@ def main() -> None:
 
 
 COLUMNS = (
-    "grid", "S", "T", "loss", "fit s", "process s", "iterations", "planner calls", "QP s", "rel. gap", "converged", "peak GB",
+    "grid", "S", "T", "loss", "fit s", "process s", "iterations", "planner calls", "QP s", "rel. gap", "converged", "planner resolution", "peak GB",
     "score tau_1..3", "MCE fit s", "MCE process s", "process / MCE",
 )
 
@@ -111,7 +111,8 @@ def measure(file: Path, folder: Path, n: int, T: int, loss: str, extra: list[str
     )
     return (
         f"{n}x{n}", str(n * n), str(T), loss, f"{fit['fit_seconds']:.1f}", f"{wall:.1f}", str(m["iterations"]), str(m["planner_calls"]),
-        f"{fit['qp_seconds']:.2f}", f"{m['relative_gap']:.1e}", "yes" if m["converged"] else "NO", f"{peak / 2**30:.2f}",
+        f"{fit['qp_seconds']:.2f}", f"{m['relative_gap']:.1e}", "yes" if m["converged"] else "NO",
+        f"{m['planner_resolution']:.2g}" if "planner_resolution" in m else "-", f"{peak / 2**30:.2f}",
         " / ".join(f"{x:.3f}" for x in fit["scores"]), f"{mce['fit_seconds']:.2f}", f"{mce_wall:.1f}", f"{wall / mce_wall:.1f}x",
     )
 

@@ -540,5 +540,12 @@ def test_the_planner_s_check_takes_only_the_iterations_and_rounds_that_fit_in_fr
     assert memory.affordable_check(*size, 8, 10, 3, 8) == (9, 0)
     monkeypatch.setattr(memory, "available_memory", lambda: graph_bytes(*size, 8))
     assert memory.affordable_check(*size, 8, 10, 3, 8) == (8, 0)
+    # pbvi.sharpen_rounds' growth of the fit's own set: halved until half the free memory holds it
+    monkeypatch.setattr(memory, "available_memory", lambda: 1 << 50)
+    assert memory.affordable_beliefs(*size, 8, 200) == 200
+    monkeypatch.setattr(memory, "available_memory", lambda: 2 * graph_bytes(*size, 8, extra_nodes=60))
+    assert memory.affordable_beliefs(*size, 8, 200) == 50
+    monkeypatch.setattr(memory, "available_memory", lambda: graph_bytes(*size, 8))
+    assert memory.affordable_beliefs(*size, 8, 200) == 0
     # estimate_fit counts the same graph for the fit itself
     assert estimate_fit(n_states=16384, n_actions=5, horizon=20, n_dynamics=3, n_demos=0, iterations=9, n_next=5).parts["policy graph"] == graph_bytes(*size, 9)

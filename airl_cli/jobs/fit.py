@@ -91,7 +91,8 @@ def summary_text(dataset: Dataset, settings: FitSettings, learned: Learned, rows
         if o.planner.adversary == "markov":
             how += "Markov adversary (" + ("every Markov policy enumerated" if o.planner.method == "exact" else "CADP best responses") + ")"
         else:
-            how += f"PBVI {o.planner.iterations} iterations ({info['n_beliefs']} beliefs)"
+            grown = f", grown to {info['sharpened_beliefs']} where its policy goes" if info.get("sharpened_beliefs", info["n_beliefs"]) > info["n_beliefs"] else ""
+            how += f"PBVI {o.planner.iterations} iterations ({info['n_beliefs']} beliefs{grown})"
         if settings.matching == "per_step":
             how += ", features matched at every step (game.matching=per_step)"
     elif learned.method == "bc":

@@ -14,7 +14,7 @@ from airl_cli.core.irl.certified import minimize, upper_at
 from airl_cli.core.irl.degeneracy import is_degenerate, reward_effect
 from airl_cli.core.irl.game import objective_at
 from airl_cli.core.irl.game_problem import GameProblem, scaled
-from airl_cli.core.irl.learn import belief_set, fit, make_oracles
+from airl_cli.core.irl.learn import belief_set, fit, make_oracles, sharpener
 from airl_cli.core.irl.options import PBVI_MAX_ITERATIONS
 from airl_cli.core.irl.per_step import step_blocks, step_features, step_targets
 from airl_cli.core.mdp.sparse import sparse_dynamics
@@ -22,7 +22,7 @@ from airl_cli.core.mmdp.refine import PER_ROUND, refine
 from airl_cli.errors import ConfigError
 from airl_cli.io.dataset import Dataset
 from airl_cli.methods import REGISTRY
-from airl_cli.usecases.memory import affordable_check
+from airl_cli.usecases.memory import affordable_beliefs, affordable_check
 
 
 @dataclass(frozen=True)
@@ -182,13 +182,14 @@ def _learn_mmp(dataset: Dataset, settings: FitSettings, *_) -> Learned:
     return _weights_learned("mmp", res)
 
 
-def certificate(relative_gap: float, tol: float, converged: bool, oracle: str, check: dict | None = None) -> str:
+def certificate(relative_gap: float, tol: float, converged: bool, oracle: str, check: dict | None = None, *, sharpened: bool = False) -> str:
     """One phrase for the summary: how far from the minimum the fit is proven to be.
 
     The bounds are exact when the adversary's oracle is (pbvi.method=exact). PBVI's best response
     can fall short of the true one, so its upper bound can too: then the gap is relative to PBVI,
     and a negative gap shows that PBVI missed better adversary strategies. ``check``
-    (``_planner_check``) says what a denser PBVI's bound at the answer makes of the gap.
+    (``_planner_check``) says what a finer PBVI's bound at the answer makes of the gap, and, unless
+    the fit ``sharpened`` its own belief set already, how to make the certificate hold against it.
     """
     if not converged:
         text = f"NOT converged: the iteration cap was reached with relative gap {relative_gap:.2g} (tolerance {tol:g})"
@@ -206,6 +207,7 @@ def certificate(relative_gap: float, tol: float, converged: bool, oracle: str, c
             text += (
                 f"; {dense} bounds the answer {check['planner_resolution']:.2g} higher (relative gap {check['checked_relative_gap']:.2g} against it):"
                 " the gap is against the planner's best responses, which a finer belief set still improves"
+                + ("" if sharpened else " (pbvi.sharpen_rounds=2 grows the fit's own set until it does not)")
             )
         else:
             text += f"; {dense} finds nothing better at the answer (relative gap {check['checked_relative_gap']:.2g} against it)"
@@ -223,11 +225,12 @@ def _learn_airl(
     """The thesis's method: the certified minimiser of eq. 5.9, or Table I's gradient steps."""
     oracle, screen, n_beliefs = make_oracles(problem, settings.options.planner, rng, planner_progress)
     if settings.optimizer == "exact":
-        res = minimize(problem, targets, oracle, screen=screen, options=settings.certified, callback=callback)
+        sharpen = _sharpener(problem, oracle, settings)
+        res = minimize(problem, targets, oracle, screen=screen, options=settings.certified, callback=callback, sharpen=sharpen)
         h = res.history
         zero = bool(res.converged and not np.any(res.weights))  # certified by the exact bound on f(0)
         name = "exact" if zero else _oracle_name(settings)
-        check = _planner_check(problem, targets, res, settings, rng)
+        check = _planner_check(problem, targets, res, settings, rng, oracle.beliefs if sharpen else None)
         info = {
             "optimizer": "exact",
             "stopped": res.stopped,
@@ -239,13 +242,14 @@ def _learn_airl(
             "tol": settings.certified.tol,
             "oracle": _oracle_name(settings),
             "adversary": settings.options.planner.adversary,
-            "certificate": certificate(res.relative_gap, settings.certified.tol, res.converged, name, check),
+            "certificate": certificate(res.relative_gap, settings.certified.tol, res.converged, name, check, sharpened=sharpen is not None),
             "zero_answer": zero,
             "iterations": int(h["iteration"][-1]),
             "planner_calls": int(h["planner_calls"][-1]),
             "screen_calls": int(h["screen_calls"][-1]),
             "qp_fallbacks": res.qp_fallbacks,
             "n_beliefs": int(n_beliefs),
+            **({"sharpen_steps": res.sharpen_steps, "sharpened_beliefs": int(len(oracle.beliefs))} if sharpen else {}),
             **check,
             # how many strategies each player's equilibrium mixture uses (weight above 1e-8)
             "learner_support": int(np.sum(res.learner_mix > 1e-8)),
@@ -285,11 +289,29 @@ def _learn_airl(
     return Learned("airl", result.weights, None, history, info)
 
 
-def _planner_check(problem: GameProblem, targets: np.ndarray, res, settings: FitSettings, rng: np.random.Generator) -> dict:
+#: ``pbvi.sharpen_rounds`` grows the fit's belief set to at most this many times its size.
+SHARPEN_GROWTH = 4
+
+
+def _sharpener(problem: GameProblem, oracle, settings: FitSettings):
+    """``minimize``'s ``sharpen`` when ``pbvi.sharpen_rounds`` > 0 and the fit reuses one PBVI belief
+    set for a history-dependent adversary (``learn.sharpener``): the set may grow to
+    ``SHARPEN_GROWTH`` times its size, less if half the free memory holds fewer nodes; else None."""
+    planner = settings.options.planner
+    if planner.sharpen_rounds == 0 or planner.method != "pbvi" or planner.adversary != "history" or getattr(oracle, "beliefs", None) is None:
+        return None
+    T, S = problem.horizon, problem.transitions.shape[1]
+    nb = len(oracle.beliefs)
+    extra = affordable_beliefs(S, T, problem.n_models, sparse_dynamics(problem.transitions).next_states.shape[1], planner.iterations, (SHARPEN_GROWTH - 1) * nb)
+    return sharpener(oracle, planner.sharpen_rounds, nb + extra)
+
+
+def _planner_check(problem: GameProblem, targets: np.ndarray, res, settings: FitSettings, rng: np.random.Generator, grown: np.ndarray | None = None) -> dict:
     """The answer bounded once more by a finer PBVI (``certified.upper_at``): the fit's belief set
     with ``pbvi.check_iterations`` more iterations, then ``pbvi.check_rounds`` rounds of beliefs
     grown where the planner's own policy goes (``mmdp.refine``): how much higher its bound lies
-    (relative, ``planner_resolution``) and the gap against it. Empty when the planner is not PBVI's
+    (relative, ``planner_resolution``) and the gap against it. ``grown`` (nb, M), the fit's belief set
+    as ``pbvi.sharpen_rounds`` left it, replaces the fit's first set when given. Empty when the planner is not PBVI's
     history-dependent adversary, the check is off, or the answer's bound is exact (through f(0))
     and needs no planner."""
     planner = settings.options.planner
@@ -301,7 +323,7 @@ def _planner_check(problem: GameProblem, targets: np.ndarray, res, settings: Fit
     iterations, rounds = affordable_check(S, T, M, P.next_states.shape[1], planner.iterations, wanted, planner.check_rounds, PER_ROUND)
     if iterations == planner.iterations and rounds == 0:
         return {}
-    beliefs = belief_set(P, replace(planner, iterations=iterations), rng)
+    beliefs = belief_set(P, replace(planner, iterations=iterations), rng) if grown is None else grown
     checked = {}
 
     def oracle(R: np.ndarray) -> tuple[float, np.ndarray]:

@@ -54,6 +54,15 @@ def affordable_check(n_states: int, horizon: int, n_models: int, n_next: int, it
     return max(wanted, iterations), rounds
 
 
+def affordable_beliefs(n_states: int, horizon: int, n_models: int, n_next: int, iterations: int, wanted: int) -> int:
+    """The most beliefs, up to ``wanted``, that may join a fit's PBVI set (``pbvi.sharpen_rounds``)
+    with its policy graph (``budget.graph_bytes``, one more node per belief) in half the free memory."""
+    free = available_memory()
+    while wanted > 0 and graph_bytes(n_states, horizon, n_models, n_next, iterations, extra_nodes=wanted) > free / 2:
+        wanted //= 2
+    return wanted
+
+
 def problem_sizes(problem: ProblemSettings) -> dict:
     """S, A, T, D, N and R (the most next states a state reaches; None: S) of a built problem,
     known from its settings without building it."""

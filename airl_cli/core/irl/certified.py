@@ -61,7 +61,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from airl_cli.core.irl.certified_steps import REFRESH_AFTER, Run, adversary_side, first_strategies, learner_side, polish, probe_zero, prune, region, zero_side
+from airl_cli.core.irl.certified_steps import REFRESH_AFTER, Run, adversary_side, first_strategies, learner_side, polish, probe_zero, prune, region, sharpened, zero_side
 from airl_cli.core.irl.game import adversary_rewards
 from airl_cli.core.irl.game_problem import AdversaryOracle, GameProblem
 from airl_cli.core.irl.options import CertifiedOptions
@@ -127,6 +127,7 @@ class CertifiedResult:
         upper_rewards: (M, T, S) the adversary's rewards (eq. 6.26-6.28) at which its oracle gave
             ``objective`` (``upper_at`` checks that bound with another oracle), or None when
             ``objective`` is the exact bound through f(0) (``zero_bound``), which needs no planner.
+        sharpen_steps: how often ``minimize``'s ``sharpen`` raised the bound past the tolerance.
     """
 
     weights: np.ndarray
@@ -144,6 +145,7 @@ class CertifiedResult:
     qp_fallbacks: int
     zero_upper: float = float("inf")
     upper_rewards: np.ndarray | None = None
+    sharpen_steps: int = 0
 
 
 def check_options(options: CertifiedOptions) -> None:
@@ -165,28 +167,26 @@ def minimize(
     screen: AdversaryOracle | None = None,
     options: CertifiedOptions = CertifiedOptions(),
     callback: Callable[[dict], None] | None = None,
+    sharpen: AdversaryOracle | None = None,
 ) -> CertifiedResult:
-    """Minimise f (eq. 5.9) by column and constraint generation on the QP above.
+    """Minimise f (eq. 5.9) by column and constraint generation on the QP above: a ``CertifiedResult``.
 
     Each iteration solves the QP, asks the learner's oracle (cheap) for a better column and, unless
     the learner's improvement is still more than ``BALANCE`` of the current gap, the adversary's
-    oracle for a better row (which also refreshes the upper bound at the current w). A ``screen`` (a
-    cheaper, weaker adversary oracle, e.g. PBVI on a few beliefs) is asked first: its strategy is
-    added without calling ``oracle`` if it raises the restricted value by more than
-    ``SCREEN_FRACTION`` of the gap, else added (a violated row) and ``oracle`` asked. Upper bounds
-    come from ``oracle`` and from the exact bound on f(0) (``zero_bound``) only.
+    oracle for a better row (which also refreshes the upper bound at the current w); a ``screen``
+    first if given (``certified_steps.adversary_side``). Upper bounds come from ``oracle`` and from
+    the exact bound on f(0) (``zero_bound``) only.
 
     Args:
         problem: the game's problem (dynamics with tau at index 0, phi, p0, loss, T).
         targets: (D, K) c~_j, the demonstrations' feature sums under each tau_j.
         oracle: the adversary's best response: rewards (M, T, S) -> (exact value of the returned
             policy, its marginals (M, T, S)); see ``airl_cli.core.irl.game.AdversaryOracle``.
-        screen: an optional cheaper adversary oracle of the same signature.
-        options: see ``CertifiedOptions``.
-        callback: called after every iteration with that iteration's history row (a dict).
-
-    Returns:
-        A ``CertifiedResult``.
+        screen: an optional cheaper adversary oracle of the same signature (e.g. PBVI on a few beliefs).
+        options: see ``CertifiedOptions``; callback: called with each iteration's history row (a dict).
+        sharpen: makes ``oracle`` finer (``learn.sharpener``) and returns its best response, or
+            None; asked whenever the gap meets the tolerance, and the run goes on while it raises
+            the bound (``certified_steps.sharpened``).
     """
     check_options(options)
     start = time.perf_counter()  # each history row's seconds: the wall time since here
@@ -217,6 +217,9 @@ def minimize(
         if callback is not None:
             callback(rows[-1])
         if rows[-1]["relative_gap"] <= options.tol:
+            if sharpen is not None and sharpened(sets, sharpen, run, C, lam, options.tol, it):
+                accuracy = LOOSEST
+                continue
             stopped = "tolerance"
             break
         if not (added_l or added_a) and sol.accuracy <= TIGHT:
@@ -305,6 +308,7 @@ def _result(weights: np.ndarray, upper: float, rewards: np.ndarray | None, run: 
         qp_fallbacks=sets.qp.fallbacks,
         zero_upper=float(run.zero_upper),
         upper_rewards=rewards,
+        sharpen_steps=run.sharpen_steps,
     )
 
 

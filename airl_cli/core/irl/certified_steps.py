@@ -61,6 +61,7 @@ class Run:
     #: the adversary's rewards (M, T, S) at which the planner gave ``upper`` (to check it with another
     #: planner, ``certified.upper_at``); None while ``upper`` is the exact bound through f(0)
     upper_rewards: np.ndarray | None = None
+    sharpen_steps: int = 0  # how often a finer oracle raised the certified bound (``sharpened``)
 
 
 def first_strategies(sets: StrategySets, targets: np.ndarray, oracle: AdversaryOracle, run: Run) -> StrategySets:
@@ -119,6 +120,29 @@ def adversary_side(sets: StrategySets, rewards, oracle, screen, w, v: float, reg
     if added and not (weak and np.array_equal(marg, marg_s)):
         sets.add_adversary(marg)
     return added
+
+
+def sharpened(sets: StrategySets, sharpen, run: Run, C: np.ndarray, lam: float, tol: float, it: int) -> bool:
+    """At a gap within the tolerance: ask ``sharpen`` (``certified.minimize``; it makes the fit's
+    oracle finer for the calls that follow, e.g. PBVI's belief set grown where its policy goes,
+    ``learn.sharpener``) for its best response at the rewards of the best upper bound. True, with
+    the strategy added and ``run.upper`` raised to its bound at that w, if the bound rises by more
+    than the tolerance: the earlier upper bounds held only against the coarser oracle, the lower
+    bound holds whatever the oracle. False (the certificate stands) if it does not, the bound is
+    exact (through f(0)), or the oracle cannot be made finer (None)."""
+    if run.upper_rewards is None:
+        return False
+    found = sharpen(run.upper_rewards)
+    if found is None:
+        return False
+    value, marginals = found
+    w = run.best_w
+    bound = value - float(w @ C) + 0.5 * lam * float(w @ w)
+    if bound - run.upper <= tol * max(1.0, abs(run.upper)):
+        return False
+    sets.add_adversary(marginals)
+    run.upper, run.last_full, run.sharpen_steps = bound, it, run.sharpen_steps + 1
+    return True
 
 
 def probe_zero(sets: StrategySets, rewards: np.ndarray, run: Run) -> None:

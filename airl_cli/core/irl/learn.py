@@ -24,6 +24,7 @@ from airl_cli.core.irl.markov_adversary import markov_oracle
 from airl_cli.core.irl.options import SCHEDULES, FitOptions, PlannerOptions  # noqa: F401 (re-exported)
 from airl_cli.core.mdp.sparse import sparse_dynamics
 from airl_cli.core.mmdp.planner import expand_beliefs, solve
+from airl_cli.core.mmdp.refine import PER_ROUND, refine
 from airl_cli.core.numerics.threads import blas_on_one_thread
 
 HISTORY_COLUMNS = (
@@ -98,29 +99,50 @@ def make_oracles(
         else:
             n_beliefs = len(expand_beliefs(P, iterations=options.iterations, rng=np.random.default_rng(0), expansion=options.expansion))
 
-    def oracle_at(B: np.ndarray | None, progress=None) -> AdversaryOracle:
-        def oracle(R: np.ndarray) -> tuple[float, np.ndarray]:
-            sol = solve(
-                P,
-                R,
-                p0,
-                method=options.method,
-                iterations=options.iterations,
-                rng=rng,
-                beliefs=B,
-                expansion=options.expansion,
-                expectations=options.expectations,
-                n_samples=options.n_samples,
-                progress=progress,
-            )
-            return sol.value, sol.marginals
-
-        return oracle
+    def oracle_at(B: np.ndarray | None, progress=None) -> BeliefOracle:
+        return BeliefOracle(P, p0, B, options, rng, progress)
 
     screen = None
     if beliefs is not None and 0 < options.screen_beliefs < n_beliefs:
         screen = oracle_at(beliefs[: options.screen_beliefs])
     return oracle_at(beliefs, progress), screen, n_beliefs
+
+
+class BeliefOracle:
+    """The adversary's best response by the planner (``mmdp.planner.solve``): rewards (M, T, S) ->
+    (the exact value of the returned policy, its marginals (M, T, S)). ``beliefs`` (nb, M) is the
+    belief set PBVI reuses (None: built anew at every call); ``sharpener`` can grow it."""
+
+    def __init__(self, P, p0: np.ndarray, beliefs: np.ndarray | None, options: PlannerOptions, rng: np.random.Generator, progress=None):
+        self.P, self.p0, self.beliefs, self.options, self.rng, self.progress = P, p0, beliefs, options, rng, progress
+
+    def __call__(self, R: np.ndarray) -> tuple[float, np.ndarray]:
+        o = self.options
+        sol = solve(
+            self.P, R, self.p0, method=o.method, iterations=o.iterations, rng=self.rng, beliefs=self.beliefs,
+            expansion=o.expansion, expectations=o.expectations, n_samples=o.n_samples, progress=self.progress,
+        )
+        return sol.value, sol.marginals
+
+
+def sharpener(oracle: BeliefOracle, rounds: int, max_beliefs: int) -> AdversaryOracle:
+    """``certified.minimize``'s ``sharpen`` for ``oracle`` (a reused PBVI belief set): at rewards R,
+    ``rounds`` rounds of beliefs grown where the planner's policy goes (``mmdp.refine``), kept in
+    ``oracle.beliefs`` for its later calls while it holds at most ``max_beliefs``; returns the best
+    response found (value, marginals), or None once the set is full or does not grow."""
+
+    def sharpen(R: np.ndarray) -> tuple[float, np.ndarray] | None:
+        B = oracle.beliefs
+        room = (max_beliefs - len(B)) // PER_ROUND
+        if room < 1:
+            return None
+        sol, grown = refine(oracle.P, R, oracle.p0, B, rounds=min(rounds, room))
+        if len(grown) == len(B):
+            return None
+        oracle.beliefs = grown
+        return sol.value, sol.marginals
+
+    return sharpen
 
 
 def belief_set(P, options: PlannerOptions, rng: np.random.Generator) -> np.ndarray:

@@ -38,6 +38,9 @@ class PlannerOptions:
         ``check_iterations`` more iterations, then ``check_rounds`` rounds of beliefs grown where
         the planner's own policy goes (``mmdp.refine``), which measures the planner's resolution
         there; both 0 turn the check off.
+    sharpen_rounds: when > 0, each time the certified learner's gap meets the tolerance, the fit's
+        belief set grows by this many such rounds at the best bound's rewards, and the fit goes on
+        while that raises the bound (``certified.minimize``'s ``sharpen``); 0 keeps the set fixed.
     """
 
     method: str = "pbvi"
@@ -51,6 +54,7 @@ class PlannerOptions:
     adversary: str = "history"
     check_iterations: int = 0
     check_rounds: int = 2
+    sharpen_rounds: int = 0
 
 
 @dataclass(frozen=True)

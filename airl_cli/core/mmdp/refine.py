@@ -102,6 +102,7 @@ def refine(
     per_round: int = PER_ROUND,
     spacing: float = SPACING,
     prior: np.ndarray | None = None,
+    **solve_options,
 ) -> tuple[Solution, np.ndarray]:
     """PBVI at ``beliefs``, then up to ``rounds`` rounds of growing the set where the policy goes
     (``grow_beliefs`` with ``node_posteriors``) and planning again.
@@ -112,7 +113,8 @@ def refine(
     Args:
         transitions: (M, S, A, S), dense or sparse; rewards: as ``planner.solve``; initial: (S,);
         beliefs: (nb, M) the starting set; rounds: >= 0; per_round: beliefs added per round;
-        spacing: see ``grow_beliefs``; prior: (M,) or None.
+        spacing: see ``grow_beliefs``; prior: (M,) or None; solve_options: the rest of
+        ``planner.solve``'s keywords for the rewards' form (``horizon``, ``discount``).
 
     Returns:
         (the best solution found, its ``beliefs`` attribute the set it was planned at; the grown set (nb', M)).
@@ -120,14 +122,14 @@ def refine(
     if rounds < 0:
         raise ValueError(f"rounds must be >= 0, got {rounds}")
     B = check_beliefs(beliefs, transitions.shape[0])
-    best = solve(transitions, rewards, initial, beliefs=B, prior=prior)
+    best = solve(transitions, rewards, initial, beliefs=B, prior=prior, **solve_options)
     for _ in range(rounds):
         weights, candidates = node_posteriors(best.graph, transitions, initial, prior)
         grown = grow_beliefs(B, candidates, weights, per_round, spacing)
         if len(grown) == len(B):
             break
         B = grown
-        sol = solve(transitions, rewards, initial, beliefs=B, prior=prior)
+        sol = solve(transitions, rewards, initial, beliefs=B, prior=prior, **solve_options)
         if sol.value <= best.value + 1e-9 * (1.0 + abs(best.value)):
             best = sol if sol.value > best.value else best
             break

@@ -384,3 +384,46 @@ def test_the_solvers_print_no_banner_on_standard_output():
     code = "from airl_cli.core.numerics.highs import quiet_highs; quiet_highs(); print('done')"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout == "done\n"
+
+
+@pytest.mark.parametrize("seed", [0, 1, 3])
+def test_sharpening_a_weak_oracle_at_the_certificate_reaches_the_brute_force_minimum(seed):
+    """``sharpen`` that turns the weak oracle exact when first asked: the run goes on from the weak
+    certificate wherever the exact best response raises its bound, and ends at the brute-force
+    minimum of eq. 5.9; where it does not, the weak run's answer stands with no sharpening step."""
+    problem, targets, options, weak_res, weak = _weak_fit(seed)
+    exact = exact_oracle(problem)
+    state = {"exact": False, "asked": 0}
+
+    def oracle(R):
+        return exact(R) if state["exact"] else weak(R)
+
+    def sharpen(R):
+        state["asked"] += 1
+        if state["exact"]:
+            return None  # cannot grow any further
+        state["exact"] = True
+        return exact(R)
+
+    res = minimize(problem, targets, oracle, options=options, sharpen=sharpen)
+    L, Phi, C = enumerated_game(problem, targets, True)
+    _, f_star = brute_minimum(L, Phi, C, options.lam)
+    raised = upper_at(targets, weak_res, exact, options) - weak_res.objective
+    assert res.converged and res.lower <= f_star + 1e-7
+    if raised > options.tol * max(1.0, abs(weak_res.objective)):
+        assert res.sharpen_steps == 1 and state["asked"] == 2
+        assert res.objective == pytest.approx(f_star, abs=1e-6)
+    else:
+        assert res.sharpen_steps == 0 and res.objective == pytest.approx(weak_res.objective, abs=1e-9)
+
+
+def test_some_weak_certificate_is_sharpened():
+    """The case above that goes on happens on these games (the test is not vacuous)."""
+    steps = []
+    for seed in (0, 1, 3):
+        problem, targets, options, _, weak = _weak_fit(seed)
+        exact = exact_oracle(problem)
+        flag = []
+        res = minimize(problem, targets, lambda R: exact(R) if flag else weak(R), options=options, sharpen=lambda R: None if flag else (flag.append(1), exact(R))[1])
+        steps.append(res.sharpen_steps)
+    assert max(steps) == 1, steps

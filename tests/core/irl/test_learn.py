@@ -139,3 +139,23 @@ def test_history_seconds_is_the_wall_time_since_the_fit_began_for_both_optimiser
         seconds = np.array([r["seconds"] for r in rows])
         assert len(seconds) > 1 and np.all(np.diff(seconds) > 0) and seconds[-1] <= total, run
         assert seconds[-1] >= first + pause * (len(calls) - 1), run
+
+
+def test_the_sharpener_grows_the_oracle_s_belief_set_until_its_cap():
+    """``sharpener``: one call grows the reused belief set by at most the rounds that fit under the
+    cap (8 beliefs a round), returns a response at least as good as the oracle's before it, and the
+    oracle plans on the grown set afterwards; at the cap it returns None and changes nothing."""
+    from airl_cli.core.irl.learn import make_oracles, sharpener
+    from airl_cli.core.mmdp.refine import PER_ROUND
+
+    problem, _, _ = tiny_irl(3, S=5, T=5, D=3)
+    oracle, _, nb = make_oracles(problem, PlannerOptions(iterations=2), np.random.default_rng(0))
+    R = np.random.default_rng(1).normal(size=(problem.n_models, problem.horizon, 5))
+    before, _ = oracle(R)
+    sharpen = sharpener(oracle, 3, nb + PER_ROUND)  # room for one round only
+    found = sharpen(R)
+    assert found is not None and found[0] >= before - 1e-12
+    assert nb < len(oracle.beliefs) <= nb + PER_ROUND
+    assert oracle(R)[0] >= before - 1e-12
+    grown = oracle.beliefs
+    assert sharpen(R) is None and oracle.beliefs is grown
