@@ -185,8 +185,8 @@ def minimize(
         screen: an optional cheaper adversary oracle of the same signature (e.g. PBVI on a few beliefs).
         options: see ``CertifiedOptions``; callback: called with each iteration's history row (a dict).
         sharpen: makes ``oracle`` finer (``learn.sharpener``) and returns its best response, or
-            None; asked whenever the gap meets the tolerance, and the run goes on while it raises
-            the bound (``certified_steps.sharpened``).
+            None; asked whenever the run would stop (tolerance or no improvement), and the run goes
+            on while it raises the bound (``certified_steps.sharpened``).
     """
     check_options(options)
     start = time.perf_counter()  # each history row's seconds: the wall time since here
@@ -216,14 +216,12 @@ def minimize(
         rows.append(_row(it, run, sol, qp, qp_seconds, start))
         if callback is not None:
             callback(rows[-1])
-        if rows[-1]["relative_gap"] <= options.tol:
-            if sharpen is not None and sharpened(sets, sharpen, run, C, lam, options.tol, it):
-                accuracy = LOOSEST
-                continue
-            stopped = "tolerance"
-            break
-        if not (added_l or added_a) and sol.accuracy <= TIGHT:
-            stopped = "no_improvement"
+        done = rows[-1]["relative_gap"] <= options.tol or not (added_l or added_a) and sol.accuracy <= TIGHT
+        if done and sharpen is not None and sharpened(sets, sharpen, run, C, lam, options.tol, it):
+            accuracy = LOOSEST
+            continue
+        if done:
+            stopped = "tolerance" if rows[-1]["relative_gap"] <= options.tol else "no_improvement"
             break
         # a loose solve whose point neither oracle improves on is tightened, else the gap sets it
         accuracy = TIGHT if not (added_l or added_a) else min(LOOSEST, max(TIGHT, ACCURACY_SHARE * rows[-1]["relative_gap"]))

@@ -123,7 +123,7 @@ def adversary_side(sets: StrategySets, rewards, oracle, screen, w, v: float, reg
 
 
 def sharpened(sets: StrategySets, sharpen, run: Run, C: np.ndarray, lam: float, tol: float, it: int) -> bool:
-    """At a gap within the tolerance: ask ``sharpen`` (``certified.minimize``; it makes the fit's
+    """Where the run would stop (the gap within the tolerance, or neither oracle improving): ask ``sharpen`` (``certified.minimize``; it makes the fit's
     oracle finer for the calls that follow, e.g. PBVI's belief set grown where its policy goes,
     ``learn.sharpener``) for its best response at the rewards of the best upper bound. True, with
     the strategy added and ``run.upper`` raised to its bound at that w, if the bound rises by more
