@@ -53,16 +53,21 @@ def test_grow_beliefs_adds_the_heaviest_far_enough_points_up_to_n():
         grow_beliefs(B, cand, weights, -1)
 
 
-@pytest.mark.parametrize("seed", range(8))
-def test_refine_lies_between_pbvi_at_the_start_and_the_exact_optimum(seed):
+def random_case(seed):
+    """A tiny random problem (M = 3, S = 3, A = 2, T = 4) with PBVI's two-belief set:
+    (P, R, p0, B, PBVI's value at B, the exact optimum)."""
     rng = np.random.default_rng(seed)
     M, S, A, T = 3, 3, 2, 4
     P = np.stack([random_dynamics(rng, S, A, concentration=0.5) for _ in range(M)])
     R = rng.normal(size=(M, T, S))
     p0 = rng.dirichlet(np.ones(S))
     B = expand_beliefs(P, iterations=2, rng=np.random.default_rng(0))
-    start = solve(P, R, p0, beliefs=B).value
-    exact = solve(P, R, p0, method="exact").value
+    return P, R, p0, B, solve(P, R, p0, beliefs=B).value, solve(P, R, p0, method="exact").value
+
+
+@pytest.mark.parametrize("seed", range(8))
+def test_refine_lies_between_pbvi_at_the_start_and_the_exact_optimum(seed):
+    P, R, p0, B, start, exact = random_case(seed)
     best, grown = refine(P, R, p0, B, rounds=4, per_round=4)
     assert start - 1e-9 <= best.value <= exact + 1e-9
     assert np.array_equal(grown[: len(B)], B) and len(grown) <= len(B) + 16
@@ -75,14 +80,7 @@ def test_refine_closes_part_of_pbvi_s_gap_on_problems_where_it_has_one():
     most of the misses and more than halves their sum."""
     closed, missed, before, after = 0, 0, 0.0, 0.0
     for seed in range(30):
-        rng = np.random.default_rng(100 + seed)
-        M, S, A, T = 3, 3, 2, 4
-        P = np.stack([random_dynamics(rng, S, A, concentration=0.5) for _ in range(M)])
-        R = rng.normal(size=(M, T, S))
-        p0 = rng.dirichlet(np.ones(S))
-        B = expand_beliefs(P, iterations=2, rng=np.random.default_rng(0))
-        start = solve(P, R, p0, beliefs=B).value
-        exact = solve(P, R, p0, method="exact").value
+        P, R, p0, B, start, exact = random_case(100 + seed)
         if exact - start > 1e-6:
             missed += 1
             value = refine(P, R, p0, B, rounds=4, per_round=4)[0].value
