@@ -272,6 +272,11 @@ def fit_settings(cfg: DictConfig | Mapping) -> FitSettings:
     o = Reader(top.raw("optim"), "optim")
     optimizer = o.choice("name", OPTIMIZERS)
     planner = replace(_planner(top.raw("pbvi")), adversary=g.choice("adversary", ADVERSARIES))
+    if method == "airl" and planner.sharpen_rounds > 0 and not (planner.method == "pbvi" and planner.reuse_beliefs and planner.adversary == "history"):
+        raise ConfigError(
+            "pbvi.sharpen_rounds grows the fit's reused PBVI belief set, so it needs pbvi.method=pbvi, "
+            "pbvi.reuse_beliefs=true and game.adversary=history (or pbvi.sharpen_rounds=0)"
+        )
     sharing, normalize_loss = _bool(o, "weight_sharing"), _bool(g, "normalize_loss")
     # double oracle's settings (used by optim=gradient) are checked whatever the optimiser
     game = dict(

@@ -288,7 +288,7 @@ def test_sharpening_grows_the_fit_s_belief_set_and_the_check_starts_from_it(tmp_
     assert metrics["sharpen_steps"] >= 1 and metrics["sharpened_beliefs"] > metrics["n_beliefs"]
     assert metrics["check_beliefs"] > metrics["sharpened_beliefs"] and metrics["planner_resolution"] <= metrics["tol"]
     assert f"grown to {metrics['sharpened_beliefs']} where its policy goes" in (out / "summary.txt").read_text()
-    for bad in ("-1", "21"):
-        result = run("fit", f"hydra.run.dir={tmp_path / 'bad'}", *SMALL, f"pbvi.sharpen_rounds={bad}")
-        assert result.exit_code == 2 and "pbvi.sharpen_rounds" in result.output and "Traceback" not in result.output
+    for bad in (["pbvi.sharpen_rounds=-1"], ["pbvi.sharpen_rounds=21"], ["pbvi.sharpen_rounds=2", "pbvi=thesis"], ["pbvi.sharpen_rounds=2", "game.adversary=markov"]):
+        result = run("fit", f"hydra.run.dir={tmp_path / 'bad'}", *SMALL, *bad)
+        assert result.exit_code == 2 and "pbvi.sharpen_rounds" in result.output and "Traceback" not in result.output, bad
         assert not (tmp_path / "bad").exists()
