@@ -309,7 +309,9 @@ def fit_warnings(info: dict) -> list[str]:
     out = []
     if info.get("optimizer") == "exact" and not info.get("converged", True):
         sentence = (
-            f"NOT converged: {info['iterations']} iterations reached optim.max_iterations with relative gap "
+            f"NOT converged: {info['iterations']} iterations reached optim.max_iterations"
+            + (f" (counted from the last of {info['sharpen_steps']} sharpenings)" if info.get("sharpen_steps") else "")
+            + f" with relative gap "
             f"{info['relative_gap']:.2g} above optim.tol={info['tol']:g}; the weights carry no certificate "
             "(raise optim.max_iterations, or loosen optim.tol)"
         )

@@ -55,6 +55,7 @@ the fit stops on "no_improvement" only after a tight solve.
 
 from __future__ import annotations
 
+import itertools
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -184,9 +185,9 @@ def minimize(
             policy, its marginals (M, T, S)); see ``airl_cli.core.irl.game.AdversaryOracle``.
         screen: an optional cheaper adversary oracle of the same signature (e.g. PBVI on a few beliefs).
         options: see ``CertifiedOptions``; callback: called with each iteration's history row (a dict).
-        sharpen: makes ``oracle`` finer (``learn.sharpener``) and returns its best response, or
-            None; asked whenever the run would stop (tolerance or no improvement), and the run goes
-            on while it raises the bound (``certified_steps.sharpened``).
+        sharpen: makes ``oracle`` finer (``learn.sharpener``) and returns its best response, or None;
+            asked where the run would stop; it goes on, with a new iteration cap, while that raises
+            the bound (``certified_steps.sharpened``).
     """
     check_options(options)
     start = time.perf_counter()  # each history row's seconds: the wall time since here
@@ -206,8 +207,10 @@ def minimize(
     run = Run(best_w=np.zeros(C.size))
     sets = first_strategies(StrategySets(problem, qp, shared), targets, oracle, run)
     born_l, born_a = [0], [0]  # the iteration each kept strategy was added in
-    rows, stopped, accuracy = [], "max_iterations", LOOSEST
-    for it in range(1, options.max_iterations + 1):
+    rows, stopped, accuracy, limit = [], "max_iterations", LOOSEST, options.max_iterations
+    for it in itertools.count(1):
+        if it > limit:  # the cap counts from the start, or from the last sharpening
+            break
         t0 = time.perf_counter()
         sol = qp.solve(accuracy, region(run, lam))
         qp_seconds = time.perf_counter() - t0
@@ -218,7 +221,7 @@ def minimize(
             callback(rows[-1])
         done = rows[-1]["relative_gap"] <= options.tol or not (added_l or added_a) and sol.accuracy <= TIGHT
         if done and sharpen is not None and sharpened(sets, sharpen, run, C, lam, options.tol, it):
-            accuracy = LOOSEST
+            accuracy, limit = LOOSEST, it + options.max_iterations
             continue
         if done:
             stopped = "tolerance" if rows[-1]["relative_gap"] <= options.tol else "no_improvement"

@@ -96,7 +96,8 @@ class CertifiedOptions:
     weight_sharing: one w (eq. 5.4) or one w_j per dynamics (eq. 5.3).
     lam: lambda > 0, the L2 regularisation (it makes f strongly convex and the lower bound finite).
     tol: stop when the relative gap (upper - lower) / max(1, |upper|) <= tol.
-    max_iterations: the cap on QP solves (reaching it is reported, never silent).
+    max_iterations: the cap on QP solves (reaching it is reported, never silent), counted again
+        from each step that sharpens the planner (``minimize``'s ``sharpen``).
     normalize_loss: divide the loss by its largest entry (as the gradient learner does).
     """
 

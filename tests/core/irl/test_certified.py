@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import itertools
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -427,3 +428,20 @@ def test_some_weak_certificate_is_sharpened():
         res = minimize(problem, targets, lambda R: exact(R) if flag else weak(R), options=options, sharpen=lambda R: None if flag else (flag.append(1), exact(R))[1])
         steps.append(res.sharpen_steps)
     assert max(steps) == 1, steps
+
+
+def test_the_iteration_cap_counts_again_from_each_sharpening():
+    """With a cap just above what the weak oracle's certificate takes, the sharpened run still
+    converges to the brute-force minimum: the cap counts from the sharpening step, not the start."""
+    for seed in (0, 1, 3):
+        problem, targets, options, weak_res, weak = _weak_fit(seed)
+        exact = exact_oracle(problem)
+        flag = []
+        capped = replace(options, max_iterations=len(weak_res.history["iteration"]) + 1)
+        res = minimize(problem, targets, lambda R: exact(R) if flag else weak(R), options=capped, sharpen=lambda R: None if flag else (flag.append(1), exact(R))[1])
+        if res.sharpen_steps:
+            L, Phi, C = enumerated_game(problem, targets, True)
+            assert res.converged and res.objective == pytest.approx(brute_minimum(L, Phi, C, options.lam)[1], abs=1e-6)
+            assert len(res.history["iteration"]) > capped.max_iterations
+            return
+    pytest.fail("no seed sharpened")
