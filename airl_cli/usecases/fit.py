@@ -17,7 +17,6 @@ from airl_cli.core.irl.game_problem import GameProblem, scaled
 from airl_cli.core.irl.learn import belief_set, fit, make_oracles, sharpener
 from airl_cli.core.irl.options import PBVI_MAX_ITERATIONS
 from airl_cli.core.irl.per_step import step_blocks, step_features, step_targets
-from airl_cli.core.mdp.sparse import sparse_dynamics
 from airl_cli.core.mmdp.refine import PER_ROUND, refine
 from airl_cli.errors import ConfigError
 from airl_cli.io.dataset import Dataset
@@ -230,7 +229,7 @@ def _learn_airl(
         h = res.history
         zero = bool(res.converged and not np.any(res.weights))  # certified by the exact bound on f(0)
         name = "exact" if zero else _oracle_name(settings)
-        check = _planner_check(problem, targets, res, settings, rng, oracle.beliefs if sharpen else None)
+        check = _planner_check(problem, targets, res, settings, rng, oracle, grown=sharpen is not None)
         info = {
             "optimizer": "exact",
             "stopped": res.stopped,
@@ -298,32 +297,33 @@ def _sharpener(problem: GameProblem, oracle, settings: FitSettings):
     set for a history-dependent adversary (``learn.sharpener``): the set may grow to
     ``SHARPEN_GROWTH`` times its size, less if half the free memory holds fewer nodes; else None."""
     planner = settings.options.planner
-    if planner.sharpen_rounds == 0 or planner.method != "pbvi" or planner.adversary != "history" or getattr(oracle, "beliefs", None) is None:
+    if planner.sharpen_rounds == 0 or getattr(oracle, "beliefs", None) is None:  # config: only PBVI's reused set
         return None
     T, S = problem.horizon, problem.transitions.shape[1]
     nb = len(oracle.beliefs)
-    extra = affordable_beliefs(S, T, problem.n_models, sparse_dynamics(problem.transitions).next_states.shape[1], planner.iterations, (SHARPEN_GROWTH - 1) * nb)
+    extra = affordable_beliefs(S, T, problem.n_models, oracle.P.next_states.shape[1], planner.iterations, (SHARPEN_GROWTH - 1) * nb)
     return sharpener(oracle, planner.sharpen_rounds, nb + extra)
 
 
-def _planner_check(problem: GameProblem, targets: np.ndarray, res, settings: FitSettings, rng: np.random.Generator, grown: np.ndarray | None = None) -> dict:
+def _planner_check(problem: GameProblem, targets: np.ndarray, res, settings: FitSettings, rng: np.random.Generator, oracle, grown: bool = False) -> dict:
     """The answer bounded once more by a finer PBVI (``certified.upper_at``): the fit's belief set
     with ``pbvi.check_iterations`` more iterations, then ``pbvi.check_rounds`` rounds of beliefs
     grown where the planner's own policy goes (``mmdp.refine``): how much higher its bound lies
-    (relative, ``planner_resolution``) and the gap against it. ``grown`` (nb, M), the fit's belief set
-    as ``pbvi.sharpen_rounds`` left it, replaces the fit's first set when given. Empty when the planner is not PBVI's
+    (relative, ``planner_resolution``) and the gap against it. ``oracle``: the fit's (its sparse
+    dynamics; with ``grown``, its belief set as ``pbvi.sharpen_rounds`` left it replaces the fit's
+    first set). Empty when the planner is not PBVI's
     history-dependent adversary, the check is off, or the answer's bound is exact (through f(0))
     and needs no planner."""
     planner = settings.options.planner
     if planner.method != "pbvi" or planner.adversary != "history" or res.upper_rewards is None:
         return {}
     M, T, S = res.upper_rewards.shape
-    P = sparse_dynamics(problem.transitions)
+    P = oracle.P  # PBVI's: the sparse dynamics
     wanted = min(planner.iterations + planner.check_iterations, PBVI_MAX_ITERATIONS)
     iterations, rounds = affordable_check(S, T, M, P.next_states.shape[1], planner.iterations, wanted, planner.check_rounds, PER_ROUND)
     if iterations == planner.iterations and rounds == 0:
         return {}
-    beliefs = belief_set(P, replace(planner, iterations=iterations), rng) if grown is None else grown
+    beliefs = oracle.beliefs if grown else belief_set(P, replace(planner, iterations=iterations), rng)
     checked = {}
 
     def oracle(R: np.ndarray) -> tuple[float, np.ndarray]:

@@ -62,7 +62,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from airl_cli.core.irl.certified_steps import REFRESH_AFTER, Run, adversary_side, first_strategies, learner_side, polish, probe_zero, prune, region, sharpened, zero_side
+from airl_cli.core.irl.certified_steps import REFRESH_AFTER, Run, adversary_side, first_strategies, learner_side, penalty, polish, probe_zero, prune, region, sharpened, zero_side
 from airl_cli.core.irl.game import adversary_rewards
 from airl_cli.core.irl.game_problem import AdversaryOracle, GameProblem
 from airl_cli.core.irl.options import CertifiedOptions
@@ -257,7 +257,7 @@ def _answer(final: MasterSolution, final_upper: tuple[float, np.ndarray | None],
 def upper_at(targets: np.ndarray, result: CertifiedResult, oracle: AdversaryOracle, options: CertifiedOptions = CertifiedOptions()) -> float:
     """The upper bound on f (eq. 5.9) at ``result``'s weights w that another adversary oracle gives
     where the fit's planner gave ``result.objective`` (at ``result.upper_rewards``, the same w and
-    learner mixture): max(result.objective, its value + reg(w)), reg(w) = -w . C + (lambda/2)|w|^2.
+    learner mixture): max(result.objective, its value + penalty(w)), penalty(w) = -w . C + (lambda/2)|w|^2.
     With a denser PBVI as ``oracle`` it re-checks a certificate that holds against the fit's
     planner: how much higher it lies is the planner's resolution at the answer. ``result.objective``
     itself when that bound is exact (``upper_rewards`` None). ``options`` as in ``minimize``;
@@ -266,7 +266,7 @@ def upper_at(targets: np.ndarray, result: CertifiedResult, oracle: AdversaryOrac
         return result.objective
     value, _ = oracle(result.upper_rewards)
     w, C = (result.weights[0], targets.sum(axis=0)) if options.weight_sharing else (result.weights.reshape(-1), targets.reshape(-1))
-    return max(result.objective, value - float(w @ C) + 0.5 * options.lam * float(w @ w))
+    return max(result.objective, value + penalty(w, C, options.lam))
 
 
 def _ask_oracles(sets: StrategySets, sol: MasterSolution, oracle, screen, per_dynamics, it: int, run: Run) -> tuple[bool, bool]:
@@ -284,8 +284,7 @@ def _ask_oracles(sets: StrategySets, sol: MasterSolution, oracle, screen, per_dy
     rewards = adversary_rewards(problem, np.tensordot(p, sets.learner_marginals[: p.size], axes=1), per_dynamics(w))
     if not run.zero_closed:  # w = 0 may still pass the certificate
         probe_zero(sets, rewards, run)
-    reg = -float(w @ qp.C) + 0.5 * qp.lam * float(w @ w)
-    return added_l, adversary_side(sets, rewards, oracle, screen, w, float(held.max()), reg, tiny, it, run)
+    return added_l, adversary_side(sets, rewards, oracle, screen, w, float(held.max()), penalty(w, qp.C, qp.lam), tiny, it, run)
 
 
 def _result(weights: np.ndarray, upper: float, rewards: np.ndarray | None, run: Run, rows: list[dict], stopped: str, final: MasterSolution, sets: StrategySets) -> CertifiedResult:

@@ -64,6 +64,12 @@ class Run:
     sharpen_steps: int = 0  # how often a finer oracle raised the certified bound (``sharpened``)
 
 
+def penalty(w: np.ndarray, C: np.ndarray, lam: float) -> float:
+    """-w . C + (lambda/2)|w|^2, the part of f(w) (eq. 5.9) outside the game: a bound on the game's
+    value at w plus this bounds f(w); w, C (d,)."""
+    return -float(w @ C) + 0.5 * lam * float(w @ w)
+
+
 def first_strategies(sets: StrategySets, targets: np.ndarray, oracle: AdversaryOracle, run: Run) -> StrategySets:
     """The first strategies: the learner plays the optimal policy under tau of the demonstrations'
     mean features, the adversary its best response to that at w = 0 (the first upper bound, at w = 0)."""
@@ -136,8 +142,7 @@ def sharpened(sets: StrategySets, sharpen, run: Run, C: np.ndarray, lam: float, 
     if found is None:
         return False
     value, marginals = found
-    w = run.best_w
-    bound = value - float(w @ C) + 0.5 * lam * float(w @ w)
+    bound = value + penalty(run.best_w, C, lam)
     if bound - run.upper <= tol * max(1.0, abs(run.upper)):
         return False
     sets.add_adversary(marginals)
@@ -238,7 +243,7 @@ def polish(sets: StrategySets, oracle: AdversaryOracle, per_dynamics, C: np.ndar
     value, _ = oracle(rewards)
     run.planner_calls += 1
     held = float(np.max(sol.p @ sets.qp.L + sets.qp.Phi @ sol.w))
-    upper = max(value, held) - float(sol.w @ C) + 0.5 * lam * float(sol.w @ sol.w)
+    upper = max(value, held) + penalty(sol.w, C, lam)
     if upper <= run.upper:
         run.upper, run.best_w, run.upper_rewards = upper, sol.w.copy(), rewards
     probe_zero(sets, rewards, run)  # the final bound on f(0), wanted whatever the fit found
