@@ -70,8 +70,9 @@ from airl_cli.core.irl.qp import TIGHT, MasterQP, MasterSolution
 from airl_cli.core.irl.strategy_sets import StrategySets
 from airl_cli.core.numerics.threads import blas_on_one_thread
 
-#: Every this many iterations, the strategies out of the optimum of the kept sets (and older than
-#: ``certified_steps.PRUNE_AGE``) are dropped (``certified_steps.prune``): the QP stays small. The bounds stay valid whatever the sets hold.
+#: Every this many iterations, the learner strategies out of the optimum of the kept sets (and older
+#: than ``certified_steps.PRUNE_AGE``) are dropped, the adversary's only beyond
+#: ``certified_steps.ADVERSARY_KEEP`` (``certified_steps.prune``): the QP stays small. The bounds stay valid whatever the sets hold.
 PRUNE_AFTER = 20
 #: The QP is solved to this share of the current relative gap (between ``LOOSEST`` and ``qp.TIGHT``).
 ACCURACY_SHARE = 0.5

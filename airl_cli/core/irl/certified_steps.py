@@ -27,7 +27,15 @@ from airl_cli.core.mdp.planning import backward_induction, state_marginals
 SCREEN_FRACTION = 0.1
 #: The full oracle is asked at least once in this many iterations, even while screening succeeds.
 REFRESH_AFTER = 10
-PRUNE_AGE = 60
+#: Learner strategies (one backward induction each) out of the optimum of the kept sets are dropped
+#: once this many iterations old (``prune``).
+PRUNE_AGE = 20
+#: Adversary strategies (one planner call each) are all kept while there are at most this many:
+#: dropped, they come back as near-copies the planner finds again (on a 16 x 16 zero-one grid, 1,720
+#: iterations and 704 planner calls to certify when they were pruned like the learner's, 650 and 348
+#: when kept). Beyond it, the old ones out of the optimum are dropped, which bounds the QP and the
+#: memory (T * S numbers each).
+ADVERSARY_KEEP = 1000
 #: The loose solves keep w within this many times the radius that must hold the minimiser (``_region``).
 REGION_SAFETY = 2.0
 #: ... while the relative gap is above this: later, PBVI's upper bounds, which can be a little low,
@@ -213,12 +221,15 @@ def region(run: Run, lam: float) -> tuple[np.ndarray, float] | None:
 
 
 def prune(sets: StrategySets, born_l: list[int], born_a: list[int], it: int) -> tuple[list[int], list[int]]:
-    """Drop the strategies out of the optimum of the kept sets (weight 0 in a tight solve) that were
-    added at least ``PRUNE_AFTER`` iterations ago. The loose solves give every strategy weight, so
-    they cannot tell; without pruning a 16 x 16 grid kept 370 learner strategies for a support
-    of 140, and the QP's cost grows with the cube. Returns the kept strategies' birth iterations."""
+    """Drop the learner strategies out of the optimum of the kept sets (weight 0 in a tight solve)
+    that were added at least ``PRUNE_AGE`` iterations ago, and the adversary's likewise while more
+    than ``ADVERSARY_KEEP`` are kept. The loose solves give every strategy weight, so they cannot
+    tell; without pruning a 16 x 16 grid kept 370 learner strategies for a support of 140, and the
+    QP's cost grows with the cube. Returns the kept strategies' birth iterations."""
     sol = sets.qp.solve(TIGHT)
     old_l, old_a = np.array(born_l) <= it - PRUNE_AGE, np.array(born_a) <= it - PRUNE_AGE
+    if len(born_a) <= ADVERSARY_KEEP:
+        old_a[:] = False
     keep_l = np.flatnonzero((sol.p > 0) | ~old_l)
     keep_a = np.flatnonzero((sol.q > 0) | ~old_a)
     if keep_l.size < len(born_l) or keep_a.size < len(born_a):

@@ -11,11 +11,13 @@ from scipy.optimize import linprog
 from scipy.optimize import minimize as scipy_minimize
 from tiny import random_dynamics
 
+from airl_cli.core.irl import certified, certified_steps
 from airl_cli.core.irl.certified import CertifiedOptions, minimize, upper_at
 from airl_cli.core.irl.game import objective_at
 from airl_cli.core.irl.game_problem import GameProblem
 from airl_cli.core.irl.learn import FitOptions, PlannerOptions, fit, make_oracle
 from airl_cli.core.irl.qp import MasterQP, solve_clarabel, solve_dense
+from airl_cli.core.irl.strategy_sets import StrategySets
 from airl_cli.core.mdp.demos import expected_feature_sums
 from airl_cli.core.mdp.planning import backward_induction, state_marginals
 
@@ -259,6 +261,33 @@ def test_the_weak_oracle_s_certificate_is_raised_by_the_exact_check_on_some_seed
         problem, targets, options, res, _ = _weak_fit(seed)
         raised.append(upper_at(targets, res, exact_oracle(problem), options) - res.objective)
     assert max(raised) > 1e-3, raised
+
+
+@pytest.mark.parametrize("adversary_keep", [0, 1000])
+def test_pruning_every_other_iteration_still_reaches_the_brute_force_minimum(monkeypatch, adversary_keep):
+    """Pruning at every second iteration, of learner strategies only (the adversary's kept, as by
+    default) or of both sides: the minimum is the brute-force one, and the strategies dropped are
+    the ones the setting says."""
+    monkeypatch.setattr(certified, "PRUNE_AFTER", 2)
+    monkeypatch.setattr(certified_steps, "PRUNE_AGE", 1)
+    monkeypatch.setattr(certified_steps, "ADVERSARY_KEEP", adversary_keep)
+    dropped = {"learner": 0, "adversary": 0}
+    keep = StrategySets.keep
+
+    def counting_keep(self, learner, adversary):
+        dropped["learner"] += self.qp.n - learner.size
+        dropped["adversary"] += self.qp.m - adversary.size
+        keep(self, learner, adversary)
+
+    monkeypatch.setattr(StrategySets, "keep", counting_keep)
+    for seed, S, loss in [(5, 3, "zero_one"), (2, 3, "random"), (8, 3, "squared_features")]:
+        problem, targets = tiny(seed, S=S, loss=loss)
+        L, Phi, C = enumerated_game(problem, targets, True)
+        _, f_star = brute_minimum(L, Phi, C, 0.05)
+        res = minimize(problem, targets, exact_oracle(problem), options=CertifiedOptions(lam=0.05, tol=1e-12))
+        assert res.converged and res.objective == pytest.approx(f_star, abs=1e-6)
+    assert dropped["learner"] > 0
+    assert (dropped["adversary"] > 0) == (adversary_keep == 0), dropped
 
 
 def test_the_cap_is_reported():
