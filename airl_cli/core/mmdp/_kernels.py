@@ -285,20 +285,28 @@ def unique_nodes(action, succ, alpha):  # pragma: no cover - compiled
     kept = np.empty((S, nb), np.int64)  # kept[s, :count[s]] the beliefs whose vectors are new
     count = np.empty(S, np.int64)
     for s in prange(S):
+        key = np.zeros(nb)  # equal for equal vectors, rarely for others
+        for b in range(nb):
+            for j in range(M):
+                key[b] += alpha[s, b, j] * (1.0 + j / (M + 1.0))
+        order = np.argsort(key, kind="mergesort")  # stable: equal keys in belief order
+        dup = np.zeros(nb, np.bool_)
+        start = 0
+        while start < nb:  # one run of equal keys at a time; only within it can vectors be equal
+            stop = start + 1
+            while stop < nb and key[order[stop]] == key[order[start]]:
+                stop += 1
+            for x in range(start + 1, stop):
+                b = order[x]
+                for y in range(start, x):
+                    bu = order[y]
+                    if not dup[bu] and _same(alpha[s, b], alpha[s, bu], M):
+                        dup[b] = True
+                        break
+            start = stop
         n = 0
         for b in range(nb):
-            dup = False
-            for u in range(n):
-                bu = kept[s, u]
-                same = True
-                for j in range(M):
-                    if alpha[s, b, j] != alpha[s, bu, j]:
-                        same = False
-                        break
-                if same:
-                    dup = True
-                    break
-            if not dup:
+            if not dup[b]:
                 kept[s, n] = b
                 n += 1
         count[s] = n
@@ -322,3 +330,12 @@ def unique_nodes(action, succ, alpha):  # pragma: no cover - compiled
             for j in range(M):
                 node_alpha[u, j] = alpha[s, b, j]
     return node_state, node_action, node_succ, node_alpha, offsets
+
+
+@njit(cache=True)
+def _same(x, y, M):  # pragma: no cover - compiled
+    """Whether the (M,) vectors x and y are equal entry by entry."""
+    for j in range(M):
+        if x[j] != y[j]:
+            return False
+    return True

@@ -344,3 +344,25 @@ def test_envelope_vertices_with_ties_and_duplicates():
         np.testing.assert_allclose(np.interp(x, xs, ys), brute, atol=1e-12)
         assert len(xs) <= len(upper_envelope_1d(alpha)) + 1
     assert np.isnan(envelope_vertices(np.empty((0, 2)))[1]).all()
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_unique_nodes_keeps_the_first_of_each_distinct_vector_in_belief_order(seed):
+    """Against a plain loop: per state, a belief's node is kept unless an equal alpha-vector came
+    at a lower belief index (0.0 and -0.0 are equal); nodes are written in state, then belief, order."""
+    rng = np.random.default_rng(seed)
+    S, nb, M, Rm = 6, 40, 3, 4
+    alpha = np.round(rng.random((S, nb, M)) * 2) / 2  # coarse values: many equal vectors
+    alpha[:, ::4] = rng.random((S, 10, M))  # and some unique ones
+    alpha[0, 1], alpha[0, 2] = 0.0, -0.0
+    alpha[1, 3] = alpha[1, 5] = [1.0, 2.0, 3.0]  # equal vectors whose keys tie with another vector's
+    alpha[1, 4] = [2.5, 2.0, 2.0]  # the same key: 1 + 2 * 1.25 + 3 * 1.5 = 2.5 + 2 * 1.25 + 2 * 1.5
+    action, succ = rng.integers(0, 5, (S, nb)), rng.integers(0, 99, (S, nb, Rm))
+    kept = [[b for b in range(nb) if not any(np.array_equal(alpha[s, b], alpha[s, u]) for u in range(b))] for s in range(S)]
+    state, act, nxt, alp, offsets = _kernels.unique_nodes(action, succ, alpha)
+    assert np.array_equal(offsets, np.r_[0, np.cumsum([len(k) for k in kept])])
+    assert np.array_equal(state, np.repeat(np.arange(S), [len(k) for k in kept]))
+    assert np.array_equal(act, np.concatenate([action[s, k] for s, k in enumerate(kept)]))
+    assert np.array_equal(nxt, np.concatenate([succ[s, k] for s, k in enumerate(kept)]))
+    assert np.array_equal(alp, np.concatenate([alpha[s, k] for s, k in enumerate(kept)]))
+    assert offsets[-1] < S * nb  # the case has duplicates
