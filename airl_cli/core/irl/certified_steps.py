@@ -29,10 +29,10 @@ SCREEN_FRACTION = 0.1
 REFRESH_AFTER = 10
 #: Learner strategies (one backward induction each) out of the optimum of the kept sets are dropped
 #: once this many iterations old (``prune``).
-PRUNE_AGE = 20
+PRUNE_AGE = 60
 #: Adversary strategies (one planner call each) are all kept while there are at most this many:
 #: dropped, they come back as near-copies the planner finds again (on a 16 x 16 zero-one grid, 1,720
-#: iterations and 704 planner calls to certify when they were pruned like the learner's, 650 and 348
+#: iterations and 704 planner calls to certify when they were pruned like the learner's, 645 and 372
 #: when kept). Beyond it, the old ones out of the optimum are dropped, which bounds the QP and the
 #: memory (T * S numbers each).
 ADVERSARY_KEEP = 1000

@@ -134,10 +134,10 @@ def _fit(tmp_path, *overrides):
 
 
 def test_a_fit_whose_optimum_degenerates_says_so(tmp_path):
-    """A random MDP with S = 50: the certified w is below 1e-3 and the bound on f(0) passes the certificate
+    """A random MDP with S = 50: the certified w is ~1e-4 and the bound on f(0) passes the certificate
     too; w moves the payoff by a little more than the tolerance, so the fit says the reward is barely
     constrained, not that its direction is noise."""
-    result, metrics, summary = _fit(tmp_path, "mdp.n_states=50", "mdp.horizon=5", "seed=0")
+    result, metrics, summary = _fit(tmp_path, "mdp.n_states=50", "mdp.horizon=5", "seed=3")
     assert metrics["degenerate"] is True and metrics["converged"] is True
     assert metrics["zero_relative_gap"] <= 2e-4 and metrics["zero_answer"] is False
     assert metrics["reward_effect"] > metrics["tol"] * max(1.0, abs(metrics["objective"]))
