@@ -283,31 +283,22 @@ def unique_nodes(action, succ, alpha):  # pragma: no cover - compiled
     S, nb, M = alpha.shape
     Rm = succ.shape[2]
     kept = np.empty((S, nb), np.int64)  # kept[s, :count[s]] the beliefs whose vectors are new
+    keys = np.empty((S, nb))  # and their keys: equal for equal vectors, rarely for others
     count = np.empty(S, np.int64)
     for s in prange(S):
-        key = np.zeros(nb)  # equal for equal vectors, rarely for others
-        for b in range(nb):
-            for j in range(M):
-                key[b] += alpha[s, b, j] * (1.0 + j / (M + 1.0))
-        order = np.argsort(key, kind="mergesort")  # stable: equal keys in belief order
-        dup = np.zeros(nb, np.bool_)
-        start = 0
-        while start < nb:  # one run of equal keys at a time; only within it can vectors be equal
-            stop = start + 1
-            while stop < nb and key[order[stop]] == key[order[start]]:
-                stop += 1
-            for x in range(start + 1, stop):
-                b = order[x]
-                for y in range(start, x):
-                    bu = order[y]
-                    if not dup[bu] and _same(alpha[s, b], alpha[s, bu], M):
-                        dup[b] = True
-                        break
-            start = stop
         n = 0
         for b in range(nb):
-            if not dup[b]:
+            key = 0.0
+            for j in range(M):
+                key += alpha[s, b, j] * (1.0 + j / (M + 1.0))
+            dup = False
+            for u in range(n):  # a scalar comparison first: most kept vectors differ in their key
+                if keys[s, u] == key and _same(alpha[s, b], alpha[s, kept[s, u]], M):
+                    dup = True
+                    break
+            if not dup:
                 kept[s, n] = b
+                keys[s, n] = key
                 n += 1
         count[s] = n
     offsets = np.empty(S + 1, np.int64)
