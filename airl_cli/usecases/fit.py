@@ -326,11 +326,11 @@ def _planner_check(problem: GameProblem, targets: np.ndarray, res, settings: Fit
     beliefs = oracle.beliefs if grown else belief_set(P, replace(planner, iterations=iterations), rng)
     checked = {}
 
-    def oracle(R: np.ndarray) -> tuple[float, np.ndarray]:
+    def finer(R: np.ndarray) -> tuple[float, np.ndarray]:  # the check's planner, not the fit's ``oracle``
         sol, checked["beliefs"] = refine(P, R, problem.initial, beliefs, rounds=rounds)
         return sol.value, sol.marginals
 
-    upper = upper_at(targets, res, oracle, settings.certified)
+    upper = upper_at(targets, res, finer, settings.certified)
     scale = max(1.0, abs(res.objective))
     return {
         "check_beliefs": int(len(checked["beliefs"])),
