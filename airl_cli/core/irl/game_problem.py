@@ -61,7 +61,7 @@ class GameProblem:
         return self.discount ** np.arange(self.horizon, dtype=np.float64)
 
     @cached_property
-    def _loss_factors(self) -> tuple[np.ndarray, np.ndarray] | None:
+    def _loss_factors(self) -> lowrank.Factors | None:
         return lowrank.factor(self.loss)
 
     def loss_times(self, X: np.ndarray) -> np.ndarray:

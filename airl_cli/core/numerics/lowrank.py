@@ -3,13 +3,18 @@
 The game's loss is an (S, S) matrix multiplied by state marginals several times an iteration
 (thesis eq. 5.9: the learner's and the adversary's expected losses). Many losses are of low rank:
 the squared distance between features, |phi_s - phi_s'|^2 = |phi_s|^2 + |phi_s'|^2 - 2 phi_s . phi_s',
-has rank at most K + 2, whatever S. ``factor`` finds such a factorisation L = Q B (Q (S, r) with
-orthonormal columns, B = Q^T L (r, S)) from a random sketch and keeps it only if it reproduces
-every entry of L to ``rtol`` of its largest; a loss of full rank (the zero-one loss) keeps its
-dense products.
+has rank at most K + 2, whatever S. Others are low rank once a multiple of the identity is taken
+out: the zero-one loss 1 1^T - I is the identity below a matrix of rank one. ``factor`` finds
+L = c I + Q B (Q (S, r) with orthonormal columns, B = Q^T (L - c I) (r, S)), trying c = 0 and
+c = mean(diag L) - mean(off-diagonal L) (the c of every a 1 1^T + c I), from a random sketch, and
+keeps it only if it reproduces every entry of L to ``rtol`` of its largest; any other loss keeps
+its dense products. On a 64 x 64 grid (S = 4,096, T = 20) a product with the zero-one loss took
+25 ms dense, two of them an iteration.
 """
 
 from __future__ import annotations
+
+from typing import NamedTuple
 
 import numpy as np
 
@@ -18,8 +23,16 @@ MAX_RANK = 16
 OVERSAMPLE = 8
 
 
-def factor(L: np.ndarray, *, rtol: float = 1e-12) -> tuple[np.ndarray, np.ndarray] | None:
-    """(Q (S, r), B (r, S)) with L = Q B to ``rtol`` * max|L| in every entry, or None.
+class Factors(NamedTuple):
+    """L = shift * I + Q B: Q (S, r) with orthonormal columns, B (r, S), shift a float (often 0)."""
+
+    Q: np.ndarray
+    B: np.ndarray
+    shift: float = 0.0
+
+
+def factor(L: np.ndarray, *, rtol: float = 1e-12) -> Factors | None:
+    """``Factors`` with L = shift I + Q B to ``rtol`` * max|L| in every entry, or None.
 
     Args:
         L: (S, S) the loss, L[s, s'].
@@ -31,29 +44,43 @@ def factor(L: np.ndarray, *, rtol: float = 1e-12) -> tuple[np.ndarray, np.ndarra
     top = float(np.max(np.abs(L)))
     if top == 0.0:
         return None
+    trace = float(np.trace(L))
+    off_mean = (float(L.sum()) - trace) / (S * (S - 1))
+    for shift in dict.fromkeys((0.0, trace / S - off_mean)):  # the second only if it differs
+        found = _low_rank(L - shift * np.eye(S) if shift else L, rtol * top)
+        if found is not None:
+            return Factors(*found, shift)
+    return None
+
+
+def _low_rank(L: np.ndarray, atol: float) -> tuple[np.ndarray, np.ndarray] | None:
+    """(Q (S, r), B (r, S)) with L = Q B to ``atol`` in every entry and r <= ``MAX_RANK``, or None."""
+    S = L.shape[0]
     sketch = L @ np.random.default_rng(0).standard_normal((S, MAX_RANK + OVERSAMPLE))  # a fixed sketch: deterministic
     U, sv, _ = np.linalg.svd(sketch, full_matrices=False)
-    r = int(np.sum(sv > 1e-13 * sv[0]))
-    if r > MAX_RANK:
+    r = int(np.sum(sv > 1e-13 * sv[0])) if sv[0] > 0 else 0
+    if r > MAX_RANK or r == 0:
         return None
     Q = np.ascontiguousarray(U[:, :r])
     B = Q.T @ L
-    if np.max(np.abs(Q @ B - L)) > rtol * top:
+    if np.max(np.abs(Q @ B - L)) > atol:
         return None
     return Q, np.ascontiguousarray(B)
 
 
-def times(X: np.ndarray, L: np.ndarray, factors: tuple[np.ndarray, np.ndarray] | None) -> np.ndarray:
+def times(X: np.ndarray, L: np.ndarray, factors: Factors | None) -> np.ndarray:
     """X @ L for X (..., S), through the factors when there are some."""
     if factors is None:
         return X @ L
-    Q, B = factors
-    return (X @ Q) @ B
+    Q, B, shift = factors
+    out = (X @ Q) @ B
+    return out + shift * X if shift else out
 
 
-def times_transposed(X: np.ndarray, L: np.ndarray, factors: tuple[np.ndarray, np.ndarray] | None) -> np.ndarray:
+def times_transposed(X: np.ndarray, L: np.ndarray, factors: Factors | None) -> np.ndarray:
     """X @ L.T for X (..., S), through the factors when there are some."""
     if factors is None:
         return X @ L.T
-    Q, B = factors
-    return (X @ B.T) @ Q.T
+    Q, B, shift = factors
+    out = (X @ B.T) @ Q.T
+    return out + shift * X if shift else out
