@@ -370,6 +370,20 @@ def test_the_dense_qp_solver_equals_clarabel_on_random_and_degenerate_restricted
         assert v >= np.max(Phi @ w + L.T @ p) - 1e-7  # v bounds every adversary row
 
 
+def test_the_interior_point_method_s_gram_matrix_is_the_plain_product():
+    """``_ipm._gram`` (BLAS's symmetric rank-k update) against G^T diag(W) G by numpy, W spanning
+    the 40 orders of magnitude of z / s near an optimum, at the sizes of a fit and odd ones."""
+    from airl_cli.core.irl._ipm import _gram
+
+    rng = np.random.default_rng(5)
+    for N, m in ((1, 1), (3, 7), (9, 2), (66, 150), (151, 299)):
+        G = rng.normal(size=(m, N))
+        W = 10.0 ** rng.uniform(-20, 20, size=m + 4)  # the p rows' entries after the m used ones
+        H = _gram(np.ascontiguousarray(G.T), W)
+        ref = G.T @ (G * W[:m, None])
+        assert np.allclose(H, ref, rtol=1e-12, atol=1e-12 * np.max(np.abs(ref))) and np.array_equal(H, H.T)
+
+
 def test_a_loose_solve_is_centred_and_within_its_accuracy():
     """A loose solve (primal-dual column generation) returns an interior point: every strategy
     weighted, the objective within the accuracy asked of the tight one's, and valid bounds at it."""
