@@ -16,8 +16,12 @@ from __future__ import annotations
 import numpy as np
 from scipy.special import logsumexp
 
+from airl_cli.core.mdp import _sparse_kernels
 from airl_cli.core.mdp.basics import argmax_lowest, discounted, per_time
 from airl_cli.core.mdp.sparse import SparseModel
+
+#: ``argmax_lowest``'s tolerance: actions within it (relative) of the best are ties.
+TIE_RTOL = 1e-12
 
 
 def _dynamics(P) -> np.ndarray | SparseModel:
@@ -49,13 +53,15 @@ def backward_induction(
     P = _dynamics(P)
     R = per_time(R, horizon if horizon is not None else np.asarray(R).shape[0])
     T, S = R.shape
+    sign = 1.0 if maximize else -1.0
+    if isinstance(P, SparseModel):  # the same steps, compiled
+        return _sparse_kernels.backward_induction(P.safe_next, np.ascontiguousarray(P.probs), np.ascontiguousarray(R, dtype=np.float64), sign, TIE_RTOL)
     V = np.empty((T, S))
     policy = np.empty((T - 1, S), dtype=np.int64)
     V[T - 1] = R[T - 1]
-    sign = 1.0 if maximize else -1.0
     for t in range(T - 2, -1, -1):
         Q = R[t][:, None] + expect_next(P, V[t + 1])  # (S, A)
-        a = argmax_lowest(sign * Q, axis=1)
+        a = argmax_lowest(sign * Q, axis=1, rtol=TIE_RTOL)
         policy[t] = a
         V[t] = Q[np.arange(S), a]
     return policy, V
@@ -149,6 +155,8 @@ def state_marginals(P: np.ndarray, policy: np.ndarray, p0: np.ndarray) -> np.nda
     """
     P = _dynamics(P)
     policy = np.asarray(policy)
+    if isinstance(P, SparseModel) and policy.ndim == 2:  # a deterministic policy: compiled
+        return _sparse_kernels.state_marginals(P.safe_next, np.ascontiguousarray(P.probs), np.ascontiguousarray(policy, dtype=np.int64), np.ascontiguousarray(p0, dtype=np.float64))
     T = policy.shape[0] + 1
     S, A = P.shape[0], P.shape[1]
     d = np.empty((T, S))

@@ -130,18 +130,19 @@ class SparseModel:
         return (S, A, S)
 
     @cached_property
-    def _safe_next(self) -> np.ndarray:
-        return np.maximum(self.next_states, 0)  # padding points at state 0 with probability 0
+    def safe_next(self) -> np.ndarray:
+        """(S, R) ``next_states`` with the padding pointing at state 0 (with probability 0)."""
+        return np.maximum(self.next_states, 0)
 
     def expect(self, V: np.ndarray) -> np.ndarray:
         """(S, A) E[V(s') | s, a] for values V (S,): the dense ``P @ V``."""
-        return np.einsum("sar,sr->sa", self.probs, V[self._safe_next])
+        return np.einsum("sar,sr->sa", self.probs, V[self.safe_next])
 
     def push(self, weights: np.ndarray) -> np.ndarray:
         """(S,) sum_{s, a} weights[s, a] P(s' | s, a) for weights (S, A): the dense ``einsum('sa,sax->x')``."""
         S = self.probs.shape[0]
         flow = weights[:, :, None] * self.probs  # (S, A, R)
-        idx = np.broadcast_to(self._safe_next[:, None, :], flow.shape)
+        idx = np.broadcast_to(self.safe_next[:, None, :], flow.shape)
         return np.bincount(idx.ravel(), weights=flow.ravel(), minlength=S)
 
     def dense(self) -> np.ndarray:

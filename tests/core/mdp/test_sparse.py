@@ -249,3 +249,41 @@ def test_a_bad_sparse_file_gets_one_sentence(tmp_path, change, message):
         read_dataset(tmp_path / "bad.npz")
     assert message in str(err.value) and "\n" not in str(err.value)
 
+
+
+def _plain_backward_induction(P: np.ndarray, R: np.ndarray, sign: float):
+    """Eq. 2.6-2.8 by plain loops over dense P (S, A, S): the first action within 1e-12 of the best."""
+    T, S = R.shape
+    A = P.shape[1]
+    V = np.zeros((T, S))
+    policy = np.zeros((T - 1, S), dtype=int)
+    V[T - 1] = R[T - 1]
+    for t in range(T - 2, -1, -1):
+        for s in range(S):
+            Q = [R[t, s] + sum(P[s, a, s2] * V[t + 1, s2] for s2 in range(S)) for a in range(A)]
+            best = max(sign * q for q in Q)
+            policy[t, s] = next(a for a in range(A) if sign * Q[a] >= best - 1e-12 * (1 + abs(best)))
+            V[t, s] = Q[policy[t, s]]
+    return policy, V
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_planning_on_a_sparse_model_matches_plain_loops_with_ties(seed):
+    from airl_cli.core.mdp.planning import backward_induction, state_marginals
+
+    rng = np.random.default_rng(seed)
+    P = sparse_problem(seed, S=9, A=4, M=1, n_next=3)[0]
+    P[:, 3] = P[:, 1]  # actions 1 and 3 tie everywhere: the lowest must win, maximising or minimising
+    R = rng.integers(0, 3, size=(6, 9)).astype(float)  # integer rewards: exact ties between states too
+    model = sparse_dynamics(P[None])[0]
+    p0 = rng.dirichlet(np.ones(9))
+    for maximize in (True, False):
+        policy, V = backward_induction(model, R, maximize=maximize)
+        ref_policy, ref_V = _plain_backward_induction(P, R, 1.0 if maximize else -1.0)
+        assert np.array_equal(policy, ref_policy) and not np.any(policy == 3)
+        assert np.allclose(V, ref_V, rtol=1e-13, atol=1e-13)
+        d = state_marginals(model, policy, p0)
+        ref_d = [p0]
+        for t in range(5):
+            ref_d.append(sum(ref_d[-1][s] * P[s, policy[t, s]] for s in range(9)))
+        assert np.allclose(d, np.array(ref_d), rtol=1e-13, atol=1e-14) and np.allclose(d.sum(axis=1), 1.0)

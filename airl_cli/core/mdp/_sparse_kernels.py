@@ -1,0 +1,73 @@
+"""Compiled loops of ``core.planning`` on sparse dynamics (numba, cached on disk after the first call).
+
+The same arithmetic as the numpy forms in ``core.planning`` (thesis eq. 2.4-2.9), without their
+per-step temporaries: the learner's best response (a backward induction and a forward pass under
+tau) runs once an iteration of the certified learner, and on a 16 x 16 grid (T = 20) its numpy
+form took 4 ms a call, a sixth of the fit. Layouts as in ``core.sparse.SparseModel``:
+``nxt`` (S, R) the reachable next states with the padding pointing at state 0, ``probs``
+(S, A, R) their probabilities (0 on the padding).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+
+@njit(cache=True)
+def backward_induction(nxt, probs, R, sign, rtol):  # pragma: no cover - compiled
+    """Q[t, s, a] = R[t, s] + sum_r probs[s, a, r] V[t+1, nxt[s, r]] (eq. 2.6) and the action
+    maximising sign * Q, near-ties within ``rtol`` (relative) to the lowest (``basics.argmax_lowest``).
+
+    Args: nxt (S, R) int64; probs (S, A, R); R (T, S) rewards; sign: 1.0 for the best policy,
+    -1.0 for the worst; rtol: the tie tolerance.
+
+    Returns: policy (T-1, S) int64 and values V (T, S).
+    """
+    S, A, Rm = probs.shape
+    T = R.shape[0]
+    V = np.empty((T, S))
+    policy = np.empty((max(T - 1, 0), S), np.int64)
+    V[T - 1] = R[T - 1]
+    Q = np.empty(A)
+    for t in range(T - 2, -1, -1):
+        Vn = V[t + 1]
+        for s in range(S):
+            for a in range(A):
+                acc = 0.0
+                for r in range(Rm):
+                    acc += probs[s, a, r] * Vn[nxt[s, r]]
+                Q[a] = R[t, s] + acc
+            best = sign * Q[0]
+            for a in range(1, A):
+                best = max(best, sign * Q[a])
+            cut = best - rtol * (1.0 + abs(best))
+            a_star = 0
+            while a_star < A - 1 and sign * Q[a_star] < cut:
+                a_star += 1
+            policy[t, s] = a_star
+            V[t, s] = Q[a_star]
+    return policy, V
+
+
+@njit(cache=True)
+def state_marginals(nxt, probs, policy, p0):  # pragma: no cover - compiled
+    """d[t+1, s'] = sum_s d[t, s] P(s' | s, policy[t, s]) from d[0] = p0 (a deterministic policy).
+
+    Args: nxt (S, R) int64; probs (S, A, R); policy (T-1, S) int64; p0 (S,).
+
+    Returns: d (T, S).
+    """
+    S, A, Rm = probs.shape
+    T = policy.shape[0] + 1
+    d = np.zeros((T, S))
+    d[0] = p0
+    for t in range(T - 1):
+        for s in range(S):
+            mass = d[t, s]
+            if mass == 0.0:
+                continue
+            a = policy[t, s]
+            for r in range(Rm):
+                d[t + 1, nxt[s, r]] += mass * probs[s, a, r]
+    return d
