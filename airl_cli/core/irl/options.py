@@ -104,5 +104,5 @@ class CertifiedOptions:
     weight_sharing: bool = True
     lam: float = 1e-2
     tol: float = 1e-4
-    max_iterations: int = 500
+    max_iterations: int = 1500
     normalize_loss: bool = True
