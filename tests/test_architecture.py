@@ -14,9 +14,10 @@ import airl_cli
 PACKAGE = Path(airl_cli.__file__).parent
 # numba compiles the planner's kernels and highspy is the HiGHS LP solver (scipy bundles the same
 # solver without the warm-start interface), clarabel the interior-point QP solver the certified
-# learner falls back on, threadpoolctl to hold BLAS to one thread in the dense QP solver: compute
-# libraries, not layers above core.
-CORE_ALLOWED = {"numpy", "scipy", "numba", "highspy", "clarabel", "threadpoolctl"}
+# learner falls back on, threadpoolctl to hold BLAS to one thread in the dense QP solver, llvmlite
+# (numba's own compiler backend, installed with it) to name BLAS's dsyrk for the compiled QP step:
+# compute libraries, not layers above core.
+CORE_ALLOWED = {"numpy", "scipy", "numba", "llvmlite", "highspy", "clarabel", "threadpoolctl"}
 
 
 def imports_of(path: Path) -> set[str]:

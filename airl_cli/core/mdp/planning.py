@@ -16,7 +16,6 @@ from __future__ import annotations
 import numpy as np
 from scipy.special import logsumexp
 
-from airl_cli.core.mdp import _sparse_kernels
 from airl_cli.core.mdp.basics import argmax_lowest, discounted, per_time
 from airl_cli.core.mdp.sparse import SparseModel
 
@@ -54,7 +53,9 @@ def backward_induction(
     R = per_time(R, horizon if horizon is not None else np.asarray(R).shape[0])
     T, S = R.shape
     sign = 1.0 if maximize else -1.0
-    if isinstance(P, SparseModel):  # the same steps, compiled
+    if isinstance(P, SparseModel):  # the same steps, compiled (numba: imported where used, so that
+        from airl_cli.core.mdp import _sparse_kernels  # a sweep's planning process never loads it)
+
         return _sparse_kernels.backward_induction(P.safe_next, np.ascontiguousarray(P.probs), np.ascontiguousarray(R, dtype=np.float64), sign, TIE_RTOL)
     V = np.empty((T, S))
     policy = np.empty((T - 1, S), dtype=np.int64)
@@ -156,6 +157,8 @@ def state_marginals(P: np.ndarray, policy: np.ndarray, p0: np.ndarray) -> np.nda
     P = _dynamics(P)
     policy = np.asarray(policy)
     if isinstance(P, SparseModel) and policy.ndim == 2:  # a deterministic policy: compiled
+        from airl_cli.core.mdp import _sparse_kernels
+
         return _sparse_kernels.state_marginals(P.safe_next, np.ascontiguousarray(P.probs), np.ascontiguousarray(policy, dtype=np.int64), np.ascontiguousarray(p0, dtype=np.float64))
     T = policy.shape[0] + 1
     S, A = P.shape[0], P.shape[1]
