@@ -24,7 +24,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-from airl_cli.core.mmdp._kernels import ACTION_RTOL, _scan
+from airl_cli.core.mmdp._kernels import ACTION_RTOL, _scan, gather_nodes
 
 #: Work is split into this many chunks over the threads, each with its scratch arrays allocated once.
 CHUNKS = 64
@@ -66,6 +66,10 @@ def class_successors(dirs, cls_state, Bt, alpha_next, offsets_next):  # pragma: 
 def backup_step_classes(PR, nxt, cnt, cls, scale, kc, vc, R_t, Bt, alpha_next, offsets_next):  # pragma: no cover - compiled
     """One modified value backup (Table III) at every belief and state, successors looked up per class.
 
+    The two-pass form (every belief's plan, then ``_kernels.unique_nodes``): the planner runs
+    ``backup_nodes_classes``, which keeps the same nodes in one pass; this one is its reference in
+    the tests, where it is held to the plain backup of Table III.
+
     The value of action a at belief b is b . R_t(s, a) + sum_r scale[s, a, r] * vc[cls[s, a, r], b]
     (the column is ``scale`` times its class's direction); the chosen action's alpha-vector is then
     summed exactly from its plan.
@@ -94,32 +98,12 @@ def backup_step_classes(PR, nxt, cnt, cls, scale, kc, vc, R_t, Bt, alpha_next, o
 @njit(cache=True)
 def _backup_state(s, PR, nxt, cnt, cls, scale, kc, vc, R_t, Bt, alpha_next, offsets_next, total, action, succ, alpha):  # pragma: no cover
     """The backup of ``backup_step_classes`` for one state s, with ``total`` (A, nb) as scratch."""
-    A, M = PR.shape[1], PR.shape[3]
+    M = PR.shape[3]
     nb = Bt.shape[1]
     n_r = cnt[s]
-    total[:] = 0.0
-    for a in range(A):
-        row = total[a]
-        for j in range(M):
-            rj = R_t[j, s, a]
-            Bj = Bt[j]
-            for b in range(nb):
-                row[b] += Bj[b] * rj
-        for r in range(n_r):
-            c = cls[s, a, r]
-            if c < 0:
-                continue
-            lam = scale[s, a, r]
-            vrow = vc[c]
-            for b in range(nb):
-                row[b] += lam * vrow[b]
+    _values(s, PR, cnt, cls, scale, vc, R_t, Bt, total)
     for b in range(nb):
-        top = total[0, b]
-        for a in range(1, A):
-            top = max(top, total[a, b])
-        a_star = 0
-        while total[a_star, b] < top - ACTION_RTOL * (1.0 + abs(top)):
-            a_star += 1
+        a_star = _winner(total, b)
         action[s, b] = a_star
         for j in range(M):
             alpha[s, b, j] = R_t[j, s, a_star]
@@ -129,3 +113,153 @@ def _backup_state(s, PR, nxt, cnt, cls, scale, kc, vc, R_t, Bt, alpha_next, offs
             succ[s, b, r] = k
             for j in range(M):
                 alpha[s, b, j] += PR[s, a_star, r, j] * alpha_next[k, j]
+
+
+@njit(cache=True, parallel=True)
+def backup_nodes_classes(PR, nxt, cnt, cls, scale, kc, vc, R_t, Bt, alpha_next, offsets_next):  # pragma: no cover - compiled
+    """``_kernels.unique_nodes(*backup_step_classes(...))`` in one pass, bit for bit: the same nodes
+    in the same order (the first belief of each distinct alpha-vector per state).
+
+    A belief whose plan (its action and its successor per next state) repeats an earlier belief's
+    at the same state has that belief's alpha-vector, so only a new plan's vector is summed and
+    compared; on a zero-one fit's grid about ten of a state's 67 beliefs have new plans. Nothing
+    is written for the others (the two-pass form wrote every belief's successors and vector): a
+    step on a 32 x 32 grid 2.7 -> 1.6 ms.
+
+    Args: as ``backup_step_classes``.
+
+    Returns:
+        node_state (n,), node_action (n,), node_succ (n, R) (-1 on the padding), node_alpha (n, M),
+        offsets (S+1,), as ``_kernels.unique_nodes``.
+    """
+    S, A, Rm, M = PR.shape
+    nb = Bt.shape[1]
+    kept_action = np.empty((S, nb), np.int64)
+    kept_succ = np.empty((S, nb, Rm), np.int64)
+    kept_alpha = np.empty((S, nb, M))
+    count = np.empty(S, np.int64)
+    for chunk in prange(CHUNKS):
+        total = np.empty((A, nb))
+        plans = np.empty((nb, Rm + 1), np.int64)  # the distinct plans of this state: action, successors
+        plan_hash = np.empty(nb, np.int64)
+        keys = np.empty(nb)
+        ks = np.empty(Rm, np.int64)
+        vec = np.empty(M)
+        for s in range(chunk * S // CHUNKS, (chunk + 1) * S // CHUNKS):
+            _values(s, PR, cnt, cls, scale, vc, R_t, Bt, total)
+            n_plans = n = 0
+            for b in range(nb):
+                a_star = _winner(total, b)
+                h = _successors(s, b, a_star, nxt, cnt, cls, kc, offsets_next, ks)
+                if _seen(plans, plan_hash, n_plans, h, a_star, ks, cnt[s]):
+                    continue
+                plan_hash[n_plans] = h
+                plans[n_plans, 0] = a_star
+                plans[n_plans, 1 : cnt[s] + 1] = ks[: cnt[s]]
+                n_plans += 1
+                # a new plan: its exact alpha-vector, kept unless a kept node has the same one
+                key = _vector(s, a_star, ks, PR, cnt, R_t, alpha_next, vec)
+                if _repeats(kept_alpha[s], keys, n, key, vec):
+                    continue
+                keys[n] = key
+                kept_action[s, n] = a_star
+                kept_succ[s, n, :] = -1
+                kept_succ[s, n, : cnt[s]] = ks[: cnt[s]]
+                kept_alpha[s, n] = vec
+                n += 1
+            count[s] = n
+    return gather_nodes(count, np.empty((S, 0), np.int64), kept_action, kept_succ, kept_alpha)
+
+
+@njit(cache=True, inline="always")
+def _values(s, PR, cnt, cls, scale, vc, R_t, Bt, total):  # pragma: no cover - compiled
+    """total[a, b] = b . R_t(s, a) + sum_r scale[s, a, r] vc[cls[s, a, r], b] into (A, nb) scratch."""
+    A, M = PR.shape[1], PR.shape[3]
+    nb = Bt.shape[1]
+    total[:] = 0.0
+    for a in range(A):
+        row = total[a]
+        for j in range(M):
+            rj = R_t[j, s, a]
+            Bj = Bt[j]
+            for b in range(nb):
+                row[b] += Bj[b] * rj
+        for r in range(cnt[s]):
+            c = cls[s, a, r]
+            if c < 0:
+                continue
+            lam = scale[s, a, r]
+            vrow = vc[c]
+            for b in range(nb):
+                row[b] += lam * vrow[b]
+
+
+@njit(cache=True, inline="always")
+def _winner(total, b):  # pragma: no cover - compiled
+    """The action of highest total[:, b], near-ties (``ACTION_RTOL``) to the lowest."""
+    A = total.shape[0]
+    top = total[0, b]
+    for a in range(1, A):
+        top = max(top, total[a, b])
+    a_star = 0
+    while total[a_star, b] < top - ACTION_RTOL * (1.0 + abs(top)):
+        a_star += 1
+    return a_star
+
+
+@njit(cache=True, inline="always")
+def _successors(s, b, a, nxt, cnt, cls, kc, offsets_next, ks):  # pragma: no cover - compiled
+    """Belief b's successor node per next state of (s, a) into ks (>= cnt[s],); returns a hash of the plan."""
+    h = a
+    for r in range(cnt[s]):
+        c = cls[s, a, r]
+        ks[r] = offsets_next[nxt[s, r]] if c < 0 else kc[c, b]
+        h = h * 1000003 + ks[r]
+    return h
+
+
+@njit(cache=True, inline="always")
+def _seen(plans, plan_hash, n_plans, h, a, ks, n_r):  # pragma: no cover - compiled
+    """Whether the plan (a, ks[:n_r]) is one of plans[:n_plans] (hashes compared first)."""
+    for u in range(n_plans):
+        if plan_hash[u] == h and plans[u, 0] == a:
+            same = True
+            for r in range(n_r):
+                if plans[u, r + 1] != ks[r]:
+                    same = False
+                    break
+            if same:
+                return True
+    return False
+
+
+@njit(cache=True, inline="always")
+def _vector(s, a, ks, PR, cnt, R_t, alpha_next, vec):  # pragma: no cover - compiled
+    """The plan's exact alpha-vector into vec (M,) (``backup_step_classes``'s sum, in its order);
+    returns ``_kernels.unique_nodes``'s key of it."""
+    M = vec.size
+    for j in range(M):
+        vec[j] = R_t[j, s, a]
+    for r in range(cnt[s]):
+        k = ks[r]
+        for j in range(M):
+            vec[j] += PR[s, a, r, j] * alpha_next[k, j]
+    key = 0.0
+    for j in range(M):
+        key += vec[j] * (1.0 + j / (M + 1.0))
+    return key
+
+
+@njit(cache=True, inline="always")
+def _repeats(kept, keys, n, key, vec):  # pragma: no cover - compiled
+    """Whether one of the n vectors kept[:n] (n, M) equals vec (keys compared first)."""
+    for u in range(n):
+        if keys[u] == key:
+            same = True
+            for j in range(vec.size):
+                if kept[u, j] != vec[j]:
+                    same = False
+                    break
+            if same:
+                return True
+    return False

@@ -281,7 +281,6 @@ def unique_nodes(action, succ, alpha):  # pragma: no cover - compiled
         node_state (n,), node_action (n,), node_succ (n, R), node_alpha (n, M), offsets (S+1,).
     """
     S, nb, M = alpha.shape
-    Rm = succ.shape[2]
     kept = np.empty((S, nb), np.int64)  # kept[s, :count[s]] the beliefs whose vectors are new
     keys = np.empty((S, nb))  # and their keys: equal for equal vectors, rarely for others
     count = np.empty(S, np.int64)
@@ -301,6 +300,24 @@ def unique_nodes(action, succ, alpha):  # pragma: no cover - compiled
                 keys[s, n] = key
                 n += 1
         count[s] = n
+    return gather_nodes(count, kept, action, succ, alpha)
+
+
+@njit(cache=True, parallel=True)
+def gather_nodes(count, kept, action, succ, alpha):  # pragma: no cover - compiled
+    """The nodes of one time step, stored flat and grouped by state, from the beliefs kept per state.
+
+    Args:
+        count: (S,) how many nodes each state keeps.
+        kept: (S, >= max count) the belief of each kept node (node i of state s is belief
+            kept[s, i]), or (S, 0): node i is belief i (the arrays below already hold only kept ones).
+        action: (S, nb); succ: (S, nb, R); alpha: (S, nb, M) per state and belief.
+
+    Returns:
+        node_state (n,), node_action (n,), node_succ (n, R), node_alpha (n, M), offsets (S+1,).
+    """
+    S, _, M = alpha.shape
+    Rm = succ.shape[2]
     offsets = np.empty(S + 1, np.int64)
     offsets[0] = 0
     for s in range(S):
@@ -313,7 +330,7 @@ def unique_nodes(action, succ, alpha):  # pragma: no cover - compiled
     for s in prange(S):
         for i in range(count[s]):
             u = offsets[s] + i
-            b = kept[s, i]
+            b = kept[s, i] if kept.shape[1] else i
             node_state[u] = s
             node_action[u] = action[s, b]
             for r in range(Rm):

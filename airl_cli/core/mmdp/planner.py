@@ -168,8 +168,7 @@ def pbvi_graph(
     for t in range(T - 2, -1, -1):
         R_t = np.ascontiguousarray(L.step[:, t])
         points = first if t == 0 else Bt
-        action, succ, alpha = _backup(dyn, classes, R_t, points, alphas[t + 1], offsets[t + 1])
-        states[t], actions[t], succs[t], alphas[t], offsets[t] = _kernels.unique_nodes(action, succ, alpha)
+        states[t], actions[t], succs[t], alphas[t], offsets[t] = _backup_nodes(dyn, classes, R_t, points, alphas[t + 1], offsets[t + 1])
         if progress is not None:
             progress(T - 1 - t, T - 1)
     start = _best_start_nodes(alphas[0], offsets[0], prior)
@@ -187,14 +186,17 @@ def _shared_columns(dyn: SparseDynamics) -> tuple | None:
     return (cls, dirs, cls_state, scale) if len(dirs) <= CLASS_SHARE * np.count_nonzero(cls >= 0) else None
 
 
-def _backup(dyn: SparseDynamics, classes: tuple | None, R_t, Bt, alpha_next, offsets_next):
-    """One backup step (Table III): (action (S, nb), succ (S, nb, R), alpha (S, nb, M)), see ``_kernels.backup_step``."""
+def _backup_nodes(dyn: SparseDynamics, classes: tuple | None, R_t, Bt, alpha_next, offsets_next):
+    """One backup step (Table III) at every belief, duplicate vectors removed: the nodes of one
+    time step, (state (n,), action (n,), succ (n, R), alpha (n, M), offsets (S+1,)), as
+    ``_kernels.unique_nodes`` returns them (with column classes in one compiled pass,
+    ``_column_kernels.backup_nodes_classes``)."""
     PR, nxt, cnt = dyn.model_axis_last(), dyn.next_states, dyn.count
     if classes is None:
-        return _kernels.backup_step(PR, nxt, cnt, R_t, Bt, alpha_next, offsets_next)
+        return _kernels.unique_nodes(*_kernels.backup_step(PR, nxt, cnt, R_t, Bt, alpha_next, offsets_next))
     cls, dirs, cls_state, scale = classes
     kc, vc = _column_kernels.class_successors(dirs, cls_state, Bt, alpha_next, offsets_next)
-    return _column_kernels.backup_step_classes(PR, nxt, cnt, cls, scale, kc, vc, R_t, Bt, alpha_next, offsets_next)
+    return _column_kernels.backup_nodes_classes(PR, nxt, cnt, cls, scale, kc, vc, R_t, Bt, alpha_next, offsets_next)
 
 
 def _best_start_nodes(alpha0: np.ndarray, offsets0: np.ndarray, prior: np.ndarray | None = None) -> np.ndarray:

@@ -144,3 +144,26 @@ def test_a_pbvi_solve_on_a_grid_is_the_same_with_and_without_classes(seed, monke
     for t in range(T):  # the same nodes per state, in the same order
         assert np.array_equal(with_classes.graph.offsets[t], per_column.graph.offsets[t])
         assert np.allclose(with_classes.graph.alpha[t], per_column.graph.alpha[t], rtol=1e-10, atol=1e-10)
+
+
+@pytest.mark.parametrize("kind", ["grid", "random"])
+@pytest.mark.parametrize("M, max_nodes", [(1, 4), (2, 2), (3, 6), (4, 3)])
+def test_the_one_pass_backup_keeps_the_same_nodes_as_backup_then_unique_nodes(kind, M, max_nodes):
+    """``backup_nodes_classes`` against ``unique_nodes(backup_step_classes(...))``: the same nodes,
+    order, actions, successors and alpha-vectors, bit for bit (max_nodes 2: one node per next
+    state, so many beliefs repeat a plan; a repeated belief row repeats one too)."""
+    rng = np.random.default_rng(20 + M)
+    P = slip_grid(4, M) if kind == "grid" else random_sparse(rng, 9, 3, M)
+    _, S, A, _ = P.shape
+    B, offsets, alpha_next, R_t = random_backup_inputs(rng, S, A, M, 12, max_nodes)
+    B[5] = B[2]
+    if M > 1:
+        alpha_next[1] = alpha_next[0] if offsets[1] - offsets[0] > 1 else alpha_next[1]  # two plans of one value
+    dyn = sparse_dynamics(P)
+    (action, succ, alpha), (kc, vc) = class_backup(dyn, R_t, B, alpha_next, offsets)
+    separate = _kernels.unique_nodes(action, succ, alpha)
+    cls, _, _, scale = dyn.column_classes
+    one_pass = _column_kernels.backup_nodes_classes(dyn.model_axis_last(), dyn.next_states, dyn.count, cls, scale, kc, vc, R_t, np.ascontiguousarray(B.T), alpha_next, offsets)
+    assert separate[0].size < S * 12  # some plans repeat
+    for x, y in zip(separate, one_pass):
+        assert x.dtype == y.dtype and np.array_equal(x, y)
