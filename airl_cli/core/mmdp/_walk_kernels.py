@@ -121,3 +121,17 @@ def forward_step(PR, nxt, cnt, mu, node_state, node_action, node_succ, n_next): 
                 if p != 0.0:
                     row[node_succ[k, r]] += m * p
     return out
+
+
+@njit(cache=True)
+def state_sums(mu, node_state, S):  # pragma: no cover - compiled
+    """(M, S) the probability of each state under each model from the node distribution mu (M, n)
+    and each node's state (n,): ``numpy.bincount(node_state, weights=mu[j], minlength=S)`` for
+    every j at once, summed in the same order (the same bits)."""
+    M, n = mu.shape
+    out = np.zeros((M, S))
+    for j in range(M):
+        row = out[j]
+        for k in range(n):
+            row[node_state[k]] += mu[j, k]
+    return out

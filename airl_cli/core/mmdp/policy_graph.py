@@ -110,8 +110,7 @@ class PolicyGraph:
         M, S = transitions.shape[0], transitions.shape[1]
         out = np.zeros((M, self.horizon, S))
         for t, mu in enumerate(self.walk(transitions, initial)):
-            for j in range(M):
-                out[j, t] = np.bincount(self.state[t], weights=mu[j], minlength=S)
+            out[:, t] = _walk_kernels.state_sums(mu, self.state[t], S)
         return out
 
     def aligned(self, transitions: np.ndarray | SparseDynamics) -> tuple["PolicyGraph", np.ndarray]:

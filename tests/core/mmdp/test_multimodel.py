@@ -366,3 +366,14 @@ def test_unique_nodes_keeps_the_first_of_each_distinct_vector_in_belief_order(se
     assert np.array_equal(nxt, np.concatenate([succ[s, k] for s, k in enumerate(kept)]))
     assert np.array_equal(alp, np.concatenate([alpha[s, k] for s, k in enumerate(kept)]))
     assert offsets[-1] < S * nb  # the case has duplicates
+
+
+def test_state_sums_are_numpy_s_bincount_per_model_bit_for_bit():
+    from airl_cli.core.mmdp._walk_kernels import state_sums
+
+    rng = np.random.default_rng(11)
+    for M, n, S in ((1, 1, 1), (3, 40, 7), (4, 500, 60)):
+        mu = rng.random((M, n)) * (rng.random((M, n)) < 0.6)  # zeros, as at nodes a model never reaches
+        node_state = np.sort(rng.integers(0, S, size=n))
+        ref = np.stack([np.bincount(node_state, weights=mu[j], minlength=S) for j in range(M)])
+        assert np.array_equal(state_sums(mu, node_state, S), ref)
