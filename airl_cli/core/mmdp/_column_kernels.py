@@ -24,7 +24,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-from airl_cli.core.mmdp._kernels import ACTION_RTOL, _scan, gather_nodes
+from airl_cli.core.mmdp._kernels import ACTION_RTOL, _same, _scan, gather_nodes, node_key
 
 #: Work is split into this many chunks over the threads, each with its scratch arrays allocated once.
 CHUNKS = 64
@@ -236,7 +236,7 @@ def _seen(plans, plan_hash, n_plans, h, a, ks, n_r):  # pragma: no cover - compi
 @njit(cache=True, inline="always")
 def _vector(s, a, ks, PR, cnt, R_t, alpha_next, vec):  # pragma: no cover - compiled
     """The plan's exact alpha-vector into vec (M,) (``backup_step_classes``'s sum, in its order);
-    returns ``_kernels.unique_nodes``'s key of it."""
+    returns its ``_kernels.node_key``."""
     M = vec.size
     for j in range(M):
         vec[j] = R_t[j, s, a]
@@ -244,22 +244,13 @@ def _vector(s, a, ks, PR, cnt, R_t, alpha_next, vec):  # pragma: no cover - comp
         k = ks[r]
         for j in range(M):
             vec[j] += PR[s, a, r, j] * alpha_next[k, j]
-    key = 0.0
-    for j in range(M):
-        key += vec[j] * (1.0 + j / (M + 1.0))
-    return key
+    return node_key(vec)
 
 
 @njit(cache=True, inline="always")
 def _repeats(kept, keys, n, key, vec):  # pragma: no cover - compiled
-    """Whether one of the n vectors kept[:n] (n, M) equals vec (keys compared first)."""
+    """Whether one of the n vectors kept[:n] (n, M) equals vec (their ``node_key``s compared first)."""
     for u in range(n):
-        if keys[u] == key:
-            same = True
-            for j in range(vec.size):
-                if kept[u, j] != vec[j]:
-                    same = False
-                    break
-            if same:
-                return True
+        if keys[u] == key and _same(kept[u], vec, vec.size):
+            return True
     return False

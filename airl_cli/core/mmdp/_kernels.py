@@ -287,9 +287,7 @@ def unique_nodes(action, succ, alpha):  # pragma: no cover - compiled
     for s in prange(S):
         n = 0
         for b in range(nb):
-            key = 0.0
-            for j in range(M):
-                key += alpha[s, b, j] * (1.0 + j / (M + 1.0))
+            key = node_key(alpha[s, b])
             dup = False
             for u in range(n):  # a scalar comparison first: most kept vectors differ in their key
                 if keys[s, u] == key and _same(alpha[s, b], alpha[s, kept[s, u]], M):
@@ -338,6 +336,17 @@ def gather_nodes(count, kept, action, succ, alpha):  # pragma: no cover - compil
             for j in range(M):
                 node_alpha[u, j] = alpha[s, b, j]
     return node_state, node_action, node_succ, node_alpha, offsets
+
+
+@njit(cache=True, inline="always")
+def node_key(vec):  # pragma: no cover - compiled
+    """A scalar of the alpha-vector vec (M,): equal for equal vectors, rarely for others, so that
+    finding a repeated vector compares one number before M."""
+    M = vec.size
+    key = 0.0
+    for j in range(M):
+        key += vec[j] * (1.0 + j / (M + 1.0))
+    return key
 
 
 @njit(cache=True)

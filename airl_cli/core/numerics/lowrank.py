@@ -47,10 +47,20 @@ def factor(L: np.ndarray, *, rtol: float = 1e-12) -> Factors | None:
     trace = float(np.trace(L))
     off_mean = (float(L.sum()) - trace) / (S * (S - 1))
     for shift in dict.fromkeys((0.0, trace / S - off_mean)):  # the second only if it differs
-        found = _low_rank(L - shift * np.eye(S) if shift else L, rtol * top)
+        found = _low_rank(_shifted(L, shift), rtol * top)
         if found is not None:
             return Factors(*found, shift)
     return None
+
+
+def _shifted(L: np.ndarray, shift: float) -> np.ndarray:
+    """L - shift I (S, S): L itself when shift is 0, else one copy (at S = 16,384 an (S, S) array
+    is 2 GB; ``L - shift * np.eye(S)`` made three)."""
+    if not shift:
+        return L
+    out = L.copy()
+    out[np.diag_indices_from(out)] -= shift
+    return out
 
 
 def _low_rank(L: np.ndarray, atol: float) -> tuple[np.ndarray, np.ndarray] | None:
@@ -63,7 +73,9 @@ def _low_rank(L: np.ndarray, atol: float) -> tuple[np.ndarray, np.ndarray] | Non
         return None
     Q = np.ascontiguousarray(U[:, :r])
     B = Q.T @ L
-    if np.max(np.abs(Q @ B - L)) > atol:
+    error = Q @ B  # |Q B - L| in place: one (S, S) array, not three
+    error -= L
+    if np.max(np.abs(error, out=error)) > atol:
         return None
     return Q, np.ascontiguousarray(B)
 
