@@ -82,9 +82,9 @@ def first_strategies(sets: StrategySets, targets: np.ndarray, oracle: AdversaryO
     """The first strategies: the learner plays the optimal policy under tau of the demonstrations'
     mean features, the adversary its best response to that at w = 0 (the first upper bound, at w = 0)."""
     problem = sets.problem
-    P, p0, T = problem.transitions, problem.initial, problem.horizon
-    policy, _ = backward_induction(P[0], problem.features @ targets.mean(axis=0), horizon=T)
-    sets.add_learner(policy, state_marginals(P[0], policy, p0))
+    p0, T = problem.initial, problem.horizon
+    policy, _ = backward_induction(problem.tau, problem.features @ targets.mean(axis=0), horizon=T)
+    sets.add_learner(policy, state_marginals(problem.tau, policy, p0))
     rewards = adversary_rewards(problem, sets.learner_marginals[0], np.zeros(targets.shape))
     value, marginals = oracle(rewards)
     sets.add_adversary(marginals)
@@ -99,7 +99,7 @@ def learner_side(sets: StrategySets, q: np.ndarray, C: np.ndarray, lam: float, t
     T, S = problem.horizon, problem.transitions.shape[1]
     q_tau = q @ sets.adversary_tau
     br_policy = learner_best_policy(problem, q_tau.reshape(T, S))
-    br = state_marginals(problem.transitions[0], br_policy, problem.initial)
+    br = state_marginals(problem.tau, br_policy, problem.initial)
     br_loss = float(problem.loss_times(br).reshape(-1) @ q_tau)
     g = q @ sets.qp.Phi - C
     run.lower = max(run.lower, br_loss - float(g @ g) / (2.0 * lam))

@@ -150,13 +150,13 @@ def learner_best_policy(problem: GameProblem, adversary_tau: np.ndarray) -> np.n
         (T-1, S) the deterministic Markov policy, action per (time step, state).
     """
     R = -problem.loss_times_transposed(adversary_tau)
-    policy, _ = backward_induction(problem.transitions[0], R)
+    policy, _ = backward_induction(problem.tau, R)
     return policy
 
 
 def learner_best_response(problem: GameProblem, adversary_tau: np.ndarray) -> np.ndarray:
     """``learner_best_policy``'s state marginals (T, S) under tau."""
-    return state_marginals(problem.transitions[0], learner_best_policy(problem, adversary_tau), problem.initial)
+    return state_marginals(problem.tau, learner_best_policy(problem, adversary_tau), problem.initial)
 
 
 def adversary_rewards(problem: GameProblem, learner_tau: np.ndarray, w: np.ndarray) -> np.ndarray:
@@ -260,8 +260,8 @@ def double_oracle(
     game.set_weights(w)
     calls = 0
     if game.sizes[0] == 0:
-        policy, _ = backward_induction(problem.transitions[0], problem.features @ game.w.mean(axis=0), horizon=problem.horizon)
-        game.add_learner(policy, state_marginals(problem.transitions[0], policy, problem.initial))
+        policy, _ = backward_induction(problem.tau, problem.features @ game.w.mean(axis=0), horizon=problem.horizon)
+        game.add_learner(policy, state_marginals(problem.tau, policy, problem.initial))
     if game.sizes[1] == 0:
         _, marginals = oracle(adversary_rewards(problem, game.learner_marginals.mean(axis=0), game.w))
         calls += 1
@@ -277,7 +277,7 @@ def double_oracle(
         tol = threshold * (1.0 + abs(v))
         # the learner's best response to the adversary's mixture (cheap)
         l_policy = learner_best_policy(problem, (q @ game.adversary_tau).reshape(T, S))
-        l_marg = state_marginals(problem.transitions[0], l_policy, problem.initial)
+        l_marg = state_marginals(problem.tau, l_policy, problem.initial)
         l_row = game.learner_row(l_marg) @ game.adversary_tau.T
         v_learner = float((l_row + game.feature_part()) @ q)
         # a strategy already in the game cannot lower its value: a gap then is the LP's tolerance

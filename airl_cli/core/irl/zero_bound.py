@@ -40,7 +40,7 @@ def best_at_zero(problem: GameProblem, rewards_tau: np.ndarray) -> tuple[float, 
     Returns:
         (value, policy (T-1, S)): its payoff sum_t R_0(t) . p_check(t), and the policy.
     """
-    policy, V = backward_induction(problem.transitions[0], rewards_tau)
+    policy, V = backward_induction(problem.tau, rewards_tau)
     return float(problem.initial @ V[0]), policy
 
 
@@ -90,7 +90,7 @@ class ZeroBound:
             learner_tau = np.tensordot(sol.row, game.learner_marginals, axes=1)
             q_tau = sol.col @ game.adversary_tau
             policy = learner_best_policy(problem, q_tau.reshape(T, S))
-            marginals = state_marginals(problem.transitions[0], policy, problem.initial)
+            marginals = state_marginals(problem.tau, policy, problem.initial)
             self.lower = max(self.lower, float(game.learner_row(marginals) @ q_tau))
             if not is_known(game.learner_marginals, marginals):
                 game.add_learner(policy, marginals)

@@ -178,3 +178,25 @@ def test_double_oracle_never_adds_a_strategy_it_already_has(threshold):
     assert len(np.unique(np.round(flat, 12), axis=0)) == game.sizes[0]
     reference = double_oracle(RestrictedGame(problem), w, pbvi_oracle(problem), threshold=1e-10, max_iterations=300)
     assert result.value == pytest.approx(reference.value, rel=1e-7, abs=1e-9)
+
+
+def test_the_learner_plans_a_grid_over_its_reachable_next_states():
+    """GameProblem.tau: a grid's tau (five next states of 36) is planned sparse, with the dense
+    plan's policy and marginals; a dense random MDP's tau stays the dense array."""
+    from airl_cli.core.irl.game import learner_best_policy
+    from airl_cli.core.mdp.objectworld import slip_dynamics
+    from airl_cli.core.mdp.planning import backward_induction
+    from airl_cli.core.mdp.sparse import SparseModel
+
+    rng = np.random.default_rng(3)
+    P = np.stack([slip_dynamics(6, slip) for slip in (0.0, 0.2)])
+    S, T = P.shape[1], 7
+    problem = GameProblem(P, rng.random((S, 2)), rng.dirichlet(np.ones(S)), 1.0 - np.eye(S), T)
+    assert isinstance(problem.tau, SparseModel) and problem.tau.next_states.shape[1] == 5
+    adversary_tau = rng.dirichlet(np.ones(S), size=T)
+    dense_policy, _ = backward_induction(P[0], -problem.loss_times_transposed(adversary_tau))
+    policy = learner_best_policy(problem, adversary_tau)
+    np.testing.assert_array_equal(policy, dense_policy)
+    np.testing.assert_allclose(state_marginals(problem.tau, policy, problem.initial), state_marginals(P[0], policy, problem.initial), atol=1e-14)
+    dense_problem, _ = tiny_game(S=6)
+    assert isinstance(dense_problem.tau, np.ndarray) and dense_problem.tau.shape == (6, 2, 6)
