@@ -103,7 +103,7 @@ def learner_side(sets: StrategySets, q: np.ndarray, C: np.ndarray, lam: float, t
     br_loss = float(problem.loss_times(br).reshape(-1) @ q_tau)
     g = q @ sets.qp.Phi - C
     run.lower = max(run.lower, br_loss - float(g @ g) / (2.0 * lam))
-    gap_l = float(np.min(sets.learner_loss @ q_tau)) - br_loss
+    gap_l = float(np.min(sets.qp.L @ q)) - br_loss  # L q = learner_loss @ q_tau, from the (n, m) matrix
     if gap_l > tiny:
         sets.add_learner(br_policy, br)
     return gap_l

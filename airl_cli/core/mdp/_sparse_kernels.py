@@ -11,43 +11,61 @@ form took 4 ms a call, a sixth of the fit. Layouts as in ``core.sparse.SparseMod
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
 
-@njit(cache=True)
+#: From this many states on, a step's states are backed up on every thread (below, launching the
+#: threads costs more than it saves: 0.27 against 0.06 ms a call at S = 64, 2.2 against 3.5 at 4,096).
+PARALLEL_STATES = 1024
+
+
+@njit(cache=True, parallel=True)
 def backward_induction(nxt, probs, R, sign, rtol):  # pragma: no cover - compiled
     """Q[t, s, a] = R[t, s] + sum_r probs[s, a, r] V[t+1, nxt[s, r]] (eq. 2.6) and the action
     maximising sign * Q, near-ties within ``rtol`` (relative) to the lowest (``basics.argmax_lowest``).
+    From ``PARALLEL_STATES`` states on, the states of a step are backed up in parallel (numba
+    threads): each one's sums are the same as on one thread, so the answer is the same bits.
 
     Args: nxt (S, R) int64; probs (S, A, R); R (T, S) rewards; sign: 1.0 for the best policy,
     -1.0 for the worst; rtol: the tie tolerance.
 
     Returns: policy (T-1, S) int64 and values V (T, S).
     """
-    S, A, Rm = probs.shape
+    S, A, _ = probs.shape
     T = R.shape[0]
     V = np.empty((T, S))
     policy = np.empty((max(T - 1, 0), S), np.int64)
     V[T - 1] = R[T - 1]
-    Q = np.empty(A)
     for t in range(T - 2, -1, -1):
-        Vn = V[t + 1]
-        for s in range(S):
-            for a in range(A):
-                acc = 0.0
-                for r in range(Rm):
-                    acc += probs[s, a, r] * Vn[nxt[s, r]]
-                Q[a] = R[t, s] + acc
-            best = sign * Q[0]
-            for a in range(1, A):
-                best = max(best, sign * Q[a])
-            cut = best - rtol * (1.0 + abs(best))
-            a_star = 0
-            while a_star < A - 1 and sign * Q[a_star] < cut:
-                a_star += 1
-            policy[t, s] = a_star
-            V[t, s] = Q[a_star]
+        if S >= PARALLEL_STATES:
+            for chunk in prange(16):
+                _back_up(nxt, probs, R, sign, rtol, t, chunk * S // 16, (chunk + 1) * S // 16, V, policy)
+        else:
+            _back_up(nxt, probs, R, sign, rtol, t, 0, S, V, policy)
     return policy, V
+
+
+@njit(cache=True, inline="always")
+def _back_up(nxt, probs, R, sign, rtol, t, s0, s1, V, policy):  # pragma: no cover - compiled
+    """``backward_induction``'s step t for the states s0 <= s < s1, into V[t] and policy[t]."""
+    A, Rm = probs.shape[1], probs.shape[2]
+    Vn = V[t + 1]
+    Q = np.empty(A)
+    for s in range(s0, s1):
+        for a in range(A):
+            acc = 0.0
+            for r in range(Rm):
+                acc += probs[s, a, r] * Vn[nxt[s, r]]
+            Q[a] = R[t, s] + acc
+        best = sign * Q[0]
+        for a in range(1, A):
+            best = max(best, sign * Q[a])
+        cut = best - rtol * (1.0 + abs(best))
+        a_star = 0
+        while a_star < A - 1 and sign * Q[a_star] < cut:
+            a_star += 1
+        policy[t, s] = a_star
+        V[t, s] = Q[a_star]
 
 
 @njit(cache=True)

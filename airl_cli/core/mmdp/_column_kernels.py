@@ -89,19 +89,19 @@ def backup_step_classes(PR, nxt, cnt, cls, scale, kc, vc, R_t, Bt, alpha_next, o
     succ = np.full((S, nb, Rm), -1, np.int64)
     alpha = np.empty((S, nb, M))
     for chunk in prange(CHUNKS):
-        total = np.empty((A, nb))
+        total, base = np.empty((A, nb)), np.empty(nb)
         for s in range(chunk * S // CHUNKS, (chunk + 1) * S // CHUNKS):
-            _backup_state(s, PR, nxt, cnt, cls, scale, kc, vc, R_t, Bt, alpha_next, offsets_next, total, action, succ, alpha)
+            _backup_state(s, PR, nxt, cnt, cls, scale, kc, vc, R_t, Bt, alpha_next, offsets_next, total, base, action, succ, alpha)
     return action, succ, alpha
 
 
 @njit(cache=True)
-def _backup_state(s, PR, nxt, cnt, cls, scale, kc, vc, R_t, Bt, alpha_next, offsets_next, total, action, succ, alpha):  # pragma: no cover
-    """The backup of ``backup_step_classes`` for one state s, with ``total`` (A, nb) as scratch."""
+def _backup_state(s, PR, nxt, cnt, cls, scale, kc, vc, R_t, Bt, alpha_next, offsets_next, total, base, action, succ, alpha):  # pragma: no cover
+    """The backup of ``backup_step_classes`` for one state s, with ``total`` (A, nb) and ``base`` (nb,) as scratch."""
     M = PR.shape[3]
     nb = Bt.shape[1]
     n_r = cnt[s]
-    _values(s, PR, cnt, cls, scale, vc, R_t, Bt, total)
+    _values(s, PR, cnt, cls, scale, vc, R_t, Bt, total, base)
     for b in range(nb):
         a_star = _winner(total, b)
         action[s, b] = a_star
@@ -116,7 +116,7 @@ def _backup_state(s, PR, nxt, cnt, cls, scale, kc, vc, R_t, Bt, alpha_next, offs
 
 
 @njit(cache=True, parallel=True)
-def backup_nodes_classes(PR, nxt, cnt, cls, scale, kc, vc, R_t, Bt, alpha_next, offsets_next):  # pragma: no cover - compiled
+def backup_nodes_classes(PR, nxt, cnt, cls, scale, kc, vc, R_t, Bt, alpha_next, offsets_next, pack=True):  # pragma: no cover - compiled
     """``_kernels.unique_nodes(*backup_step_classes(...))`` in one pass, bit for bit: the same nodes
     in the same order (the first belief of each distinct alpha-vector per state).
 
@@ -124,9 +124,12 @@ def backup_nodes_classes(PR, nxt, cnt, cls, scale, kc, vc, R_t, Bt, alpha_next, 
     at the same state has that belief's alpha-vector, so only a new plan's vector is summed and
     compared; on a zero-one fit's grid about ten of a state's 67 beliefs have new plans. Nothing
     is written for the others (the two-pass form wrote every belief's successors and vector): a
-    step on a 32 x 32 grid 2.7 -> 1.6 ms.
+    step on a 32 x 32 grid 2.7 -> 1.6 ms. A plan is keyed by its action and each successor's place
+    among its state's nodes, packed into one integer when they fit (``_plan_bits``; then equal
+    keys are equal plans), else hashed and compared; rewards that do not depend on the action
+    (state rewards) are weighted by the beliefs once per state, not once per action.
 
-    Args: as ``backup_step_classes``.
+    Args: as ``backup_step_classes``; pack: False hashes every plan key (the tests' switch).
 
     Returns:
         node_state (n,), node_action (n,), node_succ (n, R) (-1 on the padding), node_alpha (n, M),
@@ -134,28 +137,43 @@ def backup_nodes_classes(PR, nxt, cnt, cls, scale, kc, vc, R_t, Bt, alpha_next, 
     """
     S, A, Rm, M = PR.shape
     nb = Bt.shape[1]
+    bits = _plan_bits(offsets_next, A, Rm) if pack else 0
     kept_action = np.empty((S, nb), np.int64)
     kept_succ = np.empty((S, nb, Rm), np.int64)
     kept_alpha = np.empty((S, nb, M))
     count = np.empty(S, np.int64)
     for chunk in prange(CHUNKS):
-        total = np.empty((A, nb))
-        plans = np.empty((nb, Rm + 1), np.int64)  # the distinct plans of this state: action, successors
-        plan_hash = np.empty(nb, np.int64)
+        total, top, astar = np.empty((A, nb)), np.empty(nb), np.empty(nb, np.int64)
+        base = np.empty(nb)
+        plans = np.empty((nb, Rm + 1), np.int64)  # the distinct plans of this state (hashed keys only)
+        plan_key, key_a = np.empty(nb, np.int64), np.empty((A, nb), np.int64)
         keys = np.empty(nb)
+        first = np.empty(Rm, np.int64)
         ks = np.empty(Rm, np.int64)
         vec = np.empty(M)
         for s in range(chunk * S // CHUNKS, (chunk + 1) * S // CHUNKS):
-            _values(s, PR, cnt, cls, scale, vc, R_t, Bt, total)
+            n_r = cnt[s]
+            for r in range(n_r):
+                first[r] = offsets_next[nxt[s, r]]
+            _values(s, PR, cnt, cls, scale, vc, R_t, Bt, total, base)
+            _winners(total, top, astar)
+            if bits > 0:
+                _packed_keys(s, n_r, cls, kc, first, bits, key_a)
             n_plans = n = 0
             for b in range(nb):
-                a_star = _winner(total, b)
-                h = _successors(s, b, a_star, nxt, cnt, cls, kc, offsets_next, ks)
-                if _seen(plans, plan_hash, n_plans, h, a_star, ks, cnt[s]):
-                    continue
-                plan_hash[n_plans] = h
-                plans[n_plans, 0] = a_star
-                plans[n_plans, 1 : cnt[s] + 1] = ks[: cnt[s]]
+                a_star = astar[b]
+                if bits > 0:  # a packed key is the plan: its successors are looked up only if it is new
+                    key_p = key_a[a_star, b]
+                    if _seen(plans, plan_key, n_plans, key_p, a_star, ks, n_r, True):
+                        continue
+                    _successors(s, b, a_star, n_r, cls, kc, first, bits, ks)
+                else:
+                    key_p = _successors(s, b, a_star, n_r, cls, kc, first, bits, ks)
+                    if _seen(plans, plan_key, n_plans, key_p, a_star, ks, n_r, False):
+                        continue
+                    plans[n_plans, 0] = a_star
+                    plans[n_plans, 1 : n_r + 1] = ks[:n_r]
+                plan_key[n_plans] = key_p
                 n_plans += 1
                 # a new plan: its exact alpha-vector, kept unless a kept node has the same one
                 key = _vector(s, a_star, ks, PR, cnt, R_t, alpha_next, vec)
@@ -164,7 +182,7 @@ def backup_nodes_classes(PR, nxt, cnt, cls, scale, kc, vc, R_t, Bt, alpha_next, 
                 keys[n] = key
                 kept_action[s, n] = a_star
                 kept_succ[s, n, :] = -1
-                kept_succ[s, n, : cnt[s]] = ks[: cnt[s]]
+                kept_succ[s, n, :n_r] = ks[:n_r]
                 kept_alpha[s, n] = vec
                 n += 1
             count[s] = n
@@ -172,18 +190,76 @@ def backup_nodes_classes(PR, nxt, cnt, cls, scale, kc, vc, R_t, Bt, alpha_next, 
 
 
 @njit(cache=True, inline="always")
-def _values(s, PR, cnt, cls, scale, vc, R_t, Bt, total):  # pragma: no cover - compiled
-    """total[a, b] = b . R_t(s, a) + sum_r scale[s, a, r] vc[cls[s, a, r], b] into (A, nb) scratch."""
+def _winners(total, top, astar):  # pragma: no cover - compiled
+    """astar[b] = the action of highest total[:, b] (A, nb), near-ties (``ACTION_RTOL``) to the
+    lowest, for every belief b at once (loops over beliefs that vectorise); ``top`` (nb,) is scratch."""
+    A, nb = total.shape
+    top[:] = total[0]
+    for a in range(1, A):
+        row = total[a]
+        for b in range(nb):
+            top[b] = max(top[b], row[b])
+    for b in range(nb):
+        top[b] -= ACTION_RTOL * (1.0 + abs(top[b]))
+        astar[b] = A - 1
+    for a in range(A - 2, -1, -1):
+        row = total[a]
+        for b in range(nb):
+            astar[b] = a if row[b] >= top[b] else astar[b]
+
+
+@njit(cache=True, inline="always")
+def _packed_keys(s, n_r, cls, kc, first, bits, key_a):  # pragma: no cover - compiled
+    """key_a[a, b] (A, nb): the packed key of the plan of action a at belief b (``_successors``'s),
+    for every action and belief at once (loops over beliefs that vectorise)."""
+    A, nb = key_a.shape
+    for a in range(A):
+        row = key_a[a]
+        row[:] = a
+        for r in range(n_r):
+            c = cls[s, a, r]
+            if c < 0:
+                for b in range(nb):
+                    row[b] = row[b] << bits
+            else:
+                f, succ = first[r], kc[c]
+                for b in range(nb):
+                    row[b] = (row[b] << bits) | (succ[b] - f)
+
+
+@njit(cache=True)
+def _plan_bits(offsets_next, A, Rm):  # pragma: no cover - compiled
+    """The bits per successor of a packed plan key (an action, then each successor's place among its
+    state's nodes at t+1), or 0 when a plan of Rm successors does not fit in 62 bits."""
+    most = 1
+    for s in range(offsets_next.size - 1):
+        most = max(most, offsets_next[s + 1] - offsets_next[s])
+    bits, a_bits = 1, 1
+    while (1 << bits) < most:
+        bits += 1
+    while (1 << a_bits) < A:
+        a_bits += 1
+    return bits if a_bits + Rm * bits <= 62 else 0
+
+
+@njit(cache=True, inline="always")
+def _values(s, PR, cnt, cls, scale, vc, R_t, Bt, total, base):  # pragma: no cover - compiled
+    """total[a, b] = b . R_t(s, a) + sum_r scale[s, a, r] vc[cls[s, a, r], b] into (A, nb) scratch;
+    b . R_t(s, a) once into ``base`` (nb,) when R_t(s, a) is the same for every a (the same sums)."""
     A, M = PR.shape[1], PR.shape[3]
     nb = Bt.shape[1]
-    total[:] = 0.0
+    same = True
+    for a in range(1, A):
+        for j in range(M):
+            same = same and R_t[j, s, a] == R_t[j, s, 0]
+    if same:
+        _weighted(Bt, R_t, s, 0, base)
     for a in range(A):
         row = total[a]
-        for j in range(M):
-            rj = R_t[j, s, a]
-            Bj = Bt[j]
-            for b in range(nb):
-                row[b] += Bj[b] * rj
+        if same:
+            row[:] = base
+        else:
+            _weighted(Bt, R_t, s, a, row)
         for r in range(cnt[s]):
             c = cls[s, a, r]
             if c < 0:
@@ -192,6 +268,17 @@ def _values(s, PR, cnt, cls, scale, vc, R_t, Bt, total):  # pragma: no cover - c
             vrow = vc[c]
             for b in range(nb):
                 row[b] += lam * vrow[b]
+
+
+@njit(cache=True, inline="always")
+def _weighted(Bt, R_t, s, a, out):  # pragma: no cover - compiled
+    """out[b] = sum_j Bt[j, b] R_t[j, s, a], summed over j in order from 0."""
+    out[:] = 0.0
+    for j in range(Bt.shape[0]):
+        rj = R_t[j, s, a]
+        Bj = Bt[j]
+        for b in range(out.size):
+            out[b] += Bj[b] * rj
 
 
 @njit(cache=True, inline="always")
@@ -208,26 +295,30 @@ def _winner(total, b):  # pragma: no cover - compiled
 
 
 @njit(cache=True, inline="always")
-def _successors(s, b, a, nxt, cnt, cls, kc, offsets_next, ks):  # pragma: no cover - compiled
-    """Belief b's successor node per next state of (s, a) into ks (>= cnt[s],); returns a hash of the plan."""
+def _successors(s, b, a, n_r, cls, kc, first, bits, ks):  # pragma: no cover - compiled
+    """Belief b's successor node per next state of (s, a) into ks (>= n_r,) (``first[r]``, the
+    first node of next state r, where the column is zero); returns the plan's key: packed
+    (``bits`` > 0, equal keys for equal plans only) or a hash (``bits`` = 0)."""
     h = a
-    for r in range(cnt[s]):
+    for r in range(n_r):
         c = cls[s, a, r]
-        ks[r] = offsets_next[nxt[s, r]] if c < 0 else kc[c, b]
-        h = h * 1000003 + ks[r]
+        k = first[r] if c < 0 else kc[c, b]
+        ks[r] = k
+        h = (h << bits) | (k - first[r]) if bits > 0 else h * 1000003 + k
     return h
 
 
 @njit(cache=True, inline="always")
-def _seen(plans, plan_hash, n_plans, h, a, ks, n_r):  # pragma: no cover - compiled
-    """Whether the plan (a, ks[:n_r]) is one of plans[:n_plans] (hashes compared first)."""
+def _seen(plans, plan_key, n_plans, h, a, ks, n_r, exact):  # pragma: no cover - compiled
+    """Whether the plan (a, ks[:n_r]) of key h is one of the n_plans before: its key among theirs,
+    then (unless the keys are ``exact``) its action and successors compared with ``plans``."""
     for u in range(n_plans):
-        if plan_hash[u] == h and plans[u, 0] == a:
-            same = True
+        if plan_key[u] == h:
+            if exact:
+                return True
+            same = plans[u, 0] == a
             for r in range(n_r):
-                if plans[u, r + 1] != ks[r]:
-                    same = False
-                    break
+                same = same and plans[u, r + 1] == ks[r]
             if same:
                 return True
     return False

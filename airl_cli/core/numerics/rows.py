@@ -38,10 +38,16 @@ class Rows:
         self._n += 1
 
     def keep(self, index: np.ndarray) -> None:
-        """Keep only the rows ``index`` (sorted, unique), in that order."""
-        kept = self._buffer[np.asarray(index, dtype=np.int64)]
-        self._n = len(kept)
-        self._buffer[: self._n] = kept
+        """Keep only the rows ``index`` (sorted, unique), in that order.
+
+        Only the rows that move are copied, one by one in place (row i takes row index[i] >= i,
+        which no earlier step has overwritten): keeping every row copies nothing, where a gather
+        copied the whole stack twice (360 MB of adversary marginals on a 64 x 64 grid, each prune).
+        """
+        index = np.asarray(index, dtype=np.int64)
+        for i in np.flatnonzero(index != np.arange(index.size)):
+            self._buffer[i] = self._buffer[index[i]]
+        self._n = index.size
 
 
 class Matrix:

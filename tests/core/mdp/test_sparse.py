@@ -287,3 +287,21 @@ def test_planning_on_a_sparse_model_matches_plain_loops_with_ties(seed):
         for t in range(5):
             ref_d.append(sum(ref_d[-1][s] * P[s, policy[t, s]] for s in range(9)))
         assert np.allclose(d, np.array(ref_d), rtol=1e-13, atol=1e-14) and np.allclose(d.sum(axis=1), 1.0)
+
+
+def test_planning_a_large_sparse_model_on_every_thread_matches_the_dense_plan():
+    """From ``_sparse_kernels.PARALLEL_STATES`` states on the backup runs in parallel: a 32 x 32 grid
+    (walls make actions tie) against numpy's dense backward induction, maximising and minimising."""
+    from airl_cli.core.mdp import _sparse_kernels
+    from airl_cli.core.mdp.objectworld import slip_dynamics
+    from airl_cli.core.mdp.planning import backward_induction
+
+    P = slip_dynamics(32, 0.1)
+    assert P.shape[0] >= _sparse_kernels.PARALLEL_STATES
+    model = sparse_dynamics(P[None])[0]
+    R = np.random.default_rng(4).random((7, P.shape[0]))
+    for maximize in (True, False):
+        policy, V = backward_induction(model, R, maximize=maximize)
+        ref_policy, ref_V = backward_induction(P, R, maximize=maximize)
+        assert np.array_equal(policy, ref_policy)
+        assert np.allclose(V, ref_V, rtol=1e-13, atol=1e-13)

@@ -148,14 +148,18 @@ def test_a_pbvi_solve_on_a_grid_is_the_same_with_and_without_classes(seed, monke
 
 @pytest.mark.parametrize("kind", ["grid", "random"])
 @pytest.mark.parametrize("M, max_nodes", [(1, 4), (2, 2), (3, 6), (4, 3)])
-def test_the_one_pass_backup_keeps_the_same_nodes_as_backup_then_unique_nodes(kind, M, max_nodes):
+@pytest.mark.parametrize("state_rewards, pack", [(False, True), (True, True), (True, False)])
+def test_the_one_pass_backup_keeps_the_same_nodes_as_backup_then_unique_nodes(kind, M, max_nodes, state_rewards, pack):
     """``backup_nodes_classes`` against ``unique_nodes(backup_step_classes(...))``: the same nodes,
     order, actions, successors and alpha-vectors, bit for bit (max_nodes 2: one node per next
-    state, so many beliefs repeat a plan; a repeated belief row repeats one too)."""
+    state, so many beliefs repeat a plan; a repeated belief row repeats one too), with rewards
+    that depend on the action or not, plan keys packed or hashed."""
     rng = np.random.default_rng(20 + M)
     P = slip_grid(4, M) if kind == "grid" else random_sparse(rng, 9, 3, M)
     _, S, A, _ = P.shape
     B, offsets, alpha_next, R_t = random_backup_inputs(rng, S, A, M, 12, max_nodes)
+    if state_rewards:
+        R_t = np.ascontiguousarray(np.repeat(R_t[:, :, :1], A, axis=2))
     B[5] = B[2]
     if M > 1:
         alpha_next[1] = alpha_next[0] if offsets[1] - offsets[0] > 1 else alpha_next[1]  # two plans of one value
@@ -163,7 +167,16 @@ def test_the_one_pass_backup_keeps_the_same_nodes_as_backup_then_unique_nodes(ki
     (action, succ, alpha), (kc, vc) = class_backup(dyn, R_t, B, alpha_next, offsets)
     separate = _kernels.unique_nodes(action, succ, alpha)
     cls, _, _, scale = dyn.column_classes
-    one_pass = _column_kernels.backup_nodes_classes(dyn.model_axis_last(), dyn.next_states, dyn.count, cls, scale, kc, vc, R_t, np.ascontiguousarray(B.T), alpha_next, offsets)
+    one_pass = _column_kernels.backup_nodes_classes(dyn.model_axis_last(), dyn.next_states, dyn.count, cls, scale, kc, vc, R_t, np.ascontiguousarray(B.T), alpha_next, offsets, pack)
     assert separate[0].size < S * 12  # some plans repeat
     for x, y in zip(separate, one_pass):
         assert x.dtype == y.dtype and np.array_equal(x, y)
+
+
+def test_plan_keys_are_packed_while_they_fit_in_62_bits():
+    """A successor's place among up to 2^b nodes takes b bits; with A = 5 (3 bits) and R next states."""
+    offsets = np.array([0, 3, 4, 12])  # at most 8 nodes a state: 3 bits
+    assert _column_kernels._plan_bits(offsets, 5, 5) == 3
+    assert _column_kernels._plan_bits(offsets, 5, 19) == 3  # 3 + 57 bits
+    assert _column_kernels._plan_bits(offsets, 5, 20) == 0  # 63 bits: hashed
+    assert _column_kernels._plan_bits(np.array([0, 1, 2]), 2, 61) == 1
