@@ -15,6 +15,7 @@ import typer
 from typer.core import TyperCommand
 
 from airl_cli.errors import AirlError, refuse, stop_on_sigterm
+from airl_cli.heap import keep_heap_slack
 from airl_cli.launch import check_group_choices, check_keys, config_groups, run_hydra
 from airl_cli.methods import NAMES
 
@@ -261,6 +262,7 @@ def inspect(path: str = typer.Argument(..., help="A dataset file (.npz) of the s
 def main() -> None:
     """Console-script entry point."""
     stop_on_sigterm()  # kill PID stops a run as Ctrl-C does: one sentence, no half run folder
+    keep_heap_slack()  # a fit's per-step arrays reuse freed pages (airl_cli.heap)
     try:
         app()
     finally:

@@ -78,7 +78,7 @@ LAYERS = (
     ("core.mdp", "core.mdp core.mdp.*"),
     ("core.mmdp", "core.mmdp core.mmdp.*"),
     ("core.irl", "core.irl core.irl.*"),
-    ("base", "alpha_values errors paths overrides problem_defaults io io.* plain_progress compose_memo hydra_internals config_reader sweep.spec methods variants transfer claims multimodel airl_cli conf conf.*"),
+    ("base", "alpha_values errors heap paths overrides problem_defaults io io.* plain_progress compose_memo hydra_internals config_reader sweep.spec methods variants transfer claims multimodel airl_cli conf conf.*"),
     ("settings", "config demo_settings dynamics_settings envs own_envs"),
     ("use cases", "usecases usecases.* plotting plotting.*"),
     ("jobs", "jobs jobs.common jobs.fit jobs.generate jobs.inspect jobs.plan api"),

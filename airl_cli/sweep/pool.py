@@ -33,6 +33,8 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
+from airl_cli.heap import keep_heap_slack
+
 #: The environment variable that tells a sweep's jobs which process launched them ("host:pid").
 PARENT_ENV = "AIRL_SWEEP_PARENT"
 #: The environment variable that tells a sweep's jobs how many threads each may use (the cores
@@ -96,6 +98,7 @@ def _warm(preload: tuple[str, ...]) -> None:
     """A new worker imports the job's code (``preload``: numpy, scipy, pandas, the compiled kernels)
     at once, and stops when the sweep process dies, even before its first job (``watch_parent``)."""
     watch_parent()
+    keep_heap_slack()  # as the command line does (airl_cli.heap)
     for module in preload:
         importlib.import_module(module)
     gc.freeze()  # what the imports made is never collected: faster collections, and exit in 0.03 s, not 0.3 s

@@ -20,6 +20,8 @@ from functools import cached_property
 
 import numpy as np
 
+from airl_cli.core.mdp.basics import check_probabilities
+
 
 @dataclass(frozen=True)
 class SparseDynamics:
@@ -60,6 +62,16 @@ class SparseDynamics:
         match = self.next_states[s] == s2[..., None]  # (..., R)
         r = np.argmax(match, axis=-1)
         return np.where(match.any(axis=-1), self.probs[j, s, a, r], 0.0)
+
+    def check(self) -> None:
+        """Raise ``ValueError`` unless every (j, s, a) row of ``probs`` is a distribution; checked
+        once per object (a fit asks the planner hundreds of times with the same dynamics)."""
+        self._valid  # noqa: B018 - the cached check
+
+    @cached_property
+    def _valid(self) -> bool:
+        check_probabilities(self.probs, name="transitions")
+        return True
 
     @cached_property
     def count(self) -> np.ndarray:

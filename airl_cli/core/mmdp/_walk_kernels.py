@@ -123,15 +123,28 @@ def forward_step(PR, nxt, cnt, mu, node_state, node_action, node_succ, n_next): 
     return out
 
 
-@njit(cache=True)
+#: ``state_sums`` runs the models on every thread from this many nodes in a layer on.
+PARALLEL_NODES = 4096
+
+
+@njit(cache=True, parallel=True)
 def state_sums(mu, node_state, S):  # pragma: no cover - compiled
     """(M, S) the probability of each state under each model from the node distribution mu (M, n)
     and each node's state (n,): ``numpy.bincount(node_state, weights=mu[j], minlength=S)`` for
-    every j at once, summed in the same order (the same bits)."""
+    every j at once, summed in the same order (the same bits); the models on every thread from
+    ``PARALLEL_NODES`` nodes on (below, launching the threads costs more than it saves)."""
     M, n = mu.shape
     out = np.zeros((M, S))
-    for j in range(M):
-        row = out[j]
-        for k in range(n):
-            row[node_state[k]] += mu[j, k]
+    if n >= PARALLEL_NODES:
+        for j in prange(M):
+            _state_sum(mu[j], node_state, out[j])
+    else:
+        for j in range(M):
+            _state_sum(mu[j], node_state, out[j])
     return out
+
+
+@njit(cache=True, inline="always")
+def _state_sum(weights, node_state, row):  # pragma: no cover - compiled
+    for k in range(weights.size):
+        row[node_state[k]] += weights[k]

@@ -166,7 +166,7 @@ def pbvi_graph(
     alphas[T - 1] = np.ascontiguousarray(L.last.T)
     offsets[T - 1] = np.arange(S + 1)
     for t in range(T - 2, -1, -1):
-        R_t = np.ascontiguousarray(L.step[:, t])
+        R_t = L.step[:, t]  # (M, S, A), strided: the kernels read a few numbers of it per state
         points = first if t == 0 else Bt
         states[t], actions[t], succs[t], alphas[t], offsets[t] = _backup_nodes(dyn, classes, R_t, points, alphas[t + 1], offsets[t + 1])
         if progress is not None:
@@ -297,7 +297,7 @@ def _checked_inputs(transitions, initial, method: str) -> tuple:
     """(P for the chosen method, its sparse form, p0 (S,)) after checking shapes and probabilities."""
     if isinstance(transitions, SparseDynamics):
         dyn = transitions
-        check_probabilities(dyn.probs, name="transitions")
+        dyn.check()
         P = dyn if method == "pbvi" else dyn.dense()  # the other methods are for small problems
     else:
         P = np.asarray(transitions, dtype=np.float64)

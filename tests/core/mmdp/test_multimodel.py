@@ -369,10 +369,11 @@ def test_unique_nodes_keeps_the_first_of_each_distinct_vector_in_belief_order(se
 
 
 def test_state_sums_are_numpy_s_bincount_per_model_bit_for_bit():
-    from airl_cli.core.mmdp._walk_kernels import state_sums
+    from airl_cli.core.mmdp._walk_kernels import PARALLEL_NODES, state_sums
 
+    assert 9000 >= PARALLEL_NODES
     rng = np.random.default_rng(11)
-    for M, n, S in ((1, 1, 1), (3, 40, 7), (4, 500, 60)):
+    for M, n, S in ((1, 1, 1), (3, 40, 7), (4, 500, 60), (4, 9000, 900)):  # the last on every thread
         mu = rng.random((M, n)) * (rng.random((M, n)) < 0.6)  # zeros, as at nodes a model never reaches
         node_state = np.sort(rng.integers(0, S, size=n))
         ref = np.stack([np.bincount(node_state, weights=mu[j], minlength=S) for j in range(M)])
