@@ -385,6 +385,21 @@ def test_the_estimate_grows_with_the_problem_and_the_refusal_says_what_to_lower(
     assert "hydra.launcher.n_jobs" in refusal(lowered, 4 * 2**30, iterations=9, workers=4)
 
 
+def test_the_command_line_s_estimates_count_the_heap_it_keeps():
+    """`airl fit` and `airl generate` keep up to TOP_PAD bytes of freed heap mapped (airl_cli.heap):
+    their estimates add it to the fit's and the build's."""
+    from airl_cli.api import config
+    from airl_cli.config import fit_settings
+    from airl_cli.heap import TOP_PAD
+    from airl_cli.usecases.memory import build_memory, fit_memory
+
+    sizes = dict(n_states=200, n_actions=5, horizon=10, n_dynamics=3, n_demos=100, n_next=None)
+    estimate, iterations = fit_memory(sizes, fit_settings(config()))
+    core = estimate_fit(**sizes, iterations=iterations)
+    assert estimate.parts["heap slack"] == TOP_PAD and estimate.total == core.total + TOP_PAD
+    assert build_memory(sizes).total == estimate_fit(**sizes, method="mce").total + TOP_PAD + 8 * 200**2
+
+
 def test_the_refusal_never_advises_iterations_that_do_not_fit():
     """At S = 100,000 nothing fits: the refusal says so instead of "lower pbvi.iterations (to 1 or less)"."""
     sizes = dict(n_actions=5, horizon=10, n_dynamics=3, n_demos=100)

@@ -9,6 +9,7 @@ from pathlib import Path
 
 from airl_cli.config import FitSettings, ProblemSettings
 from airl_cli.core.mmdp.budget import GB, Estimate, estimate_fit, fewer_iterations, graph_bytes, total_with_iterations
+from airl_cli.heap import TOP_PAD
 
 
 def available_memory() -> int:
@@ -94,9 +95,16 @@ def fit_memory(sizes: dict, settings: FitSettings) -> tuple[Estimate, int | None
     """The fit's memory estimate for these sizes (``problem_sizes``) and its PBVI iterations
     (None if it does not run PBVI)."""
     planner = settings.options.planner
-    estimate = estimate_fit(**sizes, method=settings.method, planner=planner.method, iterations=planner.iterations)
+    estimate = with_heap_slack(estimate_fit(**sizes, method=settings.method, planner=planner.method, iterations=planner.iterations))
     pbvi = settings.method == "airl" and planner.method == "pbvi"
     return estimate, (planner.iterations if pbvi else None)
+
+
+def with_heap_slack(estimate: Estimate) -> Estimate:
+    """``estimate`` plus the freed heap the command line keeps mapped (``airl_cli.heap``, at most
+    ``TOP_PAD`` bytes above what the process uses)."""
+    parts = {**estimate.parts, "heap slack": TOP_PAD}
+    return Estimate(total=estimate.total + TOP_PAD, parts=parts, n_beliefs=estimate.n_beliefs)
 
 
 def build_memory(sizes: dict) -> Estimate:
@@ -104,7 +112,7 @@ def build_memory(sizes: dict) -> Estimate:
     and writing them, as ``airl generate`` does: the fit's estimate without a planner, plus one more
     (S, S) array (writing checks a copy of the loss; measured peak 1.54 GB on a 96 x 96 grid, where
     this says 2.2 GB)."""
-    fit = estimate_fit(**sizes, method="mce")
+    fit = with_heap_slack(estimate_fit(**sizes, method="mce"))
     parts = {**fit.parts, "writing": 8 * sizes["n_states"] ** 2}
     return Estimate(total=sum(parts.values()), parts=parts, n_beliefs=0)
 
