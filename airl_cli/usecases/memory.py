@@ -159,9 +159,9 @@ def refusal(
 
 
 def size_note(estimate: Estimate, iterations: int | None, optimizer: str) -> str | None:
-    """A line to print before a fit whose steps will be long (a large belief set or over 1 GB);
-    None for a short one, and for one that ``refusal`` refuses."""
-    if iterations is None or (estimate.total < GB and estimate.n_beliefs <= 1024):
+    """A line to print before a fit whose steps will be long (a large belief set, or over 1 GB
+    without the heap slack); None for a short one, and for one that ``refusal`` refuses."""
+    if iterations is None or (estimate.total - estimate.parts.get("heap slack", 0) < GB and estimate.n_beliefs <= 1024):
         return None
     if refusal(estimate, available_memory(), iterations=iterations) is not None:
         return None
