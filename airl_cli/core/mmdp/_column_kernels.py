@@ -89,21 +89,23 @@ def backup_step_classes(PR, nxt, cnt, cls, scale, kc, vc, R_t, Bt, alpha_next, o
     succ = np.full((S, nb, Rm), -1, np.int64)
     alpha = np.empty((S, nb, M))
     for chunk in prange(CHUNKS):
-        total, base = np.empty((A, nb)), np.empty(nb)
+        total, base, top, astar = np.empty((A, nb)), np.empty(nb), np.empty(nb), np.empty(nb, np.int64)
         for s in range(chunk * S // CHUNKS, (chunk + 1) * S // CHUNKS):
-            _backup_state(s, PR, nxt, cnt, cls, scale, kc, vc, R_t, Bt, alpha_next, offsets_next, total, base, action, succ, alpha)
+            _backup_state(s, PR, nxt, cnt, cls, scale, kc, vc, R_t, Bt, alpha_next, offsets_next, (total, base, top, astar), action, succ, alpha)
     return action, succ, alpha
 
 
 @njit(cache=True)
-def _backup_state(s, PR, nxt, cnt, cls, scale, kc, vc, R_t, Bt, alpha_next, offsets_next, total, base, action, succ, alpha):  # pragma: no cover
-    """The backup of ``backup_step_classes`` for one state s, with ``total`` (A, nb) and ``base`` (nb,) as scratch."""
+def _backup_state(s, PR, nxt, cnt, cls, scale, kc, vc, R_t, Bt, alpha_next, offsets_next, scratch, action, succ, alpha):  # pragma: no cover
+    """The backup of ``backup_step_classes`` for one state s; ``scratch``: total (A, nb), base, top (nb,), astar (nb,) int64."""
+    total, base, top, astar = scratch
     M = PR.shape[3]
     nb = Bt.shape[1]
     n_r = cnt[s]
     _values(s, PR, cnt, cls, scale, vc, R_t, Bt, total, base)
+    _winners(total, top, astar)
     for b in range(nb):
-        a_star = _winner(total, b)
+        a_star = astar[b]
         action[s, b] = a_star
         for j in range(M):
             alpha[s, b, j] = R_t[j, s, a_star]
@@ -166,9 +168,9 @@ def backup_nodes_classes(PR, nxt, cnt, cls, scale, kc, vc, R_t, Bt, alpha_next, 
                     key_p = key_a[a_star, b]
                     if _seen(plans, plan_key, n_plans, key_p, a_star, ks, n_r, True):
                         continue
-                    _successors(s, b, a_star, n_r, cls, kc, first, bits, ks)
+                    _successors(s, b, a_star, n_r, cls, kc, first, ks)
                 else:
-                    key_p = _successors(s, b, a_star, n_r, cls, kc, first, bits, ks)
+                    key_p = _successors(s, b, a_star, n_r, cls, kc, first, ks)
                     if _seen(plans, plan_key, n_plans, key_p, a_star, ks, n_r, False):
                         continue
                     plans[n_plans, 0] = a_star
@@ -210,8 +212,9 @@ def _winners(total, top, astar):  # pragma: no cover - compiled
 
 @njit(cache=True, inline="always")
 def _packed_keys(s, n_r, cls, kc, first, bits, key_a):  # pragma: no cover - compiled
-    """key_a[a, b] (A, nb): the packed key of the plan of action a at belief b (``_successors``'s),
-    for every action and belief at once (loops over beliefs that vectorise)."""
+    """key_a[a, b] (A, nb): the packed key of the plan of action a at belief b (the action, then each
+    successor's place among its next state's nodes, ``bits`` each), for every action and belief at
+    once (loops over beliefs that vectorise); equal keys are equal plans."""
     A, nb = key_a.shape
     for a in range(A):
         row = key_a[a]
@@ -282,29 +285,15 @@ def _weighted(Bt, R_t, s, a, out):  # pragma: no cover - compiled
 
 
 @njit(cache=True, inline="always")
-def _winner(total, b):  # pragma: no cover - compiled
-    """The action of highest total[:, b], near-ties (``ACTION_RTOL``) to the lowest."""
-    A = total.shape[0]
-    top = total[0, b]
-    for a in range(1, A):
-        top = max(top, total[a, b])
-    a_star = 0
-    while total[a_star, b] < top - ACTION_RTOL * (1.0 + abs(top)):
-        a_star += 1
-    return a_star
-
-
-@njit(cache=True, inline="always")
-def _successors(s, b, a, n_r, cls, kc, first, bits, ks):  # pragma: no cover - compiled
+def _successors(s, b, a, n_r, cls, kc, first, ks):  # pragma: no cover - compiled
     """Belief b's successor node per next state of (s, a) into ks (>= n_r,) (``first[r]``, the
-    first node of next state r, where the column is zero); returns the plan's key: packed
-    (``bits`` > 0, equal keys for equal plans only) or a hash (``bits`` = 0)."""
+    first node of next state r, where the column is zero); returns a hash of the plan."""
     h = a
     for r in range(n_r):
         c = cls[s, a, r]
         k = first[r] if c < 0 else kc[c, b]
         ks[r] = k
-        h = (h << bits) | (k - first[r]) if bits > 0 else h * 1000003 + k
+        h = h * 1000003 + k
     return h
 
 
