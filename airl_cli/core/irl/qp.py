@@ -33,6 +33,10 @@ by one dense Cholesky factorisation of the N x N matrix (the single equality by 
 complement), each direction refined twice against the unreduced system. The first m duals are
 the adversary's mixture q. At a tight accuracy a weight (p_i or q_k) smaller than its
 complementary slack or dual is returned as zero: an interior point leaves it small but positive.
+A tight answer is then crossed over to the exact optimum on its supports (``crossover``), the
+supports first cleared of weights below ``CLEAR`` times their reduced cost or slack when the
+supports as found admit no exact optimum (``MasterQP._clear_crossover``). Every solve starts from
+w = 0, p uniform, v above every row.
 At 161 x 135 a tight solve takes 15 ms against Clarabel's 200 ms (same objective within 1e-10);
 BLAS runs on one thread inside it (``core.threads``).
 """
@@ -50,6 +54,8 @@ from airl_cli.core.numerics.threads import one_blas_thread
 #: The tightest accuracy asked of a solve (relative duality gap and constraints): the dense
 #: factorisation's limit on the masters met here.
 TIGHT = 1e-10
+#: ``MasterQP._clear_crossover`` keeps a weight only if it exceeds this many times its slack.
+CLEAR = 1e3
 
 
 @dataclass(frozen=True)
@@ -115,8 +121,21 @@ class MasterQP:
             self.fallbacks += 1
             answer, accuracy = solve_clarabel(self.C, self.lam, self.L, self.Phi), TIGHT
         if accuracy <= TIGHT:
-            answer = crossover(self.C, self.lam, self.L, self.Phi, answer[2], answer[3]) or answer
+            answer = crossover(self.C, self.lam, self.L, self.Phi, answer[2], answer[3]) or self._clear_crossover(answer) or answer
         return MasterSolution(*answer, accuracy)
+
+    def _clear_crossover(self, answer: tuple):
+        """``crossover`` again without the weights an interior point cannot classify: a p_i or q_k
+        below ``CLEAR`` times its reduced cost or slack (both small, of one order) is taken as
+        zero. (A degenerate optimum, w = 0, ended a path with a row of slack 1.9e-6 and weight
+        2.8e-6 kept in the support, where the optimum has none.) The exact solution, or None."""
+        w, v, p, q, _ = answer
+        lq, held = self.L @ q, p @ self.L + self.Phi @ w
+        p2 = np.where(p > CLEAR * (lq - lq.min()), p, 0.0)
+        q2 = np.where(q > CLEAR * (v - held), q, 0.0)
+        if np.array_equal(p2 > 0, p > 0) and np.array_equal(q2 > 0, q > 0) or not (p2.any() and q2.any()):
+            return None
+        return crossover(self.C, self.lam, self.L, self.Phi, p2, q2)
 
 
 def crossover(C: np.ndarray, lam: float, L: np.ndarray, Phi: np.ndarray, p: np.ndarray, q: np.ndarray):

@@ -411,6 +411,45 @@ def test_a_loose_solve_is_centred_and_within_its_accuracy():
     assert qp.fallbacks == 0
 
 
+def test_weights_an_interior_point_cannot_classify_are_cleared_before_the_crossover():
+    """``MasterQP._clear_crossover``: an interior point that keeps a tiny weight on a strategy
+    outside the optimum's support (a p_i or q_k far below 1,000 times its reduced cost or slack,
+    as a tight solve left one on a degenerate grid) is crossed over without it, to the exact
+    optimum; an answer with nothing to clear is left to the plain crossover."""
+    from airl_cli.core.irl.qp import crossover
+
+    rng = np.random.default_rng(8)
+    used = failed_plain = 0
+    for trial in range(20):
+        n, m, d, lam = 12, 15, 3, 0.1
+        L, Phi, C = np.round(3 * rng.random((n, m))) / 3, np.round(rng.normal(size=(m, d))), rng.normal(size=d)
+        qp = MasterQP(C, lam)
+        qp.add_learner(np.empty(0))
+        for k in range(m):
+            qp.add_adversary(L[:1, k], Phi[k])
+        for i in range(1, n):
+            qp.add_learner(L[i])
+        exact = qp.solve()
+        if crossover(C, lam, L, Phi, exact.p, exact.q) is None:  # no exact vertex to start from (q not unique)
+            continue
+        assert qp._clear_crossover((exact.w, exact.v, exact.p, exact.q, exact.objective)) is None
+        reduced, slack = L @ exact.q - np.min(L @ exact.q), exact.v - (exact.p @ L + Phi @ exact.w)
+        outside_p, outside_q = np.flatnonzero((exact.p == 0) & (reduced > 1e-6)), np.flatnonzero((exact.q == 0) & (slack > 1e-6))
+        if not (outside_p.size and outside_q.size):
+            continue
+        p, q = exact.p.copy(), exact.q.copy()
+        p[outside_p[0]] = q[outside_q[0]] = 1e-8  # far below 1,000 times their reduced cost and slack (> 1e-6)
+        p, q = p / p.sum(), q / q.sum()
+        failed_plain += crossover(C, lam, L, Phi, p, q) is None
+        cleared = qp._clear_crossover((exact.w, exact.v, p, q, exact.objective))
+        assert cleared is not None, trial
+        w, v, p2, q2, obj = cleared
+        assert np.allclose(w, exact.w, atol=1e-10) and obj == pytest.approx(exact.objective, abs=1e-10)
+        assert p2[outside_p[0]] == 0 and q2[outside_q[0]] == 0
+        used += 1
+    assert used >= 10 and failed_plain > 0  # the case it is for: the plain crossover refuses the contaminated support
+
+
 def test_bad_options():
     problem, targets = tiny(0)
     oracle = exact_oracle(problem)
