@@ -143,9 +143,10 @@ def backup_step(PR, nxt, cnt, R_t, Bt, alpha_next, offsets_next):  # pragma: no 
     action = np.empty((S, nb), np.int64)
     succ = np.full((S, nb, Rm), -1, np.int64)
     alpha = np.empty((S, nb, M))
-    # upper envelope U[s', j] per next state and model; k_own[s', b] the node best at b itself
+    # upper envelope U[s', j] per next state and model; own[s', j, b] = b_j alpha_next[k, j] for
+    # the node k of s' best at b itself: its value's terms (contiguous in b)
     U = np.empty((S, M))
-    k_own = np.empty((S, nb), np.int64)
+    own = np.empty((S, M, nb))
     for s2 in prange(S):
         k0, k1 = offsets_next[s2], offsets_next[s2 + 1]
         for j in range(M):
@@ -156,18 +157,22 @@ def backup_step(PR, nxt, cnt, R_t, Bt, alpha_next, offsets_next):  # pragma: no 
         va, ia, vb, ib = np.empty(nb), np.empty(nb), np.empty(nb), np.empty(nb)
         _, kbest = _scan(Bt, alpha_next[k0:k1], k1 - k0, va, ia, vb, ib)
         for b in range(nb):
-            k_own[s2, b] = k0 + int(kbest[b])
+            k = k0 + int(kbest[b])
+            for j in range(M):
+                own[s2, j, b] = Bt[j, b] * alpha_next[k, j]
     for s in prange(S):
-        _backup_state(s, PR, nxt, cnt, R_t, Bt, alpha_next, offsets_next, U, k_own, action, succ, alpha)
+        _backup_state(s, PR, nxt, cnt, R_t, Bt, alpha_next, offsets_next, U, own, action, succ, alpha)
     return action, succ, alpha
 
 
 @njit(cache=True)
-def _bounds(s, PR, nxt, cnt, R_t, Bt, alpha_next, U, k_own):  # pragma: no cover - compiled
+def _bounds(s, PR, nxt, cnt, R_t, Bt, U, own):  # pragma: no cover - compiled
     """(A, nb) lower and upper bounds on the backed-up value of each (a, b) at state s.
 
-    lower[a, b] = b . R_t(s, a) + sum_{s'} sum_j b_j P_j(s'|s,a) alpha_own(s', b)_j (a concrete plan);
+    lower[a, b] = b . R_t(s, a) + sum_{s'} sum_j P_j(s'|s,a) b_j alpha_own(s', b)_j (a concrete plan:
+    ``own`` (S, M, nb) holds b_j alpha_own(s', b)_j, so the sum runs along b and vectorises);
     upper[a, b] = b . (R_t(s, a) + sum_{s'} P(s'|s,a) U[s']) (every model's best next value).
+    Only the pruning reads them (with ``PRUNE_RTOL``'s margin), so their rounding never decides a plan.
     """
     A, M = PR.shape[1], PR.shape[3]
     nb = Bt.shape[1]
@@ -175,37 +180,41 @@ def _bounds(s, PR, nxt, cnt, R_t, Bt, alpha_next, U, k_own):  # pragma: no cover
     upper = np.empty((A, nb))
     top = np.empty(M)
     for a in range(A):
+        lo, up = lower[a], upper[a]
         for j in range(M):
             acc = R_t[j, s, a]
             for r in range(cnt[s]):
                 acc += PR[s, a, r, j] * U[nxt[s, r], j]
             top[j] = acc
         for b in range(nb):
-            lo = 0.0
-            up = 0.0
+            lo[b] = 0.0
+            up[b] = 0.0
+        for j in range(M):
+            rj, tj, Bj = R_t[j, s, a], top[j], Bt[j]
+            for b in range(nb):
+                lo[b] += Bj[b] * rj
+                up[b] += Bj[b] * tj
+        for r in range(cnt[s]):
+            o = own[nxt[s, r]]
             for j in range(M):
-                lo += Bt[j, b] * R_t[j, s, a]
-                up += Bt[j, b] * top[j]
-            for r in range(cnt[s]):
-                k = k_own[nxt[s, r], b]
-                for j in range(M):
-                    lo += Bt[j, b] * PR[s, a, r, j] * alpha_next[k, j]
-            lower[a, b] = lo
-            upper[a, b] = up
+                pj, oj = PR[s, a, r, j], o[j]
+                for b in range(nb):
+                    lo[b] += pj * oj[b]
     return lower, upper
 
 
 @njit(cache=True)
-def _backup_state(s, PR, nxt, cnt, R_t, Bt, alpha_next, offsets_next, U, k_own, action, succ, alpha):  # pragma: no cover
+def _backup_state(s, PR, nxt, cnt, R_t, Bt, alpha_next, offsets_next, U, own, action, succ, alpha):  # pragma: no cover
     """The backup of ``backup_step`` for one state s: writes action[s], succ[s] and alpha[s].
 
     Args:
-        U, k_own: (S, M) and (S, nb), the upper envelope and each belief's own best node per state.
+        U, own: (S, M) and (S, M, nb), the upper envelope per state and the terms of each belief's
+        own best node's value (``_bounds``).
         The others as in ``backup_step``.
     """
     A, M = PR.shape[1], PR.shape[3]
     nb = Bt.shape[1]
-    lower, upper = _bounds(s, PR, nxt, cnt, R_t, Bt, alpha_next, U, k_own)
+    lower, upper = _bounds(s, PR, nxt, cnt, R_t, Bt, U, own)
     n_pairs = A * nb
     va, ia, vb, ib = np.empty(n_pairs), np.empty(n_pairs), np.empty(n_pairs), np.empty(n_pairs)
     pair_a = np.empty(n_pairs, np.int64)
