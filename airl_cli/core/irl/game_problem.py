@@ -14,11 +14,8 @@ from functools import cached_property
 
 import numpy as np
 
-from airl_cli.core.mdp.sparse import SparseDynamics, SparseModel, sparse_dynamics
+from airl_cli.core.mdp.sparse import SparseDynamics, SparseModel, planning_form
 from airl_cli.core.numerics import lowrank
-
-#: tau is planned over its reachable next states when no state reaches more than this share of S.
-SPARSE_SHARE = 0.25
 
 
 @dataclass(frozen=True)
@@ -61,15 +58,10 @@ class GameProblem:
 
     @cached_property
     def tau(self) -> np.ndarray | SparseModel:
-        """tau (S, A, S) as the learner plans in it (``core.planning``): a ``SparseModel`` when no
-        state reaches more than ``SPARSE_SHARE`` of the states (a grid: the compiled loops over five
-        next states instead of a dense product over S), else the dense array."""
+        """tau (S, A, S) as the learner plans in it (``core.planning``): ``sparse.planning_form``,
+        a ``SparseModel`` on a grid, the dense array on a dense random MDP."""
         P = self.transitions
-        if isinstance(P, SparseDynamics):
-            return P[0]
-        tau = np.asarray(P[0], dtype=np.float64)
-        sparse = sparse_dynamics(tau[None])
-        return sparse[0] if sparse.next_states.shape[1] <= SPARSE_SHARE * tau.shape[0] else tau
+        return P[0] if isinstance(P, SparseDynamics) else planning_form(P[0])
 
     @cached_property
     def step_weights(self) -> np.ndarray:

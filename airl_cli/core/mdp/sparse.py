@@ -191,6 +191,21 @@ def sparse_dynamics(transitions: np.ndarray | SparseDynamics) -> SparseDynamics:
     return SparseDynamics(nxt, np.ascontiguousarray(probs))
 
 
+#: ``planning_form`` keeps one dynamics sparse when no state reaches more than this share of the states.
+SPARSE_SHARE = 0.25
+
+
+def planning_form(P: np.ndarray | SparseModel) -> np.ndarray | SparseModel:
+    """One dynamics (S, A, S) in the form ``core.mdp.planning`` is fastest with: a ``SparseModel``
+    when no state reaches more than ``SPARSE_SHARE`` of the states (a grid: compiled loops over its
+    five next states instead of dense products over S), else the dense array (float64)."""
+    if isinstance(P, SparseModel):
+        return P
+    dense = np.asarray(P, dtype=np.float64)
+    sparse = sparse_dynamics(dense[None])
+    return sparse[0] if sparse.next_states.shape[1] <= SPARSE_SHARE * dense.shape[0] else dense
+
+
 def full_reach(n_states: int) -> np.ndarray:
     """(S, S) every state reaching every state: the reach of a graph built over dense successors."""
     return np.broadcast_to(np.arange(n_states, dtype=np.int64), (n_states, n_states)).copy()

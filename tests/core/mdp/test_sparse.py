@@ -305,3 +305,25 @@ def test_planning_a_large_sparse_model_on_every_thread_matches_the_dense_plan():
         ref_policy, ref_V = backward_induction(P, R, maximize=maximize)
         assert np.array_equal(policy, ref_policy)
         assert np.allclose(V, ref_V, rtol=1e-13, atol=1e-13)
+
+
+def test_the_planning_form_is_sparse_on_a_grid_and_scores_a_mixture_as_the_dense_one():
+    """``planning_form``: a 5 x 5 slip grid (4 of 25 next states) becomes a ``SparseModel``, a dense
+    random MDP stays dense; a mixture's performance (many forward passes, scored in the sparse
+    form) equals its policies' returns by numpy's dense products, mixed by hand."""
+    from airl_cli.core.mdp.planning import expected_return
+    from airl_cli.core.mdp.problems import grid_world
+    from airl_cli.core.mdp.scores import mixture_performance, normalised, return_bounds
+    from airl_cli.core.mdp.sparse import SparseModel, planning_form
+
+    rng = np.random.default_rng(3)
+    P = grid_world(epsilon=0.2)
+    assert isinstance(planning_form(P), SparseModel) and np.allclose(planning_form(P).dense(), P)
+    dense = rng.dirichlet(np.ones(6), size=(6, 2))
+    assert isinstance(planning_form(dense), np.ndarray)
+    T, S, A = 7, P.shape[0], P.shape[1]
+    R, p0 = rng.normal(size=(T, S)), rng.dirichlet(np.ones(S))
+    policies, mix = rng.integers(0, A, size=(4, T - 1, S)), np.array([0.1, 0.0, 0.6, 0.3])
+    bounds = return_bounds(P, R, p0)
+    by_hand = sum(m * expected_return(P, R, pi, p0) for m, pi in zip(mix, policies))
+    assert mixture_performance(P, R, policies, mix, p0) == pytest.approx(normalised(by_hand, bounds), rel=1e-12)
