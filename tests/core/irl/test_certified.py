@@ -384,18 +384,24 @@ def test_the_interior_point_method_s_gram_matrix_is_the_plain_product():
         assert np.allclose(H, ref, rtol=1e-12, atol=1e-12 * np.max(np.abs(ref))) and np.array_equal(H, H.T)
 
 
+def _master(L, Phi, C, lam):
+    """A ``MasterQP`` holding the restricted game of L (n, m), Phi (m, d), built as a fit grows it."""
+    qp = MasterQP(C, lam)
+    qp.add_learner(np.empty(0))
+    for k in range(L.shape[1]):
+        qp.add_adversary(L[:1, k], Phi[k])
+    for i in range(1, L.shape[0]):
+        qp.add_learner(L[i])
+    return qp
+
+
 def test_a_loose_solve_is_centred_and_within_its_accuracy():
     """A loose solve (primal-dual column generation) returns an interior point: every strategy
     weighted, the objective within the accuracy asked of the tight one's, and valid bounds at it."""
     rng = np.random.default_rng(4)
     n, m, d, lam = 30, 25, 5, 0.1
     L, Phi, C = np.round(3 * rng.random((n, m))) / 3, rng.normal(size=(m, d)), rng.normal(size=d)
-    qp = MasterQP(C, lam)
-    qp.add_learner(np.empty(0))
-    for k in range(m):
-        qp.add_adversary(L[:1, k], Phi[k])
-    for i in range(1, n):
-        qp.add_learner(L[i])
+    qp = _master(L, Phi, C, lam)
     tight = qp.solve()
     assert tight.objective == pytest.approx(solve_clarabel(C, lam, L, Phi)[4], rel=1e-8)
     for accuracy in (1e-1, 1e-2, 1e-4):
@@ -423,12 +429,7 @@ def test_weights_an_interior_point_cannot_classify_are_cleared_before_the_crosso
     for trial in range(20):
         n, m, d, lam = 12, 15, 3, 0.1
         L, Phi, C = np.round(3 * rng.random((n, m))) / 3, np.round(rng.normal(size=(m, d))), rng.normal(size=d)
-        qp = MasterQP(C, lam)
-        qp.add_learner(np.empty(0))
-        for k in range(m):
-            qp.add_adversary(L[:1, k], Phi[k])
-        for i in range(1, n):
-            qp.add_learner(L[i])
+        qp = _master(L, Phi, C, lam)
         exact = qp.solve()
         if crossover(C, lam, L, Phi, exact.p, exact.q) is None:  # no exact vertex to start from (q not unique)
             continue
