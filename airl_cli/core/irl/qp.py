@@ -133,7 +133,8 @@ class MasterQP:
         lq, held = self.L @ q, p @ self.L + self.Phi @ w
         p2 = np.where(p > CLEAR * (lq - lq.min()), p, 0.0)
         q2 = np.where(q > CLEAR * (v - held), q, 0.0)
-        if np.array_equal(p2 > 0, p > 0) and np.array_equal(q2 > 0, q > 0) or not (p2.any() and q2.any()):
+        nothing_cleared = np.array_equal(p2 > 0, p > 0) and np.array_equal(q2 > 0, q > 0)
+        if nothing_cleared or not (p2.any() and q2.any()):
             return None
         return crossover(self.C, self.lam, self.L, self.Phi, p2, q2)
 
