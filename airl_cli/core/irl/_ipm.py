@@ -23,9 +23,12 @@ import numpy as np
 from numba import njit, types
 from numba.extending import get_cython_function_address
 
-# BLAS's dsyrk, the one numba and scipy load, under a name the cached compiled code can link against
+# BLAS's dsyrk and LAPACK's dpotrf, the ones numba and scipy load, under names the cached compiled
+# code can link against
 llvmlite.binding.add_symbol("airl_dsyrk", get_cython_function_address("scipy.linalg.cython_blas", "dsyrk"))
 _dsyrk = types.ExternalFunction("airl_dsyrk", types.void(*([types.voidptr] * 10)))
+llvmlite.binding.add_symbol("airl_dpotrf", get_cython_function_address("scipy.linalg.cython_lapack", "dpotrf"))
+_dpotrf = types.ExternalFunction("airl_dpotrf", types.void(*([types.voidptr] * 5)))
 
 #: The stationarity residual is held to STATIONARITY * tol (times the data's scale): near the end
 #: the weights z / s span 40 orders of magnitude and a dense factorisation cannot do better; on the
@@ -41,7 +44,8 @@ LOOSE = 1e-6
 
 @njit(cache=True)
 def _gram(GmT: np.ndarray, W: np.ndarray) -> np.ndarray:
-    """(N, N) sum_k W[k] g_k g_k^T for the columns g_k of GmT (N, m), W (>= m,) >= 0, by dsyrk."""
+    """(N, N) sum_k W[k] g_k g_k^T for the columns g_k of GmT (N, m), W (>= m,) >= 0, by dsyrk: its
+    row-major lower triangle (the diagonal included); the rest is zero."""
     N, m = GmT.shape
     A = np.empty((N, m))  # row-major (N, m) is column-major (m, N): dsyrk's A^T A is the sum above
     root = np.sqrt(W[:m])
@@ -54,7 +58,23 @@ def _gram(GmT: np.ndarray, W: np.ndarray) -> np.ndarray:
     alpha, beta = np.array([1.0]), np.array([0.0])
     if m > 0:
         _dsyrk(uplo.ctypes, trans.ctypes, n_.ctypes, k_.ctypes, alpha.ctypes, A.ctypes, lda.ctypes, beta.ctypes, H.ctypes, ldc.ctypes)
-    for i in range(N):  # column-major upper triangle = row-major lower: mirror it
+    return H  # column-major upper triangle = row-major lower: only that half is filled
+
+
+@njit(cache=True)
+def _factor(H: np.ndarray) -> np.ndarray:
+    """The Cholesky factor of the symmetric (N, N) H whose row-major lower triangle holds it (``_gram``),
+    in place: LAPACK's dpotrf on that triangle, as ``np.linalg.cholesky`` calls it (the same bits,
+    without its two copies), then the factor's transpose written into the upper triangle, so that
+    ``_forward_backward`` reads both substitutions along rows. Raises ``LinAlgError`` if H is not
+    positive definite."""
+    N = H.shape[0]
+    uplo, n_, info = np.array([ord("U")], np.uint8), np.array([N], np.int32), np.zeros(1, np.int32)
+    if N > 0:
+        _dpotrf(uplo.ctypes, n_.ctypes, H.ctypes, n_.ctypes, info.ctypes)
+    if info[0] != 0:
+        raise np.linalg.LinAlgError("Matrix is not positive definite.")
+    for i in range(N):
         for j in range(i):
             H[j, i] = H[i, j]
     return H
@@ -62,7 +82,7 @@ def _gram(GmT: np.ndarray, W: np.ndarray) -> np.ndarray:
 
 @njit(cache=True)
 def _forward_backward(Lc: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Solve (Lc Lc^T) x = b for a lower-triangular Lc (N, N)."""
+    """Solve (L L^T) x = b, L the lower triangle of Lc (N, N) with L^T in its upper one (``_factor``)."""
     N = b.size
     y = np.empty(N)
     for i in range(N):
@@ -74,7 +94,7 @@ def _forward_backward(Lc: np.ndarray, b: np.ndarray) -> np.ndarray:
     for i in range(N - 1, -1, -1):
         acc = y[i]
         for j in range(i + 1, N):
-            acc -= Lc[j, i] * x[j]
+            acc -= Lc[i, j] * x[j]  # = L[j, i]
         x[i] = acc / Lc[i, i]
     return x
 
@@ -196,7 +216,7 @@ def mehrotra(C: np.ndarray, lam: float, L: np.ndarray, Phi: np.ndarray, tol: flo
             H[d + 1 + i, d + 1 + i] += W[m + i]
         for i in range(N):
             H[i, i] += 1e-14 * (1.0 + abs(H[i, i]))  # keeps the factorisation defined
-        Lc = np.linalg.cholesky(H)
+        Lc = _factor(H)
         Ha = _forward_backward(Lc, a)
         aHa = a @ Ha
         # predictor (rsz = s z), then corrector (rsz = s z + ds dz - sigma mu)

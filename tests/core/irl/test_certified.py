@@ -381,7 +381,34 @@ def test_the_interior_point_method_s_gram_matrix_is_the_plain_product():
         W = 10.0 ** rng.uniform(-20, 20, size=m + 4)  # the p rows' entries after the m used ones
         H = _gram(np.ascontiguousarray(G.T), W)
         ref = G.T @ (G * W[:m, None])
-        assert np.allclose(H, ref, rtol=1e-12, atol=1e-12 * np.max(np.abs(ref))) and np.array_equal(H, H.T)
+        lower = np.tril(np.ones((N, N), bool))
+        assert np.allclose(H[lower], ref[lower], rtol=1e-12, atol=1e-12 * np.max(np.abs(ref))) and not H[~lower].any()
+
+
+def test_the_interior_point_method_s_factor_is_numba_s_cholesky_bit_for_bit():
+    """``_ipm._factor`` (LAPACK's dpotrf in place on the gram's lower triangle) gives the bits of
+    numba's ``np.linalg.cholesky`` on the full matrix (which the method called before), with the
+    factor's transpose above the diagonal, and its substitutions solve the system; a matrix that
+    is not positive definite is refused."""
+    from numba import njit
+
+    from airl_cli.core.irl._ipm import _factor, _forward_backward, _gram
+
+    cholesky = njit(lambda H: np.linalg.cholesky(H))
+
+    rng = np.random.default_rng(6)
+    for N, m in ((1, 1), (3, 7), (66, 150), (151, 299)):
+        G = rng.normal(size=(m, N))
+        H = _gram(np.ascontiguousarray(G.T), 10.0 ** rng.uniform(-3, 3, size=m))
+        H[np.diag_indices(N)] += 1e-9
+        full = np.tril(H) + np.tril(H, -1).T
+        ref = cholesky(full)
+        Lc = _factor(H.copy())
+        assert np.array_equal(np.tril(Lc), ref) and np.array_equal(np.triu(Lc), ref.T)
+        b = rng.normal(size=N)
+        assert np.allclose(full @ _forward_backward(Lc, b), b, rtol=1e-6, atol=1e-6 * np.abs(b).max())
+    with pytest.raises(np.linalg.LinAlgError):
+        _factor(np.array([[1.0, 0.0], [2.0, 1.0]]))  # lower triangle of [[1, 2], [2, 1]]: indefinite
 
 
 def _master(L, Phi, C, lam):
