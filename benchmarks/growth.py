@@ -13,6 +13,9 @@ fit converged, peak resident memory (the child's own ``ru_maxrss``), the learned
 and MCE IRL's fit and process time on the same file.
 
 `--extra` appends Hydra overrides to the certified fit (e.g. `--extra optim.tol=1e-3`).
+`--repeat N` runs the two fits N times each, alternating, and reports the median of each time
+(a process's wall time varies by a fifth from run to run on a shared machine); the fits
+themselves must come out the same every time, or the script says so and stops.
 """
 
 from __future__ import annotations
@@ -25,6 +28,7 @@ import sys
 import tempfile
 import time
 from pathlib import Path
+from statistics import median
 
 from rich.console import Console
 from rich.table import Table
@@ -61,9 +65,13 @@ def main() -> None:
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--loss", nargs="+", default=["squared_features"], choices=["squared_features", "zero_one"])
     parser.add_argument("--extra", nargs="*", default=[])
+    parser.add_argument("--repeat", type=int, default=1, help="runs of each fit; the table shows the median times")
     args = parser.parse_args()
+    if args.repeat < 1:
+        raise SystemExit(f"--repeat must be at least 1, got {args.repeat}")
     os.environ.pop("NUMBA_NUM_THREADS", None)
-    table = Table(title=f"certified fit on Objectworld (D=3, N={args.demos}, seed {args.seed}; all cores)")
+    runs = f"; median of {args.repeat} runs" if args.repeat > 1 else ""
+    table = Table(title=f"certified fit on Objectworld (D=3, N={args.demos}, seed {args.seed}; all cores{runs})")
     for col in COLUMNS:
         table.add_column(col, justify="right")
     with tempfile.TemporaryDirectory() as tmp:
@@ -77,7 +85,7 @@ def main() -> None:
                 run(["generate", "mdp=objectworld", "dynamics=slip", f"mdp.size={n}", f"mdp.horizon={T}", f"demos.n={args.demos}", f"seed={args.seed}", f"hydra.run.dir={data}"])
                 for loss in args.loss:
                     file = data / "dataset.npz" if loss == "squared_features" else without_loss(data / "dataset.npz")
-                    table.add_row(*measure(file, root / tag / loss, n, T, loss, args.extra))
+                    table.add_row(*measure(file, root / tag / loss, n, T, loss, args.extra, args.repeat))
     console.print(table)
 
 
@@ -98,12 +106,24 @@ def without_loss(path: Path) -> Path:
     return out
 
 
-def measure(file: Path, folder: Path, n: int, T: int, loss: str, extra: list[str]) -> tuple[str, ...]:
-    """Fit ``file`` with the certified learner and with MCE IRL, each in a fresh process: one table row."""
-    wall, peak = run(["fit", f"data={file}", f"hydra.run.dir={folder / 'fit'}", *extra])
-    fit = fit_row(folder / "fit")
-    mce_wall, _ = run(["fit", f"data={file}", "method=mce", f"hydra.run.dir={folder / 'mce'}"])
-    mce = fit_row(folder / "mce")
+def measure(file: Path, folder: Path, n: int, T: int, loss: str, extra: list[str], repeat: int = 1) -> tuple[str, ...]:
+    """Fit ``file`` with the certified learner and with MCE IRL, each in a fresh process, ``repeat``
+    times alternating: one table row, the median of each time."""
+    fits, mces, walls, mce_walls, peaks = [], [], [], [], []
+    for i in range(repeat):
+        wall, peak = run(["fit", f"data={file}", f"hydra.run.dir={folder / f'fit{i}'}", *extra])
+        fits.append(fit_row(folder / f"fit{i}"))
+        walls.append(wall)
+        peaks.append(peak)
+        mce_wall, _ = run(["fit", f"data={file}", "method=mce", f"hydra.run.dir={folder / f'mce{i}'}"])
+        mces.append(fit_row(folder / f"mce{i}"))
+        mce_walls.append(mce_wall)
+    same = all(f["metrics"]["iterations"] == fits[0]["metrics"]["iterations"] and f["metrics"]["objective"] == fits[0]["metrics"]["objective"] for f in fits)
+    if not same:
+        raise SystemExit(f"the certified fit of {file} did not come out the same in its {repeat} runs: its times are not comparable")
+    fit = dict(fits[0], fit_seconds=median([f["fit_seconds"] for f in fits]), qp_seconds=median([f["qp_seconds"] for f in fits]))
+    mce = dict(mces[0], fit_seconds=median([f["fit_seconds"] for f in mces]))
+    wall, mce_wall, peak = median(walls), median(mce_walls), max(peaks)
     m = fit["metrics"]
     console.print(
         f"done {n}x{n} T={T} {loss}: fit {fit['fit_seconds']:.2f} s (process {wall:.1f} s), {m['iterations']} iterations, "
