@@ -45,12 +45,12 @@ def _composed(overrides: list[str]) -> tuple[str, str]:
 
 
 VARIANTS = [
-    (experiment_names(), ()),
-    (["fig05", "fig09"], ("mdp.transition=sparse", "loss=zero_one", "method=mce")),
+    pytest.param(experiment_names(), (), marks=pytest.mark.slow, id="every experiment"),  # 48 s on a 2-core machine
+    pytest.param(["fig05", "fig09"], ("mdp.transition=sparse", "loss=zero_one", "method=mce"), id="a variant"),
 ]
 
 
-@pytest.mark.parametrize("names, extra", VARIANTS, ids=["every experiment", "a variant"])
+@pytest.mark.parametrize("names, extra", VARIANTS)
 def test_a_remembered_composition_equals_hydras_for_every_job(names, extra):
     """Quick jobs of every experiment (the first two and the last), and of a variant with group and
     value overrides: the same config, hydra node included, whether Hydra composes it afresh or from

@@ -79,7 +79,11 @@ def test_full_sizes_follow_the_thesis():
     assert len(plan(["experiment=fig17", "method=airl"]).jobs) == 20  # 20 runs
 
 
-@pytest.mark.parametrize("name", EXPERIMENTS)
+#: The experiments whose quick sweep takes longest (15-24 s each on a 2-core machine) run with the slow tests.
+LONG_QUICK = {"windy_transfer", "transfer"}
+
+
+@pytest.mark.parametrize("name", [pytest.param(n, marks=pytest.mark.slow) if n in LONG_QUICK else n for n in EXPERIMENTS])
 def test_every_experiment_runs_small_in_process(tmp_path, name):
     """Each experiment at the quick size, through the in-process launcher, to a table and figures."""
     if name in ENV_EXPERIMENTS:
