@@ -5,6 +5,7 @@ from __future__ import annotations
 import errno
 import json
 import os
+import re
 import tempfile
 from collections.abc import Callable
 from pathlib import Path
@@ -45,6 +46,22 @@ def atomic_write(path: str | os.PathLike, write: Callable[[IO[bytes]], None]) ->
             err.filename = str(path)  # a failed write names the file it was for (a full disk)
         raise
     return path
+
+
+#: The name of ``atomic_write``'s temporary file: ".<target name>.<mkstemp's 8 characters>.tmp".
+_TEMPORARY = re.compile(r"\..+\.[a-z0-9_]{8}\.tmp")
+
+
+def remove_temporaries(folder: str | os.PathLike) -> None:
+    """Remove the temporary files of ``atomic_write`` left anywhere under ``folder``.
+
+    A process killed mid-write (a sweep's worker terminated when another job stopped the sweep)
+    cannot remove its temporary file; the process that killed it calls this once it is gone, so
+    that its folder holds whole files only.
+    """
+    for path in Path(folder).rglob(".*.tmp"):
+        if _TEMPORARY.fullmatch(path.name) and path.is_file():
+            path.unlink(missing_ok=True)
 
 
 def write_text(path: str | os.PathLike, text: str) -> Path:

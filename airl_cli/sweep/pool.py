@@ -29,11 +29,12 @@ import warnings
 from collections.abc import Iterator, Sequence
 from concurrent.futures import Future, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
-from contextlib import contextmanager
+from contextlib import contextmanager, suppress
 from pathlib import Path
 from typing import Any
 
 from airl_cli.heap import keep_heap_slack
+from airl_cli.io.files import remove_temporaries
 
 #: The environment variable that tells a sweep's jobs which process launched them ("host:pid").
 PARENT_ENV = "AIRL_SWEEP_PARENT"
@@ -323,6 +324,8 @@ def launch(launcher: Any, job_overrides: Sequence[Sequence[str]], initial_job_id
         raise WorkerDied(WORKER_DIED) from None
     except BaseException:
         shutdown(idle=True)  # a Ctrl-C, or a job that stops the sweep: the jobs under way are given up
+        with suppress(OSError):  # the error that stopped the sweep is the one to report
+            remove_temporaries(launcher.config.hydra.sweep.dir)  # what the terminated workers were writing
         raise
     finally:
         if not (done and _kept):

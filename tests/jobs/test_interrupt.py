@@ -319,3 +319,22 @@ def test_a_sweep_on_a_full_file_system(tmpfs):
     assert one_line(done.stderr, "error: cannot write the results (no space left on device: "), done.stderr
     assert (folder / INCOMPLETE).exists()
     assert not [p for p in folder.rglob("*") if p.is_file() and p.stat().st_size == 0 and p.name != ".lock"]
+
+
+def test_the_temporary_files_of_killed_writers_are_removed_and_nothing_else(tmp_path):
+    """What a sweep's worker terminated mid-write leaves (``atomic_write``'s temporary file, named by
+    mkstemp) goes when the sweep gives its jobs up; other files, dotted or not, stay."""
+    import tempfile
+
+    from airl_cli.io.files import remove_temporaries
+
+    job = tmp_path / "sweep" / "demos.n=1,seed=1" / ".hydra"
+    job.mkdir(parents=True)
+    fd, stray = tempfile.mkstemp(prefix=".config.yaml.", suffix=".tmp", dir=job)
+    os.close(fd)
+    kept = [job / "config.yaml", job / ".notes.tmp", job / "data.tmp", tmp_path / "sweep" / ".lock"]
+    for path in kept:
+        path.write_text("x")
+    remove_temporaries(tmp_path / "sweep")
+    assert not Path(stray).exists()
+    assert all(path.exists() for path in kept)
