@@ -29,7 +29,6 @@ def test_a_growing_master_solved_warm_meets_each_accuracy_centred(seed, monkeypa
         learners, adversaries = [0], [0]
         qp.add_learner(np.empty(0))
         qp.add_adversary(L[:1, 0], Phi[0])
-        got = []
         for step in range(1, 24):
             qp.add_learner(L[step, adversaries])
             learners.append(step)
