@@ -233,14 +233,13 @@ def mehrotra(C: np.ndarray, lam: float, L: np.ndarray, Phi: np.ndarray, tol: flo
         Lc = _factor(H)
         Ha = _forward_backward(Lc, a)
         aHa = a @ Ha
-        # predictor (rsz = s z), then corrector (rsz = s z + ds dz - sigma mu)
-        rsz = s * z
-        for corrector in range(2):
+        # predictor (rsz = s z), then corrector (rsz = s z + ds dz - sigma mu); within the accuracy
+        # but off-centre, one centring direction (rsz = s z - mu, sigma = 1) and no predictor
+        rsz = s * z - gap / (m + n) if done else s * z
+        for corrector in range(1 if done else 2):
             dx, dy, ds, dz = _refined(Gm, GmT, d, qdiag, a, Lc, Ha, aHa, W, s, z, rd, rp, rs, rsz, refinements)
             step = _longest(s, z, ds, dz)
-            if corrector == 0 and done:  # within the accuracy but off-centre: a centring step (sigma = 1)
-                rsz = s * z - gap / (m + n)
-            elif corrector == 0:
+            if corrector == 0 and not done:
                 sigma = (((s + step * ds) @ (z + step * dz)) / gap) ** 3
                 rsz = s * z + ds * dz - sigma * gap / (m + n)
         step *= 0.99
