@@ -40,9 +40,10 @@ from w = 0, p uniform, v above every row; a loose one from the last loose solve'
 over strategy by strategy (``qp_start``), and it stops only once its point is centred (every
 complementary pair at least ``CENTRED`` times their mean), as a cold solve's is. Without that
 test the answers came out less centred and the fits longer (nine zero-one problems: 3,539
-iterations against 2,676 from scratch); with it 2,195 iterations, 1,406 planner calls and 35.9 s
-against 2,676, 1,591 and 45.9 s, and on five other grids 2,330, 1,180 and 58.0 s against 2,320,
-1,276 and 71.0 s (all certified; the 16 x 16 grid's QP time 3.4 -> 0.9 s).
+iterations against 2,676 from scratch); with it, and the start's floor at 0.01 as first set, 2,195
+iterations, 1,406 planner calls and 35.9 s against 2,676, 1,591 and 45.9 s, and on five other grids
+2,330, 1,180 and 58.0 s against 2,320, 1,276 and 71.0 s (all certified; the 16 x 16 grid's QP time
+3.4 -> 0.9 s). The floor is now 0.1, fewer iterations still (``qp_start``).
 A warm solve that does not converge is repeated from scratch.
 At 161 x 135 a tight solve takes 15 ms against Clarabel's 200 ms (same objective within 1e-10);
 BLAS runs on one thread inside it (``core.threads``).

@@ -17,12 +17,12 @@ loose solve starts from it:
 every s and z at least FLOOR. The infeasible-start method needs no feasible point: the rows'
 residuals are reduced with the gap. From the last point as it is (no floor: converged, off-centre)
 the 798 loose and tight solves of a 16 x 16 zero-one fit, replayed, took 14,026 interior-point
-steps against 8,395 from scratch; with a floor of 1e-2 (the losses and feature sums are of order one
-to tens) 3,147. In the product (the fits' paths, not the replayed solves) a floor of 0.1 did better:
-two suites of zero-one fits took 5% and 19% fewer iterations and 5% and 8% fewer planner calls than
-with 1e-2 (0.3 and 1e-3: more). A start that meets a loose accuracy already, with the new row's violation left in
-its residual, would come back unchanged; the floor keeps the gap above that, and the centring test
-of ``core._ipm.mehrotra`` keeps the answer centred.
+steps against 8,395 from scratch; with a floor of 1e-2 (the losses and feature sums are of order
+one to tens) 3,147. In the product (the fits' paths, not the replayed solves) a floor of 0.1 did
+better: two suites of zero-one fits took 5% and 19% fewer iterations and 5% and 8% fewer planner
+calls than with 1e-2 (0.3 and 1e-3: more). A start that meets a loose accuracy already, with the
+new row's violation left in its residual, would come back unchanged; the floor keeps the gap above
+that, and the centring test of ``core._ipm.mehrotra`` keeps the answer centred.
 """
 
 from __future__ import annotations
