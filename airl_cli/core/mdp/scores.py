@@ -81,12 +81,19 @@ def mixture_performance(
 
 def normalised(value: float, bounds: tuple[float, float]) -> float:
     """(value - r-bar) / (R-bar - r-bar) of an expected return, ``bounds`` = ``return_bounds``;
-    1.0 when every policy earns the same (thesis §7.2)."""
+    1.0 when every policy earns the same (thesis §7.2). Every policy's return lies in
+    [r-bar, R-bar], so a score past 0 or 1 by rounding alone (1e-9) is clipped to it; the optimal
+    policy's return, summed in another order, came out 1.0000000000000002 on one processor."""
     r_min, r_max = bounds
     span = r_max - r_min
     if span <= 1e-12 * max(1.0, abs(r_max)):
         return 1.0
-    return (value - r_min) / span
+    score = (value - r_min) / span
+    return min(max(score, 0.0), 1.0) if -ROUNDING < score < 1.0 + ROUNDING else score
+
+
+#: How far past 0 or 1 a normalised score may lie by rounding alone (``normalised`` clips it).
+ROUNDING = 1e-9
 
 
 def cosine_similarity(w: np.ndarray, w_star: np.ndarray) -> float:
