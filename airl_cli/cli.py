@@ -129,17 +129,24 @@ def fit(
     resolve: bool = ResolveOption,
     multirun: bool = MultirunOption,
     strict: bool = typer.Option(
-        False, "--strict", help="Exit with status 3 if the fit warns: NOT converged (no certificate) or a degenerate optimum."
+        False,
+        "--strict",
+        help="Exit with status 3 if the fit warns (NOT converged, a degenerate optimum) or its bracket on eq. 5.9's minimum is wider than optim.tol.",
     ),
 ) -> None:
     """``airl fit`` (its help, ``FIT_HELP``, names the methods of the registry)."""
     if strict and multirun:
         refuse("--strict judges one fit; a multirun's jobs run in worker processes (read each job's metrics.json instead)")
+    from airl_cli.jobs.fit import WARNED, WIDE
+
+    WARNED.clear()
+    WIDE.clear()  # what an earlier command in this process saw is not this fit's
     run_hydra("fit", ctx.args, cfg=cfg, resolve=resolve, multirun=multirun)
     if strict and cfg is None:
-        from airl_cli.jobs.fit import WARNED
 
-        if WARNED:
+        for sentence in WIDE:
+            typer.echo(f"airl fit --strict: {sentence}", err=True)
+        if WARNED or WIDE:
             raise typer.Exit(3)
 
 

@@ -15,7 +15,7 @@ from typing import Any
 from omegaconf import DictConfig
 
 from airl_cli.config_reader import Cell, Reader, plain
-from airl_cli.core.irl.options import PBVI_MAX_ITERATIONS, SCHEDULES, CertifiedOptions, FitOptions, PlannerOptions
+from airl_cli.core.irl.options import BRACKET_BELIEFS, PBVI_MAX_ITERATIONS, SCHEDULES, CertifiedOptions, FitOptions, PlannerOptions
 from airl_cli.core.mdp.windy import WINDS
 from airl_cli.demo_settings import DemoSettings, read_demos
 from airl_cli.dynamics_settings import DynamicsSettings, read_dynamics
@@ -252,6 +252,7 @@ def _planner(node: Any) -> PlannerOptions:
         check_iterations=r.int("check_iterations", lo=0, hi=12, default=0),
         check_rounds=r.int("check_rounds", lo=0, hi=20, default=2),
         sharpen_rounds=r.int("sharpen_rounds", lo=0, hi=20, default=0),
+        bracket_beliefs=r.int("bracket_beliefs", lo=0, default=BRACKET_BELIEFS),
     )
 
 
@@ -292,6 +293,7 @@ def fit_settings(cfg: DictConfig | Mapping) -> FitSettings:
             tol=o.float("tol", lo=0.0, open_lo=True),
             max_iterations=o.int("max_iterations", lo=1),
             normalize_loss=normalize_loss,
+            bracket_tol=None if o.raw("bracket_tol", None) is None else o.float("bracket_tol", lo=0.0, open_lo=True),
         )
         options = FitOptions(weight_sharing=sharing, lam=certified.lam, normalize_loss=normalize_loss, planner=planner)
     else:
@@ -338,6 +340,7 @@ class PlanSettings:
     expansion: str
     discount: float | None
     seed: int
+    bracket_beliefs: int = BRACKET_BELIEFS
 
 
 def plan_settings(cfg: DictConfig | Mapping) -> PlanSettings:
@@ -357,6 +360,7 @@ def plan_settings(cfg: DictConfig | Mapping) -> PlanSettings:
         method=p.choice("method", PLAN_METHODS),
         horizon=p.int("horizon", lo=1),
         iterations=p.int("iterations", lo=1, hi=20),
+        bracket_beliefs=p.int("bracket_beliefs", lo=0, default=BRACKET_BELIEFS),
         expansion=p.choice("expansion", EXPANSIONS),
         discount=None if discount is None else p.float("discount", lo=0.0, hi=1.0, open_lo=True),
         seed=top.int("seed", lo=0),

@@ -9,7 +9,8 @@ file as `airl generate` wrote it (its loss is the grid's squared feature distanc
 ``zero_one`` fits a copy without the ``loss`` key, as a user's own file without one is fitted
 (`loss=auto` then gives the zero-one loss). It prints one table: wall time of the fit and of the
 whole process, iterations, planner calls, the QP's seconds, certified relative gap, whether the
-fit converged, peak resident memory (the child's own ``ru_maxrss``), the learned reward's scores,
+fit converged, the planner's resolution, the relative width of the bracket on eq. 5.9's minimum
+that holds whatever the planner (``bracket_relative_gap``), peak resident memory (the child's own ``ru_maxrss``), the learned reward's scores,
 and MCE IRL's fit and process time on the same file.
 
 `--extra` appends Hydra overrides to the certified fit (e.g. `--extra optim.tol=1e-3`).
@@ -90,7 +91,7 @@ def main() -> None:
 
 
 COLUMNS = (
-    "grid", "S", "T", "loss", "fit s", "process s", "iterations", "planner calls", "QP s", "rel. gap", "converged", "planner resolution", "peak GB",
+    "grid", "S", "T", "loss", "fit s", "process s", "iterations", "planner calls", "QP s", "rel. gap", "converged", "planner resolution", "bracket width", "peak GB",
     "score tau_1..3", "MCE fit s", "MCE process s", "process / MCE",
 )
 
@@ -132,7 +133,8 @@ def measure(file: Path, folder: Path, n: int, T: int, loss: str, extra: list[str
     return (
         f"{n}x{n}", str(n * n), str(T), loss, f"{fit['fit_seconds']:.1f}", f"{wall:.1f}", str(m["iterations"]), str(m["planner_calls"]),
         f"{fit['qp_seconds']:.2f}", f"{m['relative_gap']:.1e}", "yes" if m["converged"] else "NO",
-        f"{m['planner_resolution']:.2g}" if "planner_resolution" in m else "-", f"{peak / 2**30:.2f}",
+        f"{m['planner_resolution']:.2g}" if "planner_resolution" in m else "-",
+        f"{m['bracket_relative_gap']:.2g}" if "bracket_relative_gap" in m else "-", f"{peak / 2**30:.2f}",
         " / ".join(f"{x:.3f}" for x in fit["scores"]), f"{mce['fit_seconds']:.2f}", f"{mce_wall:.1f}", f"{wall / mce_wall:.1f}x",
     )
 

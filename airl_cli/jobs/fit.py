@@ -297,10 +297,26 @@ def main(cfg: DictConfig) -> None:
     for sentence in fit_warnings(run.learned.info):
         err_console.print(f"warning: {sentence}", soft_wrap=True)
         WARNED.append(sentence)
+    if run.learned.method == "airl" and (wide := wide_sentence(run.learned.info)):
+        WIDE.append(wide)
 
 
 #: The warnings of the fits run in this process (``airl fit --strict`` exits 3 if there are any).
 WARNED: list[str] = []
+#: What ``airl fit --strict`` also counts as not converged: a bracket on eq. 5.9's minimum wider than optim.tol.
+WIDE: list[str] = []
+
+
+def wide_sentence(info: dict) -> str | None:
+    """The sentence ``--strict`` adds when the bracket, valid whatever the planner, is wider than optim.tol."""
+    width = info.get("bracket_relative_gap")
+    if width is None or width <= info["tol"]:
+        return None
+    lo, up = info["minimum_bracket"]
+    return (
+        f"not converged for --strict: eq. 5.9's minimum is known only within [{lo:.6g}, {up:.6g}] whatever the planner, "
+        f"a relative width of {width:.2g} above optim.tol={info['tol']:g} (a larger pbvi.bracket_beliefs narrows it)"
+    )
 
 
 def fit_warnings(info: dict) -> list[str]:

@@ -2,7 +2,7 @@
 
 Reads a CSV folder or an ``.npz`` (``airl_cli.io.mmdp_files``), plans over ``plan.horizon`` decisions,
 and writes to the run folder: ``plan.json`` (objective on the training models, mean return on the
-test models, time), ``policy.npz`` (the policy graph's arrays, and ``markov_policy`` (T, S) for
+test models, time, the bracket on the optimum whatever the planner), ``policy.npz`` (the policy graph's arrays, and ``markov_policy`` (T, S) for
 Markov methods; ``airl_cli.io.policy_file.load_policy`` reads it back) and ``config.yaml``.
 """
 
@@ -18,7 +18,7 @@ from airl_cli.io.policy_file import save_policy
 from airl_cli.jobs.common import err_console, out_console, output_dir, run_job, save_config, warm_up
 from airl_cli.paths import conf_dir
 from airl_cli.plain_progress import PlainProgress
-from airl_cli.usecases.plan import run_plan
+from airl_cli.usecases.plan import bracket_optimum, run_plan
 
 
 def check(cfg: DictConfig, overrides: list[str] = ()) -> list[str]:
@@ -43,6 +43,8 @@ def main(cfg: DictConfig) -> dict:
             plain.line(f"{what}: time step {done}/{total} backed up")
 
         result, discount, test, seconds = run_plan(problem, settings, progress)
+        status.update(f"{what}: bracketing the optimum")
+        br = bracket_optimum(problem, settings, result, discount)
     record = {
         "input": str(input_path(settings.input).resolve()),
         "method": settings.method,
@@ -57,6 +59,9 @@ def main(cfg: DictConfig) -> dict:
         "beliefs": result.n_beliefs,
         "nodes": int(result.graph.n_nodes.sum()),
         "cadp_sweeps": result.sweeps if settings.method == "cadp" else None,
+        "optimum_bracket": None if br is None else [br.lower, br.upper],
+        "each_model_known": None if br is None else br.corner,
+        "bracket_beliefs": None if br is None else br.beliefs,
     }
     save_policy(folder / "policy.npz", result)
     write_json(folder / "plan.json", record)
@@ -67,6 +72,11 @@ def main(cfg: DictConfig) -> dict:
         f"  mean return on the {record['test_models']} test models: {test:.4f}" if test is not None else "  no test models",
         f"  planning time: {seconds:.2f} s; policy graph: {record['nodes']:,} nodes",
     ]
+    if br is not None:
+        lines.append(
+            f"  the optimum on the training models lies in [{br.lower:.4f}, {br.upper:.4f}] whatever the planner "
+            f"({br.beliefs:,} beliefs backed up; with each model known: {br.corner:.4f})"
+        )
     out_console.print("\n".join(lines), soft_wrap=True)
     out_console.print(f"wrote {folder / 'plan.json'} and {folder / 'policy.npz'}", soft_wrap=True)
     return record

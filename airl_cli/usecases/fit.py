@@ -10,6 +10,7 @@ import numpy as np
 
 from airl_cli.config import FitSettings
 from airl_cli.core.irl import baselines, mmp, robust_mce
+from airl_cli.core.irl.bracket import closing_oracle
 from airl_cli.core.irl.certified import minimize, upper_at
 from airl_cli.core.irl.degeneracy import is_degenerate, reward_effect
 from airl_cli.core.irl.game import objective_at
@@ -21,6 +22,7 @@ from airl_cli.core.mmdp.refine import PER_ROUND, refine
 from airl_cli.errors import ConfigError
 from airl_cli.io.dataset import Dataset
 from airl_cli.methods import REGISTRY
+from airl_cli.usecases.bracket import bracket_info, bracket_phrase, closer, closes
 from airl_cli.usecases.memory import affordable_beliefs, affordable_check
 
 
@@ -225,11 +227,16 @@ def _learn_airl(
     oracle, screen, n_beliefs = make_oracles(problem, settings.options.planner, rng, planner_progress)
     if settings.optimizer == "exact":
         sharpen = _sharpener(problem, oracle, settings)
-        res = minimize(problem, targets, oracle, screen=screen, options=settings.certified, callback=callback, sharpen=sharpen)
+        bracketer = closer(problem, oracle, settings)
+        close = bracketer if closes(settings) else None
+        fit_oracle = oracle if close is None else closing_oracle(oracle, close)
+        res = minimize(problem, targets, fit_oracle, screen=screen, options=settings.certified, callback=callback, sharpen=sharpen, close=close)
         h = res.history
         zero = bool(res.converged and not np.any(res.weights))  # certified by the exact bound on f(0)
         name = "exact" if zero else _oracle_name(settings)
-        check = _planner_check(problem, targets, res, settings, rng, oracle, grown=sharpen is not None)
+        bracketed = bracket_info(res, settings, targets, bracketer)
+        check = {} if "planner_resolution" in bracketed else _planner_check(problem, targets, res, settings, rng, oracle, grown=sharpen is not None)
+        certified_text = certificate(res.relative_gap, settings.certified.tol, res.converged, name, check, sharpened=sharpen is not None)
         info = {
             "optimizer": "exact",
             "stopped": res.stopped,
@@ -241,7 +248,7 @@ def _learn_airl(
             "tol": settings.certified.tol,
             "oracle": _oracle_name(settings),
             "adversary": settings.options.planner.adversary,
-            "certificate": certificate(res.relative_gap, settings.certified.tol, res.converged, name, check, sharpened=sharpen is not None),
+            "certificate": certified_text + bracket_phrase(bracketed, settings.certified.bracket_tol),
             "zero_answer": zero,
             "iterations": int(h["iteration"][-1]),
             "planner_calls": int(h["planner_calls"][-1]),
@@ -250,6 +257,7 @@ def _learn_airl(
             "n_beliefs": int(n_beliefs),
             **({"sharpen_steps": res.sharpen_steps, "sharpened_beliefs": int(len(oracle.beliefs))} if sharpen else {}),
             **check,
+            **bracketed,
             # how many strategies each player's equilibrium mixture uses (weight above 1e-8)
             "learner_support": int(np.sum(res.learner_mix > 1e-8)),
             "adversary_support": int(np.sum(res.adversary_mix > 1e-8)),

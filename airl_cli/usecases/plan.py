@@ -9,7 +9,9 @@ from collections.abc import Callable
 import numpy as np
 
 from airl_cli.config import PlanSettings
+from airl_cli.core.irl.options import BRACKET_MAX_BELIEFS
 from airl_cli.core.mmdp.baselines import Plan, graph_returns, plan
+from airl_cli.core.mmdp.bounds import Bracket, bracket
 from airl_cli.core.mmdp.planner import layered_rewards
 from airl_cli.errors import ConfigError
 from airl_cli.io.mmdp_files import MMDPProblem
@@ -18,7 +20,8 @@ from airl_cli.io.mmdp_files import MMDPProblem
 def run_plan(
     problem: MMDPProblem, settings: PlanSettings, progress: Callable[[int, int], None] | None = None
 ) -> tuple[Plan, float, float | None, float]:
-    """(the plan, its discount, the mean test return or None, seconds spent planning); ``progress`` as in ``plan``."""
+    """(the plan, its discount, the mean test return or None, seconds spent planning, not bracketing);
+    ``progress`` as in ``plan``."""
     discount = problem.discount if settings.discount is None else settings.discount
     start = time.perf_counter()
     try:
@@ -36,3 +39,16 @@ def run_plan(
         L = layered_rewards(problem.test_transitions, problem.test_rewards, horizon=settings.horizon, discount=discount)
         test = float(graph_returns(result.graph, problem.test_transitions, L, problem.initial).mean())
     return result, discount, test, seconds
+
+
+def bracket_optimum(problem: MMDPProblem, settings: PlanSettings, result: Plan, discount: float) -> Bracket | None:
+    """The optimum on the training models bracketed whatever the planner (``core.mmdp.bounds``), in
+    the plan's objective (the prior-weighted, or uniform, mean return); its lower side starts from
+    the plan's own policy when it is PBVI's, else from PBVI's. None when plan.bracket_beliefs is 0."""
+    if settings.bracket_beliefs == 0:
+        return None
+    M, S, _ = problem.shape
+    prior = problem.prior if problem.prior is not None else np.full(M, 1.0 / M)
+    graph = result.graph if settings.method == "pbvi" else None
+    budget = min(settings.bracket_beliefs * S * max(1, settings.horizon - 1), BRACKET_MAX_BELIEFS)
+    return bracket(problem.transitions, problem.rewards, problem.initial, graph=graph, prior=prior, horizon=settings.horizon, discount=discount, max_beliefs=budget)

@@ -62,6 +62,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from airl_cli.core.irl.bracket import TARGET_SHARE, Close, closed, relative_width
 from airl_cli.core.irl.certified_steps import REFRESH_AFTER, Run, adversary_side, first_strategies, learner_side, penalty, polish, probe_zero, prune, region, sharpened, zero_side
 from airl_cli.core.irl.game import adversary_rewards
 from airl_cli.core.irl.game_problem import AdversaryOracle, GameProblem
@@ -130,6 +131,10 @@ class CertifiedResult:
             ``objective`` (``upper_at`` checks that bound with another oracle), or None when
             ``objective`` is the exact bound through f(0) (``zero_bound``), which needs no planner.
         sharpen_steps: how often ``minimize``'s ``sharpen`` raised the bound past the tolerance.
+        bracket_upper: the smallest upper bound on min f that holds whatever the planner
+            (``core.irl.bracket``; inf when ``minimize`` had no ``close``): min f lies in
+            [lower, bracket_upper].
+        close_steps: how often ``minimize``'s ``close`` raised the bound past the tolerance.
     """
 
     weights: np.ndarray
@@ -148,6 +153,13 @@ class CertifiedResult:
     zero_upper: float = float("inf")
     upper_rewards: np.ndarray | None = None
     sharpen_steps: int = 0
+    bracket_upper: float = float("inf")
+    close_steps: int = 0
+
+    @property
+    def bracket_relative_gap(self) -> float:
+        """(bracket_upper - lower) / max(1, |bracket_upper|): the bracket's relative width."""
+        return relative_width(self.lower, self.bracket_upper)
 
 
 def check_options(options: CertifiedOptions) -> None:
@@ -170,6 +182,7 @@ def minimize(
     options: CertifiedOptions = CertifiedOptions(),
     callback: Callable[[dict], None] | None = None,
     sharpen: AdversaryOracle | None = None,
+    close: Close | None = None,
 ) -> CertifiedResult:
     """Minimise f (eq. 5.9) by column and constraint generation on the QP above: a ``CertifiedResult``.
 
@@ -189,6 +202,9 @@ def minimize(
         sharpen: makes ``oracle`` finer (``learn.sharpener``) and returns its best response, or None;
             asked where the run would stop; it goes on, with a new iteration cap, while that raises
             the bound (``certified_steps.sharpened``).
+        close: brackets the adversary's best value (``bracket.Closer``); asked where the run would
+            stop (after ``sharpen``), it bounds min f from above whatever the planner and adds its
+            policy while that raises the bound (``bracket.closed``), and once more at the answer.
     """
     check_options(options)
     start = time.perf_counter()  # each history row's seconds: the wall time since here
@@ -221,7 +237,7 @@ def minimize(
         if callback is not None:
             callback(rows[-1])
         done = rows[-1]["relative_gap"] <= options.tol or not (added_l or added_a) and sol.accuracy <= TIGHT
-        if done and sharpen is not None and sharpened(sets, sharpen, run, C, lam, options.tol, it):
+        if done and _goes_on(sets, sharpen, close, run, C, options, it):
             accuracy, limit = LOOSEST, it + options.max_iterations
             continue
         if done:
@@ -233,13 +249,38 @@ def minimize(
         born_a += [it] * (qp.m - len(born_a))
         if it % PRUNE_AFTER == 0:
             born_l, born_a = prune(sets, born_l, born_a, it)
-    final, polished, final_upper, final_rewards = polish(sets, oracle, per_dynamics, C, lam, run, targets)
+    return _finish(sets, oracle, close, per_dynamics, targets, C, options, run, rows, stopped, start)
+
+
+def _finish(sets: StrategySets, oracle, close, per_dynamics, targets: np.ndarray, C: np.ndarray, options: CertifiedOptions, run: Run, rows: list[dict], stopped: str, start: float) -> CertifiedResult:
+    """The polish (``certified_steps.polish``), the answer and its bracket (with ``close``), the result."""
+    final, polished, final_upper, final_rewards = polish(sets, oracle, per_dynamics, C, options.lam, run, targets)
     # the last row reports the best bounds with the polish (part of the last iteration)
-    rows[-1] = _row(len(rows), run, final, qp, rows[-1]["qp_seconds"] + polished, start)
+    rows[-1] = _row(len(rows), run, final, sets.qp, rows[-1]["qp_seconds"] + polished, start)
     if stopped == "max_iterations" and rows[-1]["relative_gap"] <= options.tol:
         stopped = "tolerance"
     answer, upper, rewards = _answer(final, (final_upper, final_rewards), run, options.tol)
+    if close is not None:  # the answer's own bracket: min f <= f(answer) <= its upper side
+        _bracket_answer(close, rewards, upper, penalty(answer, C, options.lam), options.bracket_tol or 0.0, run)
     return _result(per_dynamics(answer), upper, rewards, run, rows, stopped, final, sets)
+
+
+def _goes_on(sets: StrategySets, sharpen, close, run: Run, C: np.ndarray, options: CertifiedOptions, it: int) -> bool:
+    """Where the run would stop: whether a finer planner (``sharpen``, then the bracket's ``close``)
+    raised the bound by more than the tolerance, so that the run goes on."""
+    if sharpen is not None and sharpened(sets, sharpen, run, C, options.lam, options.tol, it):
+        return True
+    return close is not None and closed(sets, close, run, C, options.lam, options.tol, options.bracket_tol or 0.0, it)
+
+
+def _bracket_answer(close: Close, rewards: np.ndarray | None, upper: float, reg: float, bracket_tol: float, run: Run) -> None:
+    """Lower ``run.bracket_upper`` to the answer's own bound whatever the planner: its certified
+    ``upper`` when that is exact (``rewards`` None, through f(0)), else the bracket at ``rewards``."""
+    if rewards is None:
+        run.bracket_upper = min(run.bracket_upper, upper)
+        return
+    _, _, adversary = close(rewards, TARGET_SHARE * bracket_tol * max(1.0, abs(upper)))
+    run.bracket_upper = min(run.bracket_upper, adversary + reg)
 
 
 def _answer(final: MasterSolution, final_upper: tuple[float, np.ndarray | None], run: Run, tol: float) -> tuple[np.ndarray, float, np.ndarray | None]:
@@ -310,6 +351,8 @@ def _result(weights: np.ndarray, upper: float, rewards: np.ndarray | None, run: 
         zero_upper=float(run.zero_upper),
         upper_rewards=rewards,
         sharpen_steps=run.sharpen_steps,
+        bracket_upper=float(run.bracket_upper),
+        close_steps=run.close_steps,
     )
 
 

@@ -70,6 +70,8 @@ class Run:
     #: planner, ``certified.upper_at``); None while ``upper`` is the exact bound through f(0)
     upper_rewards: np.ndarray | None = None
     sharpen_steps: int = 0  # how often a finer oracle raised the certified bound (``sharpened``)
+    bracket_upper: float = np.inf  # the smallest upper bound on min f that holds whatever the planner (``bracket``)
+    close_steps: int = 0  # how often the bracket's policy raised the certified bound (``bracket.closed``)
 
 
 def penalty(w: np.ndarray, C: np.ndarray, lam: float) -> float:

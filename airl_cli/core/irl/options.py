@@ -14,6 +14,11 @@ from dataclasses import dataclass, field
 SCHEDULES = ("inverse_sqrt", "inverse", "constant")
 
 
+#: Beliefs the bracket backs up per call by default, per state and layer (``PlannerOptions.bracket_beliefs``).
+BRACKET_BELIEFS = 20
+#: ... and in all at most (a large grid's bracket stays a few seconds and a few hundred MB).
+BRACKET_MAX_BELIEFS = 200_000
+
 #: The most PBVI iterations a configuration may ask for: up to 2^(iterations-1) belief points each.
 PBVI_MAX_ITERATIONS = 20
 
@@ -38,6 +43,9 @@ class PlannerOptions:
         ``check_iterations`` more iterations, then ``check_rounds`` rounds of beliefs grown where
         the planner's own policy goes (``mmdp.refine``), which measures the planner's resolution
         there; both 0 turn the check off.
+    bracket_beliefs: the certified learner brackets the adversary's best value whatever the planner
+        (``core.irl.bracket``), backing up at most this many beliefs per call per state and layer
+        (S * (T - 2) times this, and at most ``BRACKET_MAX_BELIEFS``, in all); 0 turns the bracket off.
     sharpen_rounds: when > 0, each time the certified learner's gap meets the tolerance, the fit's
         belief set grows by this many such rounds at the best bound's rewards, and the fit goes on
         while that raises the bound (``certified.minimize``'s ``sharpen``); 0 keeps the set fixed.
@@ -55,6 +63,7 @@ class PlannerOptions:
     check_iterations: int = 0
     check_rounds: int = 2
     sharpen_rounds: int = 0
+    bracket_beliefs: int = BRACKET_BELIEFS
 
 
 @dataclass(frozen=True)
@@ -99,6 +108,10 @@ class CertifiedOptions:
     max_iterations: the cap on QP solves (reaching it is reported, never silent), counted again
         from each step that sharpens the planner (``minimize``'s ``sharpen``).
     normalize_loss: divide the loss by its largest entry (as the gradient learner does).
+    bracket_tol: None: the bracket on min f is measured at the answer only. A number: the fit closes
+        it, adding the bracket's best responses (``core.irl.bracket``) where it would stop and
+        answering with PBVI refined where they go, until its relative width is within this or they
+        no longer raise the bound.
     """
 
     weight_sharing: bool = True
@@ -106,3 +119,4 @@ class CertifiedOptions:
     tol: float = 1e-4
     max_iterations: int = 1500
     normalize_loss: bool = True
+    bracket_tol: float | None = None

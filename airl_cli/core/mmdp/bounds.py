@@ -62,6 +62,8 @@ CAP_NUMBERS = 2_000_000
 MAX_BELIEFS = 1_000_000
 #: Beliefs of one (t, s) equal to this many decimals (normalised) are one belief.
 DECIMALS = 12
+#: Seeds the weights that turn a rounded belief into one number (``_merge``): fixed, so the merge is too.
+KEY_SEED = 20261127
 
 
 @dataclass(frozen=True)
@@ -195,8 +197,10 @@ def _merge(states: np.ndarray, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     if states.size == 0:
         return states, X
     b = np.round(X / X.sum(axis=1, keepdims=True), DECIMALS)
-    _, first, inverse = np.unique(np.column_stack([states.astype(np.float64), b]), axis=0, return_index=True, return_inverse=True)
-    inverse = inverse.ravel()
+    # one number per (state, belief): a sort of floats, not of rows. Two different beliefs sharing
+    # a key would be merged into their sum, itself a belief: the bounds stay valid either way.
+    key = states * 2.0 + b @ np.random.default_rng(KEY_SEED).uniform(0.1, 0.4, size=b.shape[1])
+    _, first, inverse = np.unique(key, return_index=True, return_inverse=True)
     Xm = np.zeros((first.size, X.shape[1]))
     np.add.at(Xm, inverse, X)
     return states[first], Xm
@@ -265,8 +269,9 @@ def bracket(
         graph: the lower bound's starting policy (PBVI's, planned for these rewards); None plans
             PBVI at ``beliefs`` (None: ``expand_beliefs``' default set).
         target: stop once upper - lower <= target (absolute; 0 runs every round).
-        rounds: rounds of exploration and backup at most; max_beliefs: no round starts once this
-            many beliefs were backed up (a count, so the answer does not depend on the machine);
+        rounds: rounds of exploration and backup at most; max_beliefs: the beliefs backed up in
+            all at most (each layer of a round keeps its widest share of what is left; a count, so
+            the answer does not depend on the machine);
             width: see the module's docstring.
         points: a previous ``Bracket.points``: those beliefs are backed up first (one pass).
 
@@ -292,7 +297,8 @@ def bracket(
             break
         delta = (up.sum() - lo.sum()) / (width * 2.0**done)
         wide = up - lo > delta
-        kept = _explore(layers, roots[wide], X0[wide], delta, cap)
+        room = max(1, (max_beliefs - backed) // max(1, layers.exact.index(True)))  # a layer's share of what is left
+        kept = _explore(layers, roots[wide], X0[wide], delta, min(cap, room))
         backed += _backward(layers, kept)
         for t, part in enumerate(kept):
             history[t].append(part)

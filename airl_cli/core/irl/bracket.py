@@ -1,0 +1,140 @@
+"""A bracket [L, U] on the minimum of eq. 5.9 that holds whatever the planner, and a planner that closes it.
+
+For every learner mixture p, minimax gives
+
+    f(w) = min_p max_{pi} [ p^T L_pi + w . (Phi_pi - C) ] + (lambda/2)|w|^2
+        <= V*(w, p) - w . C + (lambda/2)|w|^2                                          (eq. 5.9)
+
+where V*(w, p) is the adversary's best value over *every* deterministic history-dependent policy:
+the optimum of the multiple-MDP problem of chapter 6 at the adversary's rewards (eq. 6.26-6.28).
+PBVI's value is a lower bound on V*, so the fit's certificate holds against PBVI's best responses
+only. ``core.mmdp.bounds.bracket`` bounds V* from above whatever the beliefs, so
+
+    U = min over the bracketed points (w, p) of  upper(V*(w, p)) - w . C + (lambda/2)|w|^2  >= min_w f(w)
+
+and the fit's lower bound L (the learner's best response against a mixture q of real adversary
+strategies, ``certified``) holds whatever the oracle: the minimum of eq. 5.9 lies in [L, U].
+
+Closing it (``Closer``): where the fit would stop, its best upper bound's rewards are bracketed;
+the bracket's lower side is a policy (PBVI's graph plus a node per backed-up belief) at least as
+good as PBVI's, so when it is better by more than the tolerance it joins the game as a new
+adversary strategy and the fit goes on (``closed``), as ``pbvi.sharpen_rounds`` does with a grown
+belief set. When it is not, the fit's upper bound there holds against the bracket's planner, and
+the bracket's upper side says how far the true best response can still be.
+
+Shapes: rewards R (M, T, S); w, C (d,); marginals (M, T, S).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+
+from airl_cli.core.irl.certified_steps import Run, penalty
+from airl_cli.core.irl.strategy_sets import StrategySets
+from airl_cli.core.mmdp.bounds import Bracket, bracket
+from airl_cli.core.mmdp.planner import solve
+
+#: Where the fit would stop, the closing step adds at most this many strategies in all: each is a
+#: bracketed best response (a few seconds on a large grid), and the cap makes the cost bounded.
+MAX_CLOSE_STEPS = 40
+#: The bracket's own gap is aimed at this share of the wanted width (the rest is the fit's gap
+#: and what the bracket's policy may still add, ``CLOSE_SHARE``).
+TARGET_SHARE = 0.5
+#: The bracket's policy joins the game only if it raises the bound by more than this share of the
+#: wanted width (and than the tolerance): below it, the fit's answer is within the width anyway.
+CLOSE_SHARE = 0.25
+
+#: The closing step: (rewards (M, T, S), absolute target) -> (a policy's exact value, its marginals
+#: (M, T, S), an upper bound on every policy's value), or None when it cannot tell.
+Close = Callable[[np.ndarray, float], tuple[float, np.ndarray, float] | None]
+
+
+class Closer:
+    """The fit's oracle's planner bracketed (``core.mmdp.bounds``): PBVI at the oracle's belief set,
+    then up to ``max_beliefs`` beliefs backed up where the bounds still differ, starting each call
+    from the beliefs of the last (their backups hold for any rewards).
+
+    Args:
+        P: the oracle's dynamics (M, S, A, S), sparse or dense; p0: (S,);
+        beliefs: (nb, M) the oracle's belief set, or None (PBVI's default set);
+        max_beliefs: beliefs backed up per call at most.
+    """
+
+    def __init__(self, P, p0: np.ndarray, beliefs: np.ndarray | None, max_beliefs: int):
+        self.P, self.p0, self.beliefs, self.max_beliefs = P, p0, beliefs, max_beliefs
+        self.points: tuple | None = None  # every belief the brackets backed up, per layer
+        self.reached: tuple | None = None  # the posteriors where the last bracket's policy goes, per layer
+        self.last: Bracket | None = None
+        self.calls = 0
+
+    def bracket(self, R: np.ndarray, target: float = 0.0) -> Bracket:
+        """The bracket on the adversary's best value at rewards R (M, T, S)."""
+        self.last = bracket(self.P, R, self.p0, graph=self._pbvi(R), target=target, max_beliefs=self.max_beliefs, points=self.points)
+        self.points, self.reached = self.last.points, reached_posteriors(self.last.graph, self.P, self.p0)
+        self.calls += 1
+        return self.last
+
+    def __call__(self, R: np.ndarray, target: float) -> tuple[float, np.ndarray, float]:
+        br = self.bracket(R, target)
+        return br.lower, br.graph.marginals(self.P, self.p0), br.upper
+
+    def respond(self, R: np.ndarray) -> tuple[float, np.ndarray]:
+        """The fit's best response once a bracket has run: PBVI, then one backup at the posteriors
+        where the last bracket's policy went (``reached``): a better policy, at a small part of a
+        bracket's cost (its value is exact, as any policy graph's)."""
+        found = bracket(self.P, R, self.p0, graph=self._pbvi(R), rounds=0, points=self.reached)
+        return found.lower, found.graph.marginals(self.P, self.p0)
+
+    def _pbvi(self, R: np.ndarray):
+        return solve(self.P, R, self.p0, beliefs=self.beliefs, method="pbvi").graph
+
+
+def closing_oracle(oracle, closer: Closer):
+    """The fit's adversary oracle: ``oracle`` (PBVI) until the bracket has run, then ``closer.respond``."""
+
+    def respond(R: np.ndarray) -> tuple[float, np.ndarray]:
+        return oracle(R) if closer.reached is None else closer.respond(R)
+
+    return respond
+
+
+def reached_posteriors(graph, P, p0: np.ndarray) -> tuple:
+    """Per layer t, (states (n,), posteriors (n, M)) at the nodes the policy graph reaches (the
+    model posterior averaged over the histories that reach a node, ``mmdp.refine``)."""
+    out = []
+    for t, mu in enumerate(graph.walk(P, p0)):
+        mass = mu.sum(axis=0)
+        hit = mass > 1e-12
+        out.append((graph.state[t][hit], np.ascontiguousarray((mu[:, hit] / mass[hit]).T)))
+    return tuple(out)
+
+
+def closed(sets: StrategySets, close: Close, run: Run, C: np.ndarray, lam: float, tol: float, bracket_tol: float, it: int) -> bool:
+    """Where the run would stop: bracket the adversary's best value at the best upper bound's rewards.
+
+    Records the bracket's upper side plus the penalty at that w in ``run.bracket_upper`` (the
+    smallest valid upper bound on min f). True, with the bracket's policy added and ``run.upper``
+    raised to its bound, if that policy beats the fit's bound there by more than ``tol`` and
+    ``CLOSE_SHARE`` of ``bracket_tol`` (relative) and fewer than ``MAX_CLOSE_STEPS`` were added: the fit goes on. False (the fit stops) otherwise,
+    or when the bound is exact (through f(0)).
+    """
+    scale = max(1.0, abs(run.upper))
+    if run.upper_rewards is None:
+        run.bracket_upper = min(run.bracket_upper, run.upper)
+        return False
+    value, marginals, upper = close(run.upper_rewards, TARGET_SHARE * bracket_tol * scale)
+    reg = penalty(run.best_w, C, lam)
+    run.bracket_upper = min(run.bracket_upper, upper + reg)
+    bound = value + reg
+    if bound - run.upper <= max(tol, CLOSE_SHARE * bracket_tol) * scale or run.close_steps >= MAX_CLOSE_STEPS:
+        return False
+    sets.add_adversary(marginals)
+    run.upper, run.last_full, run.close_steps = bound, it, run.close_steps + 1
+    return True
+
+
+def relative_width(lower: float, upper: float) -> float:
+    """(U - L) / max(1, |U|), the bracket's width as the certificate measures its gap."""
+    return (upper - lower) / max(1.0, abs(upper)) if np.isfinite(upper) else float("inf")

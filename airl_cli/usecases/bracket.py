@@ -1,0 +1,86 @@
+"""The certified fit's bracket on the minimum of eq. 5.9, valid whatever the planner (``core.irl.bracket``):
+who brackets (the fit's planner, its dynamics and belief set), and what the fit's metrics say of it."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from airl_cli.config import FitSettings
+from airl_cli.core.irl.bracket import TARGET_SHARE, Closer, relative_width
+from airl_cli.core.irl.certified_steps import penalty
+from airl_cli.core.irl.game_problem import GameProblem
+from airl_cli.core.irl.options import BRACKET_MAX_BELIEFS
+from airl_cli.core.mdp.sparse import sparse_dynamics
+
+
+def closer(problem: GameProblem, oracle, settings: FitSettings) -> Closer | None:
+    """The bracket's planner for a certified fit, or None: ``pbvi.bracket_beliefs`` = 0 turns it off,
+    and ``pbvi.method=exact`` needs none (its best responses are exact, so the certificate already
+    holds for eq. 5.9 itself). It plans PBVI at the fit's belief set (if the fit reuses one)."""
+    planner = settings.options.planner
+    if planner.bracket_beliefs == 0 or planner.method == "exact":
+        return None
+    P = getattr(oracle, "P", None)
+    P = P if P is not None and not isinstance(P, np.ndarray) else sparse_dynamics(problem.transitions)
+    budget = min(planner.bracket_beliefs * P.shape[1] * max(1, problem.horizon - 2), BRACKET_MAX_BELIEFS)
+    return Closer(P, problem.initial, getattr(oracle, "beliefs", None), budget)
+
+
+def closes(settings: FitSettings) -> bool:
+    """Whether the fit closes the bracket (``optim.bracket_tol`` set; ``minimize``'s ``close``): the
+    thesis's history-dependent adversary only; a Markov adversary's game is bracketed, not closed."""
+    return settings.certified.bracket_tol is not None and settings.options.planner.adversary == "history"
+
+
+def bracket_info(res, settings: FitSettings, targets: np.ndarray, close: Closer | None) -> dict:
+    """The metrics of the bracket [L, U] on min f: ``minimum_bracket``, ``bracket_relative_gap``,
+    the beliefs its last call backed up and the strategies it added; and ``planner_resolution``, how
+    much higher than the certified bound the bracket's policy bounds the answer (relative), with the
+    gap against it (``checked_relative_gap``), as the finer PBVI of ``pbvi.check_rounds`` did.
+
+    ``pbvi.method=exact``: U is the certified bound itself. A Markov adversary's fit (not closed)
+    gets the bracket at its answer: the history-dependent bound, valid, as a Markov adversary can
+    do no better than a history-dependent one. Empty when the bracket is off.
+    """
+    planner = settings.options.planner
+    if planner.method == "exact":
+        upper = res.objective
+    elif close is None:
+        return {}
+    elif np.isfinite(res.bracket_upper):
+        upper = res.bracket_upper
+    elif res.upper_rewards is None:  # the bound through f(0) is exact
+        upper = res.objective
+    else:
+        target = TARGET_SHARE * (settings.certified.bracket_tol or settings.certified.tol) * max(1.0, abs(res.objective))
+        upper = close.bracket(res.upper_rewards, target).upper + _penalty(res, settings, targets)
+    info = {"minimum_bracket": [float(res.lower), float(upper)], "bracket_relative_gap": relative_width(res.lower, upper)}
+    if close is None or close.last is None or not closes(settings):
+        return info  # the fit's own check (pbvi.check_rounds) measures PBVI's resolution
+    checked = max(res.objective, close.last.lower + _penalty(res, settings, targets)) if res.upper_rewards is not None else res.objective
+    return info | {
+        "bracket_beliefs": int(close.last.beliefs),
+        "bracket_calls": int(close.calls),
+        "close_steps": int(res.close_steps),
+        "checked_objective": float(checked),
+        "checked_relative_gap": relative_width(res.lower, checked),
+        "planner_resolution": (checked - res.objective) / max(1.0, abs(res.objective)),
+    }
+
+
+def _penalty(res, settings: FitSettings, targets: np.ndarray) -> float:
+    """-w . C + (lambda/2)|w|^2 at the answer, in the QP's own w and C."""
+    certified = settings.certified
+    w, C = (res.weights[0], targets.sum(axis=0)) if certified.weight_sharing else (res.weights.reshape(-1), targets.reshape(-1))
+    return penalty(w, C, certified.lam)
+
+
+def bracket_phrase(info: dict, bracket_tol: float | None) -> str:
+    """The certificate's clause on eq. 5.9 itself, or '' without a bracket."""
+    if "minimum_bracket" not in info:
+        return ""
+    lo, up = info["minimum_bracket"]
+    text = f"; eq. 5.9's minimum lies in [{lo:.6g}, {up:.6g}] whatever the planner (relative width {info['bracket_relative_gap']:.2g})"
+    if bracket_tol is not None and info["bracket_relative_gap"] > bracket_tol:
+        text += f", wider than optim.bracket_tol = {bracket_tol:g}: a larger pbvi.bracket_beliefs narrows it"
+    return text

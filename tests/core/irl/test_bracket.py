@@ -1,0 +1,89 @@
+"""The bracket [L, U] on the minimum of eq. 5.9 (``core.irl.bracket``) against brute force on enumerable games."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from test_certified import adversary_marginals, brute_minimum, enumerated_game, tiny
+from test_markov_adversary import markov_game
+
+from airl_cli.core.irl.bracket import Closer
+from airl_cli.core.irl.certified import CertifiedOptions, minimize
+from airl_cli.core.irl.certified_steps import penalty
+from airl_cli.core.irl.learn import PlannerOptions, make_oracle
+
+CASES = [(0, 2, True, "zero_one"), (1, 3, False, "zero_one"), (2, 3, True, "squared_features"), (3, 2, False, "squared_features"), (4, 3, True, "random")]
+
+
+def _closer(problem, max_beliefs=10_000):
+    return Closer(problem.transitions, problem.initial, None, max_beliefs)
+
+
+@pytest.mark.parametrize("seed,S,shared,loss", CASES)
+@pytest.mark.parametrize("close", [False, True])
+def test_the_minimum_lies_in_the_bracket_with_the_default_planner(seed, S, shared, loss, close):
+    problem, targets = tiny(seed, S=S, loss=loss)
+    lam = 0.05
+    f_star = brute_minimum(*enumerated_game(problem, targets, shared), lam)[1]
+    oracle = make_oracle(problem, PlannerOptions(), np.random.default_rng(0))[0]
+    closer = _closer(problem)
+    options = CertifiedOptions(weight_sharing=shared, lam=lam, bracket_tol=1e-3 if close else None)
+    res = minimize(problem, targets, oracle, options=options, close=closer)
+    assert res.lower <= f_star + 1e-7
+    assert f_star <= res.bracket_upper + 1e-7
+    assert res.bracket_relative_gap <= 1e-3  # these games are small enough to close
+
+
+def _single_belief_oracle(problem):
+    """PBVI at the uniform belief alone: a deliberately poor planner (its best responses are Markov-like)."""
+    return make_oracle(problem, PlannerOptions(iterations=1), np.random.default_rng(0))[0]
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_with_a_poor_belief_set_the_upper_side_still_holds(seed):
+    problem, targets = tiny(seed, S=3, loss="zero_one")
+    lam = 0.05
+    f_star = brute_minimum(*enumerated_game(problem, targets, True), lam)[1]
+    res = minimize(problem, targets, _single_belief_oracle(problem), options=CertifiedOptions(lam=lam), close=_closer(problem, max_beliefs=1))
+    assert res.lower <= f_star + 1e-7 <= res.bracket_upper + 2e-7
+
+
+def test_a_weak_planner_s_certificate_is_below_the_minimum_and_the_bracket_says_so():
+    """An oracle that knows a random third of the adversary's policies (as PBVI knows its belief
+    set) certifies values below the true minimum on some games; the bracket's upper side is above
+    the minimum on every one: the test can fail if the bracket trusted the planner."""
+    below = 0
+    for seed in (0, 1, 3):
+        problem, targets = tiny(seed, S=2)
+        subset = adversary_marginals(problem)
+        subset = subset[np.random.default_rng(seed).random(len(subset)) < 0.3]
+
+        def weak(R, subset=subset):
+            values = np.einsum("mjts,jts->m", subset, R)
+            return float(values.max()), subset[int(np.argmax(values))]
+
+        f_star = brute_minimum(*enumerated_game(problem, targets, True), 0.05)[1]
+        res = minimize(problem, targets, weak, options=CertifiedOptions(lam=0.05, tol=1e-9))
+        below += res.objective < f_star - 1e-4
+        upper = _closer(problem).bracket(res.upper_rewards).upper + penalty(res.weights[0], targets.sum(axis=0), 0.05)
+        assert res.lower <= f_star + 1e-7 <= upper + 2e-7
+        closed = minimize(problem, targets, weak, options=CertifiedOptions(lam=0.05, tol=1e-9), close=_closer(problem))
+        assert closed.lower <= f_star + 1e-7 <= closed.bracket_upper + 2e-7
+        assert closed.objective >= f_star - 1e-6  # closing adds the strategies the weak oracle misses
+    assert below >= 1
+
+
+@pytest.mark.parametrize("seed", [0, 2, 5])
+def test_a_markov_adversary_s_minimum_lies_below_the_history_dependent_bound(seed):
+    """The Markov adversary's game (game.adversary=markov) is bracketed by its own lower bound and the
+    history-dependent upper side at its answer: a Markov adversary can do no better."""
+    problem, targets = tiny(seed, S=2, loss="zero_one")
+    lam = 0.05
+    f_markov = brute_minimum(*markov_game(problem, targets, True), lam)[1]
+    oracle = make_oracle(problem, PlannerOptions(adversary="markov", method="exact"), np.random.default_rng(0))[0]
+    res = minimize(problem, targets, oracle, options=CertifiedOptions(lam=lam))
+    if res.upper_rewards is None:  # the exact bound through f(0)
+        upper = res.objective
+    else:
+        upper = _closer(problem).bracket(res.upper_rewards).upper + penalty(res.weights[0], targets.sum(axis=0), lam)
+    assert res.lower <= f_markov + 1e-7 <= upper + 2e-7
