@@ -356,7 +356,8 @@ def _oracle_name(settings: FitSettings) -> str:
 
 
 def _degeneracy(problem: GameProblem, targets: np.ndarray, res, tol: float) -> dict:
-    """Whether the certified w is the zero reward in all but name (``airl_cli.core.irl.degeneracy``):
+    """Whether the certified w is the zero reward in all but name (``airl_cli.core.irl.degeneracy``;
+    a fit stopped by its iteration cap is never flagged):
     the weights cannot move the payoff by more than the tolerance, or the zero reward passes the
     certificate itself (the oracle's upper bound at w = 0 within twice the tolerance of the lower
     bound, ``res.zero_upper``). Values in the certificate's units (the loss scaled as the solve scaled it)."""
@@ -366,5 +367,7 @@ def _degeneracy(problem: GameProblem, targets: np.ndarray, res, tol: float) -> d
     return {
         "reward_effect": effect,
         "zero_relative_gap": zero_gap,
-        "degenerate": is_degenerate(effect, res.objective, tol) or zero_gap <= 2 * tol,
+        # only a certificate supports the sentence: a fit stopped by the iteration cap has a small w
+        # because it stopped early, and its loose lower bound says nothing of f(0)
+        "degenerate": bool(res.converged) and (is_degenerate(effect, res.objective, tol) or zero_gap <= 2 * tol),
     }

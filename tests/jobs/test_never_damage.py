@@ -109,3 +109,14 @@ def test_strict_fails_a_certificate_that_holds_against_pbvi_only(tmp_path):
 def test_strict_refuses_a_multirun():
     line = error_line(runner.invoke(app, ["fit", "--strict", "-m", "seed=0,1"]))
     assert "--strict" in line
+
+
+def test_a_fit_stopped_by_its_cap_is_not_called_degenerate(tmp_path):
+    """The default problem stopped after 5 iterations has a small w because it stopped early: the
+    degenerate sentence ("w = 0 is optimal too ...") needs a certificate, and there is none."""
+    result = runner.invoke(app, ["fit", "optim.max_iterations=5", f"hydra.run.dir={tmp_path / 'a'}"])
+    assert result.exit_code == 0, result.output
+    assert "NOT converged" in result.stderr
+    assert "optimal too" not in result.output + result.stderr and "indistinguishable" not in result.output + result.stderr
+    metrics = json.loads((tmp_path / "a" / "metrics.json").read_text())
+    assert metrics["converged"] is False and metrics["degenerate"] is False

@@ -191,3 +191,24 @@ def test_the_shipped_benchmarks_plan_from_any_folder(tmp_path):
     assert record["test_return"] == pytest.approx(201.870, abs=0.01)
     bad = runner.invoke(app, ["plan", "plan.input=benchmark:river", f"hydra.run.dir={tmp_path / 'r'}"])
     assert bad.exit_code == 2 and "benchmark:hiv, benchmark:riverswim" in bad.output and not (tmp_path / "r").exists()
+
+
+def test_the_plan_states_a_bracket_on_the_optimum_that_the_heuristics_lie_below(tmp_path):
+    """`airl plan` prints [lower, upper] on the best history-dependent policy's objective, valid
+    whatever the planner: PBVI's plan is its lower end or below, and the published heuristics'
+    objectives lie below its upper end (a small budget here: the bound holds at any budget)."""
+    records = {}
+    for method in ("pbvi", "cadp", "wsu"):
+        out = tmp_path / method
+        result = runner.invoke(app, ["plan", "plan.input=benchmark:riverswim", f"plan.method={method}", "plan.bracket_beliefs=2", f"hydra.run.dir={out}"])
+        assert result.exit_code == 0, result.output
+        assert "the optimum on the training models lies in [" in result.output and "whatever the planner" in result.output
+        records[method] = json.loads((out / "plan.json").read_text())
+    lower, upper = records["pbvi"]["optimum_bracket"]
+    assert records["pbvi"]["objective"] <= lower + 1e-9 < upper <= records["pbvi"]["each_model_known"] + 1e-9
+    for method in ("cadp", "wsu"):
+        assert records[method]["objective"] < upper
+        assert records[method]["optimum_bracket"][1] >= records[method]["objective"]
+    off = runner.invoke(app, ["plan", "plan.input=benchmark:hiv", "plan.bracket_beliefs=0", f"hydra.run.dir={tmp_path / 'off'}"])
+    assert off.exit_code == 0 and "lies in" not in off.output
+    assert json.loads((tmp_path / "off" / "plan.json").read_text())["optimum_bracket"] is None
