@@ -33,7 +33,7 @@ import numpy as np
 
 from airl_cli.core.irl.certified_steps import Run, penalty
 from airl_cli.core.irl.strategy_sets import StrategySets
-from airl_cli.core.mmdp.bounds import Bracket, bracket
+from airl_cli.core.mmdp.bounds import Bracket, bracket, merge_beliefs
 from airl_cli.core.mmdp.planner import solve
 
 #: Where the fit would stop, the closing step adds at most this many strategies in all: each is a
@@ -65,14 +65,15 @@ class Closer:
     def __init__(self, P, p0: np.ndarray, beliefs: np.ndarray | None, max_beliefs: int):
         self.P, self.p0, self.beliefs, self.max_beliefs = P, p0, beliefs, max_beliefs
         self.points: tuple | None = None  # every belief the brackets backed up, per layer
-        self.reached: tuple | None = None  # the posteriors where the last bracket's policy goes, per layer
+        self.reached: tuple | None = None  # the posteriors where the brackets' policies go, per layer
         self.last: Bracket | None = None
         self.calls = 0
 
     def bracket(self, R: np.ndarray, target: float = 0.0) -> Bracket:
         """The bracket on the adversary's best value at rewards R (M, T, S)."""
         self.last = bracket(self.P, R, self.p0, graph=self._pbvi(R), target=target, max_beliefs=self.max_beliefs, points=self.points)
-        self.points, self.reached = self.last.points, reached_posteriors(self.last.graph, self.P, self.p0)
+        self.points = self.last.points
+        self.reached = union(self.reached, reached_posteriors(self.last.graph, self.P, self.p0))
         self.calls += 1
         return self.last
 
@@ -82,7 +83,7 @@ class Closer:
 
     def respond(self, R: np.ndarray) -> tuple[float, np.ndarray]:
         """The fit's best response once a bracket has run: PBVI, then one backup at the posteriors
-        where the last bracket's policy went (``reached``): a better policy, at a small part of a
+        where the brackets' policies went (``reached``): a better policy, at a small part of a
         bracket's cost (its value is exact, as any policy graph's)."""
         found = bracket(self.P, R, self.p0, graph=self._pbvi(R), rounds=0, points=self.reached)
         return found.lower, found.graph.marginals(self.P, self.p0)
@@ -98,6 +99,19 @@ def closing_oracle(oracle, closer: Closer):
         return oracle(R) if closer.reached is None else closer.respond(R)
 
     return respond
+
+
+def union(old: tuple | None, new: tuple) -> tuple:
+    """Per layer, the (states, posteriors) of ``old`` and ``new`` with equal ones once: the fit's
+    refinement grows where every bracket's policy went (on a 16 x 16 Objectworld file, 9 closing
+    steps and 61 s instead of 40, the cap, and 99 s when only the last bracket's were kept)."""
+    if old is None:
+        return new
+    out = []
+    for (s0, b0), (s1, b1) in zip(old, new):
+        states, X = merge_beliefs(np.concatenate([s0, s1]), np.concatenate([b0, b1]))
+        out.append((states, X / X.sum(axis=1, keepdims=True)))
+    return tuple(out)
 
 
 def reached_posteriors(graph, P, p0: np.ndarray) -> tuple:

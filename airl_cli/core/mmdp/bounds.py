@@ -62,7 +62,7 @@ CAP_NUMBERS = 2_000_000
 MAX_BELIEFS = 1_000_000
 #: Beliefs of one (t, s) equal to this many decimals (normalised) are one belief.
 DECIMALS = 12
-#: Seeds the weights that turn a rounded belief into one number (``_merge``): fixed, so the merge is too.
+#: Seeds the weights that turn a rounded belief into one number (``merge_beliefs``): fixed, so the merge is too.
 KEY_SEED = 20261127
 
 
@@ -192,7 +192,7 @@ def _regroup(offsets: np.ndarray, states: np.ndarray, *columns: tuple[np.ndarray
     return (*merged, np.searchsorted(state[order], np.arange(S + 1)).astype(np.int64))
 
 
-def _merge(states: np.ndarray, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def merge_beliefs(states: np.ndarray, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Equal beliefs of one state merged (their weights x added: V is homogeneous)."""
     if states.size == 0:
         return states, X
@@ -223,7 +223,7 @@ def _explore(layers: _Layers, states: np.ndarray, X: np.ndarray, delta: float, c
         kid_s = layers.nxt[s[ii], rr]
         kid_x = X[i[ii]] * layers.PR[s[ii], a[ii], rr]
         reached = kid_x.sum(axis=1) > 0
-        kid_s, kid_x = _merge(kid_s[reached], kid_x[reached])
+        kid_s, kid_x = merge_beliefs(kid_s[reached], kid_x[reached])
         up, low = layers.bounds(t + 1, kid_s, kid_x)
         wide = np.flatnonzero(up - low > delta)
         if wide.size > cap:
@@ -316,5 +316,5 @@ def _stored(parts: list[tuple[np.ndarray, np.ndarray]], M: int) -> tuple[np.ndar
     """One layer's backed-up beliefs over every round, equal ones once, normalised: (states, beliefs)."""
     if not parts:
         return np.empty(0, np.int64), np.empty((0, M))
-    states, X = _merge(np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts]))
+    states, X = merge_beliefs(np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts]))
     return states, X / X.sum(axis=1, keepdims=True)
