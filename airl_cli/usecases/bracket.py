@@ -7,7 +7,7 @@ import numpy as np
 
 from airl_cli.config import FitSettings
 from airl_cli.core.irl.bracket import TARGET_SHARE, Closer, relative_width
-from airl_cli.core.irl.certified_steps import penalty
+from airl_cli.core.irl.certified import answer_penalty
 from airl_cli.core.irl.game_problem import GameProblem
 from airl_cli.core.irl.options import BRACKET_MAX_BELIEFS
 from airl_cli.core.mdp.sparse import sparse_dynamics
@@ -53,11 +53,11 @@ def bracket_info(res, settings: FitSettings, targets: np.ndarray, close: Closer 
         upper = res.objective
     else:
         target = TARGET_SHARE * (settings.certified.bracket_tol or settings.certified.tol) * max(1.0, abs(res.objective))
-        upper = close.bracket(res.upper_rewards, target).upper + _penalty(res, settings, targets)
+        upper = close.bracket(res.upper_rewards, target).upper + answer_penalty(targets, res, settings.certified)
     info = {"minimum_bracket": [float(res.lower), float(upper)], "bracket_relative_gap": relative_width(res.lower, upper)}
     if close is None or close.last is None or not closes(settings):
         return info  # the fit's own check (pbvi.check_rounds) measures PBVI's resolution
-    checked = max(res.objective, close.last.lower + _penalty(res, settings, targets)) if res.upper_rewards is not None else res.objective
+    checked = max(res.objective, close.last.lower + answer_penalty(targets, res, settings.certified)) if res.upper_rewards is not None else res.objective
     return info | {
         "bracket_beliefs": int(close.last.beliefs),
         "bracket_calls": int(close.calls),
@@ -66,13 +66,6 @@ def bracket_info(res, settings: FitSettings, targets: np.ndarray, close: Closer 
         "checked_relative_gap": relative_width(res.lower, checked),
         "planner_resolution": (checked - res.objective) / max(1.0, abs(res.objective)),
     }
-
-
-def _penalty(res, settings: FitSettings, targets: np.ndarray) -> float:
-    """-w . C + (lambda/2)|w|^2 at the answer, in the QP's own w and C."""
-    certified = settings.certified
-    w, C = (res.weights[0], targets.sum(axis=0)) if certified.weight_sharing else (res.weights.reshape(-1), targets.reshape(-1))
-    return penalty(w, C, certified.lam)
 
 
 def bracket_phrase(info: dict, bracket_tol: float | None) -> str:

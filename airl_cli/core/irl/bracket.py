@@ -35,6 +35,7 @@ from airl_cli.core.irl.certified_steps import Run, penalty
 from airl_cli.core.irl.strategy_sets import StrategySets
 from airl_cli.core.mmdp.bounds import Bracket, bracket, merge_beliefs
 from airl_cli.core.mmdp.planner import solve
+from airl_cli.core.mmdp.refine import layer_posteriors
 
 #: Where the fit would stop, the closing step adds at most this many strategies in all: each is a
 #: bracketed best response (a few seconds on a large grid), and the cap makes the cost bounded.
@@ -47,8 +48,8 @@ TARGET_SHARE = 0.5
 CLOSE_SHARE = 0.25
 
 #: The closing step: (rewards (M, T, S), absolute target) -> (a policy's exact value, its marginals
-#: (M, T, S), an upper bound on every policy's value), or None when it cannot tell.
-Close = Callable[[np.ndarray, float], tuple[float, np.ndarray, float] | None]
+#: (M, T, S), an upper bound on every policy's value).
+Close = Callable[[np.ndarray, float], tuple[float, np.ndarray, float]]
 
 
 class Closer:
@@ -115,14 +116,9 @@ def union(old: tuple | None, new: tuple) -> tuple:
 
 
 def reached_posteriors(graph, P, p0: np.ndarray) -> tuple:
-    """Per layer t, (states (n,), posteriors (n, M)) at the nodes the policy graph reaches (the
-    model posterior averaged over the histories that reach a node, ``mmdp.refine``)."""
-    out = []
-    for t, mu in enumerate(graph.walk(P, p0)):
-        mass = mu.sum(axis=0)
-        hit = mass > 1e-12
-        out.append((graph.state[t][hit], np.ascontiguousarray((mu[:, hit] / mass[hit]).T)))
-    return tuple(out)
+    """Per layer t, (states (n,), posteriors (n, M)) at the nodes the policy graph reaches
+    (``mmdp.refine.layer_posteriors``)."""
+    return tuple((graph.state[t][nodes], b) for t, (nodes, _, b) in enumerate(layer_posteriors(graph, P, p0)))
 
 
 def closed(sets: StrategySets, close: Close, run: Run, C: np.ndarray, lam: float, tol: float, bracket_tol: float, it: int) -> bool:

@@ -307,8 +307,13 @@ def upper_at(targets: np.ndarray, result: CertifiedResult, oracle: AdversaryOrac
     if result.upper_rewards is None:
         return result.objective
     value, _ = oracle(result.upper_rewards)
+    return max(result.objective, value + answer_penalty(targets, result, options))
+
+
+def answer_penalty(targets: np.ndarray, result: CertifiedResult, options: CertifiedOptions) -> float:
+    """-w . C + (lambda/2)|w|^2 at ``result``'s weights, in the QP's own w and C (``targets`` (D, K))."""
     w, C = (result.weights[0], targets.sum(axis=0)) if options.weight_sharing else (result.weights.reshape(-1), targets.reshape(-1))
-    return max(result.objective, value + penalty(w, C, options.lam))
+    return penalty(w, C, options.lam)
 
 
 def _ask_oracles(sets: StrategySets, sol: MasterSolution, oracle, screen, per_dynamics, it: int, run: Run) -> tuple[bool, bool]:

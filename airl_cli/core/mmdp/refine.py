@@ -27,6 +27,8 @@ initial p0 (S,); beliefs (nb, M); prior (M,) or None.
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+
 import numpy as np
 
 from airl_cli.core.mdp.sparse import SparseDynamics
@@ -52,14 +54,18 @@ def node_posteriors(graph: PolicyGraph, transitions: np.ndarray | SparseDynamics
         (weights (n,), posteriors (n, M)) over the reached nodes of every layer: weights[k] = m_k
         (summed over the layers, T in all), posteriors[k] = b_k, each row a distribution.
     """
-    weights, posteriors = [], []
+    layers = list(layer_posteriors(graph, transitions, initial, prior))
+    return np.concatenate([m for _, m, _ in layers]), np.concatenate([b for _, _, b in layers])
+
+
+def layer_posteriors(graph: PolicyGraph, transitions: np.ndarray | SparseDynamics, initial: np.ndarray, prior: np.ndarray | None = None) -> Iterator[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    """``node_posteriors`` layer by layer: for t = 0..T-1, (the reached nodes (n_t,), their weights
+    m_k (n_t,), their posteriors b_k (n_t, M))."""
     for mu in graph.walk(transitions, initial):  # (M, n_t)
         joint = mu if prior is None else prior[:, None] * mu
         mass = joint.sum(axis=0)
-        reached = mass > 1e-12
-        weights.append(mass[reached])
-        posteriors.append((joint[:, reached] / mass[reached]).T)
-    return np.concatenate(weights), np.concatenate(posteriors)
+        reached = np.flatnonzero(mass > 1e-12)
+        yield reached, mass[reached], np.ascontiguousarray((joint[:, reached] / mass[reached]).T)
 
 
 def grow_beliefs(beliefs: np.ndarray, candidates: np.ndarray, weights: np.ndarray, n: int, spacing: float = SPACING) -> np.ndarray:
