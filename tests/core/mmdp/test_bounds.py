@@ -4,13 +4,13 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from tiny import random_dynamics
 
 from airl_cli.core.mdp.sparse import sparse_dynamics
 from airl_cli.core.mmdp import bounds
 from airl_cli.core.mmdp.exact import exact_graph
 from airl_cli.core.mmdp.planner import pbvi_graph, solve
 from airl_cli.core.mmdp.policy_graph import layered_rewards
-from tests.tiny import random_dynamics
 
 
 def tiny(seed: int, S: int = 3, A: int = 2, M: int = 3, T: int = 4, concentration: float = 0.5):
