@@ -16,8 +16,9 @@ from typer.core import TyperCommand
 
 from airl_cli.errors import AirlError, refuse, stop_on_sigterm
 from airl_cli.heap import keep_heap_slack
-from airl_cli.launch import check_group_choices, check_keys, config_groups, run_hydra
+from airl_cli.launch import check_group_choices, check_keys, config_groups, quote_paths, run_hydra
 from airl_cli.methods import NAMES
+from airl_cli.overrides import syntax_problem
 
 PASS_THROUGH = {"allow_extra_args": True, "ignore_unknown_options": True}
 
@@ -46,6 +47,16 @@ def _groups_epilog() -> str:
 
 
 EPILOG = _groups_epilog()
+
+
+def _overrides(ctx: typer.Context) -> list[str]:
+    """The command's Hydra overrides (its extra arguments), refused in one sentence if one is not an
+    override (an unknown option, a word without '='), Hydra cannot parse it, or a key is set twice."""
+    options = [o for p in ctx.command.params for o in getattr(p, "opts", []) if o.startswith("--")]
+    problem = syntax_problem(quote_paths(list(ctx.args)), str(ctx.command.name), options + ["--help"])
+    if problem is not None:
+        refuse(problem)
+    return list(ctx.args)
 
 
 class _SweepCommand(TyperCommand):
@@ -96,6 +107,9 @@ def _root(
 CfgOption = typer.Option(None, "--cfg", help="Print the composed config instead of running: job, hydra or all.")
 ResolveOption = typer.Option(False, "--resolve", help="With --cfg, resolve interpolations before printing.")
 MultirunOption = typer.Option(False, "--multirun", "-m", help="Run once per combination of comma-separated override values.")
+ReplaceOption = typer.Option(
+    False, "--replace", help="Let the run go into a hydra.run.dir that holds files: they are removed first (without it such a folder is refused)."
+)
 
 
 @app.command(context_settings=PASS_THROUGH, epilog=EPILOG)
@@ -104,13 +118,14 @@ def generate(
     cfg: str | None = CfgOption,
     resolve: bool = ResolveOption,
     multirun: bool = MultirunOption,
+    replace: bool = ReplaceOption,
 ) -> None:
     """Build a problem and its demonstrations; write the dataset file and a summary to a run folder.
 
     Takes Hydra overrides, e.g. mdp=grid dynamics=grid_suboptimal seed=3. The run folder is
-    results/generate/<time>/ unless hydra.run.dir=PATH says otherwise.
+    results/generate/<time>/ unless hydra.run.dir=PATH (a new or empty folder) says otherwise.
     """
-    run_hydra("generate", ctx.args, cfg=cfg, resolve=resolve, multirun=multirun)
+    run_hydra("generate", _overrides(ctx), cfg=cfg, resolve=resolve, multirun=multirun, replace=replace)
 
 
 FIT_HELP = f"""Learn reward weights from demonstrations under several dynamics; write weights, metrics and history.
@@ -118,7 +133,7 @@ FIT_HELP = f"""Learn reward weights from demonstrations under several dynamics; 
 With data=PATH it learns from a dataset file (ours or yours); without, from the problem the
 mdp/dynamics/demos groups describe, built in-process (and saved as dataset.npz).
 method={NAMES[0]} (default), {", ".join(NAMES[1:-1])} or {NAMES[-1]} picks the learner. The run folder is
-results/fit/<time>/ unless hydra.run.dir=PATH says otherwise.
+results/fit/<time>/ unless hydra.run.dir=PATH (a new or empty folder) says otherwise.
 """
 
 
@@ -128,6 +143,7 @@ def fit(
     cfg: str | None = CfgOption,
     resolve: bool = ResolveOption,
     multirun: bool = MultirunOption,
+    replace: bool = ReplaceOption,
     strict: bool = typer.Option(
         False,
         "--strict",
@@ -141,7 +157,7 @@ def fit(
 
     WARNED.clear()
     WIDE.clear()  # what an earlier command in this process saw is not this fit's
-    run_hydra("fit", ctx.args, cfg=cfg, resolve=resolve, multirun=multirun)
+    run_hydra("fit", _overrides(ctx), cfg=cfg, resolve=resolve, multirun=multirun, replace=replace)
     if strict and cfg is None:
 
         for sentence in WIDE:
@@ -170,18 +186,19 @@ def sweep(
     The jobs run on one warm worker per core (hydra.launcher.n_jobs=N for fewer);
     hydra/launcher=basic runs them one by one, hydra/launcher=submitit_slurm on a cluster.
     """
+    args = _overrides(ctx)
     if cfg is not None:  # print the config (Hydra takes --cfg without --multirun)
         from airl_cli.sweep.run import print_config
 
-        print_config(ctx.args, cfg=cfg, resolve=resolve)
+        print_config(args, cfg=cfg, resolve=resolve)
         return
     from airl_cli.jobs.common import err_console, out_console
     from airl_cli.sweep.run import run
 
-    check_group_choices(ctx.args)
-    check_keys(ctx.args)
+    check_group_choices(args)
+    check_keys(args)
     try:
-        status = run(ctx.args, draw=plot, console=err_console, out=out_console, partial=partial)
+        status = run(args, draw=plot, console=err_console, out=out_console, partial=partial)
     except AirlError as err:
         refuse(err, err_console)
     raise typer.Exit(status)
@@ -193,14 +210,15 @@ def plan_command(
     cfg: str | None = CfgOption,
     resolve: bool = ResolveOption,
     multirun: bool = MultirunOption,
+    replace: bool = ReplaceOption,
 ) -> None:
     """Solve a multi-model MDP (the chapter-6 planner on its own, or WSU, MVP, CADP); write the policy and its returns.
 
     Takes plan.input=PATH (a folder of training.csv, initial.csv, [test.csv], [parameters.csv],
     or an .npz) and overrides such as plan.method=cadp plan.horizon=50 plan.iterations=8.
-    The run folder is results/plan/<time>/ unless hydra.run.dir=PATH says otherwise.
+    The run folder is results/plan/<time>/ unless hydra.run.dir=PATH (a new or empty folder) says otherwise.
     """
-    run_hydra("plan", ctx.args, cfg=cfg, resolve=resolve, multirun=multirun)
+    run_hydra("plan", _overrides(ctx), cfg=cfg, resolve=resolve, multirun=multirun, replace=replace)
 
 
 @app.command()

@@ -16,7 +16,7 @@ from rich.markup import escape
 
 from airl_cli.errors import ResultsUnwritable, interrupted, refuse
 from airl_cli.io.files import describe_os_error, is_unwritable, writable_problem, write_text
-from airl_cli.io.run_folder import claimed_folder, holds_no_results, new_run_folder
+from airl_cli.io.run_folder import claimed_folder, empty, entry_refusal, holds_no_results, new_run_folder
 from airl_cli.paths import conf_dir
 from airl_cli.problem_defaults import with_problem_defaults
 from airl_cli.overrides import chosen_values, override_key, split_override
@@ -219,17 +219,25 @@ def _print_config_app(job: str):
 
 
 def run_hydra(
-    job: str, overrides: list[str], *, cfg: str | None = None, resolve: bool = False, multirun: bool = False, app: str | None = None
+    job: str,
+    overrides: list[str],
+    *,
+    cfg: str | None = None,
+    resolve: bool = False,
+    multirun: bool = False,
+    app: str | None = None,
+    replace: bool = False,
 ) -> None:
     """Run the Hydra app of ``airl_cli.jobs.<job>`` (or of the module ``app``) with these overrides.
 
     A Ctrl-C, or a run folder that cannot be written, before the job itself starts (its imports,
     Hydra's records) is said in one sentence as in the job (``jobs.common.stop``); ``airl sweep``
-    (job ``sweep``) says it itself.
+    (job ``sweep``) says it itself. ``replace``: a single run may go into a ``hydra.run.dir`` that
+    holds files, which are removed first (``io.run_folder.entry_refusal``).
     """
     earlier = claimed_folder()
     try:
-        _run_hydra(job, overrides, cfg=cfg, resolve=resolve, multirun=multirun, app=app)
+        _run_hydra(job, overrides, cfg=cfg, resolve=resolve, multirun=multirun, app=app, replace=replace)
     except (KeyboardInterrupt, SystemError, ResultsUnwritable) as err:
         if job == "sweep" or not (interrupted(err) or isinstance(err, ResultsUnwritable)):
             raise
@@ -242,7 +250,7 @@ def run_hydra(
         raise
 
 
-def _run_hydra(job: str, overrides: list[str], *, cfg: str | None, resolve: bool, multirun: bool, app: str | None) -> None:
+def _run_hydra(job: str, overrides: list[str], *, cfg: str | None, resolve: bool, multirun: bool, app: str | None, replace: bool) -> None:
     from airl_cli.hydra_internals import launcher_discoverable
 
     launcher_discoverable()  # hydra/launcher=airl's config comes with the plugin
@@ -269,7 +277,7 @@ def _run_hydra(job: str, overrides: list[str], *, cfg: str | None, resolve: bool
     if claim:  # a folder of its own for this run, even if another started in the same second
         OmegaConf.register_new_resolver("airl.new_run_folder", new_run_folder, replace=True)
     try:
-        with _jobs_composed_once(multirun and cfg is None), _checked_first(job if claim else None, overrides), atomic_hydra_records(save_hydra_record):
+        with _jobs_composed_once(multirun and cfg is None), _checked_first(job if claim else None, overrides, replace), atomic_hydra_records(save_hydra_record):
             main()
     finally:
         sys.argv = saved
@@ -278,7 +286,7 @@ def _run_hydra(job: str, overrides: list[str], *, cfg: str | None, resolve: bool
 
 
 @contextmanager
-def _checked_first(job: str | None, overrides: list[str]) -> Iterator[None]:
+def _checked_first(job: str | None, overrides: list[str], replace: bool) -> Iterator[None]:
     """``preflight`` for a single run of ``job`` (None: nothing to check), then the block, with
     compositions remembered in both (Hydra composes the same config again)."""
     if job is None or job not in PRINT_ONLY:
@@ -287,19 +295,20 @@ def _checked_first(job: str | None, overrides: list[str]) -> Iterator[None]:
     from airl_cli import compose_memo
 
     with compose_memo.active():
-        preflight(job, overrides)
+        preflight(job, overrides, replace=replace)
         yield
 
 
-def preflight(job: str, overrides: list[str]) -> None:
+def preflight(job: str, overrides: list[str], *, replace: bool = False) -> None:
     """Refuse bad input in one sentence before Hydra makes or touches any folder.
 
     Hydra makes the run folder and writes its records there before the job starts; a job that
     then refused its settings left an empty ``results/<command>/`` behind, and, run into an earlier
     run's folder (``hydra.run.dir=``), marked that folder INCOMPLETE and overwrote its records. So the
     job's config is composed here first and its ``check`` run (the settings, the memory, the input
-    files); the settings it will not read are named, one line each. Compositions are remembered
-    (``compose_memo``): Hydra's own, next, costs little.
+    files); the settings it will not read are named, one line each; then the folder named by
+    ``hydra.run.dir=`` must be new or empty (``io.run_folder.entry_refusal``; ``replace`` empties
+    it). Compositions are remembered (``compose_memo``): Hydra's own, next, costs little.
     """
     from hydra import compose, initialize_config_dir
 
@@ -312,6 +321,12 @@ def preflight(job: str, overrides: list[str]) -> None:
         notes = module.check(cfg, list(overrides))
     except AirlError as err:
         refuse(err)
+    folder = chosen_values(overrides).get("hydra.run.dir")
+    refusal = None if folder is None else entry_refusal(folder.strip("'\""), overrides, replace=replace)
+    if refusal is not None:
+        refuse(refusal)
+    if folder is not None and replace and Path(folder.strip("'\"")).is_dir():
+        empty(folder.strip("'\""))
     if notes:
         from rich.console import Console
 

@@ -268,7 +268,8 @@ def _dry_run(command: str, rest: list[str]) -> str | None:
     from airl_cli.problem_defaults import with_problem_defaults
     from airl_cli.sweep.plan import plan
 
-    values = [w for w in rest if not w.startswith("-")]
+    # the pages' run folders are new where their readers run them; here grid/ holds the fixture's file
+    values = [w for w in rest if not w.startswith(("-", "hydra.run.dir="))]
     try:
         return _refused(plan, values) if command == "sweep" else _refused(preflight, command, with_problem_defaults(values))
     except AirlError as err:  # sweep.plan raises its sentence

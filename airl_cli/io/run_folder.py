@@ -101,3 +101,38 @@ def discard(folder: str | os.PathLike) -> bool:
     """Remove a run folder and everything in it; whether it is gone (a read-only one stays)."""
     shutil.rmtree(folder, ignore_errors=True)
     return not Path(folder).exists()
+
+
+def entry_refusal(folder: str, overrides: list[str], *, replace: bool) -> str | None:
+    """Why a single run may not go into ``hydra.run.dir=folder`` (one sentence), or None.
+
+    A finished run's folder is a record: a new run into a folder that holds anything is refused,
+    naming what is there, unless ``replace`` (``--replace``), which empties it first (``empty``) —
+    refused too if one of the run's own inputs (a value of ``overrides`` naming a file or folder)
+    lies in it. An empty ``hydra.run.dir=`` (Hydra would write into the current folder) is refused.
+    """
+    if not folder.strip():
+        return "hydra.run.dir= is empty (the run would write into the current folder); name a new folder, e.g. hydra.run.dir=results/mine"
+    path = Path(folder)
+    if not path.is_dir() or not any(path.iterdir()):
+        return None
+    names = sorted(p.name for p in path.iterdir())
+    shown = ", ".join(names[:5]) + (f" and {len(names) - 5} more" if len(names) > 5 else "")
+    if not replace:
+        return f"{folder} already holds {shown}; a run never replaces another's files: name a new folder, or add --replace to empty it first"
+    inside = path.resolve()
+    for item in overrides:
+        key, _, value = item.partition("=")
+        value = value.strip("'\"")
+        if not key.lstrip("+").startswith("hydra.") and value and Path(value).exists() and (Path(value).resolve() == inside or inside in Path(value).resolve().parents):
+            return f"--replace would empty {folder}, which holds this run's input {value}; copy the input elsewhere first"
+    return None
+
+
+def empty(folder: str | os.PathLike) -> None:
+    """Remove everything inside ``folder`` (``--replace``), keeping the folder itself."""
+    for entry in Path(folder).iterdir():
+        if entry.is_dir() and not entry.is_symlink():
+            shutil.rmtree(entry)
+        else:
+            entry.unlink()

@@ -132,17 +132,19 @@ def test_an_interrupt_inside_a_kernel_is_one_line_and_exit_130_for_every_command
     assert not any((tmp_path / "results" / command).iterdir())  # the folder it made is gone
 
 
-def test_an_interrupted_run_into_a_folder_of_an_earlier_run_marks_it_incomplete(tmp_path, monkeypatch):
+def test_an_interrupted_run_that_replaces_an_earlier_run_leaves_nothing(tmp_path, monkeypatch):
+    """--replace empties the earlier run's folder first: a run that then stops keeps no mixture of the
+    two runs' files (before --replace existed it marked the mixture INCOMPLETE)."""
     import airl_cli.jobs.fit
 
     out = tmp_path / "run"
     assert runner.invoke(app, ["fit", f"hydra.run.dir={out}", *SMALL]).exit_code == 0
     assert not (out / INCOMPLETE).exists()  # a finished run is not marked
     monkeypatch.setattr(airl_cli.jobs.fit, "write_text", kernel_interrupt)  # after weights.json, before summary.txt
-    result = runner.invoke(app, ["fit", f"hydra.run.dir={out}", "seed=1", *SMALL])
+    result = runner.invoke(app, ["fit", "--replace", f"hydra.run.dir={out}", "seed=1", *SMALL])
     assert result.exit_code == 130
-    assert one_line(result.output, f"interrupted: {out} is marked INCOMPLETE"), result.output
-    assert "did not finish" in (out / INCOMPLETE).read_text()
+    assert one_line(result.output, "interrupted: nothing was kept"), result.output
+    assert not out.exists()
 
 
 SWEEP = [*AIRL, "sweep", "experiment=fig05", "profile=quick", "--no-plot", "hydra.launcher.n_jobs=2"]
@@ -247,13 +249,13 @@ def test_a_fit_whose_summary_does_not_fit_on_the_disk_leaves_no_run_folder(tmp_p
     assert result.exit_code == 2
     assert one_line(result.output, "error: cannot write the results (no space left on device: "), result.output
     assert not (tmp_path / "out").exists()
-    # into a folder of an earlier run: kept, and marked
+    # replacing an earlier run (--replace empties its folder first): nothing is left either
     monkeypatch.setattr(airl_cli.jobs.fit, "write_text", no_space("nothing"))
     assert runner.invoke(app, ["fit", "hydra.run.dir=earlier", *SMALL]).exit_code == 0
     monkeypatch.setattr(airl_cli.jobs.fit, "write_text", no_space("summary.txt"))
-    result = runner.invoke(app, ["fit", "hydra.run.dir=earlier", "seed=1", *SMALL])
-    assert result.exit_code == 2 and one_line(result.output, "error:") and "earlier is marked INCOMPLETE" in result.output
-    assert (tmp_path / "earlier" / INCOMPLETE).exists()
+    result = runner.invoke(app, ["fit", "--replace", "hydra.run.dir=earlier", "seed=1", *SMALL])
+    assert result.exit_code == 2 and one_line(result.output, "error: cannot write the results"), result.output
+    assert not (tmp_path / "earlier").exists()
 
 
 def test_a_sweeps_figures_on_a_full_disk_are_one_sentence_and_the_folder_is_marked(tmp_path, monkeypatch):

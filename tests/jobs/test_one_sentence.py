@@ -1,0 +1,102 @@
+"""A run never replaces another's folder, and a malformed command line is one sentence (issue 52, items 1, 7, 8).
+
+On the code before: `airl fit hydra.run.dir=OLD` replaced an earlier `airl generate`'s dataset.npz and
+a user's own summary.txt without a word, `hydra.run.dir=` wrote every file into the current folder,
+and `airl fit --strcit`, `mdp.n_states 30`, `mdp.n_states==30`, `airl plan --foo` ended in Hydra's
+40-frame traceback with exit 1; `mdp.n_states=30 mdp.n_states=40` ran with 40 silently.
+"""
+
+from __future__ import annotations
+
+import hashlib
+from pathlib import Path
+
+import pytest
+from typer.testing import CliRunner
+
+from airl_cli.cli import app
+
+runner = CliRunner()
+SMALL = ["mdp.n_states=6", "mdp.n_actions=3", "mdp.horizon=5", "mdp.n_features=3", "demos.n=30", "pbvi.iterations=4"]
+
+
+@pytest.fixture(autouse=True)
+def in_tmp(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+
+
+def sha256_listing(folder: Path) -> dict[str, str]:
+    return {str(p.relative_to(folder)): hashlib.sha256(p.read_bytes()).hexdigest() for p in sorted(folder.rglob("*")) if p.is_file()}
+
+
+def one_error(result) -> str:
+    lines = [line for line in result.output.splitlines() if line.strip()]
+    assert result.exit_code == 2 and len(lines) == 1 and lines[0].startswith("error: "), result.output
+    return lines[0]
+
+
+@pytest.mark.parametrize("command", ["fit", "generate"])
+def test_a_run_into_a_folder_that_holds_files_is_refused_and_changes_nothing(tmp_path, command):
+    old = tmp_path / "old"
+    assert runner.invoke(app, ["generate", *SMALL, f"hydra.run.dir={old}"]).exit_code == 0
+    (old / "notes.txt").write_text("mine")  # a user's own file
+    before = sha256_listing(old)
+    line = one_error(runner.invoke(app, [command, *SMALL, "seed=4", f"hydra.run.dir={old}"]))
+    assert "already holds" in line and "dataset.npz" in line and "--replace" in line
+    assert sha256_listing(old) == before
+    assert not (tmp_path / "results").exists()
+
+
+def test_replace_empties_the_folder_first_but_never_deletes_the_runs_own_input(tmp_path):
+    old = tmp_path / "old"
+    assert runner.invoke(app, ["generate", *SMALL, f"hydra.run.dir={old}"]).exit_code == 0
+    (old / "notes.txt").write_text("mine")
+    before = sha256_listing(old)
+    line = one_error(runner.invoke(app, ["fit", "--replace", f"data={old / 'dataset.npz'}", f"hydra.run.dir={old}"]))
+    assert "holds this run's input" in line
+    assert sha256_listing(old) == before
+    (tmp_path / "d.npz").write_bytes((old / "dataset.npz").read_bytes())
+    assert runner.invoke(app, ["fit", "--replace", "data=d.npz", f"hydra.run.dir={old}"]).exit_code == 0
+    names = {p.name for p in old.iterdir()}
+    assert "notes.txt" not in names and "dataset.npz" not in names and {"weights.json", "summary.txt"} <= names
+
+
+def test_an_empty_run_folder_is_refused_and_writes_nothing(tmp_path):
+    line = one_error(runner.invoke(app, ["fit", *SMALL, "hydra.run.dir="]))
+    assert "hydra.run.dir= is empty" in line
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_an_empty_new_folder_is_accepted(tmp_path):
+    (tmp_path / "new").mkdir()
+    assert runner.invoke(app, ["generate", *SMALL, "hydra.run.dir=new"]).exit_code == 0
+    assert (tmp_path / "new" / "dataset.npz").is_file()
+
+
+@pytest.mark.parametrize(
+    "args, needle",
+    [
+        (["fit", "--strcit"], "'--strcit' is not an option of airl fit (its options: --cfg, --resolve, --multirun, --replace, --strict"),
+        (["fit", "--verbose"], "'--verbose' is not an option of airl fit"),
+        (["fit", "mdp.n_states", "30"], "'mdp.n_states' sets nothing"),
+        (["fit", "mdp.n_states==30"], "cannot read the override 'mdp.n_states==30'"),
+        (["fit", "data=a", "b"], "'b' sets nothing"),
+        (["generate", "mdp.n_states=[1,2"], "cannot read the override"),
+        (["plan", "plan.input"], "'plan.input' sets nothing"),
+        (["plan", "--foo"], "'--foo' is not an option of airl plan"),
+        (["sweep", "experiment=fig05", "--strcit"], "'--strcit' is not an option of airl sweep"),
+        (["fit", "mdp.n_states=30", "mdp.n_states=40"], "'mdp.n_states' is set twice ('30' and '40'); give it once"),
+    ],
+)
+def test_a_malformed_command_line_is_one_sentence_and_exit_2(tmp_path, args, needle):
+    line = one_error(runner.invoke(app, args))
+    assert needle in line, line
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_sweep_jobs_dataset_path_with_commas_and_equals_is_not_malformed(tmp_path):
+    assert runner.invoke(app, ["generate", *SMALL, "hydra.run.dir=gen"]).exit_code == 0
+    folder = tmp_path / "demos.n=10,method=airl,seed=3"
+    (tmp_path / "gen").rename(folder)
+    result = runner.invoke(app, ["fit", f"data={folder / 'dataset.npz'}", "pbvi.iterations=4", "hydra.run.dir=fit"])
+    assert result.exit_code == 0, result.output
