@@ -25,7 +25,7 @@ from omegaconf import DictConfig
 from airl_cli.config import fit_settings, loss_and_seed, problem_settings
 from airl_cli.hydra_internals import launcher_discoverable
 from airl_cli.io.dataset import Dataset, read_dataset, write_dataset
-from airl_cli.io.run_folder import read_experiment
+from airl_cli.io.results_table import read_results_table
 from airl_cli.paths import conf_dir
 from airl_cli.problem_defaults import with_problem_defaults
 from airl_cli.usecases.evaluate import score_learned
@@ -120,11 +120,5 @@ def score(dataset: Dataset, learned: Learned) -> pd.DataFrame:
 
 def read_sweep(folder: str | os.PathLike) -> pd.DataFrame:
     """A sweep's ``results.csv``, with its ``experiment.json`` in ``table.attrs["experiment"]``."""
-    folder = Path(folder)
-    if not (folder / "results.csv").is_file():
-        raise FileNotFoundError(f"{folder} has no results.csv: run airl sweep into it first")
-    table = pd.read_csv(folder / "results.csv")
-    meta = read_experiment(folder)
-    table.attrs["experiment"] = {} if meta is None else meta
-    return table
+    return read_results_table(folder)
 

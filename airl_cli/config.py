@@ -122,15 +122,18 @@ def _mdp(node: Any) -> MDPSettings:
     if name in ("gymnasium", "seals"):
         return env_settings(r, name)
     if name == "random":
-        n_states = r.int("n_states", lo=1)
+        n_states, transition = r.int("n_states", lo=1), r.choice("transition", TRANSITIONS, default="uniform")
+        n_next = r.int("n_next", lo=1, default=3)  # next states per (s, a), read by transition=sparse only
+        if transition == "sparse" and n_next > n_states:
+            raise ConfigError(f"'mdp.n_next' ({n_next} next states per state and action) must be at most 'mdp.n_states' ({n_states})")
         return RandomMDPSettings(
             n_states=n_states,
             n_actions=r.int("n_actions", lo=1),
             n_features=r.int("n_features", lo=1),
             horizon=r.int("horizon", lo=2),
-            transition=r.choice("transition", TRANSITIONS, default="uniform"),
+            transition=transition,
             dirichlet_alpha=r.float("dirichlet_alpha", lo=0.0, open_lo=True, default=1.0),
-            n_next=r.int("n_next", lo=1, hi=n_states, default=3),  # next states per (s, a) of transition=sparse
+            n_next=n_next,
         )
     size = r.int("size", lo=2)
     start = r.cell("start", r.raw("start"), size)

@@ -119,6 +119,9 @@ def env_settings(r: Reader, package: str) -> EnvMDPSettings:
             raise ConfigError(f"'mdp.value' sets a parameter of {', '.join(ENVS['gymnasium'])}; an environment by id is made with its own defaults (mdp.value=null)")
         r.choice("features", ("tile", "state"))  # checked; an environment by id has one feature per state whatever it says
         return EnvMDPSettings(name=package, env=str(r.raw("env")), value=False, features="state", horizon=r.int("horizon", lo=2))
+    if r.raw("env") not in ENVS[package]:
+        by_id = " or any registered environment's id with a table (e.g. FrozenLake-v1, or your own MyGrid-v0)" if package == "gymnasium" else ""
+        raise ConfigError(f"'mdp.env' must be one of {', '.join(ENVS[package])}{by_id}; got {r.raw('env')!r}")
     env = r.choice("env", ENVS[package])
     kwargs: dict = {}
     if env == "FrozenLake":

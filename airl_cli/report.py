@@ -20,6 +20,7 @@ from omegaconf import OmegaConf
 from airl_cli.claims import claims_table, reading_of
 from airl_cli.errors import AirlError
 from airl_cli.io.files import atomic_write, write_text
+from airl_cli.io.results_table import read_results_table
 from airl_cli.methods import NAMES
 from airl_cli.paths import conf_dir
 from airl_cli.transfer import held_out_grid, transfer_summary
@@ -47,12 +48,7 @@ def _study(name: str) -> str:
 def read_table(folder: Path, meta: dict) -> pd.DataFrame:
     """A sweep's results.csv, with the columns the report reads; AirlError naming what is wrong."""
     path = folder / "results.csv"
-    try:
-        table = pd.read_csv(path)
-    except pd.errors.EmptyDataError:
-        raise AirlError(f"{path} is empty; run its sweep again to rebuild it.") from None
-    except (pd.errors.ParserError, UnicodeDecodeError):
-        raise AirlError(f"{path} is not a CSV table; run its sweep again to rebuild it.") from None
+    table = read_results_table(folder)  # refuses a damaged table in one sentence (DamagedTable)
     needs = ALPHA_COLUMNS if meta["kind"] == "alphas" else SCORE_COLUMNS
     if meta["name"] in ("fig15", "fig18"):
         needs = (*needs, "cosine_similarity")

@@ -102,8 +102,10 @@ def test_a_changed_setting_is_named_and_a_narrower_method_list_is_fine(tmp_path)
     (folder / sweep_folder.SETTINGS).write_text(json.dumps(record))
     with pytest.raises(ConfigError, match=r"optim\.lam=0\.5 .* optim\.lam=0\.01"):
         check_folder(here)
-    # an override on the command line names the job folders: those jobs cannot be mixed up
-    check_folder(plan(["experiment=fig05", "profile=quick", "optim.lam=0.01", f"hydra.sweep.dir={folder}"]))
+    # a setting given on the command line is compared too (it once counted as swept, and a sweep of
+    # another problem replaced the folder's table)
+    with pytest.raises(ConfigError, match=r"optim\.lam=0\.5 .* optim\.lam=0\.01"):
+        check_folder(plan(["experiment=fig05", "profile=quick", "optim.lam=0.01", f"hydra.sweep.dir={folder}"]))
 
 
 def test_a_job_whose_rows_came_from_another_config_is_recomputed(tmp_path):
@@ -146,7 +148,8 @@ def test_two_fits_started_at_the_same_instant_get_two_folders(tmp_path):
 
 def test_a_second_sweep_into_a_busy_folder_refuses_in_one_sentence(tmp_path):
     folder = tmp_path / "results" / "sweeps" / "fig13-quick"
-    with claim(folder):  # as a running sweep holds it
+    with claim(folder) as own:  # as a running sweep holds it
+        own()
         result = runner.invoke(app, ["sweep", "experiment=fig13", "profile=quick"])
     assert result.exit_code == 2 and one_sentence(result.output), result.output
     assert "in use by another airl sweep" in result.output and str(os.getpid()) in result.output

@@ -234,6 +234,8 @@ def read_dataset(path: str | os.PathLike) -> Dataset:
     Raises:
         DatasetError: the file is missing, not an .npz, or any key fails ``validate``.
     """
+    if not str(path).strip():
+        raise DatasetError("data= names no file: give a dataset file (data=PATH), or drop data= to build the problem the config describes")
     path = Path(path)
     try:
         stat = path.stat()

@@ -23,6 +23,7 @@ import pandas as pd
 from matplotlib.figure import Figure
 
 from airl_cli.io.files import atomic_write
+from airl_cli.io.results_table import read_results_table
 from airl_cli.io.run_folder import read_experiment
 from airl_cli.plotting._style import (  # noqa: F401 (the constants are part of the module's interface)
     DEFAULT_THRESHOLD,
@@ -106,13 +107,9 @@ def _read_meta(folder: Path) -> dict[str, Any]:
 
 
 def _read_results(folder: Path) -> pd.DataFrame:
-    path = folder / "results.csv"
-    if not path.is_file():
+    if not (folder / "results.csv").is_file():
         raise ValueError(f"The sweep folder {folder} has no results.csv{_unfinished(folder)}.")
-    df = pd.read_csv(path)
-    if df.empty:
-        raise ValueError(f"results.csv in {folder} has no rows.")
-    return df
+    return read_results_table(folder)  # a damaged table: DamagedTable, a ValueError of one sentence
 
 
 def _read_alphas(folder: Path) -> dict[str, Any]:

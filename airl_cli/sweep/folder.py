@@ -11,7 +11,7 @@ import fcntl
 import json
 import os
 import socket
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
@@ -19,7 +19,7 @@ from typing import Any
 from omegaconf import OmegaConf
 
 from airl_cli.errors import ConfigError
-from airl_cli.io.files import write_json
+from airl_cli.io.files import writable_problem, write_json
 from airl_cli.sweep.spec import ROWS, SweepPlan  # noqa: F401 (ROWS: part of the interface)
 
 SETTINGS = "sweep.json"
@@ -59,11 +59,13 @@ def shared_settings(config: dict, swept: tuple[str, ...]) -> dict[str, Any]:
 
 
 @contextmanager
-def claim(folder: Path) -> Iterator[None]:
+def claim(folder: Path) -> Iterator[Callable[[], None]]:
     """Hold the sweep folder for this process: a second ``airl sweep`` into it is refused.
 
     An advisory ``flock`` on ``FOLDER/.lock``; the kernel drops it when the process ends, even on
-    SIGKILL, so a killed sweep never leaves a stale lock behind.
+    SIGKILL, so a killed sweep never leaves a stale lock behind. Yields ``own``: called once the
+    sweep is accepted, it writes this process into the lock file (which a refused sweep leaves as
+    it was: the earlier owner's line).
 
     Raises:
         ConfigError: another process holds the folder.
@@ -82,15 +84,31 @@ def claim(folder: Path) -> Iterator[None]:
         raise ConfigError(
             f"{folder} is in use by another airl sweep (process {owner}); wait for it to finish, or choose another folder with hydra.sweep.dir=PATH"
         ) from None
-    try:
+
+    def own() -> None:
         handle.seek(0)
         handle.truncate()
         handle.write(f"{os.getpid()} on {socket.gethostname()}\n")
         handle.flush()
-        yield
+
+    try:
+        yield own
     finally:
         fcntl.flock(handle, fcntl.LOCK_UN)
         handle.close()
+
+
+def check_writable(folder: Path) -> None:
+    """Refuse, before anything is marked or written, a sweep folder whose table or figures cannot be
+    written (a refused sweep changes nothing: it used to mark a finished sweep ``INCOMPLETE``).
+
+    Raises:
+        ConfigError: naming the folder and why.
+    """
+    for where in (folder, folder / "figures"):
+        problem = writable_problem(where) if where.is_dir() else None
+        if problem is not None:
+            raise ConfigError(f"cannot write to {where} ({problem}); choose a writable folder with hydra.sweep.dir=PATH")
 
 
 def unwritable(folder: Path, err: OSError) -> str:

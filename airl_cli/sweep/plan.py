@@ -83,12 +83,25 @@ def _plan(overrides: list[str]) -> SweepPlan:
         from airl_cli.jobs.common import check_memory
 
         check_memory(first_job, workers=workers)
-    swept = tuple(sorted({override_key(o) for o in jobs_overrides[0] if _is_task_override(o)}))
+    swept = _swept_keys(params, jobs_overrides)
     job_config = OmegaConf.to_container(first_job, resolve=False)
     del job_config["hydra"]
     settings = shared_settings(plain(OmegaConf.create(job_config)), swept)
     job_overrides = tuple(tuple(job) for job in jobs_overrides)
     return SweepPlan(plain(cfg.experiment), _folder(cfg, overrides, parser), jobs, settings, swept, workers, job_overrides)
+
+
+def _swept_keys(params: list[str], jobs_overrides: list[list[str]]) -> tuple[str, ...]:
+    """The keys a sweep sweeps: its experiment's (``hydra.sweeper.params``) and any the command line
+    gives more than one value. A key the command line sets to one value (``mdp.transition=uniform``)
+    is a setting like the config's, compared with an earlier run's in the folder (``folder.check_folder``)."""
+    values: dict[str, set[str]] = {}
+    for job in jobs_overrides:
+        for item in job:
+            if _is_task_override(item):
+                values.setdefault(override_key(item), set()).add(item)
+    experiment = {override_key(p) for p in params}
+    return tuple(sorted(k for k, v in values.items() if k in experiment or len(v) > 1))
 
 
 def _workers(cfg: DictConfig) -> int:

@@ -14,6 +14,7 @@ from typing import TYPE_CHECKING
 
 from airl_cli.errors import ConfigError
 from airl_cli.io.files import atomic_write, write_json, write_text
+from airl_cli.io.results_table import TABLE, table_record
 from airl_cli.io.run_folder import EXPERIMENT_FILE
 from airl_cli.sweep.folder import check_folder, unwritable
 from airl_cli.sweep.job_files import damaged_jobs
@@ -26,7 +27,6 @@ if TYPE_CHECKING:
     import pandas as pd
     from rich.console import Console
 
-TABLE = "results.csv"
 META = EXPERIMENT_FILE
 #: The sub-folder of a sweep folder that ``airl sweep --partial`` writes its table and figures into.
 PARTIAL = "partial"
@@ -45,12 +45,14 @@ def collect(sweep: SweepPlan, finished: list[str] | None = None, *, into: Path |
     if not table.empty:
         keys = [c for c in ("method", "x", "seed", "dynamics") if c in table]
         table = table.sort_values(keys, kind="stable").reset_index(drop=True)
-    write_text(into / TABLE, table.to_csv(index=False))
+    text = table.to_csv(index=False)
+    write_text(into / TABLE, text)
     if sweep.experiment.get("kind") == "alphas" and finished:
         data = (sweep.folder / finished[0] / "alphas.npz").read_bytes()
         atomic_write(into / "alphas.npz", lambda h: h.write(data))
     profile = sweep.settings.get("profile.name")
-    write_json(into / META, {**sweep.experiment, "profile": profile, "jobs": len(sweep.jobs), "finished": len(finished)})
+    meta = {**sweep.experiment, "profile": profile, "jobs": len(sweep.jobs), "finished": len(finished), **table_record(text)}
+    write_json(into / META, meta)
     return table
 
 

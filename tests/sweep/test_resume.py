@@ -13,30 +13,10 @@ from typer.testing import CliRunner
 
 from airl_cli.cli import app
 from airl_cli.sweep.job_files import damaged_jobs, problem
+from sweep_runs import SWEEP, sweep_into
 
 runner = CliRunner()
-SWEEP = ["sweep", "experiment=fig12", "profile=quick", "hydra/launcher=basic", "--no-plot"]
 JOB = "method=mce,seed=1"  # fig12 quick: methods airl and mce, seeds 0 and 1
-
-
-def sweep_into(folder: Path):
-    return runner.invoke(app, [*SWEEP, f"hydra.sweep.dir={folder}"])
-
-
-@pytest.fixture(scope="module")
-def pristine(tmp_path_factory) -> Path:
-    """One undamaged quick fig12 sweep (four jobs), copied by each test."""
-    folder = tmp_path_factory.mktemp("pristine") / "fig12"
-    result = sweep_into(folder)
-    assert result.exit_code == 0, result.output
-    return folder
-
-
-@pytest.fixture
-def copy(pristine, tmp_path) -> Path:
-    folder = tmp_path / "fig12"
-    shutil.copytree(pristine, folder)
-    return folder
 
 
 def without_seconds(path: Path) -> list[list[str]]:

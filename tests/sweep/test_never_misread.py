@@ -1,0 +1,106 @@
+"""A sweep folder holds one sweep, a refused sweep changes nothing, and no reading comes from a
+damaged table (issue 52, items 2, 3 and 6).
+
+On the code before: `airl sweep ... mdp.transition=uniform hydra.sweep.dir=<a finished sweep>`
+exited 0 and replaced its results.csv (a key set on the command line counted as swept, so it was
+never compared); `airl report` and `airl plot` read a results.csv cut to 4½ rows (exit 0, "nan% of
+pairs"); a refused sweep rewrote the folder's .lock, and a refused --partial marked a finished
+sweep INCOMPLETE.
+"""
+
+from __future__ import annotations
+
+import hashlib
+from pathlib import Path
+
+import pytest
+from sweep_runs import SWEEP, sweep_into
+from typer.testing import CliRunner
+
+from airl_cli import api
+from airl_cli.cli import app
+from airl_cli.io.results_table import DamagedTable
+
+runner = CliRunner()
+
+
+def sha256_listing(folder: Path) -> dict[str, str]:
+    return {str(p.relative_to(folder)): hashlib.sha256(p.read_bytes()).hexdigest() for p in sorted(folder.rglob("*")) if p.is_file()}
+
+
+def one_error(result) -> str:
+    lines = [line for line in result.output.splitlines() if line.strip()]
+    assert result.exit_code == 2 and len(lines) == 1 and lines[0].startswith("error: "), result.output
+    return lines[0]
+
+
+@pytest.mark.parametrize("setting", ["mdp.epsilon=0.1", "mdp.horizon=6", "optim.lam=0.02", "dynamics=grid_optimal"])
+def test_a_sweep_with_another_setting_into_a_finished_sweep_is_refused_and_changes_nothing(copy, setting):
+    before = sha256_listing(copy)
+    line = one_error(sweep_into(copy, setting))
+    key = setting.split("=")[0]
+    assert f"holds a sweep run with {key}" in line and "this one has " + ("dynamics." if key == "dynamics" else setting) in line
+    assert sha256_listing(copy) == before  # the lock's owner line included
+
+
+def test_the_same_sweep_again_is_accepted(copy):
+    result = sweep_into(copy)
+    assert result.exit_code == 0 and "4 finished earlier" in result.output, result.output
+
+
+def test_a_swept_setting_is_still_a_resume_of_the_same_jobs(copy):
+    """seed is swept by the experiment: a run of fewer seeds reuses its jobs, as before."""
+    result = sweep_into(copy, "seed=0")
+    assert result.exit_code == 0, result.output
+
+
+def test_a_refused_partial_leaves_a_finished_sweep_as_it_was(copy, monkeypatch):
+    import airl_cli.sweep.folder
+
+    before = sha256_listing(copy)
+    (copy / "figures").mkdir()
+    monkeypatch.setattr(airl_cli.sweep.folder, "writable_problem", lambda p: "permission denied" if Path(p).name == "figures" else None)
+    line = one_error(runner.invoke(app, [*SWEEP, f"hydra.sweep.dir={copy}", "--partial"]))
+    assert "cannot write to" in line and "figures" in line
+    (copy / "figures").rmdir()
+    assert sha256_listing(copy) == before  # no INCOMPLETE, no new lock owner
+
+
+def cut_rows(path: Path, rows: float) -> None:
+    """Keep the header and ``rows`` rows (a fraction cuts the next row in the middle)."""
+    lines = path.read_bytes().splitlines(keepends=True)
+    whole = int(rows)
+    kept = b"".join(lines[: 1 + whole]) + lines[1 + whole][: int(len(lines[1 + whole]) * (rows - whole))]
+    path.write_bytes(kept)
+
+
+@pytest.mark.parametrize("rows", [4.5, 2.0])
+def test_report_plot_and_the_api_refuse_a_damaged_table(copy, tmp_path, rows):
+    sweeps = tmp_path / "sweeps"
+    sweeps.mkdir()
+    folder = copy.rename(sweeps / "fig12-quick")
+    cut_rows(folder / "results.csv", rows)
+    for args in (["report", str(sweeps), "--profile", "quick", "--out", str(tmp_path / "report")], ["plot", str(folder)]):
+        line = one_error(runner.invoke(app, args))
+        assert "is not the table its sweep wrote" in line and "run the same airl sweep command again" in line, line
+        assert "nan" not in line
+    assert not (tmp_path / "report").exists()
+    with pytest.raises(DamagedTable):
+        api.read_sweep(folder)
+    # the same command rebuilds it from the jobs' files
+    assert sweep_into(folder).exit_code == 0
+    assert len(api.read_sweep(folder)) > rows
+
+
+def test_a_table_from_before_its_record_is_checked_for_damage(copy):
+    """A folder whose experiment.json predates the table's SHA-256: a cut row is still caught."""
+    import json
+
+    meta = json.loads((copy / "experiment.json").read_text())
+    for key in ("table_rows", "table_sha256"):
+        meta.pop(key)
+    (copy / "experiment.json").write_text(json.dumps(meta))
+    api.read_sweep(copy)  # whole: read
+    cut_rows(copy / "results.csv", 3.5)
+    with pytest.raises(DamagedTable, match="last line is cut short|cells"):
+        api.read_sweep(copy)
