@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import difflib
 import importlib
+import re
 import sys
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -41,7 +42,8 @@ def experiment_titles() -> dict[str, str]:
     for name in config_groups().get("experiment", []):
         data, _ = _yaml(root / f"{name}.yaml")
         experiment = data.get("experiment") if isinstance(data.get("experiment"), dict) else {}
-        titles[name] = str(experiment.get("title") or "")
+        title = str(experiment.get("title") or "")  # its own ${experiment.KEY}s filled in, as Hydra would
+        titles[name] = re.sub(r"\$\{experiment\.(\w+)\}", lambda m: str(experiment.get(m.group(1), m.group(0))), title)
     return titles
 
 

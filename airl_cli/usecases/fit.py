@@ -210,6 +210,11 @@ def certificate(relative_gap: float, tol: float, converged: bool, oracle: str, c
                 " the gap is against the planner's best responses, which a finer belief set still improves"
                 + ("" if sharpened else " (pbvi.sharpen_rounds=2 grows the fit's own set until it does not)")
             )
+        elif check["checked_relative_gap"] > tol:
+            text += (
+                f"; against {dense} the relative gap is {check['checked_relative_gap']:.2g}, above the tolerance"
+                f" (it bounds the answer {check['planner_resolution']:.2g} higher)"
+            )
         else:
             text += f"; {dense} finds nothing better at the answer (relative gap {check['checked_relative_gap']:.2g} against it)"
     return text

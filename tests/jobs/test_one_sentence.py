@@ -100,3 +100,48 @@ def test_a_sweep_jobs_dataset_path_with_commas_and_equals_is_not_malformed(tmp_p
     (tmp_path / "gen").rename(folder)
     result = runner.invoke(app, ["fit", f"data={folder / 'dataset.npz'}", "pbvi.iterations=4", "hydra.run.dir=fit"])
     assert result.exit_code == 0, result.output
+
+
+# ------------------------------------------------------------------ messages that named the wrong thing (item 8)
+
+
+@pytest.mark.parametrize(
+    "args, needle, not_there",
+    [
+        (["fit", "mdp.n_states=2", "mdp.transition=sparse"], "'mdp.n_next' (3 next states per state and action) must be at most 'mdp.n_states' (2)", None),
+        (["fit", "data="], "data= names no file", "is a folder"),
+        (["fit", "mdp=gymnasium", "mdp.env=Pong"], "or any registered environment's id", None),
+    ],
+)
+def test_a_message_names_what_is_wrong(args, needle, not_there):
+    line = one_error(runner.invoke(app, args))
+    assert needle in line and (not_there is None or not_there not in line), line
+
+
+def test_a_one_state_random_mdp_is_not_refused_for_its_next_states(tmp_path):
+    result = runner.invoke(app, ["generate", "mdp.n_states=1", "mdp.horizon=3", "demos.n=5", "hydra.run.dir=one"])
+    assert result.exit_code == 0, result.output
+
+
+def test_plot_of_an_empty_results_table_names_the_file(tmp_path):
+    folder = tmp_path / "sweep"
+    folder.mkdir()
+    (folder / "experiment.json").write_text('{"name": "fig05", "figures": ["curves"]}')
+    (folder / "results.csv").write_text("")
+    line = one_error(runner.invoke(app, ["plot", str(folder)]))
+    assert f"{folder / 'results.csv'} is empty" in line, line
+
+
+def test_the_certificate_never_says_nothing_better_when_the_checked_gap_is_above_the_tolerance():
+    from airl_cli.usecases.fit import certificate
+
+    check = {"check_beliefs": 800, "planner_resolution": 2e-5, "checked_relative_gap": 1.4e-4}
+    text = certificate(9e-5, 1e-4, True, "pbvi", check)
+    assert "finds nothing better" not in text and "the relative gap is 0.00014, above the tolerance" in text
+    text = certificate(9e-5, 1e-4, True, "pbvi", {**check, "checked_relative_gap": 9.5e-5})
+    assert "finds nothing better at the answer" in text
+
+
+def test_sweep_help_shows_no_unresolved_interpolation():
+    result = runner.invoke(app, ["sweep", "--help"])
+    assert result.exit_code == 0 and "${" not in result.output and "eps_L = 0.0" in result.output
