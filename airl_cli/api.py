@@ -6,6 +6,7 @@
     ds = api.dataset_from_env(my_env, my_env_windy)           # or from environment objects with a table
     learned = api.fit(ds, "method=mce")                      # any method; overrides as on the command line
     api.score(ds, learned)                                    # a DataFrame, one row per dynamics
+    api.score(api.with_test_dynamics(ds, P_new), api.load_learned("results/fit/X"))  # a finished run, new dynamics
     table = api.read_sweep("results/sweeps/fig05-quick")      # results.csv, with experiment.json as .attrs
 
 Configs are composed from the same packaged ``conf/`` as the CLI (Hydra's Compose API), so
@@ -32,7 +33,7 @@ from airl_cli.usecases.evaluate import score_learned
 from airl_cli.usecases.fit import Learned, learn
 from airl_cli.usecases.problem import build_dataset, learner_rng, with_loss
 
-__all__ = ["config", "load_dataset", "save_dataset", "make_dataset", "dataset_from_env", "fit", "score", "read_sweep", "Dataset", "Learned"]
+__all__ = ["config", "load_dataset", "save_dataset", "make_dataset", "dataset_from_env", "fit", "score", "load_learned", "with_test_dynamics", "read_sweep", "Dataset", "Learned"]
 
 
 def config(*overrides: str) -> DictConfig:
@@ -114,8 +115,67 @@ def score(dataset: Dataset, learned: Learned) -> pd.DataFrame:
     has them (``Dataset.test_transitions``).
 
     For method=airl (optim=exact) ``equilibrium_score`` is the game's own learner's: its mixture p of policies.
+
+    Raises:
+        ValueError: learned weights of another number of features or demonstration dynamics than the dataset's.
     """
+    if learned.weights is not None:
+        D, K = learned.weights.shape
+        if K != dataset.n_features or D not in (1, dataset.n_dynamics):
+            raise ValueError(
+                f"the learned weights are (D, K) = ({D}, {K}), the dataset has D = {dataset.n_dynamics} demonstration dynamics and K = {dataset.n_features} features;"
+                " score a fit on its own dataset (api.with_test_dynamics adds new dynamics to it)"
+            )
     return pd.DataFrame(score_learned(dataset, learned))
+
+
+def load_learned(folder: str | os.PathLike) -> Learned:
+    """What a finished ``airl fit`` learned, read from its run folder: ``weights.json`` (or
+    ``policy.npy`` for method=bc) and the method named in ``metrics.json``; score it on any dataset
+    of the same states, actions and features with ``score`` (the game's own mixture is not stored:
+    ``equilibrium_score`` is then None).
+
+    Raises:
+        FileNotFoundError, ValueError: one sentence, naming the folder and what is missing or wrong.
+    """
+    import json
+
+    import numpy as np
+
+    folder = Path(folder)
+    try:
+        metrics = json.loads((folder / "metrics.json").read_text())
+        method = str(metrics["method"])
+        if (folder / "policy.npy").is_file():
+            return Learned(method, None, np.load(folder / "policy.npy", allow_pickle=False), {})
+        saved = json.loads((folder / "weights.json").read_text())
+        weights = np.asarray(saved["weights"], dtype=np.float64)
+        steps = np.asarray(saved["step_weights"], dtype=np.float64) if "step_weights" in saved else None
+    except FileNotFoundError as err:
+        raise FileNotFoundError(f"{folder} is not a finished airl fit's run folder: it has no {Path(err.filename).name}") from None
+    except (ValueError, KeyError, TypeError) as err:
+        raise ValueError(f"{folder} holds a damaged fit ({type(err).__name__}: {err}); run the fit again") from None
+    if weights.ndim != 2 or not np.isfinite(weights).all():
+        raise ValueError(f"{folder}/weights.json must hold 'weights' as finite rows (D, K), got shape {weights.shape}")
+    return Learned(method, weights, None, {}, step_weights=steps)
+
+
+def with_test_dynamics(dataset: Dataset, transitions) -> Dataset:
+    """``dataset`` whose held-out test dynamics are ``transitions``: (E, S, A, S), or one (S, A, S),
+    in place of any it had; ``score`` then adds the rows test_1..test_E. Checked as a dataset file's
+    ``test_transitions`` is (the same S and A, rows summing to 1; scoring needs ``true_weights``).
+
+    Raises:
+        DatasetError: one sentence naming what is wrong.
+    """
+    import numpy as np
+
+    from airl_cli.io.dataset import validate
+
+    P = np.asarray(transitions, dtype=np.float64)
+    raw = {k: v for k, v in dataset.arrays().items() if not k.startswith("test_")}
+    raw["test_transitions"] = P[None] if P.ndim == 3 else P
+    return validate(raw)
 
 
 def read_sweep(folder: str | os.PathLike) -> pd.DataFrame:

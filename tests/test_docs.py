@@ -284,8 +284,9 @@ def pages_files(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
     grid = api.make_dataset("mdp=grid", "dynamics=grid_suboptimal", "demos=exact", "seed=3")
     api.save_dataset(tmp_path / "mine.npz", grid)
-    (tmp_path / "grid").mkdir()
-    api.save_dataset(tmp_path / "grid" / "dataset.npz", grid)
+    for folder in ("grid", "gen"):  # the pages' airl generate ... hydra.run.dir=FOLDER, then data=FOLDER/dataset.npz
+        (tmp_path / folder).mkdir()
+        api.save_dataset(tmp_path / folder / "dataset.npz", grid)
     return tmp_path
 
 
@@ -342,3 +343,34 @@ def test_no_list_runs_into_the_paragraph_before_it():
                     bad.append(f"{path.relative_to(ROOT)}:{number}: {line.strip()[:60]}")
             previous = "" if fenced else line
     assert not bad, "a blank line before these lists:\n" + "\n".join(bad)
+
+
+def _python_blocks(page: str) -> list[str]:
+    return re.findall(r"^```python\n(.*?)^```", (DOCS / page).read_text(), flags=re.M | re.S)
+
+
+def test_the_dataset_file_example_writes_a_file_airl_reads(tmp_path, monkeypatch):
+    """own-problem.md's np.savez example runs as written (its names once were defined nowhere)."""
+    from airl_cli import api
+
+    monkeypatch.chdir(tmp_path)
+    block = next(b for b in _python_blocks("own-problem.md") if "np.savez" in b)
+    exec(compile(block, "own-problem.md", "exec"), {})
+    ds = api.load_dataset("mine.npz")
+    assert (ds.n_dynamics, ds.n_states, ds.n_actions, ds.n_features, ds.horizon) == (2, 10, 4, 5, 8)
+
+
+def test_the_finished_run_example_scores_the_new_dynamics(tmp_path, monkeypatch):
+    """python-api.md's 'a finished run under new dynamics': its bash lines (made small), then its block."""
+    from typer.testing import CliRunner
+
+    monkeypatch.chdir(tmp_path)
+    small = ["mdp.n_states=6", "mdp.n_actions=3", "mdp.horizon=5", "mdp.n_features=3", "demos.n=20"]
+    assert CliRunner().invoke(app, ["generate", "hydra.run.dir=gen", *small]).exit_code == 0
+    assert CliRunner().invoke(app, ["fit", "data=gen/dataset.npz", "hydra.run.dir=run", "pbvi.iterations=4"]).exit_code == 0
+    block = next(b for b in _python_blocks("python-api.md") if "load_learned" in b and "with_test_dynamics" in b)
+    *lines, last = block.strip().splitlines()
+    scope: dict = {}
+    exec(compile("\n".join(lines), "python-api.md", "exec"), scope)
+    table = eval(last.split("#")[0], scope)
+    assert list(table["dynamics"])[-2:] == ["test_1", "test_2"] and table["learner_score"].notna().all()

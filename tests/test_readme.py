@@ -125,3 +125,34 @@ def test_the_job_counts_experiments_readme_quotes_are_the_sweeps():
     assert len(quoted) >= 10, quoted
     wrong = {name: (n, len(plan([f"experiment={name}"]).jobs)) for name, n in quoted.items() if len(plan([f"experiment={name}"]).jobs) != n}
     assert not wrong, f"quoted vs planned jobs: {wrong}"
+
+
+@pytest.mark.slow  # a fit of S = 50, N = 1,000: 6 s
+def test_the_degenerate_example_is_what_a_fresh_install_gives(tmp_path):
+    """Getting started's S = 50 example: its objective (to 0.01, as the seed-0 numbers) and its warning."""
+    page = (ROOT / "docs" / "getting-started.md").read_text()
+    quoted = re.search(r"At S = 50 states .*?```text\nobjective ([\d.]+) \(lower bound ([\d.]+)\)", page, flags=re.S)
+    assert quoted and "w = 0 is optimal too" in page, "the page quotes the S = 50 example"
+    out = tmp_path / "run"
+    result = runner.invoke(app, ["fit", "mdp.n_states=50", "demos.n=1000", f"hydra.run.dir={out}"])
+    assert result.exit_code == 0, result.output
+    metrics = json.loads((out / "metrics.json").read_text())
+    assert metrics["objective"] == pytest.approx(float(quoted.group(1)), abs=0.01)
+    assert metrics["degenerate"] and "w = 0 is optimal too" in (out / "summary.txt").read_text()
+
+
+@pytest.mark.slow  # two fits of the default size: 5 s
+def test_the_own_expert_example_is_degenerate_for_the_thesiss_method_and_not_for_mce(tmp_path):
+    """own-problem.md's `demos.expert=own demos.beta=0.3` example, as the page describes it."""
+    page = " ".join((ROOT / "docs" / "own-problem.md").read_text().split())
+    assert "cos(w, w*) = 0.105" in page and "learns w with cos 0.953" in page
+    cos = {}
+    for method in ("airl", "mce"):
+        out = tmp_path / method
+        result = runner.invoke(app, ["fit", "demos.expert=own", "demos.beta=0.3", "dynamics.n_test=3", f"method={method}", f"hydra.run.dir={out}"])
+        assert result.exit_code == 0, result.output
+        metrics = json.loads((out / "metrics.json").read_text())
+        cos[method] = metrics["dynamics"][0]["cosine_similarity"]
+        if method == "airl":
+            assert metrics["degenerate"]
+    assert cos["airl"] == pytest.approx(0.105, abs=0.1) and cos["mce"] == pytest.approx(0.953, abs=0.01)

@@ -22,17 +22,20 @@ from airl_cli.paths import conf_dir
 from airl_cli.plain_progress import PlainProgress
 from airl_cli.usecases.evaluate import identifiability_lines, score_learned
 from airl_cli.usecases.fit import Learned, check_supported, learn
-from airl_cli.usecases.problem import build_dataset, learner_rng, with_loss
+from airl_cli.usecases.problem import build_dataset, learner_rng, resolved_loss, with_loss
 
 
-def load_dataset(cfg: DictConfig, settings: FitSettings) -> tuple[Dataset, int, bool]:
-    """The dataset to learn from, the seed, and whether it was built in-process."""
+def load_dataset(cfg: DictConfig, settings: FitSettings) -> tuple[Dataset, int, bool, str]:
+    """The dataset to learn from, the seed, whether it was built in-process, and the loss the game
+    uses (eq. 5.9's L: what ``loss=auto`` chose, or ``file`` for the file's own ``loss`` array)."""
     if settings.data is None:
         problem = problem_settings(cfg)
         dataset, _ = build_dataset(problem)
-        return dataset, problem.seed, True
+        return dataset, problem.seed, True, resolved_loss(problem)
     loss, seed = loss_and_seed(cfg)
-    return with_loss(read_dataset(settings.data), loss), seed, False
+    dataset = read_dataset(settings.data)
+    name = "file" if loss == "auto" and dataset.loss is not None else ("zero_one" if loss == "auto" else loss)
+    return with_loss(dataset, loss), seed, False, name
 
 
 def check(cfg: DictConfig, overrides: list[str] = ()) -> list[str]:
@@ -79,11 +82,15 @@ def ignored_settings(cfg: DictConfig, overrides: list[str], method: str) -> list
     return notes
 
 
-def summary_text(dataset: Dataset, settings: FitSettings, learned: Learned, rows: list[dict], seconds: float) -> str:
+#: How the summary names each loss (eq. 5.9's L; ``metrics.json`` keeps the key).
+LOSS_WORDS = {"zero_one": "zero-one loss", "squared_features": "squared feature distance", "squared_euclidean": "squared grid distance", "file": "the file's own loss"}
+
+
+def summary_text(dataset: Dataset, settings: FitSettings, learned: Learned, rows: list[dict], seconds: float, loss: str = "") -> str:
     info = learned.info
     if learned.method == "airl":
         o = settings.options
-        how = f"{'one shared w' if o.weight_sharing else 'one w_j per dynamics'}, lambda={o.lam:g}, "
+        how = f"{'one shared w' if o.weight_sharing else 'one w_j per dynamics'}, lambda={o.lam:g}, {LOSS_WORDS.get(loss, loss)}, "
         if info["optimizer"] == "exact":
             how += f"exact solve of eq. 5.9: {info['iterations']} iterations, {info['planner_calls']} planner calls, "
         else:
@@ -219,13 +226,13 @@ def fit_and_write(
     """
     settings = fit_settings(cfg)
     check_memory(cfg)  # before any work: refuse, in one sentence, what will not fit in memory
-    dataset, seed, generated = load_dataset(cfg, settings)
+    dataset, seed, generated, loss = load_dataset(cfg, settings)
     rng = learner_rng(seed, settings.method)
     start = time.perf_counter()
     learned = learn(dataset, settings, rng, callback=on_step, planner_progress=on_planner)
     seconds = time.perf_counter() - start
     rows = score_learned(dataset, learned)
-    text = summary_text(dataset, settings, learned, rows, seconds)
+    text = summary_text(dataset, settings, learned, rows, seconds, loss)
     if generated:
         write_dataset(folder / "dataset.npz", dataset)
     if learned.weights is not None:
@@ -234,6 +241,8 @@ def fit_and_write(
     else:
         atomic_write(folder / "policy.npy", lambda h: h.write(npy_bytes(learned.policy)))
     metrics = {"method": learned.method, "shared": learned.shared, **learned.info, "scored": dataset.true_weights is not None, "dynamics": rows}
+    if learned.method == "airl":
+        metrics["loss"] = loss  # what loss=auto chose (file: the dataset file's own array)
     write_json(folder / "metrics.json", metrics)
     timing = {"fit_seconds": round(seconds, 6)}
     if "qp_seconds" in learned.history:

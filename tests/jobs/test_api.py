@@ -67,3 +67,43 @@ def test_progress_inside_planner_calls_reaches_the_caller():
     assert steps and len(steps) == (T - 1) * learned.info["planner_calls"]
     assert steps[: T - 1] == [(d, T - 1) for d in range(1, T)]
     np.testing.assert_array_equal(learned.weights, api.fit(dataset, *FIT).weights)
+
+
+# ------------------------------------------------------------------ a finished run scored under new dynamics (issue 52 item 9)
+
+
+@pytest.mark.parametrize("method", ["airl", "bc"])
+def test_a_finished_runs_reward_is_scored_under_new_dynamics(tmp_path, method):
+    """api.load_learned reads what the fit wrote; api.with_test_dynamics adds new dynamics; the
+    training rows equal the fit's own metrics.json, and the new rows equal those of a dataset
+    file that held the same dynamics as test_transitions from the start."""
+    runner = CliRunner()
+    assert runner.invoke(app, ["generate", "hydra.run.dir=g", *SMALL, "seed=2"]).exit_code == 0
+    assert runner.invoke(app, ["fit", "data=g/dataset.npz", "hydra.run.dir=f", f"method={method}", *FIT]).exit_code == 0
+    ds, learned = api.load_dataset("g/dataset.npz"), api.load_learned("f")
+    assert learned.method == method
+    new = np.random.default_rng(5).dirichlet(np.full(6, 0.3), size=(2, 6, 3))  # (E, S, A, S)
+    table = api.score(api.with_test_dynamics(ds, new), learned)
+    assert list(table["dynamics"]) == ["tau", "tau_1", "tau_2", "tau_3", "test_1", "test_2"]
+    fitted = json.loads((tmp_path / "f" / "metrics.json").read_text())["dynamics"]
+    for row, saved in zip(table.to_dict("records"), fitted, strict=False):
+        assert row["learner_score"] == pytest.approx(saved["learner_score"], abs=1e-12)
+    arrays = {**ds.arrays(), "test_transitions": new}
+    np.savez(tmp_path / "held.npz", **arrays)
+    by_file = api.score(api.load_dataset(tmp_path / "held.npz"), learned)
+    pd.testing.assert_frame_equal(table.drop(columns="equilibrium_score"), by_file.drop(columns="equilibrium_score"))
+
+
+def test_scoring_a_run_on_another_problem_or_a_broken_folder_is_one_sentence(tmp_path):
+    runner = CliRunner()
+    assert runner.invoke(app, ["fit", "hydra.run.dir=f", *SMALL, *FIT]).exit_code == 0
+    other = api.make_dataset("mdp.n_states=6", "mdp.n_actions=3", "mdp.horizon=5", "mdp.n_features=4", "demos.n=5")
+    with pytest.raises(ValueError, match=r"the learned weights are \(D, K\) = \(3, 3\), the dataset has .* K = 4 features"):
+        api.score(other, api.load_learned("f"))
+    with pytest.raises(FileNotFoundError, match="has no metrics.json"):
+        api.load_learned(tmp_path)
+    (tmp_path / "f" / "weights.json").write_text("{")
+    with pytest.raises(ValueError, match="holds a damaged fit"):
+        api.load_learned("f")
+    with pytest.raises(DatasetError, match="test_transitions"):
+        api.with_test_dynamics(api.load_dataset("f/dataset.npz"), np.full((2, 6, 3, 5), 0.2))

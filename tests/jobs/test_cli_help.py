@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import yaml
@@ -21,7 +22,8 @@ def test_sweep_help_lists_every_experiment_with_its_title():
     files = sorted(p for p in (Path(conf_dir()) / "experiment").glob("*.yaml") if not p.name.startswith("_"))
     assert len(files) >= 15
     for path in files:
-        title = yaml.safe_load(path.read_text())["experiment"]["title"]
+        experiment = yaml.safe_load(path.read_text())["experiment"]
+        title = re.sub(r"\$\{experiment\.(\w+)\}", lambda m: str(experiment[m.group(1)]), experiment["title"])  # filled in
         assert any(line.startswith(path.stem + " ") and line.endswith(title) for line in lines), path.stem
     bare = runner.invoke(app, ["sweep"])
     assert bare.exit_code == 2 and "airl sweep --help" in bare.output

@@ -45,7 +45,7 @@ def error_line(result) -> str:
         ("fit", "optim.lam=-1", "optim.lam"),
         ("fit", "data=missing.npz", "does not exist"),
         ("fit", "data=old-run/dataset.npz optim=gradient game.matching=per_step", "optim=exact"),
-        ("generate", "mdp.n_states=1", "must be"),
+        ("generate", "mdp.n_states=0", "must be"),
         ("plan", "plan.input=nowhere", "does not exist"),
     ],
 )
