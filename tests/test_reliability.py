@@ -22,6 +22,7 @@ from output import kill_group, without_progress
 from typer.testing import CliRunner
 
 from airl_cli.cli import app
+from airl_cli.sweep.code import CODE, fingerprint
 from airl_cli.core.mmdp.budget import estimate_fit
 from airl_cli.errors import ConfigError
 from airl_cli.io.run_folder import new_run_folder
@@ -64,6 +65,7 @@ def fake_finished_job(folder: Path, name: str, overrides: list[str]) -> None:
     job = folder / name
     job.mkdir(parents=True)
     (job / "config.yaml").write_text(job_config(overrides))
+    (job / CODE).write_text(fingerprint() + "\n")  # made by this code
     (job / ROWS).write_text("experiment,method\nfig05,airl\n")
 
 

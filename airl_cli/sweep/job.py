@@ -19,12 +19,14 @@ from airl_cli.io.files import describe_os_error, is_unwritable, write_text
 from airl_cli.jobs.common import output_dir
 from airl_cli.paths import conf_dir
 from airl_cli.sweep import pool
+from airl_cli.sweep.code import CODE, fingerprint, made_here
 from airl_cli.sweep.folder import same_job
 from airl_cli.sweep.spec import ERROR, ROWS
 
 
 def finished_earlier(cfg: DictConfig, folder) -> bool:
-    """Whether this job's rows are there and were made with this very config.
+    """Whether this job's rows are there and were made with this very config, by this very code
+    (``sweep.code``: airl's sources and the libraries' versions).
 
     A job folder is named by its swept values only; its ``config.yaml`` holds everything else.
     Rows made with another config (another experiment's folder, a changed setting) are recomputed;
@@ -34,7 +36,7 @@ def finished_earlier(cfg: DictConfig, folder) -> bool:
     if not (folder / ROWS).exists():
         return False
     saved = folder / "config.yaml"
-    if saved.exists():
+    if saved.exists() and made_here(folder):
         text = saved.read_text()
         if text == OmegaConf.to_yaml(cfg, resolve=True):
             return True
@@ -54,7 +56,8 @@ def finished_elsewhere(cfg: DictConfig, folder) -> bool:
 
     ``airl sweep experiment=fig05 method=airl,mce`` after ``airl sweep experiment=fig05`` ran
     140 jobs that had just finished in ``fig05-full``, because the folder differed. A job is the same
-    when its ``config.yaml`` is, as ``finished_earlier`` judges a resumed job (``folder.same_job``).
+    when its ``config.yaml`` is, as ``finished_earlier`` judges a resumed job (``folder.same_job``),
+    and the same code made it (``sweep.code.made_here``).
     """
     import shutil
 
@@ -63,7 +66,7 @@ def finished_elsewhere(cfg: DictConfig, folder) -> bool:
     plain = OmegaConf.to_container(cfg, resolve=True)
     for rows in sorted(folder.parent.parent.glob(f"*/{folder.name}/{ROWS}")):
         other = rows.parent
-        if other == folder or not (other / "config.yaml").is_file():
+        if other == folder or not (other / "config.yaml").is_file() or not made_here(other):
             continue
         try:
             before = OmegaConf.to_container(OmegaConf.create((other / "config.yaml").read_text()))
@@ -116,6 +119,7 @@ def main(cfg: DictConfig) -> None:
     except AirlError as err:
         write_text(folder / ERROR, f"{err}\n")
         return
+    write_text(folder / CODE, fingerprint() + "\n")  # what made the rows, before them: reused only by the same code
     write_text(folder / ROWS, rows_csv(rows))
 
 

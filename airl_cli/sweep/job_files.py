@@ -26,6 +26,7 @@ from typing import Any
 import yaml
 
 from airl_cli.methods import REGISTRY
+from airl_cli.sweep.code import made_here
 from airl_cli.sweep.folder import shared_settings
 from airl_cli.sweep.spec import ROWS
 
@@ -48,6 +49,8 @@ _VIANO_FLOATS = ("x", "learner_epsilon", "total_return", "expert_return", "secon
 #: The arrays of the alpha-vector experiment's ``alphas.npz``.
 ALPHA_ARRAYS = ("exact", "exact_envelope", "pbvi", "t", "s")
 #: The config groups whose every setting becomes a column of the results table.
+#: Why a finished job made by other code is not reused (``sweep.code``): not damage, but not this code's numbers.
+STALE = "made by another version of airl or of its libraries (code.txt)"
 SETTING_GROUPS = ("mdp", "dynamics", "demos", "loss", "method", "pbvi", "game", "optim")
 
 _INTEGERS = {"seed", "run", "n_dynamics", "n_test", "n_features", "n_demos", "n_exact", "n_envelope", "n_pbvi", "n_beliefs"}
@@ -79,6 +82,8 @@ def setting_columns(config: dict) -> dict[str, object]:
 
 def problem(folder: Path) -> str | None:
     """Why the finished job in ``folder`` cannot be reused (a short phrase), or None if it can."""
+    if not made_here(folder):
+        return STALE
     try:
         config = _config(folder)
         header, rows = _csv(folder / ROWS, what="rows")

@@ -17,7 +17,7 @@ from airl_cli.io.files import atomic_write, write_json, write_text
 from airl_cli.io.results_table import TABLE, table_record
 from airl_cli.io.run_folder import EXPERIMENT_FILE
 from airl_cli.sweep.folder import check_folder, unwritable
-from airl_cli.sweep.job_files import damaged_jobs
+from airl_cli.sweep.job_files import STALE, damaged_jobs
 from airl_cli.sweep.pool import call
 from airl_cli.sweep.spec import ROWS, SweepPlan
 from airl_cli.transfer import held_out_grid, transfer_summary
@@ -102,7 +102,8 @@ def damaged_line(damaged: dict[str, str], what: str) -> str:
     """One line: how many finished jobs had damaged files, what becomes of them, one example."""
     job, reason = next(iter(damaged.items()))
     n = len(damaged)
-    some = f"{n} finished jobs had damaged files and are" if n > 1 else "1 finished job had damaged files and is"
+    why = "were made by other code" if all(r == STALE for r in damaged.values()) else "had damaged files"
+    some = f"{n} finished jobs {why} and are" if n > 1 else f"1 finished job {why.replace('were', 'was')} and is"
     return f"[bold yellow]{some} {what}[/] (for example {job}: {reason})"
 
 

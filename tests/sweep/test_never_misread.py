@@ -104,3 +104,29 @@ def test_a_table_from_before_its_record_is_checked_for_damage(copy):
     cut_rows(copy / "results.csv", 3.5)
     with pytest.raises(DamagedTable, match="last line is cut short|cells"):
         api.read_sweep(copy)
+
+
+def test_a_job_made_by_other_code_is_run_again_not_reused(copy, pristine, tmp_path):
+    """The same config run by another airl (or numpy...) may give other numbers: its rows are not reused."""
+    job = "method=mce,seed=1"
+    (copy / job / "code.txt").write_text("airl 0.0.9 sources 0000000000000000; numpy 1.26.0\n")
+    result = sweep_into(copy)
+    assert result.exit_code == 0, result.output
+    assert f"1 finished job was made by other code and is run again (for example {job}: made by another version of airl" in result.output
+    assert "3 finished earlier" in result.output
+    assert (copy / job / "code.txt").read_text() == (pristine / job / "code.txt").read_text()
+
+
+def test_a_job_beside_this_sweep_is_copied_only_if_the_same_code_made_it(pristine, tmp_path):
+    import shutil
+
+    root = tmp_path / "sweeps"
+    shutil.copytree(pristine, root / "fig12-quick")
+    for job in (root / "fig12-quick").glob("*/code.txt"):
+        job.write_text("airl 0.0.9 sources 0000000000000000\n")
+    before = sha256_listing(root / "fig12-quick")
+    result = sweep_into(root / "fig12-quick-again")
+    assert result.exit_code == 0, result.output
+    for job in (root / "fig12-quick-again").glob("*/code.txt"):
+        assert job.read_text() == (pristine / job.parent.name / "code.txt").read_text()  # computed here
+    assert sha256_listing(root / "fig12-quick") == before
