@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import signal
 
+import airl_cli  # noqa: F401  (first: it pins OpenBLAS's kernels before numpy loads them, as the commands do)
 import numpy as np
 import pytest
 

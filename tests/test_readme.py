@@ -145,7 +145,7 @@ def test_the_degenerate_example_is_what_a_fresh_install_gives(tmp_path):
 def test_the_own_expert_example_is_degenerate_for_the_thesiss_method_and_not_for_mce(tmp_path):
     """own-problem.md's `demos.expert=own demos.beta=0.3` example, as the page describes it."""
     page = " ".join((ROOT / "docs" / "own-problem.md").read_text().split())
-    assert "cos(w, w*) = 0.105" in page and "learns w with cos 0.953" in page
+    assert "its direction is noise" in page and "learns w with cos 0.953" in page
     cos = {}
     for method in ("airl", "mce"):
         out = tmp_path / method
@@ -154,5 +154,6 @@ def test_the_own_expert_example_is_degenerate_for_the_thesiss_method_and_not_for
         metrics = json.loads((out / "metrics.json").read_text())
         cos[method] = metrics["dynamics"][0]["cosine_similarity"]
         if method == "airl":
-            assert metrics["degenerate"]
-    assert cos["airl"] == pytest.approx(0.105, abs=0.1) and cos["mce"] == pytest.approx(0.953, abs=0.01)
+            weights = json.loads((out / "weights.json").read_text())["weights"]
+            assert metrics["degenerate"] and np.abs(weights).max() < 1e-4
+    assert cos["mce"] == pytest.approx(0.953, abs=0.01)
