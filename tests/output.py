@@ -21,3 +21,17 @@ def kill_group(pid: int) -> None:
         os.killpg(pid, signal.SIGKILL)
     except ProcessLookupError:
         pass
+
+
+def one_error(result) -> str:
+    """The one line a refused command printed (a CliRunner result): exit 2, ``error: ...``."""
+    lines = [line for line in result.output.splitlines() if line.strip()]
+    assert result.exit_code == 2 and len(lines) == 1 and lines[0].startswith("error: "), result.output
+    return lines[0]
+
+
+def sha256_listing(folder) -> dict[str, str]:
+    """Every file below ``folder`` (a pathlib.Path) -> the SHA-256 of its bytes: what "changes nothing on disk" compares."""
+    import hashlib
+
+    return {str(p.relative_to(folder)): hashlib.sha256(p.read_bytes()).hexdigest() for p in sorted(folder.rglob("*")) if p.is_file()}

@@ -72,7 +72,9 @@ def summary_text(settings: ProblemSettings, dataset: Dataset, scores: np.ndarray
     lines += [f"{label:<10}{text}" for label, text in describe(settings, dataset)]
     lines += ["file      dataset.npz", ""]
     lines += ["true weights w*: " + np.array2string(dataset.true_weights, precision=4, separator=", "), ""]
-    lines += ["demonstrator (optimal for w* under tau): normalised performance (thesis §7.2)", ""]
+    who = "optimal for w* under tau" if dataset.expert != "own" else "each dynamics' own expert, " + (
+        f"soft-optimal (beta={dataset.expert_beta:g})" if dataset.expert_beta else "optimal") + " there"
+    lines += [f"demonstrator ({who}): normalised performance (thesis §7.2)", ""]
     lines += [f"  {'dynamics':<10}{'score':>8}"]
     for j, score in enumerate(scores):
         lines.append(f"  {'tau' if j == 0 else f'tau_{j}':<10}{score:>8.4f}")

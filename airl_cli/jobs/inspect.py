@@ -26,7 +26,8 @@ def describe(path: str) -> str:
         f"  dynamics: tau and D={ds.n_dynamics} demonstration dynamics" + _form(ds),
     ]
     if ds.n_test:
-        lines.append(f"  held-out test dynamics: E={ds.n_test}, no demonstration came from them; every method is scored in each (test_1..test_{ds.n_test})")
+        names = "test_1" if ds.n_test == 1 else f"test_1..test_{ds.n_test}"
+        lines.append(f"  held-out test dynamics: E={ds.n_test}, no demonstration came from them; every method is scored in {'it' if ds.n_test == 1 else 'each'} ({names})")
     if ds.expert == "own":
         how = "hard-optimal" if ds.expert_beta is None else f"soft-optimal, entropy weight beta={ds.expert_beta:g}"
         lines.append(f"  expert: each tau_j's own, {how} in tau_j (the demonstrator is scored so too)")

@@ -273,7 +273,13 @@ def demonstrated(problem: Problem, demos: DemoSettings, seed: int) -> tuple[Data
 
 
 def expert_scores(dataset: Dataset, policy: np.ndarray) -> np.ndarray:
-    """The demonstrator's normalised performance (M,) under tau_0..tau_D (thesis §7.2)."""
+    """The demonstrator's normalised performance (M,) under tau_0..tau_D (thesis §7.2): ``policy``,
+    the expert planned for tau, run in each (the thesis's expert); with ``dataset.expert`` "own",
+    each dynamics' own expert there (optimal, or soft with ``expert_beta``), as ``airl fit`` scores it."""
     assert dataset.true_weights is not None
     R = dataset.features @ dataset.true_weights
-    return np.array([performance(Pj, R, policy, dataset.initial, discount=dataset.discount) for Pj in dataset.transitions])
+    own = dataset.expert == "own"
+    return np.array([
+        performance(Pj, R, optimal_expert(Pj, R, dataset.horizon, discount=dataset.discount, beta=dataset.expert_beta) if own else policy, dataset.initial, discount=dataset.discount)
+        for Pj in dataset.transitions
+    ])

@@ -138,3 +138,28 @@ def test_every_kind_of_problem_is_generated_and_described(tmp_path, overrides):
     assert result.exit_code == 0, result.output
     problem_line = next(line for line in (out / "summary.txt").read_text().splitlines() if line.startswith("problem"))
     assert ("windy gridworld" if overrides == ["mdp=windy"] else "CliffWorld" if "seals" in " ".join(overrides) else "FrozenLake") in problem_line
+
+
+def test_generate_of_own_experts_scores_the_demonstrators_that_fit_scores(tmp_path, monkeypatch):
+    """Issue 53, item 4: the summary said 'optimal for w* under tau' and printed the tau-expert's
+    scores for a file whose demonstrators are each dynamics' own soft experts."""
+    import json
+
+    monkeypatch.chdir(tmp_path)
+    small = ["mdp.n_states=8", "mdp.horizon=5", "demos.n=20", "demos.expert=own", "demos.beta=0.3"]
+    made = CliRunner().invoke(app, ["generate", *small, "hydra.run.dir=g"])
+    assert made.exit_code == 0, made.output
+    assert "demonstrator (each dynamics' own expert, soft-optimal (beta=0.3) there)" in made.output
+    fitted = CliRunner().invoke(app, ["fit", "data=g/dataset.npz", "method=mce", "hydra.run.dir=f"])
+    assert fitted.exit_code == 0, fitted.output
+    rows = json.loads((tmp_path / "f" / "metrics.json").read_text())["dynamics"]
+    for row in rows:
+        line = next(line for line in made.output.splitlines() if line.split()[:1] == [row["dynamics"]])
+        assert float(line.split()[1]) == pytest.approx(row["demonstrator_score"], abs=5e-5)
+
+
+def test_inspect_names_one_held_out_dynamics_once(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    assert CliRunner().invoke(app, ["generate", "mdp.n_states=8", "mdp.horizon=5", "demos.n=5", "dynamics.n_test=1", "hydra.run.dir=g"]).exit_code == 0
+    shown = CliRunner().invoke(app, ["inspect", "g/dataset.npz"]).output
+    assert "scored in it (test_1)" in shown and "test_1..test_1" not in shown

@@ -8,10 +8,8 @@ and `airl fit --strcit`, `mdp.n_states 30`, `mdp.n_states==30`, `airl plan --foo
 
 from __future__ import annotations
 
-import hashlib
-from pathlib import Path
-
 import pytest
+from output import one_error, sha256_listing
 from typer.testing import CliRunner
 
 from airl_cli.cli import app
@@ -25,14 +23,6 @@ def in_tmp(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
 
 
-def sha256_listing(folder: Path) -> dict[str, str]:
-    return {str(p.relative_to(folder)): hashlib.sha256(p.read_bytes()).hexdigest() for p in sorted(folder.rglob("*")) if p.is_file()}
-
-
-def one_error(result) -> str:
-    lines = [line for line in result.output.splitlines() if line.strip()]
-    assert result.exit_code == 2 and len(lines) == 1 and lines[0].startswith("error: "), result.output
-    return lines[0]
 
 
 @pytest.mark.parametrize("command", ["fit", "generate"])

@@ -10,10 +10,10 @@ sweep INCOMPLETE.
 
 from __future__ import annotations
 
-import hashlib
 from pathlib import Path
 
 import pytest
+from output import one_error, sha256_listing
 from sweep_runs import SWEEP, sweep_into
 from typer.testing import CliRunner
 
@@ -24,14 +24,6 @@ from airl_cli.io.results_table import DamagedTable
 runner = CliRunner()
 
 
-def sha256_listing(folder: Path) -> dict[str, str]:
-    return {str(p.relative_to(folder)): hashlib.sha256(p.read_bytes()).hexdigest() for p in sorted(folder.rglob("*")) if p.is_file()}
-
-
-def one_error(result) -> str:
-    lines = [line for line in result.output.splitlines() if line.strip()]
-    assert result.exit_code == 2 and len(lines) == 1 and lines[0].startswith("error: "), result.output
-    return lines[0]
 
 
 @pytest.mark.parametrize("setting", ["mdp.epsilon=0.1", "mdp.horizon=6", "optim.lam=0.02", "dynamics=grid_optimal"])
