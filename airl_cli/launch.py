@@ -262,6 +262,8 @@ def _run_hydra(job: str, overrides: list[str], *, cfg: str | None, resolve: bool
     check_keys(overrides, "airl_plan" if job == "plan" else "airl")
     if cfg is None:
         check_output_folder(overrides, multirun=multirun)
+    if multirun and cfg is None and job in PRINT_ONLY:
+        overrides = _multirun_folder(job, overrides, replace=replace)
     # printing a config needs Hydra only: the job module (numpy, scipy, pandas, numba) is not loaded
     main = _print_config_app(job) if cfg is not None and job in PRINT_ONLY else importlib.import_module(app or f"airl_cli.jobs.{job}").hydra_main
     argv = [f"airl {job}"]
@@ -285,6 +287,26 @@ def _run_hydra(job: str, overrides: list[str], *, cfg: str | None, resolve: bool
         sys.argv = saved
         if claim:
             OmegaConf.register_new_resolver("airl.new_run_folder", lambda path: path, replace=True)
+
+
+def _multirun_folder(job: str, overrides: list[str], *, replace: bool) -> list[str]:
+    """``airl fit|generate|plan -m``'s overrides with a folder of their own: the one the user named
+    (``hydra.sweep.dir=``), refused if it holds anything unless ``replace`` (which empties it), or
+    a new ``results/sweeps/<job>/<time>[-N]`` (two multiruns started in the same second shared one,
+    and the second overwrote the first's jobs)."""
+    import time
+
+    named = chosen_values(overrides).get("hydra.sweep.dir")
+    if named is None:
+        folder = new_run_folder(f"results/sweeps/{job}/{time.strftime('%Y-%m-%d_%H-%M-%S')}", again=True)
+        return [*overrides, f"hydra.sweep.dir={quote(folder)}"]
+    folder = named.strip("'\"")
+    refusal = entry_refusal(folder, overrides, replace=replace, key="hydra.sweep.dir")
+    if refusal is not None:
+        refuse(refusal)
+    if replace and Path(folder).is_dir():
+        empty(folder)
+    return overrides
 
 
 @contextmanager

@@ -36,16 +36,17 @@ def read_experiment(folder: str | os.PathLike) -> dict | None:
 _claimed: dict[str, str] = {}
 
 
-def new_run_folder(path: str) -> str:
+def new_run_folder(path: str, *, again: bool = False) -> str:
     """Create the run folder ``path`` and return it; if it exists, ``path-2``, ``path-3``...
 
     Run folders are named by the second they start in; two runs started in the same second (say
     two seeds launched by one script) each get a folder of their own, because ``mkdir`` either
     creates the folder or fails, atomically. The same ``path`` asked for again in one process (Hydra
-    resolves its output folder more than once) gives the same folder. If the folder cannot be
-    created the path is returned as it is, for the caller's own check to report.
+    resolves its output folder more than once) gives the same folder, unless ``again`` (a new
+    command in the same process: another folder). If the folder cannot be created the path is
+    returned as it is, for the caller's own check to report.
     """
-    if path in _claimed:
+    if path in _claimed and not again:
         return _claimed[path]
     base = Path(path)
     try:
@@ -103,8 +104,9 @@ def discard(folder: str | os.PathLike) -> bool:
     return not Path(folder).exists()
 
 
-def entry_refusal(folder: str, overrides: list[str], *, replace: bool) -> str | None:
-    """Why a single run may not go into ``hydra.run.dir=folder`` (one sentence), or None.
+def entry_refusal(folder: str, overrides: list[str], *, replace: bool, key: str = "hydra.run.dir") -> str | None:
+    """Why a run may not go into ``KEY=folder`` (one sentence), or None: ``hydra.run.dir`` of a
+    single run, ``hydra.sweep.dir`` of a multirun (``-m``).
 
     A finished run's folder is a record: a new run into a folder that holds anything is refused,
     naming what is there, unless ``replace`` (``--replace``), which empties it first (``empty``) —
@@ -112,7 +114,7 @@ def entry_refusal(folder: str, overrides: list[str], *, replace: bool) -> str | 
     lies in it. An empty ``hydra.run.dir=`` (Hydra would write into the current folder) is refused.
     """
     if not folder.strip():
-        return "hydra.run.dir= is empty (the run would write into the current folder); name a new folder, e.g. hydra.run.dir=results/mine"
+        return f"{key}= is empty (the run would write into the current folder); name a new folder, e.g. {key}=results/mine"
     path = Path(folder)
     if not path.is_dir() or not any(path.iterdir()):
         return None

@@ -135,3 +135,21 @@ def test_the_certificate_never_says_nothing_better_when_the_checked_gap_is_above
 def test_sweep_help_shows_no_unresolved_interpolation():
     result = runner.invoke(app, ["sweep", "--help"])
     assert result.exit_code == 0 and "${" not in result.output and "eps_L = 0.0" in result.output
+
+
+def test_a_multirun_into_a_folder_that_holds_files_is_refused_and_two_at_once_never_share(tmp_path, monkeypatch):
+    """`airl generate -m ... hydra.sweep.dir=OLD` replaced OLD/0/dataset.npz without a word, and two
+    multiruns started in the same second shared results/sweeps/generate/<time>/."""
+    tiny = ["mdp.n_states=6", "mdp.horizon=3", "demos.n=5"]
+    assert runner.invoke(app, ["generate", "-m", "seed=0,1", *tiny, "hydra.sweep.dir=old"]).exit_code == 0
+    before = sha256_listing(tmp_path / "old")
+    line = one_error(runner.invoke(app, ["generate", "-m", "seed=2,3", *tiny, "hydra.sweep.dir=old"]))
+    assert "old already holds 0, 1, multirun.yaml" in line
+    assert sha256_listing(tmp_path / "old") == before
+    assert runner.invoke(app, ["generate", "-m", "--replace", "seed=2,3", *tiny, "hydra.sweep.dir=old"]).exit_code == 0
+    assert sha256_listing(tmp_path / "old") != before
+    monkeypatch.setattr("time.strftime", lambda *_: "2026-01-01_00-00-00")  # both start in the same second
+    for _ in range(2):
+        assert runner.invoke(app, ["generate", "-m", "seed=0", *tiny]).exit_code == 0
+    folders = sorted(p.name for p in (tmp_path / "results" / "sweeps" / "generate").iterdir())
+    assert folders == ["2026-01-01_00-00-00", "2026-01-01_00-00-00-2"]
