@@ -15,12 +15,12 @@ import yaml
 from omegaconf import OmegaConf
 from rich.markup import escape
 
-from airl_cli.errors import ResultsUnwritable, interrupted, refuse
+from airl_cli.errors import ConfigError, ResultsUnwritable, interrupted, refuse
 from airl_cli.io.files import describe_os_error, is_unwritable, writable_problem, write_text
-from airl_cli.io.run_folder import claimed_folder, empty, entry_refusal, holds_no_results, new_run_folder
+from airl_cli.io.run_folder import claimed_folder, enter, holds_no_results, new_run_folder
+from airl_cli.overrides import chosen_values, override_key, split_override
 from airl_cli.paths import conf_dir
 from airl_cli.problem_defaults import with_problem_defaults
-from airl_cli.overrides import chosen_values, override_key, split_override
 
 
 def config_groups() -> dict[str, list[str]]:
@@ -290,23 +290,18 @@ def _run_hydra(job: str, overrides: list[str], *, cfg: str | None, resolve: bool
 
 
 def _multirun_folder(job: str, overrides: list[str], *, replace: bool) -> list[str]:
-    """``airl fit|generate|plan -m``'s overrides with a folder of their own: the one the user named
-    (``hydra.sweep.dir=``), refused if it holds anything unless ``replace`` (which empties it), or
-    a new ``results/sweeps/<job>/<time>[-N]`` (two multiruns started in the same second shared one,
-    and the second overwrote the first's jobs)."""
+    """``-m``'s overrides with a folder of its own: the user's ``hydra.sweep.dir`` if new or empty
+    (``--replace`` empties it), else a new ``results/sweeps/<job>/<time>[-N]``."""
     import time
 
-    named = chosen_values(overrides).get("hydra.sweep.dir")
-    if named is None:
+    if (named := chosen_values(overrides).get("hydra.sweep.dir")) is None:
         folder = new_run_folder(f"results/sweeps/{job}/{time.strftime('%Y-%m-%d_%H-%M-%S')}", again=True)
         return [*overrides, f"hydra.sweep.dir={quote(folder)}"]
-    folder = named.strip("'\"")
-    refusal = entry_refusal(folder, overrides, replace=replace, key="hydra.sweep.dir")
-    if refusal is not None:
-        refuse(refusal)
-    if replace and Path(folder).is_dir():
-        empty(folder)
-    return overrides
+    try:
+        enter(named.strip("'\""), overrides, replace=replace, key="hydra.sweep.dir")
+        return overrides
+    except ConfigError as err:
+        refuse(err)
 
 
 @contextmanager
@@ -324,14 +319,10 @@ def _checked_first(job: str | None, overrides: list[str], replace: bool) -> Iter
 
 
 def preflight(job: str, overrides: list[str], *, replace: bool = False) -> None:
-    """Refuse bad input in one sentence before Hydra makes or touches any folder.
-
-    Hydra makes the run folder and writes its records there before the job starts; a job that
-    then refused its settings left an empty ``results/<command>/`` behind, and, run into an earlier
-    run's folder (``hydra.run.dir=``), marked that folder INCOMPLETE and overwrote its records. So the
-    job's config is composed here first and its ``check`` run (the settings, the memory, the input
-    files); the settings it will not read are named, one line each; then the folder named by
-    ``hydra.run.dir=`` must be new or empty (``io.run_folder.entry_refusal``; ``replace`` empties
+    """Refuse bad input in one sentence before Hydra makes or touches any folder (it writes its
+    records there before the job starts): the job's config composed and ``check``ed (settings,
+    memory, input files), the settings it will not read named one line each, then the
+    ``hydra.run.dir`` folder entered (``io.run_folder.enter``: new or empty; ``replace`` empties
     it). Compositions are remembered (``compose_memo``): Hydra's own, next, costs little.
     """
     from hydra import compose, initialize_config_dir
@@ -346,11 +337,11 @@ def preflight(job: str, overrides: list[str], *, replace: bool = False) -> None:
     except AirlError as err:
         refuse(err)
     folder = chosen_values(overrides).get("hydra.run.dir")
-    refusal = None if folder is None else entry_refusal(folder.strip("'\""), overrides, replace=replace)
-    if refusal is not None:
-        refuse(refusal)
-    if folder is not None and replace and Path(folder.strip("'\"")).is_dir():
-        empty(folder.strip("'\""))
+    try:
+        if folder is not None:
+            enter(folder.strip("'\""), overrides, replace=replace)
+    except AirlError as err:
+        refuse(err)
     if notes:
         from rich.console import Console
 

@@ -23,14 +23,12 @@ from airl_cli.io.files import atomic_write, write_text
 from airl_cli.io.results_table import read_results_table
 from airl_cli.methods import NAMES
 from airl_cli.paths import conf_dir
-from airl_cli.transfer import held_out_grid, transfer_summary
-from airl_cli.variants import variants_summary
+from airl_cli.summaries import summary_of
+from airl_cli.summaries.base import demonstrated, methods
 
 START, END = "<!-- claims table: written by make_report.py -->", "<!-- end of the claims table -->"
 ORDER = list(NAMES)
 PROFILES = ("full", "quick")
-SCORE_COLUMNS = ("method", "dynamics", "x", "seed", "learner_score", "demonstrator_score", "seconds")
-ALPHA_COLUMNS = ("n_exact", "n_envelope", "n_pbvi", "n_beliefs", "max_value_gap")
 
 Tables = dict[str, tuple[dict, pd.DataFrame]]
 
@@ -49,9 +47,7 @@ def read_table(folder: Path, meta: dict) -> pd.DataFrame:
     """A sweep's results.csv, with the columns the report reads; AirlError naming what is wrong."""
     path = folder / "results.csv"
     table = read_results_table(folder)  # refuses a damaged table in one sentence (DamagedTable)
-    needs = ALPHA_COLUMNS if meta["kind"] == "alphas" else SCORE_COLUMNS
-    if meta["name"] in ("fig15", "fig18"):
-        needs = (*needs, "cosine_similarity")
+    needs = summary_of(meta).columns
     missing = [c for c in needs if c not in table.columns]
     if missing or table.empty:
         what = f"lacks the column(s) {', '.join(missing)}" if missing else "has no rows"
@@ -76,7 +72,7 @@ def load(sweeps: Path, profile: str = "full") -> Tables:
         if not (folder / "results.csv").is_file():
             continue
         meta = plan([f"experiment={name}"]).experiment
-        if meta["kind"] == "viano":  # another paper's table, not a claim of chapter 7: its sweep shows it
+        if not summary_of(meta).reported:  # another paper's table, not a claim of chapter 7: its sweep shows it
             continue
         meta = {**meta, "folder": str(folder)}
         out[name] = (meta, read_table(folder, meta))
@@ -126,117 +122,12 @@ def load_readings(sweeps: Path, experiments: Tables, profile: str = "full") -> d
 # the tables
 
 
-def methods(table: pd.DataFrame) -> list[str]:
-    present = list(table["method"].unique())
-    return [m for m in ORDER if m in present] + sorted(set(present) - set(ORDER))
-
-
-def demonstrated(table: pd.DataFrame) -> pd.DataFrame:
-    """Rows of the demonstration dynamics tau_1..tau_D (tau itself is never demonstrated)."""
-    return table[table["dynamics"].astype(str).str.startswith("tau_")]  # not tau, not a held-out test_e
-
-
-def fmt(x: float) -> str:
-    return f"{x:.3f}"
-
-
-def per_run_scores(table: pd.DataFrame) -> str:
-    """Per method: median, min, share of (run, tau_j) above 99%; the demonstrator's median."""
-    t = demonstrated(table)
-    lines = ["| method | median | min | share > 99% | demonstrator (median) | fit seconds (median) |", "|---|---|---|---|---|---|"]
-    for m in methods(t):
-        s = t[t["method"] == m]
-        lines.append(
-            f"| {m} | {fmt(s.learner_score.median())} | {fmt(s.learner_score.min())} | {(s.learner_score > 0.99).mean():.0%} "
-            f"| {fmt(s.demonstrator_score.median())} | {s.seconds.median():.2f} |"
-        )
-    return "\n".join(lines)
-
-
-def versus_demonstrator(table: pd.DataFrame, x_label: str) -> str:
-    """Per swept value: learner median per method (over runs and tau_j), demonstrator median, share beating it."""
-    t = demonstrated(table)
-    ms = methods(t)
-    head = f"| {x_label} | demonstrator | " + " | ".join(f"{m} (beats demo)" for m in ms) + " |"
-    lines = [head, "|" + "---|" * (2 + len(ms))]
-    for x, g in t.groupby("x"):
-        cells = []
-        for m in ms:
-            s = g[g["method"] == m]
-            if s.empty:
-                cells.append("")
-                continue
-            beats = (s.learner_score >= s.demonstrator_score - 1e-9).mean()
-            cells.append(f"{fmt(s.learner_score.median())} ({beats:.0%})")
-        x_text = f"{x:g}"
-        lines.append(f"| {x_text} | {fmt(g.demonstrator_score.median())} | " + " | ".join(cells) + " |")
-    return "\n".join(lines)
-
-
-def cosine(table: pd.DataFrame) -> str:
-    t = table[table["dynamics"] == "tau_1"].dropna(subset=["cosine_similarity"])
-    lines = ["| method | min | median | max | share < 0 | share > 0.6 |", "|---|---|---|---|---|---|"]
-    for m in methods(t):
-        c = t[t["method"] == m].cosine_similarity
-        lines.append(f"| {m} | {fmt(c.min())} | {fmt(c.median())} | {fmt(c.max())} | {(c < 0).mean():.0%} | {(c > 0.6).mean():.0%} |")
-    return "\n".join(lines)
-
-
-def alphas(table: pd.DataFrame) -> str:
-    r = table.iloc[0]
-    return (
-        "| exact alpha-vectors | on the exact envelope | modified PBVI's | belief points | largest value gap |\n|---|---|---|---|---|\n"
-        f"| {int(r.n_exact):,} | {int(r.n_envelope)} | {int(r.n_pbvi)} | {int(r.n_beliefs)} | {r.max_value_gap:.2g} |"
-    )
-
-
-def variants(meta: dict, table: pd.DataFrame) -> str:
-    """Per swept value and variant of the game (``airl_cli.variants``): flagged fits, max |w|, cos, scores."""
-    lines = [
-        f"| {meta['x_label']} | variant | flagged | max \\|w\\| median [min, max] | median cos(w, w*) | learner | game p | demonstrator | at or above demo |",
-        "|---|---|---|---|---|---|---|---|---|",
-    ]
-    for _, r in variants_summary(meta, table).iterrows():
-        flagged = f"{r.flagged}/{r.runs}" if r.certified else "-"
-        game_p = "-" if pd.isna(r.game_p_median) else fmt(r.game_p_median)
-        lines.append(
-            f"| {r.x:g} | {r.variant} | {flagged} | {r.w_median:.2g} [{r.w_min:.2g}, {r.w_max:.2g}] | {r.cos_median:.2f} | "
-            f"{fmt(r.learner_median)} | {game_p} | {fmt(r.demonstrator_median)} | {r.above}/{r.pairs} |"
-        )
-    return "\n".join(lines)
-
-
-def transfer(meta: dict, table: pd.DataFrame) -> str:
-    """Per problem and expert model (``airl_cli.transfer``): each method's median in the held-out
-    dynamics, the demonstrated tau_j's in brackets, and the demonstrator's."""
-    names, grid = held_out_grid(transfer_summary(meta, table))
-    lines = ["| problem | expert | " + " | ".join(names) + " | demonstrator |", "|---|---|" + "---|" * (len(names) + 1)]
-    for problem, expert, cells, demonstrator in grid:
-        text = ["" if c is None else f"{fmt(c[0])} ({fmt(c[1])})" for c in cells]
-        lines.append(f"| {problem} | {expert} | " + " | ".join(text) + f" | {fmt(demonstrator)} |")
-    return "Median over runs in the held-out dynamics test_e (in brackets: in the demonstrated τ_j).\n\n" + "\n".join(lines)
-
-
-def summary(name: str, meta: dict, table: pd.DataFrame) -> str:
-    if meta["kind"] == "alphas":
-        return alphas(table)
-    if meta.get("summary") == "variants":
-        return variants(meta, table)
-    if meta.get("summary") == "transfer":
-        return transfer(meta, table)
-    if name in ("fig15", "fig18"):
-        return cosine(table)
-    if meta["x"] == "run":
-        return per_run_scores(table)
-    return versus_demonstrator(table, meta["x_label"])
-
-
 def overview(experiments: Tables) -> str:
     """method x experiment: median learner score over runs and demonstrated dynamics, [25%, 75%], fit time."""
     rows = {}
     for name, (meta, table) in sorted(experiments.items()):
-        if meta["kind"] == "alphas" or name in ("fig15", "fig18") or meta.get("summary") == "variants":
-            continue  # (a variants table holds several games under method=airl: its own table shows them)
+        if not summary_of(meta).in_overview:
+            continue
         t = demonstrated(table)
         for m in methods(t):
             s = t[t["method"] == m]
@@ -296,7 +187,7 @@ def build(sweeps: Path, profile: str = "full") -> Report:
     ]
     figures: list[tuple[Path, str]] = []
     for name, (meta, table) in sorted(experiments.items()):
-        parts += ["", f"## {name}: {meta['title']}", "", f"Thesis: {meta['thesis']}.", "", summary(name, meta, table)]
+        parts += ["", f"## {name}: {meta['title']}", "", f"Thesis: {meta['thesis']}.", "", summary_of(meta).section(meta, table)]
         for png in sorted(Path(meta["folder"], "figures").glob(f"{name}_*.png")):
             figures.append((png, png.name))
             parts += ["", f"![{png.stem}](figures/{png.name})"]
@@ -304,7 +195,7 @@ def build(sweeps: Path, profile: str = "full") -> Report:
         parts += ["", "# Variants", "", "The same experiments with one setting changed, each in a sweep folder of its own."]
     for label, (meta, table) in variants.items():
         name = label.split(" with ")[0]
-        parts += ["", f"## {label}", "", summary(name, meta, table)]
+        parts += ["", f"## {label}", "", summary_of(meta).section(meta, table)]
         for png in sorted(Path(meta["folder"], "figures").glob(f"{name}_*.png")):
             target = f"{meta['slug']}_{png.name}"
             figures.append((png, target))

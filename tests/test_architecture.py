@@ -80,7 +80,7 @@ LAYERS = (
     ("core.irl", "core.irl core.irl.*"),
     ("base", "alpha_values errors heap paths overrides problem_defaults io io.* plain_progress compose_memo hydra_internals config_reader sweep.spec methods variants transfer claims multimodel airl_cli conf conf.*"),
     ("settings", "config demo_settings dynamics_settings envs own_envs"),
-    ("use cases", "usecases usecases.* plotting plotting.*"),
+    ("use cases", "usecases usecases.* plotting plotting.* summaries summaries.*"),
     ("jobs", "jobs jobs.common jobs.fit jobs.generate jobs.inspect jobs.plan api"),
     ("launch", "launch"),
     ("sweeps", "sweep sweep.* report hydra_plugins.*"),
@@ -218,3 +218,28 @@ def test_the_tests_mirror_the_package():
     for folder in folders:
         assert (PACKAGE / folder).is_dir(), f"tests/{folder} mirrors no package of airl_cli"
         assert any((tests / folder).glob("test_*.py")) or any(p.is_dir() for p in (tests / folder).iterdir()), folder
+
+
+def test_the_sweep_machinery_and_the_report_name_no_experiment():
+    """Issue 54: an experiment kind brings its summary in airl_cli/summaries/ (registered there), so that
+    no code in sweep/ or report.py compares with an experiment's name (``name in ("fig15", "fig18")``)
+    or writes one (``"experiment=viano_gridworld ..."``); docstrings and comments may cite them."""
+    import ast
+
+    from airl_cli.launch import experiment_titles
+
+    names = set(experiment_titles())
+    assert {"fig05", "fig15", "transfer", "degeneracy"} <= names
+    files = sorted((PACKAGE / "sweep").glob("*.py")) + [PACKAGE / "report.py"]
+    for path in files:
+        tree = ast.parse(path.read_text())
+        defs = [n for n in ast.walk(tree) if isinstance(n, (ast.Module, ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef))]
+        docstrings = {id(n.body[0].value) for n in defs if n.body and isinstance(n.body[0], ast.Expr) and isinstance(n.body[0].value, ast.Constant)}
+        for node in ast.walk(tree):
+            if id(node) in docstrings:
+                continue
+            if isinstance(node, ast.Compare):
+                compared = [c.value for c in ast.walk(node) if isinstance(c, ast.Constant)]
+                assert not set(compared) & names, f"{path.name} compares with an experiment's name: {set(compared) & names}"
+            if isinstance(node, ast.Constant) and isinstance(node.value, str):
+                assert not any(f"experiment={n}" in node.value for n in names), f"{path.name} names an experiment: {node.value!r}"

@@ -131,6 +131,21 @@ def entry_refusal(folder: str, overrides: list[str], *, replace: bool, key: str 
     return None
 
 
+def enter(folder: str, overrides: list[str], *, replace: bool, key: str = "hydra.run.dir") -> None:
+    """Make ``folder`` ready for a run: refused (``entry_refusal``) or, with ``replace``, emptied.
+
+    Raises:
+        ConfigError: the sentence of ``entry_refusal``.
+    """
+    from airl_cli.errors import ConfigError
+
+    refusal = entry_refusal(folder, overrides, replace=replace, key=key)
+    if refusal is not None:
+        raise ConfigError(refusal)
+    if replace and Path(folder).is_dir():
+        empty(folder)
+
+
 def empty(folder: str | os.PathLike) -> None:
     """Remove everything inside ``folder`` (``--replace``), keeping the folder itself."""
     for entry in Path(folder).iterdir():

@@ -49,7 +49,7 @@ def viano_rows(cfg: DictConfig, folder) -> list[dict]:
         return finite_rows(cfg, folder)
     options = fit_settings(cfg).method_options
     if fit_settings(cfg).method != "robust_mce":
-        raise ConfigError("experiment=viano_gridworld runs method=robust_mce (method.alpha=1 is MCE IRL)")
+        raise ConfigError(f"experiment={exp['name']} runs method=robust_mce (method.alpha=1 is MCE IRL)")
     eps_E, eps_L, gamma = float(exp["epsilon"]), float(exp["learner_epsilon"]), float(exp["discount"])
     start = time.perf_counter()
     P_E, allowed, phi, w_star, p0 = viano_grid(size=int(exp["size"]), epsilon=eps_E, corner=exp["corner"])

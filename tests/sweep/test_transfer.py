@@ -117,7 +117,8 @@ def test_the_terminal_table_and_the_figure_of_a_transfer_table(tmp_path):
 
 
 def test_the_report_shows_the_held_out_table():
-    from airl_cli.report import summary
+    from airl_cli.summaries import summary_of
 
-    text = summary("transfer", {"kind": "fit", "summary": "transfer", "methods": ["airl", "mce"], "x": "n_demos", "x_label": "N"}, _table())
+    meta = {"kind": "fit", "summary": "transfer", "methods": ["airl", "mce"], "x": "n_demos", "x_label": "N"}
+    text = summary_of(meta).section(meta, _table())
     assert "| CliffWorld | own | 0.650 (0.850) | 0.700 (0.900) | 0.600 |" in text
