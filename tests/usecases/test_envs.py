@@ -374,3 +374,22 @@ def test_environment_objects_give_the_named_problem_with_state_features():
     assert np.allclose(ds.true_weights, named.true_weights) and np.allclose(ds.features, named.features)
     scores = api.score(ds, api.fit(ds))  # the README's example
     assert scores["learner_score"].round(3).tolist() == [1.0, 0.986]
+
+
+def test_robust_mce_on_cliffworld_is_stopped_by_its_l2_term_alone(tmp_path, monkeypatch):
+    """Issue 53 item 5, as methods/robust-mce.md says: with alpha < 1 the demonstrations' feature sums
+    are out of the robust model's reach, so lambda * w is the same unclosable gap whatever lambda (w
+    scales as 1/lambda), while MCE IRL (alpha = 1) on the same data learns a finite w with the cliff
+    far below the ground."""
+    pytest.importorskip("seals", reason="CliffWorld needs the extra: pip install '.[envs]'")
+    monkeypatch.chdir(tmp_path)
+    learned = {}
+    for name, extra in (("a", ["method.lam=1e-3"]), ("b", ["method.lam=1e-2"]), ("mce", ["method.alpha=1"])):
+        result = CliRunner().invoke(app, ["fit", "problem=cliffworld", "method=robust_mce", *extra, f"hydra.run.dir={name}"])
+        assert result.exit_code == 0, result.output
+        learned[name] = np.array(json.loads((tmp_path / name / "weights.json").read_text())["weights"][0])
+    gap_a, gap_b = 1e-3 * learned["a"], 1e-2 * learned["b"]
+    assert np.abs(learned["a"]).max() > 1e3
+    assert np.allclose(gap_a, gap_b, rtol=0.02, atol=0.05), (gap_a, gap_b)
+    ground, cliff, goal = learned["mce"]
+    assert np.abs(learned["mce"]).max() < 100 and cliff < ground - 1 and goal > ground
