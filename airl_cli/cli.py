@@ -108,7 +108,9 @@ CfgOption = typer.Option(None, "--cfg", help="Print the composed config instead 
 ResolveOption = typer.Option(False, "--resolve", help="With --cfg, resolve interpolations before printing.")
 MultirunOption = typer.Option(False, "--multirun", "-m", help="Run once per combination of comma-separated override values.")
 ReplaceOption = typer.Option(
-    False, "--replace", help="Let the run go into a hydra.run.dir that holds files: they are removed first (without it such a folder is refused)."
+    False,
+    "--replace",
+    help="Let the run go into a folder that holds files (hydra.run.dir, or -m's hydra.sweep.dir): they are removed first (without it such a folder is refused).",
 )
 
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-from airl_cli.summaries import scores
+from airl_cli.summaries.scores import terminal as scores_terminal
 from airl_cli.summaries.base import SCORE_COLUMNS, Summary, fmt, methods
 
 if TYPE_CHECKING:
@@ -21,4 +21,4 @@ def section(meta: dict, table: pd.DataFrame) -> str:
     return "\n".join(lines)
 
 
-SUMMARY = Summary(terminal=scores.terminal, section=section, columns=(*SCORE_COLUMNS, "cosine_similarity"), in_overview=False)
+SUMMARY = Summary(terminal=scores_terminal, section=section, columns=(*SCORE_COLUMNS, "cosine_similarity"), in_overview=False)

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-from airl_cli.summaries.base import Summary
+from airl_cli.summaries.base import Summary, with_claim
 
 if TYPE_CHECKING:
     import pandas as pd  # tables arrive as DataFrames; pandas is imported by whoever reads them
@@ -34,9 +34,7 @@ def terminal(experiment: dict, table: pd.DataFrame) -> str:
     expert = table["expert_return"].iloc[0]
     theirs = table["published_expert"].iloc[0]
     lines.append(f"expert (optimal policy): {expert:.1f}" + ("" if theirs != theirs else f" (published {theirs:.1f})"))
-    if experiment.get("thesis"):
-        lines.append(experiment["thesis"])
-    return "\n".join(lines) + "\n\n"
+    return with_claim(experiment, lines, prefix="")  # its claim is another paper's, said as it is
 
 
 SUMMARY = Summary(terminal=terminal, columns=(), in_overview=False, reported=False)
