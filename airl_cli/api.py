@@ -23,12 +23,12 @@ import pandas as pd
 from hydra import compose, initialize_config_dir
 from omegaconf import DictConfig
 
-from airl_cli.config import fit_settings, loss_and_seed, problem_settings
-from airl_cli.hydra_internals import launcher_discoverable
 from airl_cli.io.dataset import Dataset, read_dataset, write_dataset
 from airl_cli.io.results_table import read_results_table
-from airl_cli.paths import conf_dir
-from airl_cli.problem_defaults import with_problem_defaults
+from airl_cli.settings.config import fit_settings, loss_and_seed, problem_settings
+from airl_cli.settings.hydra_internals import launcher_discoverable
+from airl_cli.settings.paths import conf_dir
+from airl_cli.settings.problem_defaults import with_problem_defaults
 from airl_cli.usecases.evaluate import score_learned
 from airl_cli.usecases.fit import Learned, learn
 from airl_cli.usecases.problem import build_dataset, learner_rng, with_loss
@@ -61,7 +61,7 @@ def make_dataset(*overrides: str) -> Dataset:
 
 def dataset_from_env(env, *demo_envs, horizon: int = 20, n_demos: int = 100, seed: int = 0, discount: float = 1.0) -> Dataset:
     """A dataset from environment objects with a transition table (gymnasium's toy-text ``env.P``,
-    seals' ``transition_matrix``; ``airl_cli.own_envs``): your own environment, or one built with
+    seals' ``transition_matrix``; ``airl_cli.envs.generic``): your own environment, or one built with
     your own parameters.
 
     Args:
@@ -75,9 +75,9 @@ def dataset_from_env(env, *demo_envs, horizon: int = 20, n_demos: int = 100, see
     Raises:
         ConfigError: an environment without a usable table (one sentence).
     """
-    from airl_cli.config import DemoSettings
     from airl_cli.core.mdp.problems import zero_one_loss
-    from airl_cli.own_envs import problem_of
+    from airl_cli.envs.generic import problem_of
+    from airl_cli.settings.config import DemoSettings
     from airl_cli.usecases.problem import Problem, demonstrated
 
     made = problem_of([env, *(demo_envs or (env,))])

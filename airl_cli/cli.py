@@ -2,7 +2,7 @@
 
 Each command passes its extra arguments, unchanged and in order, to the ``@hydra.main`` app of
 its job module (``airl_cli.jobs.<name>``; ``airl sweep``'s is ``airl_cli.sweep.job``), whose configs
-are loaded from the installed package (``airl_cli.conf``, see ``airl_cli.paths``), so ``airl`` works
+are loaded from the installed package (``airl_cli.conf``, see ``airl_cli.settings.paths``), so ``airl`` works
 from any folder. Only Hydra's own flags (``--multirun``, ``--cfg``, ``--resolve``) are added, in
 front of the overrides.
 """
@@ -16,9 +16,9 @@ from typer.core import TyperCommand
 
 from airl_cli.errors import AirlError, refuse, stop_on_sigterm
 from airl_cli.heap import keep_heap_slack
-from airl_cli.launch import check_group_choices, check_keys, config_groups, quote_paths, run_hydra
+from airl_cli.jobs.launch import check_group_choices, check_keys, config_groups, quote_paths, run_hydra
 from airl_cli.methods import NAMES
-from airl_cli.overrides import syntax_problem
+from airl_cli.settings.overrides import syntax_problem
 
 PASS_THROUGH = {"allow_extra_args": True, "ignore_unknown_options": True}
 
@@ -29,7 +29,7 @@ def _groups_epilog() -> str:
 
     import yaml
 
-    from airl_cli.paths import conf_dir
+    from airl_cli.settings.paths import conf_dir
 
     lines = ["Config groups (choose with GROUP=OPTION; change a value with GROUP.KEY=VALUE):", "", "\b"]
     for group, options in config_groups().items():
@@ -63,7 +63,7 @@ class _SweepCommand(TyperCommand):
     """``airl sweep``, whose help ends with the experiments: read from their configs only for ``--help``."""
 
     def format_epilog(self, ctx, formatter) -> None:
-        from airl_cli.launch import experiment_titles
+        from airl_cli.jobs.launch import experiment_titles
 
         titles = experiment_titles()
         width = max(map(len, titles), default=0)
@@ -235,7 +235,7 @@ def plot(
     """
     from airl_cli.io.files import describe_os_error
     from airl_cli.jobs.common import err_console, out_console
-    from airl_cli.plotting import draw_folder
+    from airl_cli.readings.plotting import draw_folder
 
     try:
         paths = draw_folder(folder)
@@ -265,7 +265,7 @@ def report(
     """
     from airl_cli.io.files import describe_os_error
     from airl_cli.jobs.common import err_console, out_console
-    from airl_cli.report import make_report
+    from airl_cli.readings.report import make_report
 
     try:
         paths = make_report(folder, out, profile, replace=replace)

@@ -32,7 +32,6 @@ Methods: ``"pbvi"`` (modified point-based value iteration, thesis Tables II-IV),
 the naive baseline). See ``airl_cli.core.mmdp.planner`` for the details.
 """
 
-from airl_cli.alpha_values import upper_envelope_1d
 from airl_cli.core.mmdp.planner import (
     PolicyGraph,
     Solution,
@@ -41,5 +40,6 @@ from airl_cli.core.mmdp.planner import (
     solve,
 )
 from airl_cli.core.mmdp.refine import refine
+from airl_cli.readings.alpha_values import upper_envelope_1d
 
 __all__ = ["PolicyGraph", "Solution", "exact_alpha_vectors", "expand_beliefs", "refine", "solve", "upper_envelope_1d"]

@@ -204,7 +204,7 @@ def bench_planner() -> None:
 
 def thesis_scale_dataset(seed: int, transition: str = "uniform", alpha: float = 1.0):
     """The thesis's random-MDP setting: S=20, A=5, T=10, K=5, D=3 (sigma=0.1), N=1000 demos."""
-    from airl_cli.config import DemoSettings, DynamicsSettings, ProblemSettings, RandomMDPSettings
+    from airl_cli.settings.config import DemoSettings, DynamicsSettings, ProblemSettings, RandomMDPSettings
     from airl_cli.usecases.problem import build_dataset
 
     settings = ProblemSettings(

@@ -3,7 +3,7 @@ from finished full-size sweeps.
 
     python experiments/make_report.py [SWEEPS_FOLDER]     # default: results/sweeps
 
-The same as ``airl report SWEEPS_FOLDER --out experiments`` (see ``airl_cli/report.py``): it
+The same as ``airl report SWEEPS_FOLDER --out experiments`` (see ``airl_cli/readings/report.py``): it
 reads every ``<study>-full/results.csv`` the sweeps wrote, computes each experiment's summary
 numbers (the ones the thesis states its claims in), a method x experiment table and the claims
 table, and copies the PNG figures next to this script. Nothing here is typed in by hand: rerun it
@@ -16,7 +16,7 @@ import sys
 from pathlib import Path
 
 from airl_cli.errors import AirlError
-from airl_cli.report import make_report
+from airl_cli.readings.report import make_report
 
 HERE = Path(__file__).resolve().parent
 

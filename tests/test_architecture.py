@@ -44,7 +44,7 @@ def test_core_is_pure():
 
 
 def test_plotting_never_imports_core():
-    files = sorted((PACKAGE / "plotting").glob("*.py"))
+    files = sorted((PACKAGE / "readings" / "plotting").glob("*.py"))
     assert files
     for path in files:
         assert not any(n.startswith("airl_cli.core") for n in imports_of(path)), path.name
@@ -57,7 +57,7 @@ def test_a_sweep_process_imports_no_solver_nor_table_code_before_its_jobs():
     import subprocess
 
     code = (
-        "import sys, airl_cli.cli, airl_cli.sweep.plan, airl_cli.sweep.run, airl_cli.sweep.pool, airl_cli.sweep.job, airl_cli.config;"
+        "import sys, airl_cli.cli, airl_cli.sweep.plan, airl_cli.sweep.run, airl_cli.sweep.pool, airl_cli.sweep.job, airl_cli.settings.config;"
         "print(' '.join(m for m in ('numba', 'scipy.optimize', 'pandas', 'matplotlib') if m in sys.modules))"
     )
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
@@ -68,9 +68,13 @@ def test_a_sweep_process_imports_no_solver_nor_table_code_before_its_jobs():
 
 #: The layers, bottom to top; a module may import its own layer and those below, never above.
 #: ``core`` is four of them: numerics, one MDP, several MDPs (the planner), learning a reward.
+#: A package may span layers: ``settings`` (the config layer) has its parsing and composing modules
+#: in base and the typed settings (``settings.config`` and the groups it reads) above them, with the
+#: environment adapters (``envs``) they read; ``readings`` has its table readers in base, its
+#: summaries and figures with the use cases and ``readings.report`` on top with the sweeps.
 #: ``airl sweep``'s machinery is the package ``sweep``, its Hydra job (``sweep.job``) and rows included; its
-#: ``sweep.spec`` imports only ``overrides`` and sits in base. ``launch`` (which serves every command)
-#: is a layer of its own below the sweep's: the sweep runs its jobs through it, never the other way.
+#: ``sweep.spec`` imports only ``settings.overrides`` and sits in base. ``jobs.launch`` (which serves every
+#: command) is a layer of its own above the jobs: the sweep runs its jobs through it, never the other way.
 #: ``conf`` is the Hydra configs' package: it holds no code, but an installed (non-editable) airl
 #: ships it as ``airl_cli.conf`` with an ``__init__.py``, so the walk over the package finds it.
 LAYERS = (
@@ -78,12 +82,14 @@ LAYERS = (
     ("core.mdp", "core.mdp core.mdp.*"),
     ("core.mmdp", "core.mmdp core.mmdp.*"),
     ("core.irl", "core.irl core.irl.*"),
-    ("base", "alpha_values errors heap paths overrides problem_defaults io io.* plain_progress compose_memo hydra_internals config_reader sweep.spec methods variants transfer claims multimodel airl_cli conf conf.*"),
-    ("settings", "config demo_settings dynamics_settings envs own_envs"),
-    ("use cases", "usecases usecases.* plotting plotting.* summaries summaries.*"),
+    ("base", "airl_cli errors heap plain_progress methods multimodel io io.* conf conf.* sweep.spec"
+     " settings settings.paths settings.overrides settings.problem_defaults settings.compose_memo settings.hydra_internals settings.reader"
+     " readings readings.alpha_values readings.variants readings.transfer readings.claims"),
+    ("settings", "settings.config settings.demos settings.dynamics envs envs.*"),
+    ("use cases", "usecases usecases.* readings.plotting readings.plotting.* readings.summaries readings.summaries.*"),
     ("jobs", "jobs jobs.common jobs.fit jobs.generate jobs.inspect jobs.plan api"),
-    ("launch", "launch"),
-    ("sweeps", "sweep sweep.* report hydra_plugins.*"),
+    ("launch", "jobs.launch"),
+    ("sweeps", "sweep sweep.* readings.report hydra_plugins.*"),
     ("command line", "cli __main__"),
 )
 
@@ -221,16 +227,16 @@ def test_the_tests_mirror_the_package():
 
 
 def test_the_sweep_machinery_and_the_report_name_no_experiment():
-    """Issue 54: an experiment kind brings its summary in airl_cli/summaries/ (registered there), so that
+    """Issue 54: an experiment kind brings its summary in airl_cli/readings/summaries/ (registered there), so that
     no code in sweep/ or report.py compares with an experiment's name (``name in ("fig15", "fig18")``)
     or writes one (``"experiment=viano_gridworld ..."``); docstrings and comments may cite them."""
     import ast
 
-    from airl_cli.launch import experiment_titles
+    from airl_cli.jobs.launch import experiment_titles
 
     names = set(experiment_titles())
     assert {"fig05", "fig15", "transfer", "degeneracy"} <= names
-    files = sorted((PACKAGE / "sweep").glob("*.py")) + [PACKAGE / "report.py"]
+    files = sorted((PACKAGE / "sweep").glob("*.py")) + [PACKAGE / "readings" / "report.py"]
     for path in files:
         tree = ast.parse(path.read_text())
         defs = [n for n in ast.walk(tree) if isinstance(n, (ast.Module, ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef))]

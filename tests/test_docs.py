@@ -155,8 +155,8 @@ def _refused(check, *args) -> str | None:
 
 def _check_airl(words: list[str]) -> str | None:
     """Why an ``airl ...`` command names something that does not exist, or None."""
-    from airl_cli.launch import check_group_choices, check_keys
-    from airl_cli.problem_defaults import with_problem_defaults
+    from airl_cli.jobs.launch import check_group_choices, check_keys
+    from airl_cli.settings.problem_defaults import with_problem_defaults
 
     commands = _commands()
     if not words or words[0].startswith("-"):
@@ -264,8 +264,8 @@ def _dry_run(command: str, rest: list[str]) -> str | None:
     put through the checks the command runs first (``launch.preflight``: the settings, the memory,
     the dataset file; ``sweep.plan``: the sweep's jobs and its first job's settings)."""
     from airl_cli.errors import AirlError
-    from airl_cli.launch import preflight
-    from airl_cli.problem_defaults import with_problem_defaults
+    from airl_cli.jobs.launch import preflight
+    from airl_cli.settings.problem_defaults import with_problem_defaults
     from airl_cli.sweep.plan import plan
 
     # the pages' run folders are new where their readers run them; here grid/ holds the fixture's file
@@ -294,7 +294,7 @@ def test_every_generate_fit_and_sweep_line_passes_its_dry_run(pages_files):
     """More than names: each ``airl generate|fit|sweep`` line of the pages passes ``_dry_run``. The
     jobs themselves do not run here (full sweeps take minutes); each command's own tests run them,
     and the tutorials run in the strict docs build."""
-    from airl_cli import compose_memo
+    from airl_cli.settings import compose_memo
 
     lines = _airl_lines()
     assert len(lines) >= 60, "the pages have their airl commands"

@@ -22,12 +22,12 @@ from output import kill_group, without_progress
 from typer.testing import CliRunner
 
 from airl_cli.cli import app
-from airl_cli.sweep.code import CODE, fingerprint
 from airl_cli.core.mmdp.budget import estimate_fit
 from airl_cli.errors import ConfigError
 from airl_cli.io.run_folder import new_run_folder
 from airl_cli.sweep import folder as sweep_folder
 from airl_cli.sweep import run as sweep_run
+from airl_cli.sweep.code import CODE, fingerprint
 from airl_cli.sweep.folder import check_folder, claim, record_settings
 from airl_cli.sweep.job import finished_earlier
 from airl_cli.sweep.plan import _compose, plan
@@ -186,7 +186,7 @@ def test_a_key_of_the_group_an_experiment_picks_is_accepted(capsys):
     """`experiment=size` picks mdp=objectworld (``override /mdp``): its keys are known, the random MDP's are not."""
     import typer
 
-    from airl_cli.launch import check_keys
+    from airl_cli.jobs.launch import check_keys
 
     check_keys(["experiment=size", "mdp.features=thresholded"])
     check_keys(["experiment=frozenlake", "mdp.features=state", "dynamics.values=[0.5]"])
@@ -394,8 +394,8 @@ def test_the_command_line_s_estimates_count_the_heap_it_keeps():
     """`airl fit` and `airl generate` keep up to TOP_PAD bytes of freed heap mapped (airl_cli.heap):
     their estimates add it to the fit's and the build's."""
     from airl_cli.api import config
-    from airl_cli.config import fit_settings
     from airl_cli.heap import TOP_PAD
+    from airl_cli.settings.config import fit_settings
     from airl_cli.usecases.memory import build_memory, fit_memory
 
     sizes = dict(n_states=200, n_actions=5, horizon=10, n_dynamics=3, n_demos=100, n_next=None)
@@ -500,12 +500,12 @@ def test_the_end_of_a_sweep_prints_median_scores_beside_the_thesis():
 
 
 def test_ctrl_c_says_how_to_resume(tmp_path, monkeypatch):
-    import airl_cli.launch
+    import airl_cli.jobs.launch
 
     def interrupted(*_args, **_kwargs):
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(airl_cli.launch, "run_hydra", interrupted)
+    monkeypatch.setattr(airl_cli.jobs.launch, "run_hydra", interrupted)
     result = runner.invoke(app, ["sweep", "experiment=fig13", "profile=quick", "--no-plot"])
     assert result.exit_code == 130
     assert "interrupted: run the same command again to resume" in result.output
@@ -514,7 +514,7 @@ def test_ctrl_c_says_how_to_resume(tmp_path, monkeypatch):
 def test_a_job_finished_in_another_sweep_folder_is_reused_when_its_config_is_the_same(tmp_path):
     """Issue 33: `airl sweep experiment=fig05 method=airl,mce` recomputed the jobs that had just
     finished in fig05-full, because the folder differed."""
-    from airl_cli.hydra_internals import launcher_discoverable
+    from airl_cli.settings.hydra_internals import launcher_discoverable
     from airl_cli.sweep.job import finished_elsewhere
 
     launcher_discoverable()  # job_config composes as a sweep's job does, with the airl launcher

@@ -112,7 +112,7 @@ def fit_sizes(cfg: DictConfig) -> dict | None:
 
     None when they cannot be known cheaply (a dataset file that will fail its own check).
     """
-    from airl_cli.config import problem_settings
+    from airl_cli.settings.config import problem_settings
 
     data = cfg.get("data")
     return memory.problem_sizes(problem_settings(cfg)) if data is None else dataset_sizes(data)
@@ -120,7 +120,7 @@ def fit_sizes(cfg: DictConfig) -> dict | None:
 
 def memory_estimate(cfg: DictConfig) -> tuple[Estimate, int | None] | None:
     """The fit's memory estimate and its PBVI iterations (None if it does not run PBVI)."""
-    from airl_cli.config import fit_settings
+    from airl_cli.settings.config import fit_settings
 
     sizes = fit_sizes(cfg)
     return None if sizes is None else memory.fit_memory(sizes, fit_settings(cfg))
@@ -155,7 +155,7 @@ def check_build_memory(cfg: DictConfig) -> None:
     Raises:
         ConfigError: the estimate exceeds the free memory (one sentence: what to lower).
     """
-    from airl_cli.config import problem_settings
+    from airl_cli.settings.config import problem_settings
 
     estimate = memory.build_memory(memory.problem_sizes(problem_settings(cfg)))
     sentence = memory.refusal(estimate, memory.available_memory(), shrink=_shrink(cfg), what="building this problem")
@@ -165,7 +165,7 @@ def check_build_memory(cfg: DictConfig) -> None:
 
 def size_note(cfg: DictConfig) -> str | None:
     """A line to print before a fit whose steps will be long (a large belief set or over 1 GB)."""
-    from airl_cli.config import fit_settings
+    from airl_cli.settings.config import fit_settings
 
     found = memory_estimate(cfg)
     return None if found is None else memory.size_note(*found, fit_settings(cfg).optimizer)

@@ -14,12 +14,12 @@ import pandas as pd
 from omegaconf import DictConfig
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
-from airl_cli.config import FitSettings, fit_settings, loss_and_seed, problem_settings
 from airl_cli.io.dataset import Dataset, read_dataset, write_dataset
 from airl_cli.io.files import atomic_write, write_json, write_text
 from airl_cli.jobs.common import check_memory, err_console, out_console, output_dir, run_job, save_config, size_note, warm_up
-from airl_cli.paths import conf_dir
 from airl_cli.plain_progress import PlainProgress
+from airl_cli.settings.config import FitSettings, fit_settings, loss_and_seed, problem_settings
+from airl_cli.settings.paths import conf_dir
 from airl_cli.usecases.evaluate import identifiability_lines, score_learned
 from airl_cli.usecases.fit import Learned, check_supported, learn
 from airl_cli.usecases.problem import build_dataset, learner_rng, resolved_loss, with_loss
@@ -62,7 +62,7 @@ def ignored_settings(cfg: DictConfig, overrides: list[str], method: str) -> list
     """One sentence per kind of override that this command will not read: the problem's groups
     with data=FILE, the thesis's learner's groups with another method, a map with an environment
     that has none."""
-    from airl_cli.overrides import split_override
+    from airl_cli.settings.overrides import split_override
 
     set_here = [(item, split_override(item)[0].lstrip("+").split(".")[0], split_override(item)[0]) for item in overrides if "=" in item]
     notes = []

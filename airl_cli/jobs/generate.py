@@ -7,15 +7,15 @@ import numpy as np
 from omegaconf import DictConfig
 from rich.progress import Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
 
-from airl_cli.config import EnvMDPSettings, ProblemSettings, WindyMDPSettings, problem_settings
 from airl_cli.core.mdp.problems import noise
-from airl_cli.envs import env_parameter
+from airl_cli.envs.named import env_parameter
 from airl_cli.io.dataset import Dataset, write_dataset
 from airl_cli.io.files import write_text
 from airl_cli.jobs.common import check_build_memory, err_console, out_console, output_dir, run_job, save_config
-from airl_cli.paths import conf_dir
 from airl_cli.plain_progress import PlainProgress
-from airl_cli.problem_defaults import is_env_id
+from airl_cli.settings.config import EnvMDPSettings, ProblemSettings, WindyMDPSettings, problem_settings
+from airl_cli.settings.paths import conf_dir
+from airl_cli.settings.problem_defaults import is_env_id
 from airl_cli.usecases.problem import build_dataset, expert_scores, resolved_loss
 
 

@@ -11,13 +11,13 @@ from __future__ import annotations
 import hydra
 from omegaconf import DictConfig
 
-from airl_cli.config import plan_settings
 from airl_cli.io.files import write_json
 from airl_cli.io.mmdp_files import input_path, read_problem
 from airl_cli.io.policy_file import save_policy
 from airl_cli.jobs.common import err_console, out_console, output_dir, run_job, save_config, warm_up
-from airl_cli.paths import conf_dir
 from airl_cli.plain_progress import PlainProgress
+from airl_cli.settings.config import plan_settings
+from airl_cli.settings.paths import conf_dir
 from airl_cli.usecases.plan import bracket_optimum, run_plan
 
 

@@ -25,7 +25,7 @@ def fingerprint() -> str:
     """One line: airl's version, the SHA-256 of its sources (every ``.py`` of the package and every
     config ``.yaml``), the libraries' versions and OpenBLAS's kernels (``OPENBLAS_CORETYPE``)."""
     import airl_cli
-    from airl_cli.paths import conf_dir
+    from airl_cli.settings.paths import conf_dir
 
     digest = hashlib.sha256()
     for root, pattern in ((Path(airl_cli.__file__).parent, "*.py"), (Path(conf_dir()), "*.yaml")):

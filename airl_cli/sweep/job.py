@@ -13,11 +13,11 @@ import os
 import hydra
 from omegaconf import DictConfig, OmegaConf
 
-from airl_cli import compose_memo
 from airl_cli.errors import AirlError, ResultsUnwritable, interrupted
 from airl_cli.io.files import describe_os_error, is_unwritable, write_text
 from airl_cli.jobs.common import output_dir
-from airl_cli.paths import conf_dir
+from airl_cli.settings import compose_memo
+from airl_cli.settings.paths import conf_dir
 from airl_cli.sweep import pool
 from airl_cli.sweep.code import CODE, fingerprint, made_here
 from airl_cli.sweep.folder import same_job

@@ -18,11 +18,11 @@ from hydra.core.override_parser.overrides_parser import OverridesParser
 from hydra.errors import HydraException
 from omegaconf import DictConfig, OmegaConf
 
-from airl_cli import compose_memo
-from airl_cli.config import fit_settings, plain, problem_settings
 from airl_cli.errors import ConfigError
-from airl_cli.hydra_internals import launcher_discoverable, overrides_dirname, split_sweep_overrides
-from airl_cli.paths import conf_dir
+from airl_cli.settings import compose_memo
+from airl_cli.settings.config import fit_settings, plain, problem_settings
+from airl_cli.settings.hydra_internals import launcher_discoverable, overrides_dirname, split_sweep_overrides
+from airl_cli.settings.paths import conf_dir
 from airl_cli.sweep.folder import shared_settings
 from airl_cli.sweep.pool import workers
 from airl_cli.sweep.spec import SweepPlan, override_key

@@ -243,9 +243,9 @@ def _start(state: bytes | tuple) -> None:
     from hydra.core.singleton import Singleton
     from hydra.core.utils import setup_globals
 
-    from airl_cli import compose_memo
-    from airl_cli.hydra_internals import set_hydra_record_writer
-    from airl_cli.launch import save_hydra_record
+    from airl_cli.jobs.launch import save_hydra_record
+    from airl_cli.settings import compose_memo
+    from airl_cli.settings.hydra_internals import set_hydra_record_writer
 
     hydra_context, config, task_function, singleton_state = cloudpickle.loads(state) if isinstance(state, bytes) else state
     setup_globals()

@@ -13,13 +13,13 @@ import time
 import numpy as np
 from omegaconf import DictConfig, OmegaConf
 
-from airl_cli.alpha_values import largest_gap, upper_envelope_1d
-from airl_cli.config import plain, problem_settings
 from airl_cli.core.mdp.problems import noise
 from airl_cli.core.mmdp.planner import exact_alpha_vectors, expand_beliefs, pbvi_graph
 from airl_cli.io.files import atomic_write
 from airl_cli.jobs.common import save_config
 from airl_cli.jobs.fit import fit_and_write
+from airl_cli.readings.alpha_values import largest_gap, upper_envelope_1d
+from airl_cli.settings.config import plain, problem_settings
 from airl_cli.sweep.job_files import setting_columns
 from airl_cli.usecases.problem import resolved_loss, streams
 

@@ -127,7 +127,7 @@ def run(overrides: list[str], *, draw: bool, console: Console, out: Console, par
 
 def print_config(overrides: list[str], *, cfg: str, resolve: bool) -> None:
     """``airl sweep --cfg job|hydra|all``: the config Hydra composes for these overrides, printed; no job runs."""
-    from airl_cli.launch import run_hydra
+    from airl_cli.jobs.launch import run_hydra
 
     run_hydra("sweep", [JOB_NAME, *overrides], cfg=cfg, resolve=resolve, app=JOB_APP)
 
@@ -195,7 +195,7 @@ def _discard_damaged(sweep: SweepPlan, console: Console) -> None:
 
 
 def _run(sweep: SweepPlan, overrides: list[str], *, draw: bool, console: Console, out: Console) -> int:
-    from airl_cli.launch import run_hydra
+    from airl_cli.jobs.launch import run_hydra
 
     _discard_damaged(sweep, console)
     done = len(sweep.done())
@@ -207,7 +207,7 @@ def _run(sweep: SweepPlan, overrides: list[str], *, draw: bool, console: Console
         absolute = [JOB_NAME, *overrides, f"hydra.sweep.dir='{quoted}'"]  # quoted: folder names hold '=' and ','
         # the jobs watch this process and stop when it dies (see pool.watch_parent)
         # with figures to draw, the warm workers stay for them and import the plotting code
-        with environment(sweep.workers), progress(sweep, console), kept(["airl_cli.plotting"] if draw else []):
+        with environment(sweep.workers), progress(sweep, console), kept(["airl_cli.readings.plotting"] if draw else []):
             run_hydra("sweep", absolute, multirun=True, app=JOB_APP)
     table = collect(sweep)
     failed = sweep.failed()

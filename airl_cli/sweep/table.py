@@ -16,7 +16,7 @@ from airl_cli.errors import ConfigError
 from airl_cli.io.files import atomic_write, write_json, write_text
 from airl_cli.io.results_table import TABLE, table_record
 from airl_cli.io.run_folder import EXPERIMENT_FILE
-from airl_cli.summaries import summary_of
+from airl_cli.readings.summaries import summary_of
 from airl_cli.sweep.folder import check_folder, unwritable
 from airl_cli.sweep.job_files import STALE, damaged_jobs
 from airl_cli.sweep.pool import call
@@ -126,12 +126,12 @@ def read_rows(paths: list[Path]) -> pd.DataFrame:
 
 
 def draw_figures(folder: Path) -> list[Path]:
-    """The experiment's figures (``airl_cli.plotting.draw``): the PNGs and the PDFs drawn at once
+    """The experiment's figures (``airl_cli.readings.plotting.draw``): the PNGs and the PDFs drawn at once
     on two warm workers if the sweep has them, else here; the same files either way."""
-    target = "airl_cli.plotting:draw"
+    target = "airl_cli.readings.plotting:draw"
     parts = call([(target, (folder, ("png",))), (target, (folder, ("pdf",)))])
     if parts is None:
-        from airl_cli.plotting import draw
+        from airl_cli.readings.plotting import draw
 
         return draw(folder)
     png, pdf = parts
@@ -140,5 +140,5 @@ def draw_figures(folder: Path) -> list[Path]:
 
 def medians_text(experiment: dict, table: pd.DataFrame) -> str:
     """The text ``airl sweep`` prints after its table: the experiment's summary for the terminal
-    (``airl_cli.summaries``: the median scores per method and swept value by default)."""
+    (``airl_cli.readings.summaries``: the median scores per method and swept value by default)."""
     return summary_of(experiment).terminal(experiment, table)

@@ -13,7 +13,6 @@ import time
 import numpy as np
 from omegaconf import DictConfig
 
-from airl_cli.config import fit_settings, plain
 from airl_cli.core.irl.robust_mce import discounted_feature_sum, robust_mce_irl, robust_soft_value_iteration
 from airl_cli.core.mdp.demos import expected_feature_sums
 from airl_cli.core.mdp.planning import backward_induction
@@ -21,6 +20,7 @@ from airl_cli.core.mdp.viano_grid import evaluation_dynamics, expert_return, fin
 from airl_cli.errors import ConfigError
 from airl_cli.io.dataset import Dataset
 from airl_cli.jobs.common import save_config
+from airl_cli.settings.config import fit_settings, plain
 from airl_cli.usecases.evaluate import learner_policy
 from airl_cli.usecases.fit import learn
 from airl_cli.usecases.problem import learner_rng, loss_matrix

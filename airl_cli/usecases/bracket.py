@@ -5,12 +5,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from airl_cli.config import FitSettings
 from airl_cli.core.irl.bracket import TARGET_SHARE, Closer, relative_width
 from airl_cli.core.irl.certified import answer_penalty
 from airl_cli.core.irl.game_problem import GameProblem
 from airl_cli.core.irl.options import BRACKET_MAX_BELIEFS
 from airl_cli.core.mdp.sparse import sparse_dynamics
+from airl_cli.settings.config import FitSettings
 
 
 def closer(problem: GameProblem, oracle, settings: FitSettings) -> Closer | None:

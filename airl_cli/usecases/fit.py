@@ -8,7 +8,6 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from airl_cli.config import FitSettings
 from airl_cli.core.irl import baselines, mmp, robust_mce
 from airl_cli.core.irl.bracket import closing_oracle
 from airl_cli.core.irl.certified import minimize, upper_at
@@ -22,6 +21,7 @@ from airl_cli.core.mmdp.refine import PER_ROUND, refine
 from airl_cli.errors import ConfigError
 from airl_cli.io.dataset import Dataset
 from airl_cli.methods import REGISTRY
+from airl_cli.settings.config import FitSettings
 from airl_cli.usecases.bracket import bracket_info, bracket_phrase, closer, closes
 from airl_cli.usecases.memory import affordable_beliefs, affordable_check
 

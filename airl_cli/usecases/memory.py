@@ -7,9 +7,9 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-from airl_cli.config import FitSettings, ProblemSettings
 from airl_cli.core.mmdp.budget import GB, Estimate, estimate_fit, fewer_iterations, graph_bytes, total_with_iterations
 from airl_cli.heap import TOP_PAD
+from airl_cli.settings.config import FitSettings, ProblemSettings
 
 
 def available_memory() -> int:
@@ -71,8 +71,8 @@ def problem_sizes(problem: ProblemSettings) -> dict:
     if mdp.name == "random":
         S, A = mdp.n_states, mdp.n_actions
     elif mdp.name in ("gymnasium", "seals"):
-        from airl_cli.envs import env_sizes, is_env_id
-        from airl_cli.own_envs import env_sizes as id_sizes
+        from airl_cli.envs.generic import env_sizes as id_sizes
+        from airl_cli.envs.named import env_sizes, is_env_id
 
         by_id = is_env_id(mdp.env)
         S, A = id_sizes(mdp.env) if by_id else env_sizes(mdp.name, mdp.env, map_name=mdp.map_name, width=mdp.width, height=mdp.height)

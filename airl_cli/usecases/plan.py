@@ -8,13 +8,13 @@ from collections.abc import Callable
 
 import numpy as np
 
-from airl_cli.config import PlanSettings
 from airl_cli.core.irl.options import BRACKET_MAX_BELIEFS
 from airl_cli.core.mmdp.baselines import Plan, graph_returns, plan
 from airl_cli.core.mmdp.bounds import Bracket, bracket
 from airl_cli.core.mmdp.planner import layered_rewards
 from airl_cli.errors import ConfigError
 from airl_cli.io.mmdp_files import MMDPProblem
+from airl_cli.settings.config import PlanSettings
 
 
 def run_plan(

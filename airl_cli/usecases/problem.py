@@ -11,15 +11,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from airl_cli import envs
-from airl_cli.config import DemoSettings, EnvMDPSettings, GridMDPSettings, MDPSettings, ObjectworldSettings, ProblemSettings, WindyMDPSettings
 from airl_cli.core.mdp import demos as core_demos
 from airl_cli.core.mdp import objectworld, problems, windy
 from airl_cli.core.mdp.planning import optimal_expert
 from airl_cli.core.mdp.scores import performance
 from airl_cli.core.mdp.sparse import SparseDynamics
+from airl_cli.envs import named as envs
 from airl_cli.errors import ConfigError
 from airl_cli.io.dataset import Dataset
+from airl_cli.settings.config import DemoSettings, EnvMDPSettings, GridMDPSettings, MDPSettings, ObjectworldSettings, ProblemSettings, WindyMDPSettings
 
 #: Named random streams, in spawn order (append only: existing streams keep their numbers).
 STREAMS = ("mdp", "dynamics", "demos", "fit", "method", "test")  # a new name goes last: the others keep their streams
@@ -170,7 +170,7 @@ def gaussian_dynamics(rng: dict[str, np.random.Generator], tau: np.ndarray, dyn)
 
 
 def env_problem(settings: ProblemSettings) -> Problem:
-    """A gymnasium or seals environment (``airl_cli.envs``): tau from ``mdp.value``, tau_j from
+    """A gymnasium or seals environment (``airl_cli.envs.named``): tau from ``mdp.value``, tau_j from
     ``dynamics.values`` (or D copies of tau under ``dynamics=same``); no randomness."""
     mdp, dyn = settings.mdp, settings.dynamics
     assert isinstance(mdp, EnvMDPSettings)
@@ -190,11 +190,11 @@ def env_problem(settings: ProblemSettings) -> Problem:
 
 
 def _env_by_id(settings: ProblemSettings) -> Problem:
-    """An environment by its gymnasium id (``airl_cli.own_envs``): tau its own table, tau_j copies
+    """An environment by its gymnasium id (``airl_cli.envs.generic``): tau its own table, tau_j copies
     of it (``dynamics=same``) or Gaussian perturbations of its rows (``dynamics=gaussian``, eq. 7.3,
     from the "dynamics" stream), terminal states kept absorbing."""
-    from airl_cli import own_envs
     from airl_cli.core.mdp import tabular
+    from airl_cli.envs import generic as own_envs
 
     mdp, dyn = settings.mdp, settings.dynamics
     env = own_envs.problem_of([own_envs.make_by_id(mdp.env)])

@@ -9,7 +9,7 @@ import yaml
 from typer.testing import CliRunner
 
 from airl_cli.cli import app
-from airl_cli.paths import conf_dir
+from airl_cli.settings.paths import conf_dir
 
 runner = CliRunner()
 

@@ -232,9 +232,9 @@ def no_space(name: str):
 
 
 def test_hydras_own_records_on_a_full_disk_are_one_sentence_and_no_folder(tmp_path, monkeypatch):
-    import airl_cli.launch
+    import airl_cli.jobs.launch
 
-    monkeypatch.setattr(airl_cli.launch, "write_text", no_space("overrides.yaml"), raising=False)
+    monkeypatch.setattr(airl_cli.jobs.launch, "write_text", no_space("overrides.yaml"), raising=False)
     result = runner.invoke(app, ["fit", "hydra.run.dir=out", *SMALL])
     assert result.exit_code == 2, result.output
     assert one_line(result.output, "error: cannot write the results (no space left on device: "), result.output
@@ -259,16 +259,16 @@ def test_a_fit_whose_summary_does_not_fit_on_the_disk_leaves_no_run_folder(tmp_p
 
 
 def test_a_sweeps_figures_on_a_full_disk_are_one_sentence_and_the_folder_is_marked(tmp_path, monkeypatch):
-    import airl_cli.plotting
+    import airl_cli.readings.plotting
 
-    drawn = airl_cli.plotting.draw
+    drawn = airl_cli.readings.plotting.draw
 
     def full(folder, *_args, **_kwargs):
         (Path(folder) / "figures").mkdir(exist_ok=True)
         (Path(folder) / "figures" / "first.png").write_bytes(b"drawn")
         raise OSError(errno.ENOSPC, "No space left on device", str(Path(folder) / "figures" / "second.pdf"))
 
-    monkeypatch.setattr(airl_cli.plotting, "draw", full)
+    monkeypatch.setattr(airl_cli.readings.plotting, "draw", full)
     args = ["sweep", "experiment=fig13", "profile=quick", "hydra/launcher=basic", "hydra.sweep.dir=sweep"]
     result = runner.invoke(app, args)
     assert result.exit_code == 2, result.output
@@ -276,7 +276,7 @@ def test_a_sweeps_figures_on_a_full_disk_are_one_sentence_and_the_folder_is_mark
     assert one_line(err, "error: cannot write the results (no space left on device: ") and "INCOMPLETE" in err, result.output
     assert "Traceback" not in result.output
     assert (tmp_path / "sweep" / INCOMPLETE).exists()
-    monkeypatch.setattr(airl_cli.plotting, "draw", drawn)
+    monkeypatch.setattr(airl_cli.readings.plotting, "draw", drawn)
     again = runner.invoke(app, args)  # room again: the figures are drawn and the folder is complete
     assert again.exit_code == 0, again.output
     assert not (tmp_path / "sweep" / INCOMPLETE).exists()

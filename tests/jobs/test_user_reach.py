@@ -8,7 +8,7 @@ from typer.testing import CliRunner
 
 from airl_cli import api
 from airl_cli.cli import app
-from airl_cli.problem_defaults import with_problem_defaults
+from airl_cli.settings.problem_defaults import with_problem_defaults
 
 runner = CliRunner()
 

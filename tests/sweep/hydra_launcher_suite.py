@@ -7,7 +7,7 @@ from hydra.test_utils.launcher_common_tests import LauncherTestSuite
 
 @pytest.fixture(autouse=True)
 def _airl_launcher_discoverable():
-    from airl_cli.hydra_internals import launcher_discoverable
+    from airl_cli.settings.hydra_internals import launcher_discoverable
 
     launcher_discoverable()  # an editable install only maps the plugin's import
 

@@ -15,9 +15,9 @@ from hydra.core.override_parser.overrides_parser import OverridesParser
 from omegaconf import OmegaConf
 from typer.testing import CliRunner
 
-from airl_cli import compose_memo
 from airl_cli.cli import app
-from airl_cli.paths import conf_dir
+from airl_cli.settings import compose_memo
+from airl_cli.settings.paths import conf_dir
 from airl_cli.sweep import pool
 from airl_cli.sweep.plan import experiment_names, plan
 from airl_cli.sweep.run import _expected_workers
@@ -131,7 +131,7 @@ def test_two_workers_give_the_in_process_table_and_figures(tmp_path, monkeypatch
     """The table equals basic's; the figures, drawn on the two warm workers (PNG on one, PDF on
     the other), are byte for byte what this process draws from the same folder."""
     import airl_cli.sweep.table as sweep_table
-    from airl_cli.plotting import draw
+    from airl_cli.readings.plotting import draw
 
     on_workers = []
     monkeypatch.setattr(sweep_table, "call", lambda targets: on_workers.append(pool.call(targets)) or on_workers[-1])

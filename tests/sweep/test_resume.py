@@ -9,11 +9,11 @@ import shutil
 from pathlib import Path
 
 import pytest
+from sweep_runs import SWEEP, sweep_into
 from typer.testing import CliRunner
 
 from airl_cli.cli import app
 from airl_cli.sweep.job_files import damaged_jobs, problem
-from sweep_runs import SWEEP, sweep_into
 
 runner = CliRunner()
 JOB = "method=mce,seed=1"  # fig12 quick: methods airl and mce, seeds 0 and 1
@@ -189,7 +189,7 @@ def test_partial_with_no_finished_job_says_so(tmp_path):
 
 
 def test_a_partial_figure_says_how_many_jobs_it_shows():
-    from airl_cli.plotting import partial_title
+    from airl_cli.readings.plotting import partial_title
 
     meta = {"title": "Fig. 5", "jobs": 8, "finished": 3}
     assert partial_title(meta) == "Fig. 5 [partial: 3 of 8 jobs]"

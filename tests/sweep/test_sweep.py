@@ -215,7 +215,7 @@ def test_hydra_does_not_compose_every_job_twice_and_the_check_is_restored():
     them); the original check is back afterwards, and untouched outside a sweep."""
     from hydra.plugins.sweeper import Sweeper
 
-    from airl_cli.launch import _jobs_composed_once
+    from airl_cli.jobs.launch import _jobs_composed_once
 
     original = Sweeper.validate_batch_is_legal
     with _jobs_composed_once(True):

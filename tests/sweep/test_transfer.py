@@ -10,10 +10,10 @@ from typer.testing import CliRunner
 
 from airl_cli import api
 from airl_cli.cli import app
-from airl_cli.plotting.transfer import transfer
+from airl_cli.readings.plotting.transfer import transfer
+from airl_cli.readings.transfer import problem_names, transfer_summary
 from airl_cli.sweep.plan import plan
 from airl_cli.sweep.table import medians_text
-from airl_cli.transfer import problem_names, transfer_summary
 
 runner = CliRunner()
 PROBLEMS = ["random", "objectworld", "cliffworld", "frozenlake", "windy"]
@@ -117,7 +117,7 @@ def test_the_terminal_table_and_the_figure_of_a_transfer_table(tmp_path):
 
 
 def test_the_report_shows_the_held_out_table():
-    from airl_cli.summaries import summary_of
+    from airl_cli.readings.summaries import summary_of
 
     meta = {"kind": "fit", "summary": "transfer", "methods": ["airl", "mce"], "x": "n_demos", "x_label": "N"}
     text = summary_of(meta).section(meta, _table())

@@ -7,11 +7,12 @@ from pathlib import Path
 import pytest
 from omegaconf import OmegaConf
 
-from airl_cli import api, plotting, report
-from airl_cli.config import fit_settings
+from airl_cli import api
 from airl_cli.errors import ConfigError
 from airl_cli.methods import NAMES, REGISTRY
-from airl_cli.paths import conf_dir
+from airl_cli.readings import plotting, report
+from airl_cli.settings.config import fit_settings
+from airl_cli.settings.paths import conf_dir
 from airl_cli.usecases import fit as learners
 
 

@@ -2,7 +2,7 @@
 dynamics, terminal states, one-hot features and a state reward out.
 
 An environment such as gymnasium's toy-text ones lists, for each state s and action a, its
-outcomes ``(probability, next state, reward, terminated)``; the layer above (``airl_cli.envs``)
+outcomes ``(probability, next state, reward, terminated)``; the layer above (``airl_cli.envs.named``)
 reads them from the package and hands them here as flat arrays, one entry per outcome. Nothing
 here imports those packages.
 

@@ -13,7 +13,6 @@ from typer.testing import CliRunner
 
 from airl_cli import api
 from airl_cli.cli import app
-from airl_cli.config import ObjectworldSettings, problem_settings
 from airl_cli.core.mdp.objectworld import (
     OBJECTWORLD_ACTIONS,
     n_features,
@@ -26,6 +25,7 @@ from airl_cli.core.mdp.objectworld import (
 from airl_cli.core.mdp.problems import grid_coordinates
 from airl_cli.errors import ConfigError
 from airl_cli.io.dataset import read_dataset
+from airl_cli.settings.config import ObjectworldSettings, problem_settings
 from airl_cli.usecases.problem import build_problem
 
 STAY, UP, RIGHT, DOWN, LEFT = range(5)

@@ -213,8 +213,8 @@ def test_sigma_states_scales_the_perturbation_as_one_over_s():
     """dynamics.sigma_states=S0: the noise of eq. 7.3 is sigma * S0 / S, the same draws scaled; at
     S = S0 it is the thesis's sigma; the summary and a bad value say so in one sentence."""
     from airl_cli import api
-    from airl_cli.config import ConfigError, problem_settings
     from airl_cli.core.mdp.problems import noise
+    from airl_cli.settings.config import ConfigError, problem_settings
 
     assert noise(0.1, None, 100) == 0.1 and noise(0.1, 20, 100) == pytest.approx(0.02) and noise(0.1, 20, 20) == 0.1
     scaled = api.make_dataset("mdp.n_states=100", "dynamics.sigma_states=20", "demos.n=5", "seed=4")

@@ -8,12 +8,12 @@ import numpy as np
 import pytest
 from tiny import random_backup_inputs, random_dynamics, reference_backup
 
-from airl_cli.alpha_values import upper_envelope_1d
 from airl_cli.core.mdp.planning import backward_induction
 from airl_cli.core.mdp.sparse import sparse_dynamics
 from airl_cli.core.mmdp import _kernels
 from airl_cli.core.mmdp.planner import exact_alpha_vectors, pbvi_graph
 from airl_cli.multimodel import expand_beliefs, solve
+from airl_cli.readings.alpha_values import upper_envelope_1d
 
 
 def tiny_problem(seed, *, S=3, A=2, T=5, M=3, concentration=0.3):
@@ -332,7 +332,7 @@ def test_blas_runs_on_one_thread_inside_the_planner_and_is_restored_after(monkey
 def test_envelope_vertices_with_ties_and_duplicates():
     """Small integer vectors tie at x = 0, at x = 1 and at kinks, and repeat: the vertices still
     trace the brute-force maximum, increase strictly, and count one kink per envelope change."""
-    from airl_cli.alpha_values import envelope_vertices
+    from airl_cli.readings.alpha_values import envelope_vertices
 
     rng = np.random.default_rng(1)
     for _ in range(50):

@@ -1,0 +1,106 @@
+"""Any tabular environment as a problem: by its gymnasium id (``mdp=gymnasium mdp.env=ID``) or as
+an object (``airl_cli.api.dataset_from_env``).
+
+An environment qualifies when it exposes its own transition table: gymnasium's toy-text form,
+``env.P[s][a] = [(probability, next state, reward, terminated), ...]`` with
+``env.initial_state_distrib``, or seals' ``env.transition_matrix`` (S, A, S) with
+``env.reward_matrix`` (S,) and ``env.initial_state_dist``. As for the named environments
+(``airl_cli.envs.named``): the terminal states become absorbing, the features are one-hot of the state
+(K = S, nothing else is known of an arbitrary environment), and w* is the environment's reward of
+entering a state (toy-text) or of being in it (seals), when it is a function of the state.
+"""
+
+from __future__ import annotations
+
+import importlib
+import warnings
+from typing import Any
+
+import numpy as np
+
+from airl_cli.core.mdp import tabular
+from airl_cli.envs.named import EnvProblem, gymnasium_dynamics, require
+from airl_cli.errors import ConfigError
+
+
+def make_by_id(env_id: str, **kwargs: Any) -> Any:
+    """``gymnasium.make(env_id, **kwargs).unwrapped``; one sentence (ConfigError) if the id is unknown."""
+    gymnasium = require("gymnasium")
+    namespace = env_id.split("/")[0] if "/" in env_id else None
+    if namespace is not None:  # a package registers its ids when it is imported (seals/..., your own)
+        try:
+            importlib.import_module(namespace)
+        except ImportError:
+            pass
+    try:
+        with warnings.catch_warnings():  # gymnasium's own warnings (an old version, a render mode) are not the user's
+            warnings.simplefilter("ignore")
+            return gymnasium.make(env_id, **kwargs).unwrapped
+    except Exception as err:  # gymnasium raises several kinds (NameNotFound, VersionNotFound, TypeError)  # noqa: BLE001
+        raise ConfigError(f"'mdp.env={env_id}' cannot be made by gymnasium: {err}") from None
+
+
+def env_sizes(env_id: str) -> tuple[int, int]:
+    """S and A of an environment by id (made to read its spaces), for the memory check."""
+    made = make_by_id(env_id)
+    if hasattr(made, "transition_matrix"):  # seals: its observations may be vectors, its states are the table's
+        S, A = np.shape(made.transition_matrix)[:2]
+        return int(S), int(A)
+    if hasattr(made, "P") and hasattr(made.observation_space, "n") and hasattr(made.action_space, "n"):
+        return int(made.observation_space.n), int(made.action_space.n)
+    raise ConfigError(
+        f"'mdp.env={env_id}' exposes no transition table: airl reads gymnasium's toy-text env.P with "
+        "env.initial_state_distrib, or seals' env.transition_matrix"
+    )
+
+
+def table(env: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray | None]:
+    """tau (S, A, S) with the terminal states absorbing, p0 (S,), the terminal mask (S,) and the
+    reward of each state (S,), or None where it is not a function of the state.
+
+    Raises:
+        ConfigError: the environment exposes no transition table, or its table is not one.
+    """
+    name = type(env).__name__
+    try:
+        if hasattr(env, "P") and hasattr(env, "initial_state_distrib"):
+            P, terminal, live, out = gymnasium_dynamics(env)
+            try:
+                R = tabular.entering_reward(out["next_state"], out["reward"], live[out["state"]], n_states=P.shape[0], default=0.0)
+            except ValueError:  # the reward depends on the action or on where the move came from
+                R = None
+            return P, np.asarray(env.initial_state_distrib, dtype=np.float64), terminal, R
+        if hasattr(env, "transition_matrix"):
+            P = np.asarray(env.transition_matrix, dtype=np.float64)
+            total = P.sum(axis=-1, keepdims=True)
+            if np.all(np.abs(total - 1.0) < 1e-5):  # a float32 table (seals' Random) sums to 1 within its precision
+                P = P / total
+            S = P.shape[0]
+            p0 = np.asarray(getattr(env, "initial_state_dist", np.full(S, 1.0 / S)), dtype=np.float64)
+            R = np.asarray(env.reward_matrix, dtype=np.float64) if getattr(env, "reward_matrix", None) is not None else None
+            return P, p0, np.zeros(S, dtype=bool), (R if R is not None and R.shape == (S,) else None)
+    except ValueError as e:
+        raise ConfigError(f"{name}'s transition table cannot be read as a problem: {e}") from None
+    raise ConfigError(
+        f"{name} exposes no transition table: airl reads gymnasium's toy-text env.P with env.initial_state_distrib, "
+        "or seals' env.transition_matrix"
+    )
+
+
+def problem_of(envs: list[Any]) -> EnvProblem:
+    """The problem of these environment objects, the first one's dynamics as tau, one tau_j per
+    other (the same states and actions; the first one's p0, terminal states and reward).
+
+    Raises:
+        ConfigError: a table is missing or inconsistent, the sizes differ, or the first
+            environment's reward is not a function of the state (w* is then unknown).
+    """
+    tables = [table(e) for e in envs]
+    P0, p0, terminal, R = tables[0]
+    if any(t[0].shape != P0.shape for t in tables):
+        raise ConfigError(f"the environments' tables differ in size: {[t[0].shape for t in tables]} (states, actions, states)")
+    if R is None:
+        raise ConfigError(f"{type(envs[0]).__name__}'s reward is not a function of the state it enters, which airl's problems need (thesis §4.1)")
+    P = np.stack([tabular.absorbing(t[0], terminal) for t in tables])
+    S = P0.shape[0]
+    return EnvProblem(P, np.eye(S), p0, R, terminal, np.arange(S))

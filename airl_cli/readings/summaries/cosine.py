@@ -1,0 +1,24 @@
+"""The cosine similarity of the learned weights to w* (thesis Figs. 15 and 18): the scores in the
+terminal, the spread of cos(w, w*) under tau_1 in the report."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+from airl_cli.readings.summaries.base import SCORE_COLUMNS, Summary, fmt, methods
+from airl_cli.readings.summaries.scores import terminal as scores_terminal
+
+if TYPE_CHECKING:
+    import pandas as pd  # tables arrive as DataFrames; pandas is imported by whoever reads them
+
+
+def section(meta: dict, table: pd.DataFrame) -> str:
+    t = table[table["dynamics"] == "tau_1"].dropna(subset=["cosine_similarity"])
+    lines = ["| method | min | median | max | share < 0 | share > 0.6 |", "|---|---|---|---|---|---|"]
+    for m in methods(t):
+        c = t[t["method"] == m].cosine_similarity
+        lines.append(f"| {m} | {fmt(c.min())} | {fmt(c.median())} | {fmt(c.max())} | {(c < 0).mean():.0%} | {(c > 0.6).mean():.0%} |")
+    return "\n".join(lines)
+
+
+SUMMARY = Summary(terminal=scores_terminal, section=section, columns=(*SCORE_COLUMNS, "cosine_similarity"), in_overview=False)
