@@ -69,8 +69,8 @@ def test_a_sweep_process_imports_no_solver_nor_table_code_before_its_jobs():
 #: The layers, bottom to top; a module may import its own layer and those below, never above.
 #: ``core`` is four of them: numerics, one MDP, several MDPs (the planner), learning a reward.
 #: A package may span layers: ``settings`` (the config layer) has its parsing and composing modules
-#: in base and the typed settings (``settings.config`` and the groups it reads) above them, with the
-#: environment adapters (``envs``) they read; ``readings`` has its table readers in base, its
+#: in base and the typed settings (``settings.config`` and the groups it reads) above the environment
+#: adapters (``envs``) they read; ``readings`` has its table readers in base, its
 #: summaries and figures with the use cases and ``readings.report`` on top with the sweeps.
 #: ``airl sweep``'s machinery is the package ``sweep``, its Hydra job (``sweep.job``) and rows included; its
 #: ``sweep.spec`` imports only ``settings.overrides`` and sits in base. ``jobs.launch`` (which serves every
@@ -85,7 +85,8 @@ LAYERS = (
     ("base", "airl_cli errors heap plain_progress methods multimodel io io.* conf conf.* sweep.spec"
      " settings settings.paths settings.overrides settings.problem_defaults settings.compose_memo settings.hydra_internals settings.reader"
      " readings readings.alpha_values readings.variants readings.transfer readings.claims"),
-    ("settings", "settings.config settings.demos settings.dynamics envs envs.*"),
+    ("envs", "envs envs.*"),
+    ("settings", "settings.config settings.demos settings.dynamics settings.experiments settings.envs"),
     ("use cases", "usecases usecases.* readings.plotting readings.plotting.* readings.summaries readings.summaries.*"),
     ("jobs", "jobs jobs.common jobs.fit jobs.generate jobs.inspect jobs.plan api"),
     ("launch", "jobs.launch"),

@@ -61,9 +61,9 @@ def load(sweeps: Path, profile: str = "full") -> Tables:
     The metadata comes from the experiment's own config: two experiments may share one sweep
     (fig14 and fig15 are one study), whose experiment.json names only the last one run.
     """
-    from airl_cli.sweep.plan import (  # composing the configs: only when reporting
+    from airl_cli.settings.experiments import (  # composing the configs: only when reporting
         experiment_names,
-        plan,
+        experiment_section,
     )
 
     out = {}
@@ -71,7 +71,7 @@ def load(sweeps: Path, profile: str = "full") -> Tables:
         folder = sweeps / f"{_study(name)}-{profile}"
         if not (folder / "results.csv").is_file():
             continue
-        meta = plan([f"experiment={name}"]).experiment
+        meta = experiment_section(name)
         if not summary_of(meta).reported:  # another paper's table, not a claim of chapter 7: its sweep shows it
             continue
         meta = {**meta, "folder": str(folder)}

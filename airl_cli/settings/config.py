@@ -16,11 +16,11 @@ from omegaconf import DictConfig
 
 from airl_cli.core.irl.options import BRACKET_BELIEFS, PBVI_MAX_ITERATIONS, SCHEDULES, CertifiedOptions, FitOptions, PlannerOptions
 from airl_cli.core.mdp.windy import WINDS
-from airl_cli.envs.named import EnvMDPSettings, env_settings
 from airl_cli.errors import ConfigError
 from airl_cli.methods import NAMES, REGISTRY
 from airl_cli.settings.demos import DemoSettings, read_demos
 from airl_cli.settings.dynamics import DynamicsSettings, read_dynamics
+from airl_cli.settings.envs import EnvMDPSettings, env_settings
 from airl_cli.settings.reader import Cell, Reader, plain
 
 # --------------------------------------------------------------------------- problem

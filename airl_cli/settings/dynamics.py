@@ -9,8 +9,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
-from airl_cli.envs.named import DEFAULT_VALUES, EnvMDPSettings, check_env_dynamics, env_value, is_env_id
+from airl_cli.envs.named import DEFAULT_VALUES
 from airl_cli.errors import ConfigError
+from airl_cli.settings.envs import EnvMDPSettings, check_env_dynamics, env_value
+from airl_cli.settings.problem_defaults import is_env_id
 from airl_cli.settings.reader import Cell, Reader
 
 

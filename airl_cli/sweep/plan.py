@@ -13,7 +13,6 @@ from __future__ import annotations
 import hashlib
 from pathlib import Path
 
-from hydra import compose, initialize_config_dir
 from hydra.core.override_parser.overrides_parser import OverridesParser
 from hydra.errors import HydraException
 from omegaconf import DictConfig, OmegaConf
@@ -21,8 +20,8 @@ from omegaconf import DictConfig, OmegaConf
 from airl_cli.errors import ConfigError
 from airl_cli.settings import compose_memo
 from airl_cli.settings.config import fit_settings, plain, problem_settings
+from airl_cli.settings.experiments import compose_airl, experiment_names  # noqa: F401 (experiment_names: the sweep's callers use it from here)
 from airl_cli.settings.hydra_internals import launcher_discoverable, overrides_dirname, split_sweep_overrides
-from airl_cli.settings.paths import conf_dir
 from airl_cli.sweep.folder import shared_settings
 from airl_cli.sweep.pool import workers
 from airl_cli.sweep.spec import SweepPlan, override_key
@@ -31,11 +30,6 @@ from airl_cli.sweep.spec import SweepPlan, override_key
 def _is_task_override(item: str) -> bool:
     key = override_key(item)
     return not (key.startswith("hydra.") or key.startswith("hydra/"))
-
-
-def _compose(overrides: list[str]) -> DictConfig:
-    with initialize_config_dir(config_dir=conf_dir(), version_base="1.3", job_name="sweep"):
-        return compose("airl", overrides=overrides, return_hydra_config=True)
 
 
 def plan(overrides: list[str]) -> SweepPlan:
@@ -61,7 +55,7 @@ def _plan(overrides: list[str]) -> SweepPlan:
         for o in parsed
     ]
     try:
-        cfg = _compose(first)
+        cfg = compose_airl(first)
     except HydraException as err:
         raise ConfigError(str(err).splitlines()[0]) from None
     if cfg.get("experiment") is None:
@@ -73,7 +67,7 @@ def _plan(overrides: list[str]) -> SweepPlan:
     parsed_once = {o: parser.parse_override(o) for o in {o for job in jobs_overrides for o in job}}  # 2 ms each
     jobs = tuple(overrides_dirname([parsed_once[o] for o in job], exclude) for job in jobs_overrides)
     try:
-        first_job = _compose([o for o in overrides if not _is_task_override(o)] + jobs_overrides[0])
+        first_job = compose_airl([o for o in overrides if not _is_task_override(o)] + jobs_overrides[0])
     except HydraException as err:
         raise ConfigError(str(err).splitlines()[0]) from None
     workers = _workers(first_job)
@@ -127,8 +121,3 @@ def _folder(cfg: DictConfig, overrides: list[str], parser: OverridesParser) -> P
     if len(suffix) > 100:
         suffix = hashlib.sha1(suffix.encode()).hexdigest()[:12]
     return Path(f"{cfg.hydra.sweep.dir}-{suffix}" if suffix else cfg.hydra.sweep.dir)
-
-
-def experiment_names() -> list[str]:
-    """Every experiment config shipped in conf/experiment/."""
-    return sorted(p.stem for p in (Path(conf_dir()) / "experiment").glob("*.yaml") if not p.name.startswith("_"))

@@ -72,7 +72,8 @@ def problem_sizes(problem: ProblemSettings) -> dict:
         S, A = mdp.n_states, mdp.n_actions
     elif mdp.name in ("gymnasium", "seals"):
         from airl_cli.envs.generic import env_sizes as id_sizes
-        from airl_cli.envs.named import env_sizes, is_env_id
+        from airl_cli.envs.named import env_sizes
+        from airl_cli.settings.problem_defaults import is_env_id
 
         by_id = is_env_id(mdp.env)
         S, A = id_sizes(mdp.env) if by_id else env_sizes(mdp.name, mdp.env, map_name=mdp.map_name, width=mdp.width, height=mdp.height)

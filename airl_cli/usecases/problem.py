@@ -20,6 +20,7 @@ from airl_cli.envs import named as envs
 from airl_cli.errors import ConfigError
 from airl_cli.io.dataset import Dataset
 from airl_cli.settings.config import DemoSettings, EnvMDPSettings, GridMDPSettings, MDPSettings, ObjectworldSettings, ProblemSettings, WindyMDPSettings
+from airl_cli.settings.problem_defaults import is_env_id
 
 #: Named random streams, in spawn order (append only: existing streams keep their numbers).
 STREAMS = ("mdp", "dynamics", "demos", "fit", "method", "test")  # a new name goes last: the others keep their streams
@@ -174,7 +175,7 @@ def env_problem(settings: ProblemSettings) -> Problem:
     ``dynamics.values`` (or D copies of tau under ``dynamics=same``); no randomness."""
     mdp, dyn = settings.mdp, settings.dynamics
     assert isinstance(mdp, EnvMDPSettings)
-    if envs.is_env_id(mdp.env):
+    if is_env_id(mdp.env):
         return _env_by_id(settings)
     values = dyn.values if dyn.kind == "env_values" else (mdp.value,) * dyn.n_dynamics
     sizes = dict(map_name=mdp.map_name) if mdp.env == "FrozenLake" else {}

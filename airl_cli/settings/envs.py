@@ -1,0 +1,79 @@
+"""``mdp=gymnasium`` and ``mdp=seals``: an environment of another package, its settings read and checked.
+
+The environments themselves (their parameters, tables and features) are ``airl_cli.envs``'; this
+module reads the config group's values for them, one sentence (``ConfigError``) per bad value.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+from airl_cli.envs.named import DEFAULT_VALUE, ENVS, PARAMETERS
+from airl_cli.errors import ConfigError
+from airl_cli.settings.problem_defaults import is_env_id
+from airl_cli.settings.reader import Reader
+
+
+@dataclass(frozen=True)
+class EnvMDPSettings:
+    """``mdp=gymnasium`` and ``mdp=seals``: a tabular environment of another package
+    (``airl_cli.envs.named``); ``value`` is tau's parameter value (see ``airl_cli.envs.named.PARAMETERS``)."""
+
+    name: str  # the package: gymnasium | seals
+    env: str
+    value: bool | float
+    features: str  # tile | state
+    horizon: int
+    map_name: str = "4x4"  # FrozenLake
+    width: int = 15  # seals' CliffWorld
+    height: int = 6
+
+
+def env_value(r: Reader, key: str, env: str, value: Any) -> bool | float:
+    """One parameter value of an environment: true/false for its switch, or a number in its range."""
+    p = PARAMETERS[env]
+    ok_bool = isinstance(value, bool) and p.switch is not None
+    ok_number = not isinstance(value, bool) and isinstance(value, (int, float)) and p.number is not None and p.lo <= value <= p.hi
+    if not (ok_bool or ok_number):
+        kinds = [f"true or false ({p.switch})"] if p.switch else []
+        kinds += [f"a number between {p.lo:g} and {p.hi:g} ({p.number})"] if p.number else []
+        raise ConfigError(f"'{r._name(key)}' must be {' or '.join(kinds)} for {env}, got {value!r}")
+    return value if isinstance(value, bool) else float(value)
+
+
+def check_env_dynamics(mdp: EnvMDPSettings, kind: str, name: str) -> bool:
+    """Refuse (ConfigError) a dynamics an environment cannot take: a named one takes
+    ``dynamics=env_values`` (its parameter) or ``same``; one by id ``gaussian`` (perturbations of
+    its table) or ``same``. Returns whether the environment is one by id."""
+    by_id = is_env_id(mdp.env)
+    if kind not in (("same", "gaussian") if by_id else ("same", "env_values")):
+        use = "dynamics=gaussian (perturbations of its table)" if by_id else f"dynamics=env_values (one dynamics per value of {mdp.env}'s parameter)"
+        raise ConfigError(f"'dynamics={name}' does not apply to mdp={mdp.name} mdp.env={mdp.env}; use {use} or dynamics=same")
+    return by_id
+
+
+def env_settings(r: Reader, package: str) -> EnvMDPSettings:
+    """The settings of ``mdp=gymnasium`` or ``mdp=seals``, read and checked (one sentence, ConfigError)."""
+    if package == "gymnasium" and is_env_id(r.raw("env")):  # any environment with a table, by its id
+        if r.raw("value", None) is not None:
+            raise ConfigError(f"'mdp.value' sets a parameter of {', '.join(ENVS['gymnasium'])}; an environment by id is made with its own defaults (mdp.value=null)")
+        r.choice("features", ("tile", "state"))  # checked; an environment by id has one feature per state whatever it says
+        return EnvMDPSettings(name=package, env=str(r.raw("env")), value=False, features="state", horizon=r.int("horizon", lo=2))
+    if r.raw("env") not in ENVS[package]:
+        by_id = " or any registered environment's id with a table (e.g. FrozenLake-v1, or your own MyGrid-v0)" if package == "gymnasium" else ""
+        raise ConfigError(f"'mdp.env' must be one of {', '.join(ENVS[package])}{by_id}; got {r.raw('env')!r}")
+    env = r.choice("env", ENVS[package])
+    kwargs: dict = {}
+    if env == "FrozenLake":
+        kwargs["map_name"] = r.choice("map_name", ("4x4", "8x8"))
+    if env == "CliffWorld":
+        kwargs = dict(width=r.int("width", lo=3), height=r.int("height", lo=2))
+    return EnvMDPSettings(
+        name=package,
+        env=env,
+        value=env_value(r, "value", env, r.raw("value", DEFAULT_VALUE[env])),
+        features=r.choice("features", ("tile", "state")),
+        horizon=r.int("horizon", lo=2),
+        **kwargs,
+    )
