@@ -25,12 +25,13 @@ from airl_cli.cli import app
 from airl_cli.core.mmdp.budget import estimate_fit
 from airl_cli.errors import ConfigError
 from airl_cli.io.run_folder import new_run_folder
+from airl_cli.settings.experiments import compose_airl
 from airl_cli.sweep import folder as sweep_folder
 from airl_cli.sweep import run as sweep_run
 from airl_cli.sweep.code import CODE, fingerprint
 from airl_cli.sweep.folder import check_folder, claim, record_settings
 from airl_cli.sweep.job import finished_earlier
-from airl_cli.sweep.plan import _compose, plan
+from airl_cli.sweep.plan import plan
 from airl_cli.sweep.run import progress
 from airl_cli.sweep.spec import ERROR, ROWS, SweepPlan
 from airl_cli.sweep.table import medians_text
@@ -55,7 +56,7 @@ def one_sentence(output: str) -> bool:
 
 def job_config(overrides: list[str]) -> str:
     """The resolved config.yaml a sweep job of these overrides writes."""
-    cfg = _compose(overrides)
+    cfg = compose_airl(overrides)
     plain = OmegaConf.to_container(cfg, resolve=False)
     del plain["hydra"]
     return OmegaConf.to_yaml(OmegaConf.create(plain), resolve=True)
@@ -345,6 +346,7 @@ def test_a_busy_folder_refuses_and_no_worker_outlives_a_killed_sweep(tmp_path):
     assert resumed.returncode == 0, resumed.stderr
 
 
+@pytest.mark.slow  # end to end, seconds: the slow suite (pytest -m slow, run by CI)
 @pytest.mark.skipif(not Path("/proc/self/stat").exists() or (os.cpu_count() or 1) < 2, reason="reads /proc; two workers")
 def test_a_worker_killed_mid_sweep_is_one_sentence_and_exit_1(tmp_path):
     """A worker killed by the system (the OOM killer, say): one sentence, exit 1, no worker left."""
@@ -532,6 +534,7 @@ def test_a_job_finished_in_another_sweep_folder_is_reused_when_its_config_is_the
     assert not (other / ROWS).exists()
 
 
+@pytest.mark.slow  # end to end, seconds: the slow suite (pytest -m slow, run by CI)
 def test_a_sweep_into_another_folder_reuses_the_finished_jobs(tmp_path):
     sweeps = tmp_path / "sweeps"
     first = runner.invoke(app, ["sweep", "experiment=fig13", "profile=quick", "method=airl", f"hydra.sweep.dir={sweeps / 'a'}", "--no-plot"])
