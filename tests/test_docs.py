@@ -290,6 +290,7 @@ def pages_files(tmp_path, monkeypatch):
     return tmp_path
 
 
+@pytest.mark.slow  # end to end, seconds: the slow suite (pytest -m slow, run by CI)
 def test_every_generate_fit_and_sweep_line_passes_its_dry_run(pages_files):
     """More than names: each ``airl generate|fit|sweep`` line of the pages passes ``_dry_run``. The
     jobs themselves do not run here (full sweeps take minutes); each command's own tests run them,

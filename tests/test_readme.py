@@ -105,6 +105,7 @@ def test_the_layout_tree_names_every_module_and_package():
     assert not missing, f"the Layout tree (docs/development.md) does not name: {missing}"
 
 
+@pytest.mark.slow  # end to end, seconds: the slow suite (pytest -m slow, run by CI)
 def test_the_job_counts_experiments_readme_quotes_are_the_sweeps():
     """experiments/README.md's wall-time table and the experiment pages' commands (docs/experiments/)
     quote each sweep's jobs: the counts come

@@ -196,6 +196,7 @@ def test_with_the_exact_oracle_the_certificate_brackets_the_minimum(tmp_path):
     assert "optimal to 0.0001 (relative gap" in (out / "summary.txt").read_text()
 
 
+@pytest.mark.slow  # end to end, seconds: the slow suite (pytest -m slow, run by CI)
 def test_the_certified_weights_do_not_depend_on_the_seed(tmp_path):
     """Fig. 12's data (grid, exact expectations: the data are the same for every seed) under 10 seeds."""
     weights = []
@@ -245,6 +246,7 @@ def test_behavioural_cloning_needs_actions(tmp_path):
     assert not (tmp_path / "bc").exists()
 
 
+@pytest.mark.slow  # end to end, seconds: the slow suite (pytest -m slow, run by CI)
 def test_the_planner_is_not_starved_while_the_learner_keeps_improving(tmp_path):
     """The default problem at a tolerance far below PBVI's resolution: the learner's oracle finds a
     column at every iteration, and the balance rule used to skip the planner for 80 iterations in a

@@ -150,6 +150,7 @@ def test_an_interrupted_run_that_replaces_an_earlier_run_leaves_nothing(tmp_path
 SWEEP = [*AIRL, "sweep", "experiment=fig05", "profile=quick", "--no-plot", "hydra.launcher.n_jobs=2"]
 
 
+@pytest.mark.slow  # end to end, seconds: the slow suite (pytest -m slow, run by CI)
 @pytest.mark.skipif(not PROC or (os.cpu_count() or 1) < 2, reason="reads /proc; two workers")
 def test_ctrl_c_stops_a_sweep_at_once_with_no_worker_and_no_semaphore_left(tmp_path):
     """Jobs of seconds each (S = 150): a Ctrl-C (to the whole process group, as a terminal sends it)
@@ -178,6 +179,7 @@ def test_ctrl_c_stops_a_sweep_at_once_with_no_worker_and_no_semaphore_left(tmp_p
     assert (folder / INCOMPLETE).exists()
 
 
+@pytest.mark.slow  # end to end, seconds: the slow suite (pytest -m slow, run by CI)
 @pytest.mark.skipif(not PROC, reason="reads /proc")
 def test_a_sweep_killed_outright_leaves_its_folder_marked_and_no_leak_warning(tmp_path):
     folder = tmp_path / "sweep"
@@ -192,6 +194,7 @@ def test_a_sweep_killed_outright_leaves_its_folder_marked_and_no_leak_warning(tm
     assert (folder / INCOMPLETE).exists()
 
 
+@pytest.mark.slow  # end to end, seconds: the slow suite (pytest -m slow, run by CI)
 @pytest.mark.skipif(not PROC, reason="reads /proc")
 def test_a_sweep_interrupted_by_ctrl_c_resumes_to_the_table_of_an_uninterrupted_one(tmp_path):
     folder, reference = tmp_path / "resumed", tmp_path / "reference"
@@ -313,6 +316,7 @@ def test_a_fit_on_a_full_file_system(tmpfs, leave):
     assert not (tmpfs / "run").exists()
 
 
+@pytest.mark.slow  # end to end, seconds: the slow suite (pytest -m slow, run by CI)
 def test_a_sweep_on_a_full_file_system(tmpfs):
     """fig05 needs about 1 MB; the jobs stop on the full disk: one sentence, the folder marked."""
     folder = tmpfs / "sweep"

@@ -137,6 +137,7 @@ def test_sweep_help_shows_no_unresolved_interpolation():
     assert result.exit_code == 0 and "${" not in result.output and "eps_L = 0.0" in result.output
 
 
+@pytest.mark.slow  # end to end, seconds: the slow suite (pytest -m slow, run by CI)
 def test_a_multirun_into_a_folder_that_holds_files_is_refused_and_two_at_once_never_share(tmp_path, monkeypatch):
     """`airl generate -m ... hydra.sweep.dir=OLD` replaced OLD/0/dataset.npz without a word, and two
     multiruns started in the same second shared results/sweeps/generate/<time>/."""

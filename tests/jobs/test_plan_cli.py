@@ -175,6 +175,7 @@ def test_plan_config_is_packaged_and_printable():
     assert result.exit_code == 0 and "method: pbvi" in result.output and "horizon: 50" in result.output
 
 
+@pytest.mark.slow  # end to end, seconds: the slow suite (pytest -m slow, run by CI)
 def test_the_shipped_benchmarks_plan_from_any_folder(tmp_path):
     """`plan.input=benchmark:NAME`: Su & Petrik's small domains, shipped in the package (MIT licence)."""
     from airl_cli.io.mmdp_files import benchmark_names
@@ -193,6 +194,7 @@ def test_the_shipped_benchmarks_plan_from_any_folder(tmp_path):
     assert bad.exit_code == 2 and "benchmark:hiv, benchmark:riverswim" in bad.output and not (tmp_path / "r").exists()
 
 
+@pytest.mark.slow  # end to end, seconds: the slow suite (pytest -m slow, run by CI)
 def test_the_plan_states_a_bracket_on_the_optimum_that_the_heuristics_lie_below(tmp_path):
     """`airl plan` prints [lower, upper] on the best history-dependent policy's objective, valid
     whatever the planner: PBVI's plan is its lower end or below, and the published heuristics'

@@ -126,6 +126,7 @@ def test_warm_workers_are_other_processes_with_their_share_of_the_cores(monkeypa
     assert not pool._pool
 
 
+@pytest.mark.slow  # end to end, seconds: the slow suite (pytest -m slow, run by CI)
 @pytest.mark.skipif(pool.cores() < 2, reason="two workers need two cores")
 def test_two_workers_give_the_in_process_table_and_figures(tmp_path, monkeypatch):
     """The table equals basic's; the figures, drawn on the two warm workers (PNG on one, PDF on
@@ -190,6 +191,7 @@ def test_workers_that_run_no_job_are_stopped_at_once():
 # --------------------------------------------------------------------------- Hydra's own launcher tests
 
 
+@pytest.mark.slow  # end to end, seconds: the slow suite (pytest -m slow, run by CI)
 def test_hydras_launcher_test_suite_passes_on_the_airl_launcher():
     """Hydra's test suite for launcher plugins (``hydra.test_utils.launcher_common_tests``), on
     Hydra's own test app (``tests/sweep/hydra_launcher_suite.py``): the airl launcher is a

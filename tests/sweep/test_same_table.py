@@ -63,6 +63,7 @@ print(__import__("os").environ.get("OPENBLAS_CORETYPE"), learned.info["iteration
 """
 
 
+@pytest.mark.slow  # end to end, seconds: the slow suite (pytest -m slow, run by CI)
 @pytest.mark.skipif(not sys.platform.startswith("linux") or not {"avx2", "fma"} <= _cpu_flags(), reason="the pin is for x86-64 Linux with AVX2")
 def test_the_blas_kernels_are_pinned_so_the_fit_is_the_same_on_any_such_processor():
     env = {k: v for k, v in os.environ.items() if k != "OPENBLAS_CORETYPE"}

@@ -48,7 +48,11 @@ def test_every_experiment_composes_and_plans(name, profile):
 RANDOM_MDP = {"degeneracy", "fig04", "fig05", "fig06", "fig07", "fig08", "fig09", "size_random", "size_random_markov", "size_random_scaled"}
 
 
-@pytest.mark.parametrize("name", [e for e in EXPERIMENTS if e != "fig02_03"])
+#: every loss on a random MDP's and a grid's experiment in the fast suite, every experiment in the slow one
+FAST_COMPOSE = {"fig05", "fig12"}
+
+
+@pytest.mark.parametrize("name", [e if e in FAST_COMPOSE else pytest.param(e, marks=pytest.mark.slow) for e in EXPERIMENTS if e != "fig02_03"])
 @pytest.mark.parametrize("loss", ["auto", "zero_one", "squared_features", "squared_euclidean"])
 def test_every_experiment_composes_with_every_loss_and_generator(name, loss):
     """Every reading is one override away: each loss, and on the random MDP each tau generator."""
@@ -79,11 +83,12 @@ def test_full_sizes_follow_the_thesis():
     assert len(plan(["experiment=fig17", "method=airl"]).jobs) == 20  # 20 runs
 
 
-#: The experiments whose quick sweep takes longest (15-24 s each on a 2-core machine) run with the slow tests.
-LONG_QUICK = {"windy_transfer", "transfer"}
+#: the fast suite runs two experiments through the whole sweep (a random MDP's and a grid's); the
+#: others, 1.3-8 s each (transfer and windy_transfer 15-24 s), in the slow suite
+FAST_QUICK = {"fig04", "fig12"}
 
 
-@pytest.mark.parametrize("name", [pytest.param(n, marks=pytest.mark.slow) if n in LONG_QUICK else n for n in EXPERIMENTS])
+@pytest.mark.parametrize("name", [n if n in FAST_QUICK else pytest.param(n, marks=pytest.mark.slow) for n in EXPERIMENTS])
 def test_every_experiment_runs_small_in_process(tmp_path, name):
     """Each experiment at the quick size, through the in-process launcher, to a table and figures."""
     if name in ENV_EXPERIMENTS:
@@ -108,7 +113,7 @@ def test_every_experiment_runs_small_in_process(tmp_path, name):
     assert damaged_jobs(folder, [p.parent.name for p in folder.glob("*/rows.csv")]) == {}
 
 
-@pytest.mark.parametrize("name", ["fig04", "fig12"])
+@pytest.mark.parametrize("name", [pytest.param("fig04", marks=pytest.mark.slow), "fig12"])
 def test_quick_sweep_end_to_end_on_every_core(tmp_path, name):
     """The default launcher (airl's warm workers, every core): sweep, table, figures; then airl plot draws them again."""
     result = runner.invoke(app, ["sweep", f"experiment={name}", "profile=quick"])
@@ -124,6 +129,7 @@ def test_quick_sweep_end_to_end_on_every_core(tmp_path, name):
     assert replot.exit_code == 0 and (folder / "figures" / pngs[0]).exists()
 
 
+@pytest.mark.slow  # end to end, seconds: the slow suite (pytest -m slow, run by CI)
 def test_a_killed_sweep_resumes_without_duplicates(tmp_path):
     cmd = [sys.executable, "-m", "airl_cli", "sweep", "experiment=fig05", "profile=quick", "--no-plot"]
     folder = tmp_path / "results" / "sweeps" / "fig05-quick"

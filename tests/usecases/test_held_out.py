@@ -104,6 +104,7 @@ def test_objectworld_and_environments_draw_their_test_dynamics():
     np.testing.assert_allclose(lake.test_transitions[0], np.asarray(named.transitions)[1])
 
 
+@pytest.mark.slow  # end to end, seconds: the slow suite (pytest -m slow, run by CI)
 def test_a_sweep_writes_the_test_rows_and_resumes_them(tmp_path, monkeypatch):
     import pandas as pd
 
@@ -147,6 +148,7 @@ def test_each_dynamics_own_expert_hard_and_soft():
     assert (soft_rows["demonstrator_score"] < 1.0).all()
 
 
+@pytest.mark.slow  # end to end, seconds: the slow suite (pytest -m slow, run by CI)
 def test_own_experts_sampled_round_trip_and_every_method_runs(tmp_path, monkeypatch):
     ds = api.make_dataset("mdp.n_states=8", "mdp.horizon=5", "demos.n=30", "demos.expert=own", "demos.beta=0.3", "dynamics.n_test=1")
     assert ds.demo_states.shape == (3, 30, 5) and ds.demo_actions.shape == (3, 30, 4)
@@ -219,6 +221,7 @@ def test_mdp_windy_blows_their_winds_and_holds_out_theirs():
     assert ds.discount == 0.9 and ds.features.shape == (36, 36)
 
 
+@pytest.mark.slow  # end to end, seconds: the slow suite (pytest -m slow, run by CI)
 def test_airl_fit_on_the_windy_grid_and_its_refusals(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
     result = runner.invoke(app, ["fit", "mdp=windy", "demos.expert=own", "demos.beta=0.3", "method=mce", f"hydra.run.dir={tmp_path / 'w'}"])

@@ -131,9 +131,10 @@ def exact_oracle(problem):
 @pytest.mark.parametrize(
     "seed,S,shared,loss",
     [
-        (0, 2, True, "random"), (1, 2, False, "random"), (2, 3, True, "random"), (3, 2, True, "random"), (4, 3, False, "random"),
-        (5, 3, True, "zero_one"), (6, 3, False, "zero_one"), (7, 2, True, "zero_one"),
-        (8, 3, True, "squared_features"), (9, 3, False, "squared_features"), (10, 2, True, "squared_features"),
+        # each loss shared and not in the fast suite; more seeds in the slow one
+        (0, 2, True, "random"), (1, 2, False, "random"), (5, 3, True, "zero_one"), (7, 2, False, "zero_one"),
+        (10, 2, True, "squared_features"), (9, 3, False, "squared_features"),
+        *(pytest.param(*case, marks=pytest.mark.slow) for case in [(2, 3, True, "random"), (3, 2, True, "random"), (4, 3, False, "random"), (6, 3, False, "zero_one"), (8, 3, True, "squared_features")]),
     ],
 )
 def test_certified_minimum_equals_brute_force(seed, S, shared, loss):
@@ -263,6 +264,7 @@ def test_the_weak_oracle_s_certificate_is_raised_by_the_exact_check_on_some_seed
     assert max(raised) > 1e-3, raised
 
 
+@pytest.mark.slow  # end to end, seconds: the slow suite (pytest -m slow, run by CI)
 @pytest.mark.parametrize("adversary_keep", [0, 1000])
 def test_pruning_every_other_iteration_still_reaches_the_brute_force_minimum(monkeypatch, adversary_keep):
     """Pruning at every second iteration, of learner strategies only (the adversary's kept, as by
@@ -297,6 +299,7 @@ def test_the_cap_is_reported():
     assert len(res.history["iteration"]) == 2
 
 
+@pytest.mark.slow  # end to end, seconds: the slow suite (pytest -m slow, run by CI)
 def test_gradient_descent_approaches_the_certified_optimum_from_above():
     problem, targets = tiny(9, S=3)
     lam = 0.05

@@ -73,6 +73,7 @@ def test_same_seed_same_weights(shared):
     assert np.array_equal(a.history["objective"], b.history["objective"])
 
 
+@pytest.mark.slow  # end to end, seconds: the slow suite (pytest -m slow, run by CI)
 def test_tiny_lambda_matches_the_demonstrated_features():
     """At the optimum 0 is a subgradient, F(q) - c~ + lambda w: the adversary matches c~_j.
 

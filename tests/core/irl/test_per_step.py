@@ -11,8 +11,8 @@ from test_certified import T, adversary_marginals, brute_minimum, exact_oracle, 
 from test_markov_adversary import markov_adversary_marginals
 
 from airl_cli.core.irl.certified import CertifiedOptions, minimize
-from airl_cli.core.irl.game import objective_at
 from airl_cli.core.irl.degeneracy import reward_effect
+from airl_cli.core.irl.game import objective_at
 from airl_cli.core.irl.markov_adversary import markov_oracle
 from airl_cli.core.irl.per_step import step_blocks, step_features, step_targets
 from airl_cli.core.mdp.scores import return_bounds
@@ -41,7 +41,7 @@ def per_step_game(problem, marginals, targets, shared):
 
 
 @pytest.mark.parametrize("adversary", ["history", "markov"])
-@pytest.mark.parametrize("seed,S,shared", [(0, 2, True), (1, 2, False), (2, 3, True), (4, 3, False)])
+@pytest.mark.parametrize("seed,S,shared", [(0, 2, True), (1, 2, False), pytest.param(2, 3, True, marks=pytest.mark.slow), pytest.param(4, 3, False, marks=pytest.mark.slow)])
 def test_certified_per_step_minimum_equals_brute_force(seed, S, shared, adversary):
     problem, step, targets = per_step_problem(seed, S)
     lam = 0.05

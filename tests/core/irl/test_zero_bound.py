@@ -69,7 +69,7 @@ def _degenerate(seed):
     return problem, np.einsum("m,mjk->jk", q, F), L, Phi
 
 
-@pytest.mark.parametrize("seed", [0, 1, 2])
+@pytest.mark.parametrize("seed", [0, *(pytest.param(s, marks=pytest.mark.slow) for s in (1, 2))])
 def test_a_degenerate_game_is_certified_at_zero(seed):
     problem, targets, L, Phi = _degenerate(seed)
     lam, C = 0.05, targets.sum(axis=0)
@@ -86,7 +86,7 @@ def test_a_degenerate_game_is_certified_at_zero(seed):
     assert checked == res.objective if res.upper_rewards is None else checked >= f_brute(res.weights[0], L, Phi, C, lam) - 1e-9
 
 
-@pytest.mark.parametrize("seed,loss", [(0, "zero_one"), (1, "random"), (2, "zero_one")])
+@pytest.mark.parametrize("seed,loss", [(0, "zero_one"), (1, "random"), pytest.param(2, "zero_one", marks=pytest.mark.slow)])
 def test_the_bound_through_f0_bounds_f_at_every_w(seed, loss):
     """f(w) <= f(0) + B(w) + (lambda/2)|w|^2 (``certified_steps.zero_upper_at``) against f of the
     enumerated game, at small and large w, shared and not."""

@@ -100,6 +100,7 @@ def test_their_metric_against_their_agent_simulated():
     assert abs(np.mean(returns) - exact) <= 4 * np.std(returns) / np.sqrt(len(returns)), (np.mean(returns), exact)
 
 
+@pytest.mark.slow  # end to end, seconds: the slow suite (pytest -m slow, run by CI)
 def test_the_published_table_is_reproduced_within_five_percent():
     spec = importlib.util.spec_from_file_location("viano", Path(__file__).parents[3] / "experiments" / "viano_gridworld.py")
     viano = importlib.util.module_from_spec(spec)
@@ -114,6 +115,7 @@ def test_the_published_table_is_reproduced_within_five_percent():
                 assert abs(ours - pub) <= 0.05 * abs(pub), (eps_L, alpha, eps, ours, pub)
 
 
+@pytest.mark.slow  # end to end, seconds: the slow suite (pytest -m slow, run by CI)
 def test_the_sweep_reproduces_the_table_small_and_resumes(tmp_path, monkeypatch):
     """`airl sweep experiment=viano_gridworld profile=quick`: eps_E in {0, 0.2}, alpha in {1, 0.9, 0.8}."""
     import pandas as pd
@@ -156,6 +158,7 @@ def test_finite_total_return_by_hand():
     assert finite_total_return(P, policy, w_star) == pytest.approx((0 - 1 - 1 - 2) / 4)
 
 
+@pytest.mark.slow  # end to end, seconds: the slow suite (pytest -m slow, run by CI)
 def test_the_thesiss_method_runs_on_the_finite_grid(tmp_path, monkeypatch):
     """`airl sweep experiment=viano_finite profile=quick`: T = 10, the thesis's method and MCE IRL."""
     import pandas as pd
