@@ -59,7 +59,7 @@ def make_dataset(*overrides: str) -> Dataset:
     return dataset
 
 
-def dataset_from_env(env, *demo_envs, horizon: int = 20, n_demos: int = 100, seed: int = 0, discount: float = 1.0) -> Dataset:
+def dataset_from_env(env, *demo_envs, horizon: int | None = None, n_demos: int = 100, seed: int = 0, discount: float = 1.0) -> Dataset:
     """A dataset from environment objects with a transition table (gymnasium's toy-text ``env.P``,
     seals' ``transition_matrix``; ``airl_cli.envs.generic``): your own environment, or one built with
     your own parameters.
@@ -69,18 +69,23 @@ def dataset_from_env(env, *demo_envs, horizon: int = 20, n_demos: int = 100, see
             over one-hot state features (K = S), its terminal states absorbing.
         demo_envs (object): the dynamics tau_1..tau_D the expert is demonstrated in (the same states and
             actions); none: tau itself.
-        horizon: T, states per trajectory; n_demos: N per dynamics, sampled with ``seed``;
+        horizon: T, states per trajectory; None: the environment's own episode limit plus one
+            (``env.spec.max_episode_steps``, as ``gymnasium.make`` registers it), else 20;
+        n_demos: N per dynamics, sampled with ``seed``;
         discount: gamma in (0, 1].
 
     Raises:
         ConfigError: an environment without a usable table (one sentence).
     """
     from airl_cli.core.mdp.problems import zero_one_loss
-    from airl_cli.envs.generic import problem_of
+    from airl_cli.envs.generic import DEFAULT_HORIZON, problem_of
     from airl_cli.settings.config import DemoSettings
     from airl_cli.usecases.problem import Problem, demonstrated
 
     made = problem_of([env, *(demo_envs or (env,))])
+    if horizon is None:
+        limit = getattr(getattr(env, "spec", None), "max_episode_steps", None)
+        horizon = DEFAULT_HORIZON if limit is None else int(limit) + 1
     S = made.initial.size
     problem = Problem(made.transitions, made.features, made.initial, int(horizon), made.true_weights, zero_one_loss(S), discount=float(discount))
     return demonstrated(problem, DemoSettings("sampled", int(n_demos)), int(seed))[0]

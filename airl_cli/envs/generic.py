@@ -40,6 +40,27 @@ def make_by_id(env_id: str, **kwargs: Any) -> Any:
         raise ConfigError(f"'mdp.env={env_id}' cannot be made by gymnasium: {err}") from None
 
 
+#: T of an environment by id that has no episode limit of its own, and of the named environments
+DEFAULT_HORIZON = 20
+
+
+def own_horizon(env_id: str) -> int:
+    """T for an environment by id: its registered episode limit (``max_episode_steps``, the actions its
+    TimeLimit allows) plus one, as T counts states; ``DEFAULT_HORIZON`` if it registers none.
+    One sentence (ConfigError) if the id is unknown."""
+    gymnasium = require("gymnasium")
+    if "/" in env_id:  # a package registers its ids when it is imported (seals/..., your own)
+        try:
+            importlib.import_module(env_id.split("/")[0])
+        except ImportError:
+            pass
+    try:
+        limit = gymnasium.spec(env_id).max_episode_steps
+    except Exception as err:  # gymnasium raises several kinds (NameNotFound, VersionNotFound)  # noqa: BLE001
+        raise ConfigError(f"'mdp.env={env_id}' cannot be made by gymnasium: {err}") from None
+    return DEFAULT_HORIZON if limit is None else int(limit) + 1
+
+
 def env_sizes(env_id: str) -> tuple[int, int]:
     """S and A of an environment by id (made to read its spaces), for the memory check."""
     made = make_by_id(env_id)
@@ -61,6 +82,7 @@ def table(env: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray | No
     Raises:
         ConfigError: the environment exposes no transition table, or its table is not one.
     """
+    env = getattr(env, "unwrapped", env)  # gymnasium.make's wrappers (TimeLimit, ...) hold no table
     name = type(env).__name__
     try:
         if hasattr(env, "P") and hasattr(env, "initial_state_distrib"):

@@ -9,6 +9,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
+from airl_cli.envs.generic import DEFAULT_HORIZON, own_horizon
 from airl_cli.envs.named import DEFAULT_VALUE, ENVS, PARAMETERS
 from airl_cli.errors import ConfigError
 from airl_cli.settings.problem_defaults import is_env_id
@@ -59,7 +60,8 @@ def env_settings(r: Reader, package: str) -> EnvMDPSettings:
         if r.raw("value", None) is not None:
             raise ConfigError(f"'mdp.value' sets a parameter of {', '.join(ENVS['gymnasium'])}; an environment by id is made with its own defaults (mdp.value=null)")
         r.choice("features", ("tile", "state"))  # checked; an environment by id has one feature per state whatever it says
-        return EnvMDPSettings(name=package, env=str(r.raw("env")), value=False, features="state", horizon=r.int("horizon", lo=2))
+        horizon = own_horizon(str(r.raw("env"))) if r.raw("horizon", None) is None else r.int("horizon", lo=2)
+        return EnvMDPSettings(name=package, env=str(r.raw("env")), value=False, features="state", horizon=horizon)
     if r.raw("env") not in ENVS[package]:
         by_id = " or any registered environment's id with a table (e.g. FrozenLake-v1, or your own MyGrid-v0)" if package == "gymnasium" else ""
         raise ConfigError(f"'mdp.env' must be one of {', '.join(ENVS[package])}{by_id}; got {r.raw('env')!r}")
@@ -74,6 +76,6 @@ def env_settings(r: Reader, package: str) -> EnvMDPSettings:
         env=env,
         value=env_value(r, "value", env, r.raw("value", DEFAULT_VALUE[env])),
         features=r.choice("features", ("tile", "state")),
-        horizon=r.int("horizon", lo=2),
+        horizon=DEFAULT_HORIZON if r.raw("horizon", None) is None else r.int("horizon", lo=2),
         **kwargs,
     )

@@ -393,3 +393,32 @@ def test_robust_mce_on_cliffworld_is_stopped_by_its_l2_term_alone(tmp_path, monk
     assert np.allclose(gap_a, gap_b, rtol=0.02, atol=0.05), (gap_a, gap_b)
     ground, cliff, goal = learned["mce"]
     assert np.abs(learned["mce"]).max() < 100 and cliff < ground - 1 and goal > ground
+
+
+def test_an_environment_by_id_runs_to_its_own_episode_limit():
+    """T of an environment by id is its registered episode limit (max_episode_steps actions) plus
+    one, 20 where it registers none; mdp.horizon overrides it; the named environments keep theirs."""
+    pytest.importorskip("seals")
+    from airl_cli import api
+
+    def T(*args):
+        return api.make_dataset("mdp=gymnasium", *args, "dynamics=same", "demos.n=2").horizon
+
+    assert T("mdp.env=FrozenLake-v1") == 101  # gymnasium's TimeLimit: 100 steps
+    assert T("mdp.env=seals/Branching-v0") == 12 and T("mdp.env=seals/RiskyPath-v0") == 6  # seals' 11 and 5
+    assert T("mdp.env=seals/CliffWorld7x4-v0") == 20  # registered without a limit
+    assert T("mdp.env=FrozenLake-v1", "mdp.horizon=7") == 7
+    assert T() == 20 and api.make_dataset("mdp=seals", "dynamics=same", "demos.n=2").horizon == 19
+
+
+def test_an_environment_object_as_gymnasium_makes_it():
+    """api.dataset_from_env takes gymnasium.make's wrapped environment (its table is the unwrapped
+    one's) and runs it to the wrapper's episode limit; an unwrapped one, which has none, to T = 20."""
+    gymnasium = pytest.importorskip("gymnasium")
+    from airl_cli import api
+
+    wrapped = api.dataset_from_env(gymnasium.make("FrozenLake-v1"), n_demos=2)
+    bare = api.dataset_from_env(gymnasium.make("FrozenLake-v1").unwrapped, n_demos=2)
+    assert wrapped.horizon == 101 and bare.horizon == 20
+    assert np.array_equal(np.asarray(wrapped.transitions), np.asarray(bare.transitions))
+    assert api.dataset_from_env(gymnasium.make("FrozenLake-v1"), horizon=9, n_demos=2).horizon == 9
