@@ -192,6 +192,9 @@ def _backup_nodes(dyn: SparseDynamics, classes: tuple | None, R_t, Bt, alpha_nex
     ``_kernels.unique_nodes`` returns them (with column classes in one compiled pass,
     ``_column_kernels.backup_nodes_classes``)."""
     PR, nxt, cnt = dyn.model_axis_last(), dyn.next_states, dyn.count
+    # one array type for the compiled kernels: R[:, t] arrives as a strided view, read-only or not, or
+    # C-ordered, and each kind was compiled anew (three compilations of ~20 s on a fresh install)
+    R_t = np.array(R_t, dtype=np.float64, order="C")
     if classes is None:
         return _kernels.unique_nodes(*_kernels.backup_step(PR, nxt, cnt, R_t, Bt, alpha_next, offsets_next))
     cls, dirs, cls_state, scale = classes
