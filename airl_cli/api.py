@@ -78,14 +78,13 @@ def dataset_from_env(env, *demo_envs, horizon: int | None = None, n_demos: int =
         ConfigError: an environment without a usable table (one sentence).
     """
     from airl_cli.core.mdp.problems import zero_one_loss
-    from airl_cli.envs.generic import DEFAULT_HORIZON, problem_of
+    from airl_cli.envs.generic import horizon_of, problem_of
     from airl_cli.settings.config import DemoSettings
     from airl_cli.usecases.problem import Problem, demonstrated
 
     made = problem_of([env, *(demo_envs or (env,))])
     if horizon is None:
-        limit = getattr(getattr(env, "spec", None), "max_episode_steps", None)
-        horizon = DEFAULT_HORIZON if limit is None else int(limit) + 1
+        horizon = horizon_of(getattr(getattr(env, "spec", None), "max_episode_steps", None))
     S = made.initial.size
     problem = Problem(made.transitions, made.features, made.initial, int(horizon), made.true_weights, zero_one_loss(S), discount=float(discount))
     return demonstrated(problem, DemoSettings("sampled", int(n_demos)), int(seed))[0]

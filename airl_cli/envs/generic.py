@@ -44,6 +44,12 @@ def make_by_id(env_id: str, **kwargs: Any) -> Any:
 DEFAULT_HORIZON = 20
 
 
+def horizon_of(limit: int | None) -> int:
+    """T for an episode limit of ``limit`` actions (``max_episode_steps``): ``limit + 1`` states, or
+    ``DEFAULT_HORIZON`` when there is no limit."""
+    return DEFAULT_HORIZON if limit is None else int(limit) + 1
+
+
 def own_horizon(env_id: str) -> int:
     """T for an environment by id: its registered episode limit (``max_episode_steps``, the actions its
     TimeLimit allows) plus one, as T counts states; ``DEFAULT_HORIZON`` if it registers none.
@@ -58,7 +64,7 @@ def own_horizon(env_id: str) -> int:
         limit = gymnasium.spec(env_id).max_episode_steps
     except Exception as err:  # gymnasium raises several kinds (NameNotFound, VersionNotFound)  # noqa: BLE001
         raise ConfigError(f"'mdp.env={env_id}' cannot be made by gymnasium: {err}") from None
-    return DEFAULT_HORIZON if limit is None else int(limit) + 1
+    return horizon_of(limit)
 
 
 def env_sizes(env_id: str) -> tuple[int, int]:
