@@ -105,9 +105,21 @@ def exact_graph(P: np.ndarray, R, prior: np.ndarray | None = None) -> PolicyGrap
             f"exact enumeration would visit {n_hist:,} histories (S={S}, A={A}, T={T}); use method='pbvi'"
         )
     nodes: list[list[tuple]] = [[] for _ in range(T)]  # per t: (state, action, successors, alpha)
+    impossible: dict[tuple[int, int], tuple[float, int]] = {}  # (t, s): the plan of a history no model makes
 
     def best(t: int, s: int, rho: np.ndarray) -> tuple[float, int]:
-        """Optimal plan from a history with weights rho at (t, s): (its value, its node index at t)."""
+        """Optimal plan from a history with weights rho at (t, s): (its value, its node index at t).
+        A history of probability 0 under every model (rho = 0: a grid's walls, or the decision
+        steps of ``core.mdp.state_action``'s expansion) has the same plan whatever led to it, so
+        it is planned once per (t, s) and shared (the plans of possible histories are unchanged)."""
+        if not rho.any() and (t, s) in impossible:
+            return impossible[t, s]
+        if not rho.any():
+            impossible[t, s] = _plan(t, s, rho)
+            return impossible[t, s]
+        return _plan(t, s, rho)
+
+    def _plan(t: int, s: int, rho: np.ndarray) -> tuple[float, int]:
         if t == T - 1:
             nodes[t].append((s, -1, None, L.last[:, s].copy()))
             return float(rho @ L.last[:, s]), len(nodes[t]) - 1
