@@ -7,7 +7,9 @@ An environment qualifies when it exposes its own transition table: gymnasium's t
 ``env.reward_matrix`` (S,) and ``env.initial_state_dist``. As for the named environments
 (``airl_cli.envs.named``): the terminal states become absorbing, the features are one-hot of the state
 (K = S, nothing else is known of an arbitrary environment), and w* is the environment's reward of
-entering a state (toy-text) or of being in it (seals), when it is a function of the state.
+entering a state (toy-text) or of being in it (seals), when it is a function of the state; a
+toy-text reward that depends on the action (CliffWalking, Taxi) is read as r(s, a), with one-hot
+features of the pair (S, A, K = S A).
 """
 
 from __future__ import annotations
@@ -83,7 +85,10 @@ def env_sizes(env_id: str) -> tuple[int, int]:
 
 def table(env: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray | None]:
     """tau (S, A, S) with the terminal states absorbing, p0 (S,), the terminal mask (S,) and the
-    reward of each state (S,), or None where it is not a function of the state.
+    reward of entering each state (S,); for a toy-text table whose reward is not a function of the
+    state entered (CliffWalking's cliff, Taxi's wrong pick-up), the expected reward of each state
+    and action r(s, a) = sum_s' P(s'|s, a) reward(s, a, s') (S, A), 0 once the episode has ended;
+    None for a seals table without a state reward.
 
     Raises:
         ConfigError: the environment exposes no transition table, or its table is not one.
@@ -95,8 +100,9 @@ def table(env: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray | No
             P, terminal, live, out = gymnasium_dynamics(env)
             try:
                 R = tabular.entering_reward(out["next_state"], out["reward"], live[out["state"]], n_states=P.shape[0], default=0.0)
-            except ValueError:  # the reward depends on the action or on where the move came from
-                R = None
+            except ValueError:  # the reward depends on the action or on where the move came from: r(s, a), its expectation
+                R = np.zeros(P.shape[:2])
+                np.add.at(R, (out["state"], out["action"]), np.where(live[out["state"]], out["prob"] * out["reward"], 0.0))
             return P, np.asarray(env.initial_state_distrib, dtype=np.float64), terminal, R
         if hasattr(env, "transition_matrix"):
             P = np.asarray(env.transition_matrix, dtype=np.float64)
@@ -128,7 +134,9 @@ def problem_of(envs: list[Any]) -> EnvProblem:
     if any(t[0].shape != P0.shape for t in tables):
         raise ConfigError(f"the environments' tables differ in size: {[t[0].shape for t in tables]} (states, actions, states)")
     if R is None:
-        raise ConfigError(f"{type(envs[0]).__name__}'s reward is not a function of the state it enters, which airl's problems need (thesis §4.1)")
+        raise ConfigError(f"{type(envs[0]).__name__}'s reward is not a function of the state, nor read per action from a toy-text table")
     P = np.stack([tabular.absorbing(t[0], terminal) for t in tables])
-    S = P0.shape[0]
+    S, A = P0.shape[:2]
+    if R.ndim == 2:  # a reward of (s, a): one-hot features of the pair, K = S A
+        return EnvProblem(P, np.eye(S * A).reshape(S, A, S * A), p0, R.reshape(-1), terminal, np.arange(S))
     return EnvProblem(P, np.eye(S), p0, R, terminal, np.arange(S))

@@ -78,7 +78,8 @@ class EnvProblem:
 
     Attributes:
         transitions: (M, S, A, S), index 0 = tau (``mdp.value``), 1..D = ``dynamics.values``.
-        features: (S, K) one-hot of the tile type or of the state.
+        features: (S, K) one-hot of the tile type or of the state, or (S, A, S A) one-hot of the
+            state and action (a reward of (s, a), ``envs.generic``).
         initial: (S,) the environment's initial-state distribution.
         true_weights: (K,) w*, the environment's reward as a function of the state.
         terminal: (S,) bool, the states made absorbing.

@@ -8,11 +8,14 @@ key                      shape, dtype           meaning
 transitions              (M, S, A, S) float     index 0 = tau, 1..D = tau_1..tau_D (M = D+1)
 transition_next          (S, R) int             or, instead of transitions: the next states each
 transition_probs         (M, S, A, R) float     state reaches (-1 padded) and their probabilities
-features                 (S, K) float           phi
+features                 (S, K) float           phi(s); or (S, A, K): phi(s, a), a feature
+                                                of a state and an action, counted at the
+                                                T-1 steps where an action is taken
 initial                  (S,) float             p0, sums to 1
 horizon                  () int                 T (states per trajectory), >= 2
 demo_states              (D, N, T) int          optional if feature_expectations is given
-demo_actions             (D, N, T-1) int        optional
+demo_actions             (D, N, T-1) int        optional (required with features of (s, a)
+                                                unless feature_expectations is given)
 feature_expectations     (D, K) float           optional; used instead of the demos' mean
 true_weights             (K,) float             optional; w*, enables scoring
 loss                     (S, S) float           optional; else the config's loss
@@ -41,7 +44,6 @@ read into a ``SparseDynamics`` and stays sparse: the planners, samplers and lear
 
 from __future__ import annotations
 
-import io
 import os
 import zipfile
 from dataclasses import dataclass, fields
@@ -53,7 +55,16 @@ from airl_cli.core.mdp.demos import feature_sums
 from airl_cli.core.mdp.sparse import SparseDynamics, sparse_dynamics
 from airl_cli.errors import DatasetError
 from airl_cli.io.dataset_checks import (
-    demonstrations, discount_and_actions, dynamics, expert_model, fail, held_out_dynamics, numeric, optional_arrays, probabilities, shape,
+    demonstrations,
+    discount_and_actions,
+    dynamics,
+    expert_model,
+    fail,
+    held_out_dynamics,
+    numeric,
+    optional_arrays,
+    probabilities,
+    shape,
 )
 from airl_cli.io.files import atomic_write
 
@@ -111,7 +122,12 @@ class Dataset:
 
     @property
     def n_features(self) -> int:
-        return int(self.features.shape[1])
+        return int(self.features.shape[-1])
+
+    @property
+    def action_features(self) -> bool:
+        """Whether the features are of a state and an action, phi(s, a) (S, A, K)."""
+        return self.features.ndim == 3
 
     @property
     def n_dynamics(self) -> int:
@@ -134,6 +150,10 @@ class Dataset:
         if self.feature_expectations is not None:
             return self.feature_expectations
         assert self.demo_states is not None
+        if self.action_features:  # sum_t gamma^t phi(s_t, a_t), t = 0..T-2
+            assert self.demo_actions is not None
+            phi = self.features[self.demo_states[..., :-1], self.demo_actions]  # (D, N, T-1, K)
+            return np.einsum("t,dntk->dk", self.discount ** np.arange(self.horizon - 1), phi) / self.demo_states.shape[1]
         return feature_sums(self.demo_states, self.features, discount=self.discount).mean(axis=1)
 
     def arrays(self) -> dict[str, np.ndarray]:
@@ -179,9 +199,17 @@ def validate(raw: dict[str, np.ndarray]) -> Dataset:
     D = M - 1
 
     phi = numeric("features", np.asarray(raw["features"]))
-    if phi.ndim != 2 or phi.shape[0] != S or phi.shape[1] < 1:
-        fail(f"key 'features' must have shape (S, K) with S = {S} (from 'transitions') and K >= 1, but has shape {phi.shape}")
-    K = phi.shape[1]
+    if phi.ndim not in (2, 3) or phi.shape[:-1] not in ((S,), (S, A)) or phi.shape[-1] < 1:
+        fail(
+            f"key 'features' must have shape (S, K), or (S, A, K) for features of a state and an action, with S = {S} "
+            f"and A = {A} (from 'transitions') and K >= 1, but has shape {phi.shape}"
+        )
+    K = phi.shape[-1]
+    if phi.ndim == 3 and "demo_actions" not in raw and "feature_expectations" not in raw:
+        fail(
+            "the features are of a state and an action (S, A, K), and the demonstrations have no actions: give "
+            "'demo_actions' (the action at each step), or their feature expectations as 'feature_expectations'"
+        )
 
     p0 = numeric("initial", np.asarray(raw["initial"]))
     shape("initial", p0, (S,), "(S,)")

@@ -16,7 +16,13 @@ from airl_cli.plain_progress import PlainProgress
 from airl_cli.settings.config import EnvMDPSettings, ProblemSettings, WindyMDPSettings, problem_settings
 from airl_cli.settings.paths import conf_dir
 from airl_cli.settings.problem_defaults import is_env_id
-from airl_cli.usecases.problem import build_dataset, expert_scores, resolved_loss
+from airl_cli.usecases.problem import build_dataset, expert_scores, loss_kind
+
+
+def _vector(x: np.ndarray) -> str:
+    """A vector on one line: its first and last three entries past 12 (one-hot features of every
+    state and action make K in the hundreds)."""
+    return np.array2string(x, precision=4, separator=", ", threshold=12, edgeitems=3, max_line_width=10**6)
 
 
 def describe(settings: ProblemSettings, dataset: Dataset) -> list[tuple[str, str]]:
@@ -28,7 +34,8 @@ def describe(settings: ProblemSettings, dataset: Dataset) -> list[tuple[str, str
     elif mdp.name == "grid":
         problem = f"grid world {mdp.size}x{mdp.size}, epsilon={mdp.epsilon:g} ({sizes})"
     elif isinstance(mdp, EnvMDPSettings) and is_env_id(mdp.env):
-        problem = f"{mdp.env}, made by gymnasium.make with its own defaults, one-hot state features ({sizes})"
+        kind = "one-hot features of (s, a), w* its reward of each state and action" if dataset.action_features else "one-hot state features"
+        problem = f"{mdp.env}, made by gymnasium.make with its own defaults, {kind} ({sizes})"
     elif isinstance(mdp, EnvMDPSettings):
         where = f" {mdp.map_name}" if mdp.env == "FrozenLake" else (f" {mdp.width}x{mdp.height}" if mdp.name == "seals" else "")
         problem = f"{mdp.name} {mdp.env}{where}, {env_parameter(mdp.env, mdp.value)}, features={mdp.features} ({sizes})"
@@ -63,7 +70,7 @@ def describe(settings: ProblemSettings, dataset: Dataset) -> list[tuple[str, str
     }[demos.kind]
     if demos.expert == "own":
         what += "; each tau_j's own expert, " + (f"soft-optimal (beta={demos.beta:g})" if demos.beta else "optimal") + " in tau_j"
-    return [("problem", problem), ("dynamics", dynamics), ("demos", what), ("loss", resolved_loss(settings)), ("seed", str(settings.seed))]
+    return [("problem", problem), ("dynamics", dynamics), ("demos", what), ("loss", loss_kind(settings, dataset.features)), ("seed", str(settings.seed))]
 
 
 def summary_text(settings: ProblemSettings, dataset: Dataset, scores: np.ndarray) -> str:
@@ -71,7 +78,7 @@ def summary_text(settings: ProblemSettings, dataset: Dataset, scores: np.ndarray
     lines = ["airl generate: dataset summary", ""]
     lines += [f"{label:<10}{text}" for label, text in describe(settings, dataset)]
     lines += ["file      dataset.npz", ""]
-    lines += ["true weights w*: " + np.array2string(dataset.true_weights, precision=4, separator=", "), ""]
+    lines += ["true weights w*: " + _vector(dataset.true_weights), ""]
     who = "optimal for w* under tau" if dataset.expert != "own" else "each dynamics' own expert, " + (
         f"soft-optimal (beta={dataset.expert_beta:g})" if dataset.expert_beta else "optimal") + " there"
     lines += [f"demonstrator ({who}): normalised performance (thesis §7.2)", ""]
@@ -81,7 +88,7 @@ def summary_text(settings: ProblemSettings, dataset: Dataset, scores: np.ndarray
     c = dataset.feature_targets()
     lines += ["", "feature sums given to the learner, c~_j (eq. 4.5):"]
     for j, row in enumerate(c, start=1):
-        lines.append(f"  tau_{j:<6}" + np.array2string(row, precision=4, separator=", "))
+        lines.append(f"  tau_{j:<6}" + _vector(row))
     return "\n".join(lines) + "\n"
 
 

@@ -22,7 +22,7 @@ def describe(path: str) -> str:
     ds = read_dataset(path)
     lines = [
         f"{path}: a valid airl dataset",
-        f"  states S={ds.n_states}, actions A={ds.n_actions}, features K={ds.n_features}, horizon T={ds.horizon}",
+        f"  states S={ds.n_states}, actions A={ds.n_actions}, features K={ds.n_features}{' of a state and an action, phi(s, a)' if ds.action_features else ''}, horizon T={ds.horizon}",
         f"  dynamics: tau and D={ds.n_dynamics} demonstration dynamics" + _form(ds),
     ]
     if ds.n_test:

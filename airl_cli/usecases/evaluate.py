@@ -8,7 +8,9 @@ from airl_cli.core.mdp import identifiability
 from airl_cli.core.mdp.basics import discounted
 from airl_cli.core.mdp.planning import backward_induction, expected_return, optimal_expert
 from airl_cli.core.mdp.scores import cosine_similarity, mixture_performance, normalised, return_bounds
+from airl_cli.core.mdp.state_action import expand_transitions
 from airl_cli.io.dataset import Dataset
+from airl_cli.usecases.state_action import expanded, expanded_policies, expanded_policy, original_policy
 
 
 def dynamics_name(j: int) -> str:
@@ -33,6 +35,9 @@ def learner_policy(dataset: Dataset, weights: np.ndarray, j: int, P=None) -> np.
 
     ``weights`` (D, K), or (D, T, K) for a time-dependent reward r_t(s) = w_{j,t} . phi(s)
     (game.matching=per_step)."""
+    if dataset.action_features:  # on the expansion (usecases.state_action), read back
+        view = None if P is None else expand_transitions(P)
+        return original_policy(learner_policy(expanded(dataset), weights, j, view), dataset.n_states)
     w = weights_for(weights, j)
     R = dataset.features @ w if w.ndim == 1 else (dataset.features @ w.T).T
     policy, _ = backward_induction(dataset.transitions[j] if P is None else P, discounted(R, dataset.horizon, dataset.discount))
@@ -65,6 +70,11 @@ def score_rows(
     of its policies, is ``equilibrium_score`` (None without it). Scores and returns are None when
     the dataset has no true weights; the cosine is None without weights.
     """
+    if dataset.action_features:  # every score of phi(s, a) is its expansion's (usecases.state_action)
+        S, A = dataset.n_states, dataset.n_actions
+        mapped = None if policies is None else [expanded_policy(p, S, A) for p in policies]
+        eq = None if equilibrium is None else (expanded_policies(equilibrium[0], S, A), equilibrium[1])
+        return score_rows(expanded(dataset), weights, mapped, eq)
     rows = []
     w_star = dataset.true_weights
     expert = R = None
@@ -117,6 +127,9 @@ def identifiability_lines(dataset: Dataset) -> list[str]:
     if D * S > RANK_TEST_LIMIT:
         return [f"identifiability (Rolland et al. 2022): not run, D * S = {D * S} is above the dense test's {RANK_TEST_LIMIT}"]
     dense = np.stack([np.asarray(P[j].dense() if hasattr(P[j], "dense") else P[j]) for j in range(1, D + 1)])
-    psi = np.repeat(dataset.features, dataset.n_actions, axis=0)  # a state's features for each of its actions
+    if dataset.action_features:  # psi(s, a) = phi(s, a), row s A + a
+        psi = dataset.features.reshape(S * dataset.n_actions, -1)
+    else:
+        psi = np.repeat(dataset.features, dataset.n_actions, axis=0)  # a state's features for each of its actions
     lines = [identifiability.rank_test(dense, dataset.discount).sentence(D)] if D >= 2 else []
     return lines + [identifiability.features_rank_test(dense, psi, dataset.discount).sentence(D)]

@@ -24,6 +24,7 @@ from airl_cli.methods import REGISTRY
 from airl_cli.settings.config import FitSettings
 from airl_cli.usecases.bracket import bracket_info, bracket_phrase, closer, closes
 from airl_cli.usecases.memory import affordable_beliefs, affordable_check
+from airl_cli.usecases.state_action import expanded, original_policies, original_policy
 
 
 @dataclass(frozen=True)
@@ -85,7 +86,18 @@ def learn(
         ConfigError: if the method cannot use this dataset (behavioural cloning without actions).
     """
     check_supported(dataset, settings)
-    return globals()[REGISTRY[settings.method].learner](dataset, settings, rng, callback, planner_progress)
+    learner = globals()[REGISTRY[settings.method].learner]
+    if dataset.action_features:  # phi(s, a): learned on the post-decision expansion, read back
+        return _on_original(learner(expanded(dataset), settings, rng, callback, planner_progress), dataset.n_states)
+    return learner(dataset, settings, rng, callback, planner_progress)
+
+
+def _on_original(learned: Learned, S: int) -> Learned:
+    """What a method learned on a dataset's expansion (``usecases.state_action``), on its S states:
+    the policy and the game's learner policies at the decision steps."""
+    policy = None if learned.policy is None else original_policy(learned.policy, S)
+    eq = None if learned.equilibrium is None else (original_policies(learned.equilibrium[0], S), learned.equilibrium[1])
+    return replace(learned, policy=policy, equilibrium=eq)
 
 
 def check_supported(dataset: Dataset, settings: FitSettings) -> None:
@@ -93,6 +105,11 @@ def check_supported(dataset: Dataset, settings: FitSettings) -> None:
     method = settings.method
     if method == "airl" and settings.matching == "per_step" and settings.optimizer != "exact":
         raise ConfigError("game.matching=per_step is a variant of the certified learner: use optim=exact")
+    if method == "airl" and settings.matching == "per_step" and dataset.action_features:
+        raise ConfigError(
+            "game.matching=per_step matches features of a state at every step, and this dataset's features are of a "
+            "state and an action (S, A, K); use the default game.matching"
+        )
     if method == "airl" and settings.matching == "per_step" and dataset.demo_states is None:
         raise ConfigError(
             "game.matching=per_step matches the demonstrations' features at every step, and this dataset "

@@ -16,11 +16,13 @@ from airl_cli.core.mdp import objectworld, problems, windy
 from airl_cli.core.mdp.planning import optimal_expert
 from airl_cli.core.mdp.scores import performance
 from airl_cli.core.mdp.sparse import SparseDynamics
+from airl_cli.core.mdp.state_action import decision_policy, expand, expand_transitions, policy_on_expansion
 from airl_cli.envs import named as envs
 from airl_cli.errors import ConfigError
 from airl_cli.io.dataset import Dataset
 from airl_cli.settings.config import DemoSettings, EnvMDPSettings, GridMDPSettings, MDPSettings, ObjectworldSettings, ProblemSettings, WindyMDPSettings
 from airl_cli.settings.problem_defaults import is_env_id
+from airl_cli.usecases.state_action import expanded
 
 #: Named random streams, in spawn order (append only: existing streams keep their numbers).
 STREAMS = ("mdp", "dynamics", "demos", "fit", "method", "test")  # a new name goes last: the others keep their streams
@@ -62,9 +64,20 @@ def resolved_loss(settings: ProblemSettings) -> str:
     return "zero_one" if settings.mdp.name == "random" else "squared_features"
 
 
+def loss_kind(settings: ProblemSettings, features: np.ndarray) -> str:
+    """``resolved_loss``, but zero-one for ``loss=auto`` with features of (s, a) (S, A, K): the
+    squared feature distance measures states by phi(s), which such a problem does not have."""
+    return "zero_one" if features.ndim == 3 and settings.loss == "auto" else resolved_loss(settings)
+
+
 def loss_matrix(kind: str, phi: np.ndarray, coords: np.ndarray | None = None) -> np.ndarray:
     """The (S, S) loss of a resolved kind: zero_one, squared_features (from phi (S, K)) or
     squared_euclidean (from grid coordinates (S, 2); ConfigError without them)."""
+    if kind == "squared_features" and phi.ndim == 3:
+        raise ConfigError(
+            "'loss=squared_features' measures states by their features phi(s), and this dataset's features are of a "
+            "state and an action (S, A, K); use loss=zero_one, or put the loss matrix in the file as 'loss'"
+        )
     if kind == "squared_features":
         return problems.squared_feature_loss(phi)
     if kind == "squared_euclidean":
@@ -207,7 +220,7 @@ def _env_by_id(settings: ProblemSettings) -> Problem:
         test = None if held is None else np.stack([tabular.absorbing(P, env.terminal) for P in held])
     else:
         others = np.broadcast_to(tau, (dyn.n_dynamics,) + tau.shape)
-    loss = loss_matrix(resolved_loss(settings), env.features)
+    loss = loss_matrix(loss_kind(settings, env.features), env.features)
     return Problem(np.concatenate([tau[None], others]), env.features, env.initial, mdp.horizon, env.true_weights, loss, discount=settings.discount, test_transitions=test)
 
 
@@ -226,7 +239,10 @@ def demonstrated(problem: Problem, demos: DemoSettings, seed: int) -> tuple[Data
     as a dataset, and the expert's policy (T-1, S): optimal under tau, acted out in each tau_j
     (``demos.expert="tau"``, thesis §4.1). With ``demos.expert="own"`` each tau_j's demonstrations
     come from an expert optimal in tau_j itself (``planning.optimal_expert``: hard, or soft with
-    ``demos.beta``); tau's expert is still the one returned."""
+    ``demos.beta``); tau's expert is still the one returned. Features of (s, a) (S, A, K): all of
+    it on the problem's post-decision expansion (``core.mdp.state_action``), read back."""
+    if problem.features.ndim == 3:
+        return _demonstrated_per_action(problem, demos, seed)
     policy = expert_policy(problem)
     P, p0, phi = problem.transitions, problem.initial, problem.features
     fields: dict = {}
@@ -273,11 +289,31 @@ def demonstrated(problem: Problem, demos: DemoSettings, seed: int) -> tuple[Data
     return dataset, policy
 
 
+def _demonstrated_per_action(problem: Problem, demos: DemoSettings, seed: int) -> tuple[Dataset, np.ndarray]:
+    """``demonstrated`` for features of (s, a): on the expansion, whose demonstrations, feature
+    expectations and expert are the original's (decision steps); the dataset keeps the original arrays."""
+    S = problem.transitions.shape[1]
+    x = expand(problem.transitions, problem.features, problem.loss, problem.initial, problem.horizon, problem.discount)
+    test = None if problem.test_transitions is None else expand_transitions(problem.test_transitions)
+    view = Problem(x.transitions, x.features, x.initial, x.horizon, problem.true_weights, x.loss, discount=x.discount, test_transitions=test)
+    made, policy = demonstrated(view, demos, seed)
+    keep = {k: getattr(made, k) for k in ("feature_expectations", "expert", "expert_beta")}
+    if made.demo_states is not None:
+        keep.update(demo_states=made.demo_states[..., 0::2].copy(), demo_actions=made.demo_actions[..., 0::2].copy())
+    dataset = Dataset(
+        transitions=problem.transitions, features=problem.features, initial=problem.initial, horizon=problem.horizon,
+        true_weights=problem.true_weights, loss=problem.loss, discount=problem.discount, test_transitions=problem.test_transitions, **keep,
+    )
+    return dataset, decision_policy(policy, S)
+
+
 def expert_scores(dataset: Dataset, policy: np.ndarray) -> np.ndarray:
     """The demonstrator's normalised performance (M,) under tau_0..tau_D (thesis §7.2): ``policy``,
     the expert planned for tau, run in each (the thesis's expert); with ``dataset.expert`` "own",
     each dynamics' own expert there (optimal, or soft with ``expert_beta``), as ``airl fit`` scores it."""
     assert dataset.true_weights is not None
+    if dataset.action_features:  # on the expansion (usecases.state_action)
+        return expert_scores(expanded(dataset), policy_on_expansion(policy, dataset.n_states, dataset.n_actions))
     R = dataset.features @ dataset.true_weights
     own = dataset.expert == "own"
     return np.array([

@@ -422,3 +422,34 @@ def test_an_environment_object_as_gymnasium_makes_it():
     assert wrapped.horizon == 101 and bare.horizon == 20
     assert np.array_equal(np.asarray(wrapped.transitions), np.asarray(bare.transitions))
     assert api.dataset_from_env(gymnasium.make("FrozenLake-v1"), horizon=9, n_demos=2).horizon == 9
+
+
+def test_environments_that_pay_per_action_run_by_id_with_features_of_s_a():
+    """CliffWalking-v1 pays -100 for the move into the cliff (and sends the agent to the start, as
+    a move from above the start does for -1): its reward is one of (s, a), w* that table, features
+    one-hot of the pair. The demonstrator is optimal for it: it walks around the cliff."""
+    pytest.importorskip("gymnasium")
+    from airl_cli import api
+
+    ds = api.make_dataset("mdp=gymnasium", "mdp.env=CliffWalking-v1", "mdp.horizon=8", "demos.n=20", "dynamics=same")
+    S, A = 48, 4
+    assert ds.features.shape == (S, A, S * A) and ds.action_features
+    r = ds.true_weights.reshape(S, A)
+    up, down = 0, 2  # gymnasium's CliffWalking: 0 up, 1 right, 2 down, 3 left; cliff cells 37..46, goal 47
+    assert r[25, down] == -100.0 and r[25, up] == -1.0 and r[24, down] == -1.0
+    assert np.all(r[47] == 0.0)  # the goal ends the episode: nothing is paid after it
+    assert not np.any(np.isin(ds.demo_states, np.arange(37, 47)))  # the cliff is never stood on
+    assert np.all(ds.loss == 1.0 - np.eye(S))  # loss=auto with features of (s, a): zero-one on the states
+    learned = api.fit(ds, "method=mce")
+    assert api.score(ds, learned).learner_score.min() > 0.9
+
+
+def test_taxi_by_id_reads_its_wrong_pick_up_as_a_reward_of_s_a():
+    pytest.importorskip("gymnasium")
+    from airl_cli.envs.generic import make_by_id, problem_of
+
+    env = problem_of([make_by_id("Taxi-v4")])
+    r = env.true_weights.reshape(500, 6)
+    assert env.features.shape == (500, 6, 3000)
+    assert set(np.unique(r)) == {-10.0, -1.0, 0.0, 20.0}  # moves, wrong pick-up/drop-off, delivery, after the end
+    assert np.all(r[env.terminal] == 0.0)

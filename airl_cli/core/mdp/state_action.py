@@ -38,20 +38,25 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from airl_cli.core.mdp.sparse import SparseDynamics, sparse_dynamics
+
+#: Dense dynamics are expanded to the sparse form above this many bytes (``expand_transitions``).
+DENSE_LIMIT = 64 * 2**20
+
 
 @dataclass(frozen=True)
 class Expanded:
     """The expanded problem (eqs. 1-2 above) of a problem with features of (s, a).
 
     Attributes:
-        transitions: (M, S', A, S') with S' = S + S A; features: (S', K), or (T', S', K) when the
+        transitions: (M, S', A, S') with S' = S + S A (a ``SparseDynamics`` when large); features: (S', K), or (T', S', K) when the
             original's depend on t; loss: (S', S'); initial: (S',); horizon: T' = 2T - 1;
         discount: gamma' = gamma^(1/2); n_states, n_actions: the original's S and A.
     """
 
     transitions: np.ndarray
     features: np.ndarray
-    loss: np.ndarray
+    loss: np.ndarray | None
     initial: np.ndarray
     horizon: int
     discount: float
@@ -64,37 +69,72 @@ def post_state(s, a, S: int, A: int):
     return S + np.asarray(s) * A + np.asarray(a)
 
 
-def expand(transitions: np.ndarray, features: np.ndarray, loss: np.ndarray, initial: np.ndarray, horizon: int, discount: float = 1.0) -> Expanded:
+def expand(transitions, features: np.ndarray, loss: np.ndarray | None, initial: np.ndarray, horizon: int, discount: float = 1.0, *, dense_limit: int = DENSE_LIMIT) -> Expanded:
     """The expanded problem of a problem with features of (s, a): see the module's docstring.
 
     Args:
-        transitions: (M, S, A, S) or (S, A, S); features: (S, A, K) or (T - 1, S, A, K);
-        loss: (S, S); initial: (S,); horizon: T >= 2 (states of an episode); discount: gamma in (0, 1].
+        transitions: (M, S, A, S) or (S, A, S), dense or a ``SparseDynamics``;
+        features: (S, A, K) or (T - 1, S, A, K); loss: (S, S) or None; initial: (S,);
+        horizon: T >= 2 (states of an episode); discount: gamma in (0, 1];
+        dense_limit: bytes above which dense dynamics are expanded to the sparse form.
     """
-    P = np.asarray(transitions, dtype=np.float64)
-    single = P.ndim == 3
-    P = P[None] if single else P
-    M, S, A, _ = P.shape
+    M, S, A = _sizes(transitions)
     phi = np.asarray(features, dtype=np.float64)
-    if phi.shape[-3:-1] != (S, A) or phi.ndim not in (3, 4) or (phi.ndim == 4 and phi.shape[0] != horizon - 1):
+    if phi.ndim not in (3, 4) or phi.shape[-3:-1] != (S, A) or (phi.ndim == 4 and phi.shape[0] != horizon - 1):
         raise ValueError(f"features of (s, a) must have shape (S, A, K) or (T - 1, S, A, K) = (*, {S}, {A}, K) with T = {horizon}, got {phi.shape}")
-    Sx, post = S + S * A, post_state(np.arange(S)[:, None], np.arange(A)[None, :], S, A)  # post (S, A)
-    Px = np.zeros((M, Sx, A, Sx))
-    Px[:, np.arange(S)[:, None], np.arange(A)[None, :], post] = 1.0
-    Px[:, S:, :, :S] = P.reshape(M, S * A, 1, S)  # every action of (s, a) leads where (s, a) does
-    scale = 1.0 / np.sqrt(discount)
-    K = phi.shape[-1]
+    Sx, K, scale = S + S * A, phi.shape[-1], 1.0 / np.sqrt(discount)
     if phi.ndim == 3:
         phix = np.zeros((Sx, K))
         phix[S:] = phi.reshape(S * A, K) * scale
     else:
         phix = np.zeros((2 * horizon - 1, Sx, K))
         phix[1::2, S:] = phi.reshape(horizon - 1, S * A, K) * scale
-    lossx = np.zeros((Sx, Sx))
-    lossx[:S, :S] = loss
-    p0x = np.zeros(Sx)
-    p0x[:S] = initial
-    return Expanded(Px[0] if single else Px, phix, lossx, p0x, 2 * horizon - 1, float(np.sqrt(discount)), S, A)
+    lossx = None if loss is None else np.zeros((Sx, Sx))
+    if loss is not None:
+        lossx[:S, :S] = loss
+    return Expanded(expand_transitions(transitions, dense_limit=dense_limit), phix, lossx, expand_initial(initial, A), 2 * horizon - 1, float(np.sqrt(discount)), S, A)
+
+
+def _sizes(transitions) -> tuple[int, int, int]:
+    shape = transitions.shape
+    return (1, *shape[:2]) if len(shape) == 3 else tuple(shape[:3])
+
+
+def expand_initial(initial: np.ndarray, A: int) -> np.ndarray:
+    """p0 (S,) on the expansion: (S + S A,), zero on the post-decision states."""
+    initial = np.asarray(initial, dtype=np.float64)
+    return np.concatenate([initial, np.zeros(initial.size * A)])
+
+
+def expand_transitions(transitions, *, dense_limit: int = DENSE_LIMIT):
+    """Dynamics on the expansion: P'(s, a, (s, a)) = 1, P'((s, a), ., s') = P(s, a, s').
+
+    (M, S, A, S) or (S, A, S) dense -> the same, over S' = S + S A states (a ``SparseDynamics``
+    instead when the dense array would exceed ``dense_limit`` bytes); a ``SparseDynamics`` ->
+    a ``SparseDynamics`` (next states: a decision state's A post-decision states, a
+    post-decision state's the original state's)."""
+    M, S, A = _sizes(transitions)
+    Sx, post = S + S * A, post_state(np.arange(S)[:, None], np.arange(A)[None, :], S, A)  # post (S, A)
+    if isinstance(transitions, SparseDynamics) or M * Sx * A * Sx * 8 > dense_limit:
+        return _expand_sparse(sparse_dynamics(transitions if len(transitions.shape) == 4 else np.asarray(transitions)[None]), S, A)
+    P = np.asarray(transitions, dtype=np.float64)
+    P = P[None] if P.ndim == 3 else P
+    Px = np.zeros((M, Sx, A, Sx))
+    Px[:, np.arange(S)[:, None], np.arange(A)[None, :], post] = 1.0
+    Px[:, S:, :, :S] = P.reshape(M, S * A, 1, S)  # every action of (s, a) leads where (s, a) does
+    return Px[0] if len(transitions.shape) == 3 else Px
+
+
+def _expand_sparse(P: SparseDynamics, S: int, A: int) -> SparseDynamics:
+    M, R = P.probs.shape[0], P.next_states.shape[1]
+    Rx = max(R, A)
+    nxt = np.full((S + S * A, Rx), -1, dtype=np.int64)
+    nxt[:S, :A] = post_state(np.arange(S)[:, None], np.arange(A)[None, :], S, A)
+    nxt[S:, :R] = np.repeat(P.next_states, A, axis=0)
+    probs = np.zeros((M, S + S * A, A, Rx))
+    probs[:, np.arange(S)[:, None], np.arange(A)[None, :], np.arange(A)[None, :]] = 1.0
+    probs[:, S:, :, :R] = P.probs.reshape(M, S * A, 1, R)
+    return SparseDynamics(nxt, probs)
 
 
 def expand_demos(states: np.ndarray, actions: np.ndarray, S: int, A: int) -> tuple[np.ndarray, np.ndarray]:

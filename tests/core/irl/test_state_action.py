@@ -117,6 +117,23 @@ def test_feature_sums_and_marginals_of_a_policy_are_the_original_s():
     assert np.allclose(decision_policy(policy_on_expansion(pi, S, A), S), pi)
 
 
+def test_sparse_dynamics_expand_as_dense_ones_do():
+    from airl_cli.core.mdp.sparse import SparseDynamics, sparse_dynamics
+    from airl_cli.core.mdp.state_action import expand_transitions
+
+    rng = np.random.default_rng(4)
+    P = np.stack([random_dynamics(rng, 4, 3, concentration=0.3) for _ in range(2)])
+    P[P < 0.1] = 0.0
+    P /= P.sum(axis=-1, keepdims=True)
+    dense = expand_transitions(P)
+    assert dense.shape == (2, 16, 3, 16) and np.allclose(dense.sum(axis=-1), 1.0)
+    from_sparse = expand_transitions(sparse_dynamics(P))
+    over_limit = expand_transitions(P, dense_limit=0)
+    assert isinstance(from_sparse, SparseDynamics) and isinstance(over_limit, SparseDynamics)
+    assert np.array_equal(from_sparse.dense(), dense) and np.array_equal(over_limit.dense(), dense)
+    assert np.array_equal(expand_transitions(P[0]), dense[0])
+
+
 def test_demonstrations_on_the_expansion():
     states, actions = np.array([[0, 2, 1]]), np.array([[1, 0]])
     xs, xa = expand_demos(states, actions, S=3, A=2)
