@@ -70,3 +70,26 @@ def occupancy(P: np.ndarray, pi: np.ndarray, nu0: np.ndarray, gamma: float) -> n
     P_pi = np.einsum("sa,sat->st", pi, P)
     d = np.linalg.solve(np.eye(P.shape[0]) - gamma * P_pi.T, (1.0 - gamma) * nu0)
     return d[:, None] * pi
+
+
+def their_reward(seed: int = 1, width: int = 6, height: int = 6, n_rewarded: int = 10) -> np.ndarray:
+    """Their true reward rE (S, 4): +-1 on ``n_rewarded`` random (state, action) pairs, drawn as
+    ``experiments/get_windy_experts.py`` draws it after ``np.random.seed(seed)``: pairs, then signs,
+    by numpy's legacy generator. A local ``RandomState(seed)`` gives the same numbers without
+    seeding numpy's global one (their committed rE of seed 1 is reproduced exactly)."""
+    rs = np.random.RandomState(seed)
+    n = width * height * len(MOVES)
+    r = np.zeros(n)
+    r[rs.choice(n, size=n_rewarded, replace=False)] = rs.choice([-1, 1], size=n_rewarded)
+    return r.reshape(width * height, len(MOVES))
+
+
+def their_transfer_targets(width: int = 6, height: int = 6) -> dict[str, np.ndarray]:
+    """Their held-out dynamics (``experiments/check_transferability.py``), each (S, 4, S): south
+    wind of level 1.0 ("S"), the even mix of the west and south laws at level 1.0 ("W+S", their
+    ``envSW``: from cell (2, 2) action E goes to (2, 2) or (3, 1), never diagonally), and the calm
+    grid with the actions cyclically shifted, action a moving as a - 1 does ("shifted", their
+    ``np.roll(P, 1, axis=1)``)."""
+    west, south = (windy_dynamics(width, height, level=1.0, direction=d) for d in ("W", "S"))
+    calm = windy_dynamics(width, height, level=0.0)
+    return {"S": south, "W+S": 0.5 * west + 0.5 * south, "shifted": np.roll(calm, 1, axis=1)}

@@ -37,3 +37,27 @@ def test_the_dynamics_by_hand():
     assert Q[8, 2, 7] == 0.5 and Q[8, 2, 3] == 0.5
     with pytest.raises(ValueError, match="direction"):
         windy_dynamics(direction="up")
+
+
+def test_their_reward_is_drawn_their_way():
+    from airl_cli.core.mdp.windy import their_reward
+
+    np.testing.assert_array_equal(their_reward(seed=1), _csv("rE"))  # their committed rE, seed 1
+    r = their_reward(seed=2)
+    assert r.shape == (36, 4) and np.count_nonzero(r) == 10 and set(np.unique(r)) == {-1.0, 0.0, 1.0}
+    assert not np.array_equal(r, their_reward(seed=1))
+
+
+def test_their_transfer_targets_by_hand():
+    from airl_cli.core.mdp.windy import their_transfer_targets
+
+    targets = their_transfer_targets()
+    assert set(targets) == {"S", "W+S", "shifted"}
+    for P in targets.values():
+        np.testing.assert_allclose(P.sum(axis=-1), 1.0)
+    # cell (2, 2) = 14, action E: south wind (level 1) blows the move (3, 2) on to (3, 1) = 9; the
+    # west/south mix goes half to (2, 2) = 14 (west blows it back), half to 9 — never diagonally
+    assert targets["S"][14, 0, 9] == 1.0
+    assert targets["W+S"][14, 0, 14] == 0.5 and targets["W+S"][14, 0, 9] == 0.5
+    # the calm grid with shifted actions: action N (1) moves east as action E (0) did, E moves south
+    assert targets["shifted"][14, 1, 15] == 1.0 and targets["shifted"][14, 0, 8] == 1.0
