@@ -16,7 +16,9 @@ import numpy as np
 from airl_cli.core.mdp.state_action import decision_policy, expand, expand_demos, expand_transitions, policy_on_expansion
 from airl_cli.io.dataset import Dataset
 
-_memo: list[tuple[Dataset, Dataset]] = []  # (dataset, its expansion): the last one, built once
+#: (dataset, its expansion) of the last call: a fit and its scores expand one dataset once. It
+#: holds the dataset itself, so a later dataset at the same address is never taken for it.
+_memo: list[tuple[Dataset, Dataset]] = []
 
 
 def expanded(dataset: Dataset) -> Dataset:
@@ -65,4 +67,7 @@ def original_policies(policies: np.ndarray, S: int) -> np.ndarray:
 
 def expanded_policies(policies: np.ndarray, S: int, A: int) -> np.ndarray:
     """Deterministic policies of the dataset (n, T - 1, S) on the expansion (n, 2T - 2, S + S A)."""
-    return np.stack([policy_on_expansion(p, S, A) for p in policies]) if len(policies) else np.zeros((0, 2 * np.shape(policies)[1], S + S * A), dtype=np.int64)
+    policies = np.asarray(policies)
+    out = np.zeros((policies.shape[0], 2 * policies.shape[1], S + S * A), dtype=policies.dtype)
+    out[:, 0::2, :S] = policies
+    return out
