@@ -69,7 +69,7 @@ def post_state(s, a, S: int, A: int):
     return S + np.asarray(s) * A + np.asarray(a)
 
 
-def expand(transitions, features: np.ndarray, loss: np.ndarray | None, initial: np.ndarray, horizon: int, discount: float = 1.0, *, dense_limit: int = DENSE_LIMIT) -> Expanded:
+def expand(transitions: np.ndarray | SparseDynamics, features: np.ndarray, loss: np.ndarray | None, initial: np.ndarray, horizon: int, discount: float = 1.0, *, dense_limit: int = DENSE_LIMIT) -> Expanded:
     """The expanded problem of a problem with features of (s, a): see the module's docstring.
 
     Args:
@@ -95,7 +95,7 @@ def expand(transitions, features: np.ndarray, loss: np.ndarray | None, initial: 
     return Expanded(expand_transitions(transitions, dense_limit=dense_limit), phix, lossx, expand_initial(initial, A), 2 * horizon - 1, float(np.sqrt(discount)), S, A)
 
 
-def _sizes(transitions) -> tuple[int, int, int]:
+def _sizes(transitions: np.ndarray | SparseDynamics) -> tuple[int, int, int]:
     shape = transitions.shape
     return (1, *shape[:2]) if len(shape) == 3 else tuple(shape[:3])
 
@@ -106,7 +106,7 @@ def expand_initial(initial: np.ndarray, A: int) -> np.ndarray:
     return np.concatenate([initial, np.zeros(initial.size * A)])
 
 
-def expand_transitions(transitions, *, dense_limit: int = DENSE_LIMIT):
+def expand_transitions(transitions: np.ndarray | SparseDynamics, *, dense_limit: int = DENSE_LIMIT):
     """Dynamics on the expansion: P'(s, a, (s, a)) = 1, P'((s, a), ., s') = P(s, a, s').
 
     (M, S, A, S) or (S, A, S) dense -> the same, over S' = S + S A states (a ``SparseDynamics``
