@@ -173,6 +173,12 @@ class MasterQP:
         return crossover(self.C, self.lam, self.L, self.Phi, p2, q2)
 
 
+#: From this many weights d on, a solve factors the Newton system through its structure
+#: (``core._ipm_lowrank``: at d = 3,000 a solve took 26 s dense, 0.08 s so) and ``crossover`` puts
+#: w in before solving; below it, the dense method, as always (the same bits).
+LOWRANK_FROM = 400
+
+
 def crossover(C: np.ndarray, lam: float, L: np.ndarray, Phi: np.ndarray, p: np.ndarray, q: np.ndarray):
     """The exact optimum on the supports of an interior point's mixtures p (n,) and q (m,), or None.
 
@@ -187,19 +193,10 @@ def crossover(C: np.ndarray, lam: float, L: np.ndarray, Phi: np.ndarray, p: np.n
     """
     I, K = np.flatnonzero(p > 0), np.flatnonzero(q > 0)
     d, nI, nK = C.size, I.size, K.size
-    # unknowns (p_I, q_K, w, u, v)
-    A = np.zeros((nI + nK + d + 2, nI + nK + d + 2))
-    A[:nI, nI : nI + nK] = L[np.ix_(I, K)]
-    A[:nI, nI + nK + d] = -1.0
-    A[nI : nI + nK, :nI] = L[np.ix_(I, K)].T
-    A[nI : nI + nK, nI + nK : nI + nK + d] = Phi[K]
-    A[nI : nI + nK, nI + nK + d + 1] = -1.0
-    A[nI + nK : nI + nK + d, nI : nI + nK] = Phi[K].T
-    A[nI + nK : nI + nK + d, nI + nK : nI + nK + d] = lam * np.eye(d)
-    A[-2, :nI] = 1.0
-    A[-1, nI : nI + nK] = 1.0
-    b = np.r_[np.zeros(nI + nK), C, 1.0, 1.0]
-    x = np.linalg.lstsq(A, b, rcond=None)[0]
+    if d >= LOWRANK_FROM:
+        A, b, x = _reduced_system(C, lam, L, Phi, I, K)
+    else:
+        A, b, x = _full_system(C, lam, L, Phi, I, K)
     scale = 1e-12 * max(1.0, np.max(np.abs(L)), np.max(np.abs(Phi)) if Phi.size else 0.0, np.max(np.abs(C)) if C.size else 0.0)
     if np.max(np.abs(A @ x - b)) > scale * 100:
         return None
@@ -212,6 +209,44 @@ def crossover(C: np.ndarray, lam: float, L: np.ndarray, Phi: np.ndarray, p: np.n
         return None
     pp, qq = _simplex(pp), _simplex(qq)
     return w, float(v), pp, qq, float(v - w @ C + 0.5 * lam * w @ w)
+
+
+def _reduced_system(C, lam, L, Phi, I, K):  # noqa: ANN001, ANN202
+    """``crossover``'s conditions with w = (C - Phi_K^T q_K) / lam put in (from ``LOWRANK_FROM``
+    weights on: the full system is (d + ...)^2, a 3,300-square least squares took 12 s): unknowns
+    (p_I, q_K, u, v), solved, then returned as the full system's (A, b, x) for its checks."""
+    nI, nK = I.size, K.size
+    PK = Phi[K]
+    R = np.zeros((nI + nK + 2, nI + nK + 2))
+    R[:nI, nI : nI + nK] = L[np.ix_(I, K)]
+    R[:nI, -2] = -1.0
+    R[nI : nI + nK, :nI] = L[np.ix_(I, K)].T
+    R[nI : nI + nK, nI : nI + nK] = -(PK @ PK.T) / lam
+    R[nI : nI + nK, -1] = -1.0
+    R[-2, :nI] = 1.0
+    R[-1, nI : nI + nK] = 1.0
+    y = np.linalg.lstsq(R, np.r_[np.zeros(nI), -(PK @ C) / lam, 1.0, 1.0], rcond=None)[0]
+    w = (C - PK.T @ y[nI : nI + nK]) / lam
+    A, b, _ = _full_system(C, lam, L, Phi, I, K, solve=False)
+    return A, b, np.r_[y[: nI + nK], w, y[-2:]]
+
+
+def _full_system(C, lam, L, Phi, I, K, *, solve=True):  # noqa: ANN001, ANN202
+    """``crossover``'s conditions over (p_I, q_K, w, u, v): (A, b, the least-squares solution or None)."""
+    d, nI, nK = C.size, I.size, K.size
+    # unknowns (p_I, q_K, w, u, v)
+    A = np.zeros((nI + nK + d + 2, nI + nK + d + 2))
+    A[:nI, nI : nI + nK] = L[np.ix_(I, K)]
+    A[:nI, nI + nK + d] = -1.0
+    A[nI : nI + nK, :nI] = L[np.ix_(I, K)].T
+    A[nI : nI + nK, nI + nK : nI + nK + d] = Phi[K]
+    A[nI : nI + nK, nI + nK + d + 1] = -1.0
+    A[nI + nK : nI + nK + d, nI : nI + nK] = Phi[K].T
+    A[nI + nK : nI + nK + d, nI + nK : nI + nK + d] = lam * np.eye(d)
+    A[-2, :nI] = 1.0
+    A[-1, nI : nI + nK] = 1.0
+    b = np.r_[np.zeros(nI + nK), C, 1.0, 1.0]
+    return A, b, (np.linalg.lstsq(A, b, rcond=None)[0] if solve else None)
 
 
 def _simplex(x: np.ndarray) -> np.ndarray:
@@ -277,8 +312,9 @@ def interior_point(C, lam, L, Phi, tol, *, max_iterations=60, box=None, start=No
     """``core._ipm.mehrotra``'s final point (x (N,), s, z (m + 2b + n,), objective) for ``solve_dense``'s
     arguments, from ``start`` = (x0, s0, z0) (then centred to ``CENTRED``) or from scratch (None);
     None if it did not converge."""
-    from airl_cli.core.irl._ipm import mehrotra
+    from airl_cli.core.irl import _ipm, _ipm_lowrank
 
+    mehrotra = _ipm_lowrank.mehrotra if np.size(C) >= LOWRANK_FROM else _ipm.mehrotra
     C, L, Phi = (np.ascontiguousarray(x, dtype=np.float64) for x in (C, L, Phi))
     centre, radius = (np.zeros(C.size), np.inf) if box is None else (np.ascontiguousarray(box[0], dtype=np.float64), float(box[1]))
     x0, s0, z0 = (np.empty(0),) * 3 if start is None else start
