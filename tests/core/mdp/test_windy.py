@@ -61,3 +61,19 @@ def test_their_transfer_targets_by_hand():
     assert targets["W+S"][14, 0, 14] == 0.5 and targets["W+S"][14, 0, 9] == 0.5
     # the calm grid with shifted actions: action N (1) moves east as action E (0) did, E moves south
     assert targets["shifted"][14, 1, 15] == 1.0 and targets["shifted"][14, 0, 8] == 1.0
+
+
+@pytest.mark.parametrize("k, direction", [(0, "N"), (1, "E")])
+def test_a_finite_horizon_soft_expert_of_their_reward_of_s_a_is_theirs(k, direction):
+    """Their infinite-horizon experts (gamma = 0.9) from airl's finite-horizon soft planner on the
+    post-decision expansion of their reward of (s, a) (one-hot pair features), T = 110 states
+    (gamma^109 = 1e-5): the first step's policy equals their piE to 1e-6 (measured under E: 8.4e-7
+    at T = 110, 7.7e-6 at T = 89 where gamma^88 < 1e-4; under N 4e-12 already at T = 89)."""
+    from airl_cli.core.mdp.planning import optimal_expert
+    from airl_cli.core.mdp.state_action import decision_policy, expand
+    from airl_cli.core.mdp.windy import their_reward
+
+    T = 110
+    x = expand(windy_dynamics(6, 6, level=0.5, direction=direction), np.eye(144).reshape(36, 4, 144), None, np.full(36, 1 / 36), T, 0.9)
+    policy = optimal_expert(x.transitions, x.features @ their_reward(1).reshape(-1), x.horizon, discount=x.discount, beta=0.3)
+    np.testing.assert_allclose(decision_policy(policy, 36)[0], _csv(f"piE{k}"), atol=1e-6, rtol=0)
