@@ -8,9 +8,9 @@ from airl_cli.core.mdp import identifiability
 from airl_cli.core.mdp.basics import discounted
 from airl_cli.core.mdp.planning import backward_induction, expected_return, optimal_expert
 from airl_cli.core.mdp.scores import cosine_similarity, mixture_performance, normalised, return_bounds
-from airl_cli.core.mdp.state_action import expand_transitions
+from airl_cli.core.mdp.state_action import decision_policy, expand_transitions, policy_on_expansion
 from airl_cli.io.dataset import Dataset
-from airl_cli.usecases.state_action import expanded, expanded_policies, expanded_policy, original_policy
+from airl_cli.usecases.state_action import expanded, expanded_policies
 
 
 def dynamics_name(j: int) -> str:
@@ -37,7 +37,7 @@ def learner_policy(dataset: Dataset, weights: np.ndarray, j: int, P=None) -> np.
     (game.matching=per_step)."""
     if dataset.action_features:  # on the expansion (usecases.state_action), read back
         view = None if P is None else expand_transitions(P)
-        return original_policy(learner_policy(expanded(dataset), weights, j, view), dataset.n_states)
+        return decision_policy(learner_policy(expanded(dataset), weights, j, view), dataset.n_states)
     w = weights_for(weights, j)
     R = dataset.features @ w if w.ndim == 1 else (dataset.features @ w.T).T
     policy, _ = backward_induction(dataset.transitions[j] if P is None else P, discounted(R, dataset.horizon, dataset.discount))
@@ -72,7 +72,7 @@ def score_rows(
     """
     if dataset.action_features:  # every score of phi(s, a) is its expansion's (usecases.state_action)
         S, A = dataset.n_states, dataset.n_actions
-        mapped = None if policies is None else [expanded_policy(p, S, A) for p in policies]
+        mapped = None if policies is None else [policy_on_expansion(p, S, A) for p in policies]
         eq = None if equilibrium is None else (expanded_policies(equilibrium[0], S, A), equilibrium[1])
         return score_rows(expanded(dataset), weights, mapped, eq)
     rows = []

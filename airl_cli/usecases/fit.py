@@ -17,6 +17,7 @@ from airl_cli.core.irl.game_problem import GameProblem, scaled
 from airl_cli.core.irl.learn import belief_set, fit, make_oracles, sharpener
 from airl_cli.core.irl.options import PBVI_MAX_ITERATIONS
 from airl_cli.core.irl.per_step import step_blocks, step_features, step_targets
+from airl_cli.core.mdp.state_action import decision_policy
 from airl_cli.core.mmdp.refine import PER_ROUND, refine
 from airl_cli.errors import ConfigError
 from airl_cli.io.dataset import Dataset
@@ -24,7 +25,7 @@ from airl_cli.methods import REGISTRY
 from airl_cli.settings.config import FitSettings
 from airl_cli.usecases.bracket import bracket_info, bracket_phrase, closer, closes
 from airl_cli.usecases.memory import affordable_beliefs, affordable_check
-from airl_cli.usecases.state_action import expanded, original_policies, original_policy
+from airl_cli.usecases.state_action import expanded, original_policies
 
 
 @dataclass(frozen=True)
@@ -95,7 +96,7 @@ def learn(
 def _on_original(learned: Learned, S: int) -> Learned:
     """What a method learned on a dataset's expansion (``usecases.state_action``), on its S states:
     the policy and the game's learner policies at the decision steps."""
-    policy = None if learned.policy is None else original_policy(learned.policy, S)
+    policy = None if learned.policy is None else decision_policy(learned.policy, S)
     eq = None if learned.equilibrium is None else (original_policies(learned.equilibrium[0], S), learned.equilibrium[1])
     return replace(learned, policy=policy, equilibrium=eq)
 

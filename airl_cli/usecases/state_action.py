@@ -13,7 +13,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from airl_cli.core.mdp.state_action import decision_policy, expand, expand_demos, expand_transitions, policy_on_expansion
+from airl_cli.core.mdp.state_action import expand, expand_demos, expand_transitions
 from airl_cli.io.dataset import Dataset
 
 #: (dataset, its expansion) of the last call: a fit and its scores expand one dataset once. It
@@ -48,16 +48,6 @@ def expanded(dataset: Dataset) -> Dataset:
     )
     _memo[:] = [(dataset, view)]
     return view
-
-
-def original_policy(policy: np.ndarray, S: int) -> np.ndarray:
-    """A policy of the expansion (2T - 2, S', ...) as the dataset's (T - 1, S, ...)."""
-    return decision_policy(policy, S)
-
-
-def expanded_policy(policy: np.ndarray, S: int, A: int) -> np.ndarray:
-    """A policy of the dataset (T - 1, S[, A]) on the expansion (2T - 2, S + S A[, A])."""
-    return policy_on_expansion(policy, S, A)
 
 
 def original_policies(policies: np.ndarray, S: int) -> np.ndarray:
