@@ -125,13 +125,17 @@ def test_sparse_dynamics_expand_as_dense_ones_do():
     P = np.stack([random_dynamics(rng, 4, 3, concentration=0.3) for _ in range(2)])
     P[P < 0.1] = 0.0
     P /= P.sum(axis=-1, keepdims=True)
-    dense = expand_transitions(P)
+    dense = expand_transitions(P, sparse_share=0.0)
     assert dense.shape == (2, 16, 3, 16) and np.allclose(dense.sum(axis=-1), 1.0)
     from_sparse = expand_transitions(sparse_dynamics(P))
-    over_limit = expand_transitions(P, dense_limit=0)
+    over_limit = expand_transitions(P, dense_limit=0, sparse_share=0.0)
     assert isinstance(from_sparse, SparseDynamics) and isinstance(over_limit, SparseDynamics)
     assert np.array_equal(from_sparse.dense(), dense) and np.array_equal(over_limit.dense(), dense)
-    assert np.array_equal(expand_transitions(P[0]), dense[0])
+    assert np.array_equal(expand_transitions(P[0], sparse_share=0.0), dense[0])
+    # a state of the expansion reaches at most 4 of its 16 states (4 = S): sparse by default
+    assert isinstance(expand_transitions(P), SparseDynamics) and np.array_equal(expand_transitions(P).dense(), dense)
+    # S = 2, A = 3: a decision state reaches its 3 of 8 states, more than a quarter: dense
+    assert isinstance(expand_transitions(np.ones((2, 3, 2)) / 2), np.ndarray)
 
 
 def test_demonstrations_on_the_expansion():
