@@ -23,6 +23,12 @@ err_console = Console(stderr=True, highlight=False)
 out_console = Console(highlight=False)
 
 
+def vector_text(x: np.ndarray) -> str:
+    """A vector on one line: its first and last three entries past 12 (one-hot features of every
+    state and action make K in the hundreds; the files keep every entry)."""
+    return np.array2string(np.asarray(x), precision=4, separator=", ", threshold=12, edgeitems=3, max_line_width=10**6)
+
+
 def output_dir() -> Path:
     """The run folder Hydra made for this job (``hydra.run.dir`` or the sweep's job folder)."""
     return Path(HydraConfig.get().runtime.output_dir)

@@ -16,13 +16,13 @@ from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
 from airl_cli.io.dataset import Dataset, read_dataset, write_dataset
 from airl_cli.io.files import atomic_write, write_json, write_text
-from airl_cli.jobs.common import check_memory, err_console, out_console, output_dir, run_job, save_config, size_note, warm_up
+from airl_cli.jobs.common import check_memory, err_console, out_console, output_dir, run_job, save_config, size_note, vector_text, warm_up
 from airl_cli.plain_progress import PlainProgress
 from airl_cli.settings.config import FitSettings, fit_settings, loss_and_seed, problem_settings
 from airl_cli.settings.paths import conf_dir
 from airl_cli.usecases.evaluate import identifiability_lines, score_learned
 from airl_cli.usecases.fit import Learned, check_supported, learn
-from airl_cli.usecases.problem import build_dataset, learner_rng, resolved_loss, with_loss
+from airl_cli.usecases.problem import build_dataset, learner_rng, loss_kind, with_loss
 
 
 def load_dataset(cfg: DictConfig, settings: FitSettings) -> tuple[Dataset, int, bool, str]:
@@ -31,7 +31,7 @@ def load_dataset(cfg: DictConfig, settings: FitSettings) -> tuple[Dataset, int, 
     if settings.data is None:
         problem = problem_settings(cfg)
         dataset, _ = build_dataset(problem)
-        return dataset, problem.seed, True, resolved_loss(problem)
+        return dataset, problem.seed, True, loss_kind(problem, dataset.features)
     loss, seed = loss_and_seed(cfg)
     dataset = read_dataset(settings.data)
     name = "file" if loss == "auto" and dataset.loss is not None else ("zero_one" if loss == "auto" else loss)
@@ -124,10 +124,12 @@ def summary_text(dataset: Dataset, settings: FitSettings, learned: Learned, rows
         if learned.step_weights is not None:
             lines.append("  (game.matching=per_step: a reward w_t . phi per step t, all in weights.json; below, their mean over t = 1..T-1)")
         if learned.shared:
-            lines.append("  w:   " + np.array2string(learned.weights[0], precision=4, separator=", ") + "  (shared by every dynamics)")
+            lines.append("  w:   " + vector_text(learned.weights[0]) + "  (shared by every dynamics)")
         else:
             for j, row in enumerate(learned.weights, start=1):
-                lines.append(f"  w_{j}: " + np.array2string(row, precision=4, separator=", "))
+                lines.append(f"  w_{j}: " + vector_text(row))
+        if learned.weights.shape[1] > 12:
+            lines.append(f"  (all K = {learned.weights.shape[1]} in weights.json)")
     if rows and rows[0]["learner_score"] is not None:
         lines += ["", "normalised performance under the true reward (thesis §7.2):", ""]
         lines += _score_table(rows, held_out=dataset.n_test > 0)

@@ -11,18 +11,12 @@ from airl_cli.core.mdp.problems import noise
 from airl_cli.envs.named import env_parameter
 from airl_cli.io.dataset import Dataset, write_dataset
 from airl_cli.io.files import write_text
-from airl_cli.jobs.common import check_build_memory, err_console, out_console, output_dir, run_job, save_config
+from airl_cli.jobs.common import check_build_memory, err_console, out_console, output_dir, run_job, save_config, vector_text
 from airl_cli.plain_progress import PlainProgress
 from airl_cli.settings.config import EnvMDPSettings, ProblemSettings, WindyMDPSettings, problem_settings
 from airl_cli.settings.paths import conf_dir
 from airl_cli.settings.problem_defaults import is_env_id
 from airl_cli.usecases.problem import build_dataset, expert_scores, loss_kind
-
-
-def _vector(x: np.ndarray) -> str:
-    """A vector on one line: its first and last three entries past 12 (one-hot features of every
-    state and action make K in the hundreds)."""
-    return np.array2string(x, precision=4, separator=", ", threshold=12, edgeitems=3, max_line_width=10**6)
 
 
 def describe(settings: ProblemSettings, dataset: Dataset) -> list[tuple[str, str]]:
@@ -40,7 +34,9 @@ def describe(settings: ProblemSettings, dataset: Dataset) -> list[tuple[str, str
         where = f" {mdp.map_name}" if mdp.env == "FrozenLake" else (f" {mdp.width}x{mdp.height}" if mdp.name == "seals" else "")
         problem = f"{mdp.name} {mdp.env}{where}, {env_parameter(mdp.env, mdp.value)}, features={mdp.features} ({sizes})"
     elif isinstance(mdp, WindyMDPSettings):
-        problem = f"windy gridworld {mdp.width}x{mdp.height}, tau's wind {mdp.direction} {mdp.level:g}, w* +-1 on {mdp.n_rewarded} states ({sizes})"
+        reward = (f"their reward rE of seed {settings.seed}: +-1 on {mdp.n_rewarded} (state, action) pairs, one-hot features of (s, a)" if mdp.reward == "theirs"
+                  else f"w* +-1 on {mdp.n_rewarded} states, one-hot state features")
+        problem = f"windy gridworld {mdp.width}x{mdp.height}, tau's wind {mdp.direction} {mdp.level:g}, {reward} ({sizes})"
     else:
         problem = (
             f"objectworld {mdp.size}x{mdp.size}, {mdp.n_objects} objects of {mdp.n_colours} colours, "
@@ -59,6 +55,8 @@ def describe(settings: ProblemSettings, dataset: Dataset) -> list[tuple[str, str
         dynamics += "; winds " + ", ".join(f"tau_{j + 1}: {d} {v:g}" for j, (d, v) in enumerate(zip(dyn.directions, dyn.values)))
     if dataset.n_test:
         dynamics += f"; {dataset.n_test} held-out test dynamics"
+        if dyn.kind == "wind":
+            dynamics += " (" + ", ".join(f"test_{e + 1}: {d} {v:g}" for e, (d, v) in enumerate(zip(dyn.test_directions, dyn.test_values))) + ")"
     if dyn.kind == "grid_layouts":
         dynamics += "; crosses " + "; ".join(
             f"tau_{j + 1}: " + (" ".join(f"({r},{c})" for r, c in layout) or "none") for j, layout in enumerate(dyn.layouts)
@@ -78,7 +76,7 @@ def summary_text(settings: ProblemSettings, dataset: Dataset, scores: np.ndarray
     lines = ["airl generate: dataset summary", ""]
     lines += [f"{label:<10}{text}" for label, text in describe(settings, dataset)]
     lines += ["file      dataset.npz", ""]
-    lines += ["true weights w*: " + _vector(dataset.true_weights), ""]
+    lines += ["true weights w*: " + vector_text(dataset.true_weights), ""]
     who = "optimal for w* under tau" if dataset.expert != "own" else "each dynamics' own expert, " + (
         f"soft-optimal (beta={dataset.expert_beta:g})" if dataset.expert_beta else "optimal") + " there"
     lines += [f"demonstrator ({who}): normalised performance (thesis §7.2)", ""]
@@ -88,7 +86,7 @@ def summary_text(settings: ProblemSettings, dataset: Dataset, scores: np.ndarray
     c = dataset.feature_targets()
     lines += ["", "feature sums given to the learner, c~_j (eq. 4.5):"]
     for j, row in enumerate(c, start=1):
-        lines.append(f"  tau_{j:<6}" + _vector(row))
+        lines.append(f"  tau_{j:<6}" + vector_text(row))
     return "\n".join(lines) + "\n"
 
 

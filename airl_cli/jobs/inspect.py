@@ -2,12 +2,10 @@
 
 from __future__ import annotations
 
-import numpy as np
-
 from airl_cli.core.mdp.sparse import SparseDynamics
 from airl_cli.errors import AirlError, refuse
 from airl_cli.io.dataset import read_dataset
-from airl_cli.jobs.common import err_console, out_console
+from airl_cli.jobs.common import err_console, out_console, vector_text
 from airl_cli.usecases.evaluate import identifiability_lines
 
 
@@ -45,7 +43,7 @@ def describe(path: str) -> str:
     lines += [f"  {line}" for line in identifiability_lines(ds)]
     lines.append("  feature sums c~_j:")
     for j, row in enumerate(ds.feature_targets(), start=1):
-        lines.append(f"    tau_{j}: " + np.array2string(row, precision=4, separator=", "))
+        lines.append(f"    tau_{j}: " + vector_text(row))
     return "\n".join(lines)
 
 

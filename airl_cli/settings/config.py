@@ -77,7 +77,9 @@ class ObjectworldSettings:
 @dataclass(frozen=True)
 class WindyMDPSettings:
     """``mdp=windy``: the windy gridworld of Schlaginhaufen & Kamgarpour (``core.mdp.windy``); tau's
-    wind ``level`` and ``direction``; w* +-1 on ``n_rewarded`` random states (K = S one-hot)."""
+    wind ``level`` and ``direction``; ``reward`` "theirs": their rE, +-1 on ``n_rewarded`` random
+    (state, action) pairs drawn their way from the run's seed, one-hot features of (s, a)
+    (K = 4 S); "states": +-1 on ``n_rewarded`` random states, one-hot state features (K = S)."""
 
     width: int
     height: int
@@ -85,6 +87,7 @@ class WindyMDPSettings:
     level: float
     direction: str
     n_rewarded: int
+    reward: str = "theirs"
     name: str = "windy"
 
 
@@ -117,8 +120,9 @@ def _mdp(node: Any) -> MDPSettings:
         return _objectworld(r)
     if name == "windy":
         width, height = r.int("width", lo=2), r.int("height", lo=2)
+        reward = r.choice("reward", ("theirs", "states"))
         return WindyMDPSettings(width, height, r.int("horizon", lo=2), r.float("level", lo=0.0, hi=1.0), r.choice("direction", tuple(WINDS)),
-                                r.int("n_rewarded", lo=1, hi=width * height))
+                                r.int("n_rewarded", lo=1, hi=width * height * (4 if reward == "theirs" else 1)), reward)
     if name in ("gymnasium", "seals"):
         return env_settings(r, name)
     if name == "random":

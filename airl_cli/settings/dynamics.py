@@ -80,7 +80,7 @@ def read_dynamics(node: Any, mdp: Any) -> DynamicsSettings:
 def _wind(r: Reader, kind: str, name: str, mdp: Any) -> DynamicsSettings:
     """``dynamics=wind`` (mdp=windy only): tau_j of wind level ``levels[j-1]`` from ``directions[j-1]``,
     held-out ones from ``test_levels`` and ``test_directions``."""
-    from airl_cli.core.mdp.windy import WINDS
+    from airl_cli.core.mdp.windy import WINDS, is_law
 
     if mdp.name != "windy" or kind not in ("wind", "same"):
         raise ConfigError(f"'dynamics={name}' does not apply to mdp={mdp.name}; mdp=windy takes dynamics=wind or dynamics=same" if mdp.name == "windy"
@@ -90,8 +90,11 @@ def _wind(r: Reader, kind: str, name: str, mdp: Any) -> DynamicsSettings:
     out = {}
     for levels, directions in (("levels", "directions"), ("test_levels", "test_directions")):
         lv, dv = r.floats(levels), r.raw(directions)
-        if not isinstance(dv, (list, tuple)) or len(dv) != len(lv) or any(d not in WINDS for d in dv) or not all(0.0 <= v <= 1.0 for v in lv):
-            raise ConfigError(f"'dynamics.{levels}' and 'dynamics.{directions}' must be lists of the same length, levels in [0, 1] and directions among {sorted(WINDS)}, got {list(lv)} and {dv!r}")
+        if not isinstance(dv, (list, tuple)) or len(dv) != len(lv) or not all(isinstance(d, str) and is_law(d) for d in dv) or not all(0.0 <= v <= 1.0 for v in lv):
+            raise ConfigError(f"'dynamics.{levels}' and 'dynamics.{directions}' must be lists of the same length, levels in [0, 1] and directions among "
+                              f"{sorted(WINDS)}, an even mix of two such as 'W+S', or 'shifted', got {list(lv)} and {dv!r}")
+        if any(d == "shifted" and v != 0.0 for v, d in zip(lv, dv)):
+            raise ConfigError(f"'shifted' in 'dynamics.{directions}' is the calm grid with its actions shifted; give it level 0 in 'dynamics.{levels}', got {list(lv)}")
         out[levels] = (tuple(lv), tuple(str(d) for d in dv))
     if not out["levels"][0]:
         raise ConfigError("'dynamics.levels' must name at least one demonstration dynamics")

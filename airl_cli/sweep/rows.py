@@ -21,7 +21,7 @@ from airl_cli.jobs.fit import fit_and_write
 from airl_cli.readings.alpha_values import largest_gap, upper_envelope_1d
 from airl_cli.settings.config import plain, problem_settings
 from airl_cli.sweep.job_files import setting_columns
-from airl_cli.usecases.problem import resolved_loss, streams
+from airl_cli.usecases.problem import loss_kind, streams
 
 
 def rows_csv(rows: list[dict]) -> str:
@@ -52,7 +52,7 @@ def fit_rows(cfg: DictConfig, folder) -> list[dict]:
         "demos": c["demos"]["kind"],
         "sigma": noise(float(c["dynamics"].get("sigma", 0.0)), c["dynamics"].get("sigma_states"), ds.n_states),
         "weight_sharing": run.settings.options.weight_sharing,
-        "loss": resolved_loss(problem_settings(cfg)),
+        "loss": loss_kind(problem_settings(cfg), ds.features),
     }
     info = run.learned.info
     certified = run.settings.method == "airl" and info.get("optimizer") == "exact"

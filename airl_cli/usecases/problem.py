@@ -100,20 +100,24 @@ def with_loss(dataset: Dataset, kind: str) -> Dataset:
     return Dataset(**{**dataset.__dict__, "loss": loss_matrix(kind, dataset.features)})
 
 
-def base_problem(mdp: MDPSettings, rng: np.random.Generator) -> tuple[np.ndarray | None, np.ndarray, np.ndarray, np.ndarray, np.ndarray | None]:
-    """tau (S, A, S) (None for the objectworld, whose dynamics are built sparse), phi (S, K), w* (K,),
-    p0 (S,) and the grid coordinates (S, 2) or None, of the mdp group; randomness from ``rng`` (the
-    "mdp" stream)."""
+def base_problem(mdp: MDPSettings, rng: np.random.Generator, seed: int) -> tuple[np.ndarray | None, np.ndarray, np.ndarray, np.ndarray, np.ndarray | None]:
+    """tau (S, A, S) (None for the objectworld, whose dynamics are built sparse), phi (S, K) or
+    (S, A, K), w* (K,), p0 (S,) and the grid coordinates (S, 2) or None, of the mdp group;
+    randomness from ``rng`` (the "mdp" stream), but the windy grid's reward "theirs", drawn from
+    ``seed`` their way."""
     if isinstance(mdp, GridMDPSettings):
         tau = problems.grid_world(epsilon=mdp.epsilon, size=mdp.size, start=mdp.start)
         phi = problems.grid_features(size=mdp.size, start=mdp.start, goals=mdp.goals, dangers=mdp.dangers)
         p0 = problems.grid_initial(size=mdp.size, start=mdp.start)
         return tau, phi, np.array(mdp.true_weights), p0, problems.grid_coordinates(mdp.size)
-    if isinstance(mdp, WindyMDPSettings):  # w*: +-1 on n_rewarded states, drawn as they draw (s, a) entries
+    if isinstance(mdp, WindyMDPSettings):
         S = mdp.width * mdp.height
-        w_star = np.zeros(S)
-        w_star[rng.choice(S, size=mdp.n_rewarded, replace=False)] = rng.choice([-1.0, 1.0], size=mdp.n_rewarded)
         tau = windy.windy_dynamics(mdp.width, mdp.height, level=mdp.level, direction=mdp.direction)
+        if mdp.reward == "theirs":  # their rE of this seed on one-hot (s, a) features
+            r = windy.their_reward(seed, mdp.width, mdp.height, mdp.n_rewarded)
+            return tau, np.eye(r.size).reshape(S, r.shape[1], r.size), r.reshape(-1), np.full(S, 1.0 / S), None
+        w_star = np.zeros(S)  # +-1 on n_rewarded states, drawn as they draw (s, a) entries
+        w_star[rng.choice(S, size=mdp.n_rewarded, replace=False)] = rng.choice([-1.0, 1.0], size=mdp.n_rewarded)
         return tau, np.eye(S), w_star, np.full(S, 1.0 / S), None
     if isinstance(mdp, ObjectworldSettings):
         world = objectworld.objectworld(
@@ -147,8 +151,8 @@ def build_problem(settings: ProblemSettings) -> Problem:
     mdp, dyn = settings.mdp, settings.dynamics
     if isinstance(mdp, EnvMDPSettings):
         return env_problem(settings)
-    tau, phi, w_star, p0, coords = base_problem(mdp, rng["mdp"])
-    loss = loss_matrix(resolved_loss(settings), phi, coords)
+    tau, phi, w_star, p0, coords = base_problem(mdp, rng["mdp"], settings.seed)
+    loss = loss_matrix(loss_kind(settings, phi), phi, coords)
     if isinstance(mdp, ObjectworldSettings):
         # a cell reaches at most 5 cells: the dynamics stay sparse (core.sparse), even at S = 4,096
         slips = dyn.slips if dyn.kind == "slip" else (mdp.slip,) * dyn.n_dynamics
@@ -157,7 +161,7 @@ def build_problem(settings: ProblemSettings) -> Problem:
     test = None
     if dyn.kind == "wind":
         def blow(levels, directions):
-            return np.stack([windy.windy_dynamics(mdp.width, mdp.height, level=v, direction=d) for v, d in zip(levels, directions)])
+            return np.stack([windy.wind_law(mdp.width, mdp.height, v, d) for v, d in zip(levels, directions)])
 
         others = blow(dyn.values, dyn.directions)
         test = blow(dyn.test_values, dyn.test_directions) if dyn.n_test else None

@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import json
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 from typer.testing import CliRunner
@@ -208,17 +210,49 @@ def test_identifiability_is_reported_by_inspect_and_by_fit_for_own_experts(tmp_p
 # --------------------------------------------------------------------------- the windy gridworld as a problem
 
 
+def _their(name: str) -> np.ndarray:
+    """Their committed expert data (tests/core/mdp/windy_data.md), (36, 4)."""
+    return np.loadtxt(Path(__file__).parents[1] / "core" / "mdp" / f"windy_{name}.csv", delimiter=",", skiprows=1)
+
+
 def test_mdp_windy_blows_their_winds_and_holds_out_theirs():
     from airl_cli.core.mdp.windy import windy_dynamics
 
-    ds = api.make_dataset("mdp=windy", "dynamics=wind", "demos=exact", "demos.expert=own", "demos.beta=0.3")
+    ds = api.make_dataset("problem=windy", "demos=exact", "demos.expert=own", "demos.beta=0.3", "seed=1")
     P, test = np.asarray(ds.transitions), np.asarray(ds.test_transitions)
     np.testing.assert_array_equal(P[0], windy_dynamics(6, 6, level=0.0))
     np.testing.assert_array_equal(P[1], windy_dynamics(6, 6, level=0.5, direction="N"))
     np.testing.assert_array_equal(P[2], windy_dynamics(6, 6, level=0.5, direction="E"))
-    np.testing.assert_array_equal(test[1], windy_dynamics(6, 6, level=0.5, direction="SW"))
-    assert np.count_nonzero(ds.true_weights) == 10 and set(np.unique(ds.true_weights)) <= {-1.0, 0.0, 1.0}
-    assert ds.discount == 0.9 and ds.features.shape == (36, 36)
+    # their check_transferability.py: south and the even west/south mix at level 1, calm with shifted actions
+    west, south, calm = (windy_dynamics(6, 6, level=v, direction=d) for v, d in ((1.0, "W"), (1.0, "S"), (0.0, "N")))
+    np.testing.assert_array_equal(test, np.stack([south, 0.5 * west + 0.5 * south, calm[:, [3, 0, 1, 2]]]))
+    # their reward of seed 1 on one-hot features of (s, a), their gamma
+    assert ds.features.shape == (36, 4, 144) and np.array_equal(ds.features.reshape(144, 144), np.eye(144))
+    np.testing.assert_array_equal(ds.true_weights.reshape(36, 4), _their("rE"))
+    assert ds.discount == 0.9 and ds.horizon == 110 and ds.expert == "own" and ds.expert_beta == 0.3
+    # another seed, another draw of theirs; the look-alike (a reward of the state) by its own name
+    assert not np.array_equal(api.make_dataset("problem=windy", "demos=exact", "seed=2").true_weights, ds.true_weights)
+    states = api.make_dataset("problem=windy", "mdp.reward=states", "mdp.horizon=30", "demos=exact")
+    assert states.features.shape == (36, 36) and np.count_nonzero(states.true_weights) == 10
+
+
+def test_the_windy_demonstrations_are_their_experts():
+    """Each wind's demonstrations against their committed occupancy muE (normalised, infinite
+    horizon): the dataset's exact targets sum gamma^t phi(s_t, a_t) over T - 1 = 109 steps, so
+    (1 - gamma) times them is muE but for the mass the horizon cuts off, gamma^109 = 1.0e-5
+    (measured: 9.9e-6 under N, 5.6e-6 under E); 4,000 sampled demonstrations per wind give
+    it to their sampling error (a multinomial's, 5 standard deviations)."""
+    gamma, T = 0.9, 110
+    exact = api.make_dataset("problem=windy", "demos=exact", "demos.expert=own", "demos.beta=0.3", "seed=1")
+    sampled = api.make_dataset("problem=windy", "demos=sampled", "demos.n=4000", "demos.expert=own", "demos.beta=0.3", "seed=1")
+    weights = gamma ** np.arange(T - 1)
+    for j in range(2):
+        mu = _their(f"muE{j}")
+        np.testing.assert_allclose((1 - gamma) * exact.feature_expectations[j].reshape(36, 4), mu, atol=gamma ** (T - 1), rtol=0)
+        seen = np.zeros((36, 4))  # (1 - gamma) sum_t gamma^t [s_t = s, a_t = a], averaged over the demonstrations
+        np.add.at(seen, (sampled.demo_states[j, :, :-1], sampled.demo_actions[j]), (1 - gamma) * weights / sampled.demo_states.shape[1])
+        sd = np.sqrt(mu * (1 - mu) / sampled.demo_states.shape[1])  # no wider than the discounted sum's spread
+        assert np.all(np.abs(seen - mu) <= 5 * sd + 1e-4), np.abs(seen - mu).max()
 
 
 @pytest.mark.slow  # end to end, seconds: the slow suite (pytest -m slow, run by CI)
@@ -227,12 +261,16 @@ def test_airl_fit_on_the_windy_grid_and_its_refusals(tmp_path, monkeypatch):
     result = runner.invoke(app, ["fit", "mdp=windy", "demos.expert=own", "demos.beta=0.3", "method=mce", f"hydra.run.dir={tmp_path / 'w'}"])
     assert result.exit_code == 0, result.output  # dynamics=wind is the windy grid's own default
     rows = json.loads((tmp_path / "w" / "metrics.json").read_text())["dynamics"]
-    assert [r["dynamics"] for r in rows] == ["tau", "tau_1", "tau_2", "test_1", "test_2"]
+    assert [r["dynamics"] for r in rows] == ["tau", "tau_1", "tau_2", "test_1", "test_2", "test_3"]
     for overrides, message in (
         (["mdp=windy", "dynamics=gaussian"], "mdp=windy takes dynamics=wind or dynamics=same"),
         (["dynamics=wind"], "use it with mdp=windy"),
         (["mdp=windy", "dynamics.directions=[N]"], "must be lists of the same length"),
         (["mdp=windy", "mdp.direction=up"], "mdp.direction"),
+        (["mdp=windy", "dynamics.test_levels=[0.5]", "dynamics.test_directions=[shifted]"], "give it level 0"),
+        (["mdp=windy", "dynamics.test_levels=[0.5]", "dynamics.test_directions=[W-S]"], "an even mix of two such as 'W+S'"),
+        (["mdp=windy", "mdp.reward=mine"], "mdp.reward"),
+        (["mdp=windy", "mdp.n_rewarded=145"], "mdp.n_rewarded"),
     ):
         bad = runner.invoke(app, ["fit", *overrides])
         assert bad.exit_code == 2 and message in bad.output and len(bad.output.strip().splitlines()) == 1, (overrides, bad.output)

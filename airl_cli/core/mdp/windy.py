@@ -84,12 +84,39 @@ def their_reward(seed: int = 1, width: int = 6, height: int = 6, n_rewarded: int
     return r.reshape(width * height, len(MOVES))
 
 
+def is_law(name: str) -> bool:
+    """Whether ``wind_law`` knows ``name``: a wind of ``WINDS``, an even mix "X+Y" of two of them,
+    or "shifted"."""
+    parts = name.split("+")
+    return name == "shifted" or (len(parts) <= 2 and all(p in WINDS for p in parts))
+
+
+def wind_law(width: int, height: int, level: float, name: str) -> np.ndarray:
+    """P (S, 4, S) of a named law: a wind of ``WINDS`` at ``level`` (``windy_dynamics``); "X+Y" the
+    even mix 0.5 P_X + 0.5 P_Y of two winds' laws at ``level`` (their ``envSW``: from cell (2, 2)
+    action E goes to (2, 2) or (3, 1) under W+S at level 1, never diagonally, unlike the diagonal
+    wind "SW"); "shifted" the calm grid with the actions cyclically shifted, action a moving as
+    a - 1 does (their ``np.roll(P, 1, axis=1)``; level 0 only).
+
+    Raises:
+        ValueError: an unknown name, "shifted" at a level above 0, or what ``windy_dynamics`` refuses.
+    """
+    if not is_law(name):
+        raise ValueError(f"unknown wind {name!r}: use one of {sorted(WINDS)}, an even mix of two such as 'W+S', or 'shifted'")
+    if name == "shifted":
+        if level != 0.0:
+            raise ValueError(f"'shifted' is the calm grid with its actions shifted; give it level 0, got {level}")
+        return np.roll(windy_dynamics(width, height, level=0.0), 1, axis=1)
+    laws = [windy_dynamics(width, height, level=level, direction=d) for d in name.split("+")]
+    return sum(laws) / len(laws)
+
+
+#: Their held-out dynamics (``experiments/check_transferability.py``) as (level, ``wind_law`` name).
+THEIR_TARGETS = ((1.0, "S"), (1.0, "W+S"), (0.0, "shifted"))
+
+
 def their_transfer_targets(width: int = 6, height: int = 6) -> dict[str, np.ndarray]:
-    """Their held-out dynamics (``experiments/check_transferability.py``), each (S, 4, S): south
-    wind of level 1.0 ("S"), the even mix of the west and south laws at level 1.0 ("W+S", their
-    ``envSW``: from cell (2, 2) action E goes to (2, 2) or (3, 1), never diagonally), and the calm
-    grid with the actions cyclically shifted, action a moving as a - 1 does ("shifted", their
-    ``np.roll(P, 1, axis=1)``)."""
-    west, south = (windy_dynamics(width, height, level=1.0, direction=d) for d in ("W", "S"))
-    calm = windy_dynamics(width, height, level=0.0)
-    return {"S": south, "W+S": 0.5 * west + 0.5 * south, "shifted": np.roll(calm, 1, axis=1)}
+    """Their held-out dynamics, each (S, 4, S), by name (``THEIR_TARGETS``): south wind of level
+    1.0 ("S"), the even mix of the west and south laws at level 1.0 ("W+S") and the calm grid with
+    the actions cyclically shifted ("shifted")."""
+    return {name: wind_law(width, height, level, name) for level, name in THEIR_TARGETS}

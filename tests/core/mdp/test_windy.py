@@ -63,6 +63,19 @@ def test_their_transfer_targets_by_hand():
     assert targets["shifted"][14, 1, 15] == 1.0 and targets["shifted"][14, 0, 8] == 1.0
 
 
+def test_named_laws_and_their_refusals():
+    from airl_cli.core.mdp.windy import is_law, wind_law
+
+    np.testing.assert_array_equal(wind_law(6, 6, 0.5, "SW"), windy_dynamics(6, 6, level=0.5, direction="SW"))
+    mix = wind_law(6, 6, 0.3, "N+E")
+    np.testing.assert_allclose(mix, 0.5 * windy_dynamics(6, 6, level=0.3, direction="N") + 0.5 * windy_dynamics(6, 6, level=0.3, direction="E"))
+    assert is_law("W+S") and is_law("shifted") and not is_law("W+S+N") and not is_law("up") and not is_law("W+")
+    with pytest.raises(ValueError, match="level 0"):
+        wind_law(6, 6, 0.5, "shifted")
+    with pytest.raises(ValueError, match="unknown wind"):
+        wind_law(6, 6, 0.5, "W-S")
+
+
 @pytest.mark.parametrize("k, direction", [(0, "N"), (1, "E")])
 def test_a_finite_horizon_soft_expert_of_their_reward_of_s_a_is_theirs(k, direction):
     """Their infinite-horizon experts (gamma = 0.9) from airl's finite-horizon soft planner on the
