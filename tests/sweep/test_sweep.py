@@ -84,7 +84,7 @@ def test_full_sizes_follow_the_thesis():
 
 
 #: the fast suite runs two experiments through the whole sweep (a random MDP's and a grid's); the
-#: others, 1.3-8 s each (transfer and windy_transfer 15-24 s), in the slow suite
+#: others, 1.3-8 s each (transfer and windy_transfer 1-2 min: the windy grid at T = 110), in the slow suite
 FAST_QUICK = {"fig04", "fig12"}
 
 
