@@ -255,6 +255,25 @@ def test_the_windy_demonstrations_are_their_experts():
         assert np.all(np.abs(seen - mu) <= 5 * sd + 1e-4), np.abs(seen - mu).max()
 
 
+@pytest.mark.slow  # 14 s: the slow suite (pytest -m slow, run by CI)
+def test_every_method_fits_and_is_scored_on_their_windy_benchmark():
+    """Their reward of (s, a) and their targets at a short horizon (T = 20; the benchmark's 110 is
+    the sweep's): every method learns on the state-action problem and is scored in every dynamics,
+    the held-out targets included; the learners' scores are normalised, and the thesis's method
+    certifies its fit."""
+    from airl_cli.methods import NAMES
+
+    ds = api.make_dataset("problem=windy", "mdp.horizon=20", "demos.expert=own", "demos.beta=0.3", "demos.n=50", "seed=1")
+    assert ds.action_features and ds.n_test == 3
+    for method in NAMES:
+        learned = api.fit(ds, f"method={method}")
+        table = api.score(ds, learned)
+        assert list(table["dynamics"]) == ["tau", "tau_1", "tau_2", "test_1", "test_2", "test_3"], method
+        assert table["learner_score"].between(-1e-9, 1 + 1e-9).all(), (method, table)
+        if method == "airl":
+            assert learned.info["converged"] and learned.info["relative_gap"] <= 1e-4
+
+
 @pytest.mark.slow  # end to end, seconds: the slow suite (pytest -m slow, run by CI)
 def test_airl_fit_on_the_windy_grid_and_its_refusals(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
