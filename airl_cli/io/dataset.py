@@ -10,7 +10,9 @@ transition_next          (S, R) int             or, instead of transitions: the 
 transition_probs         (M, S, A, R) float     state reaches (-1 padded) and their probabilities
 features                 (S, K) float           phi(s); or (S, A, K): phi(s, a), a feature
                                                 of a state and an action, counted at the
-                                                T-1 steps where an action is taken
+                                                T-1 steps where an action is taken; or
+                                                time-dependent: (T, S, K) phi_t(s), or
+                                                (T-1, S, A, K) phi_t(s, a) (t = 0..T-2)
 initial                  (S,) float             p0, sums to 1
 horizon                  () int                 T (states per trajectory), >= 2
 demo_states              (D, N, T) int          optional if feature_expectations is given
@@ -60,6 +62,7 @@ from airl_cli.io.dataset_checks import (
     dynamics,
     expert_model,
     fail,
+    features,
     held_out_dynamics,
     numeric,
     optional_arrays,
@@ -126,8 +129,21 @@ class Dataset:
 
     @property
     def action_features(self) -> bool:
-        """Whether the features are of a state and an action, phi(s, a) (S, A, K)."""
-        return self.features.ndim == 3
+        """Whether the features are of a state and an action: phi(s, a) (S, A, K), or phi_t(s, a)
+        (T-1, S, A, K). A 3-axis array that fits both (S, A, K) and (T, S, K) is (S, A, K)."""
+        phi = self.features
+        return phi.ndim == 4 or (phi.ndim == 3 and phi.shape[:2] == (self.n_states, self.n_actions))
+
+    @property
+    def time_features(self) -> bool:
+        """Whether the features depend on the step t: phi_t(s) (T, S, K) or phi_t(s, a) (T-1, S, A, K)."""
+        return self.features.ndim == 4 or (self.features.ndim == 3 and not self.action_features)
+
+    def features_text(self) -> str:
+        """How the features are indexed, for summaries: '' for phi(s), else e.g. ' of (s, a)' or ' of (t, s)'."""
+        return {(False, False): "", (True, False): " of (s, a)", (False, True): " of (t, s)", (True, True): " of (t, s, a)"}[
+            (self.action_features, self.time_features)
+        ]
 
     @property
     def n_dynamics(self) -> int:
@@ -152,7 +168,10 @@ class Dataset:
         assert self.demo_states is not None
         if self.action_features:  # sum_t gamma^t phi(s_t, a_t), t = 0..T-2
             assert self.demo_actions is not None
-            phi = self.features[self.demo_states[..., :-1], self.demo_actions]  # (D, N, T-1, K)
+            index = (self.demo_states[..., :-1], self.demo_actions)
+            if self.time_features:  # phi_t(s_t, a_t)
+                index = (np.arange(self.horizon - 1), *index)
+            phi = self.features[index]  # (D, N, T-1, K)
             return np.einsum("t,dntk->dk", self.discount ** np.arange(self.horizon - 1), phi) / self.demo_states.shape[1]
         return feature_sums(self.demo_states, self.features, discount=self.discount).mean(axis=1)
 
@@ -198,29 +217,19 @@ def validate(raw: dict[str, np.ndarray]) -> Dataset:
     M, S, A, _ = P.shape
     D = M - 1
 
-    phi = numeric("features", np.asarray(raw["features"]))
-    if phi.ndim not in (2, 3) or phi.shape[:-1] not in ((S,), (S, A)) or phi.shape[-1] < 1:
-        fail(
-            f"key 'features' must have shape (S, K), or (S, A, K) for features of a state and an action, with S = {S} "
-            f"and A = {A} (from 'transitions') and K >= 1, but has shape {phi.shape}"
-        )
-    K = phi.shape[-1]
-    if phi.ndim == 3 and "demo_actions" not in raw and "feature_expectations" not in raw:
-        fail(
-            "the features are of a state and an action (S, A, K), and the demonstrations have no actions: give "
-            "'demo_actions' (the action at each step), or their feature expectations as 'feature_expectations'"
-        )
-
-    p0 = numeric("initial", np.asarray(raw["initial"]))
-    shape("initial", p0, (S,), "(S,)")
-    probabilities("initial", p0)
-
     h = np.asarray(raw["horizon"])
     if h.shape != () or not np.issubdtype(h.dtype, np.integer):
         fail(f"key 'horizon' must be one integer (shape ()), but is {h.dtype} with shape {h.shape}")
     T = int(h)
     if T < 2:
         fail(f"key 'horizon' must be at least 2 (a trajectory has T states), but is {T}")
+
+    phi = features(raw, S, A, T)
+    K = phi.shape[-1]
+
+    p0 = numeric("initial", np.asarray(raw["initial"]))
+    shape("initial", p0, (S,), "(S,)")
+    probabilities("initial", p0)
 
     states, actions = demonstrations(raw, P, p0, T)
     fexp, w_star, loss = optional_arrays(raw, D, S, K)

@@ -78,6 +78,32 @@ def dynamics(raw: dict[str, np.ndarray], prefix: str = "") -> np.ndarray | Spars
     return P
 
 
+def features(raw: dict, S: int, A: int, T: int) -> np.ndarray:
+    """The key 'features': phi (S, K), phi(s, a) (S, A, K), phi_t(s) (T, S, K) or phi_t(s, a) (T-1, S, A, K).
+
+    A three-axis array that fits both (S, A, K) and (T, S, K) (T = S = A) is read as (S, A, K).
+    """
+    phi = numeric("features", np.asarray(raw["features"]))
+    lead = phi.shape[:-1]
+    if phi.ndim == 4 and lead == (T, S, A):
+        fail(
+            f"key 'features' has shape {phi.shape}, (T, S, A, K): features of a state and an action count at the T - 1 = {T - 1} "
+            f"steps where an action is taken (the last state has none), so give (T-1, S, A, K) = ({T - 1}, {S}, {A}, {phi.shape[-1]})"
+        )
+    if lead not in ((S,), (S, A), (T, S), (T - 1, S, A)) or phi.shape[-1] < 1:
+        fail(
+            f"key 'features' must have shape (S, K), (S, A, K) for features of a state and an action, or with a first axis "
+            f"for the step t: (T, S, K), (T-1, S, A, K); here S = {S}, A = {A} (from 'transitions'), T = {T} and K >= 1, "
+            f"but it has shape {phi.shape}"
+        )
+    if (lead == (S, A) or phi.ndim == 4) and "demo_actions" not in raw and "feature_expectations" not in raw:
+        fail(
+            "the features are of a state and an action, and the demonstrations have no actions: give "
+            "'demo_actions' (the action at each step), or their feature expectations as 'feature_expectations'"
+        )
+    return phi
+
+
 def held_out_dynamics(raw: dict[str, np.ndarray], S: int, A: int) -> np.ndarray | SparseDynamics | None:
     """The held-out test dynamics (E, S, A, S) no demonstration came from, checked against the
     training dynamics' S and A; None when the file has none."""

@@ -110,7 +110,7 @@ def summary_text(dataset: Dataset, settings: FitSettings, learned: Learned, rows
     given += f", discount {dataset.discount:g}" if dataset.discount < 1.0 else ""
     lines = [
         f"airl fit: method={learned.method}",
-        f"problem   S={dataset.n_states}, A={dataset.n_actions}, K={dataset.n_features}{' (features of (s, a))' if dataset.action_features else ''}, T={dataset.horizon}, D={dataset.n_dynamics}{given}",
+        f"problem   S={dataset.n_states}, A={dataset.n_actions}, K={dataset.n_features}{f' (features{dataset.features_text()})' if dataset.features_text() else ''}, T={dataset.horizon}, D={dataset.n_dynamics}{given}",
         f"fit       {how}",  # the time is in timing.json: the summary is the same bytes for the same config
     ]
     if dataset.expert == "own":  # the field's expert model: can these dynamics identify its reward?

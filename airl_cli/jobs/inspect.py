@@ -15,12 +15,19 @@ def _form(ds) -> str:
     return ""
 
 
+def _kind(ds) -> str:
+    """What the features are of, after 'features K=...' ('' for features of a state)."""
+    if ds.time_features:
+        return " of the step and " + ("a state and an action, phi_t(s, a) (T-1, S, A, K)" if ds.action_features else "a state, phi_t(s) (T, S, K)")
+    return " of a state and an action, phi(s, a)" if ds.action_features else ""
+
+
 def describe(path: str) -> str:
     """A few lines on the dataset at ``path``; raises ``DatasetError`` if it does not validate."""
     ds = read_dataset(path)
     lines = [
         f"{path}: a valid airl dataset",
-        f"  states S={ds.n_states}, actions A={ds.n_actions}, features K={ds.n_features}{' of a state and an action, phi(s, a)' if ds.action_features else ''}, horizon T={ds.horizon}",
+        f"  states S={ds.n_states}, actions A={ds.n_actions}, features K={ds.n_features}{_kind(ds)}, horizon T={ds.horizon}",
         f"  dynamics: tau and D={ds.n_dynamics} demonstration dynamics" + _form(ds),
     ]
     if ds.n_test:

@@ -124,6 +124,8 @@ def identifiability_lines(dataset: Dataset) -> list[str]:
     P, D, S = dataset.transitions, dataset.n_dynamics, dataset.n_states
     if dataset.discount >= 1.0:
         return ["identifiability (Rolland et al. 2022): its rank test needs a discount gamma < 1 (this dataset's is 1)"]
+    if dataset.time_features:
+        return ["identifiability (Rolland et al. 2022): its rank test is for a reward that does not depend on t (this dataset's features do)"]
     if D * S > RANK_TEST_LIMIT:
         return [f"identifiability (Rolland et al. 2022): not run, D * S = {D * S} is above the dense test's {RANK_TEST_LIMIT}"]
     dense = np.stack([np.asarray(P[j].dense() if hasattr(P[j], "dense") else P[j]) for j in range(1, D + 1)])

@@ -106,11 +106,13 @@ def check_supported(dataset: Dataset, settings: FitSettings) -> None:
     method = settings.method
     if method == "airl" and settings.matching == "per_step" and settings.optimizer != "exact":
         raise ConfigError("game.matching=per_step is a variant of the certified learner: use optim=exact")
-    if method == "airl" and settings.matching == "per_step" and dataset.action_features:
+    if method == "airl" and settings.matching == "per_step" and (dataset.action_features or dataset.time_features):
         raise ConfigError(
-            "game.matching=per_step matches features of a state at every step, and this dataset's features are of a "
-            "state and an action (S, A, K); use the default game.matching"
+            "game.matching=per_step makes features of a state depend on the step, and this dataset's features are "
+            f"already{dataset.features_text()} {tuple(dataset.features.shape)}; use the default game.matching"
         )
+    if method == "robust_mce" and settings.method_options.get("form") == "infinite" and dataset.time_features:
+        raise ConfigError(f"method.form=infinite learns a stationary policy, and this dataset's features depend on the step t {tuple(dataset.features.shape)}; use method.form=finite")
     if method == "airl" and settings.matching == "per_step" and dataset.demo_states is None:
         raise ConfigError(
             "game.matching=per_step matches the demonstrations' features at every step, and this dataset "

@@ -65,18 +65,20 @@ def resolved_loss(settings: ProblemSettings) -> str:
 
 
 def loss_kind(settings: ProblemSettings, features: np.ndarray) -> str:
-    """``resolved_loss``, but zero-one for ``loss=auto`` with features of (s, a) (S, A, K): the
-    squared feature distance measures states by phi(s), which such a problem does not have."""
-    return "zero_one" if features.ndim == 3 and settings.loss == "auto" else resolved_loss(settings)
+    """``resolved_loss``, but zero-one for ``loss=auto`` with features other than phi(s) (S, K): of
+    (s, a) (S, A, K) or of the step t (T, S, K), (T-1, S, A, K). The squared feature distance
+    measures states by phi(s), which such a problem does not have."""
+    return "zero_one" if features.ndim > 2 and settings.loss == "auto" else resolved_loss(settings)
 
 
-def loss_matrix(kind: str, phi: np.ndarray, coords: np.ndarray | None = None) -> np.ndarray:
-    """The (S, S) loss of a resolved kind: zero_one, squared_features (from phi (S, K)) or
-    squared_euclidean (from grid coordinates (S, 2); ConfigError without them)."""
-    if kind == "squared_features" and phi.ndim == 3:
+def loss_matrix(kind: str, phi: np.ndarray, coords: np.ndarray | None = None, *, n_states: int | None = None) -> np.ndarray:
+    """The (S, S) loss of a resolved kind: zero_one (S = ``n_states``, else phi's first axis),
+    squared_features (from phi (S, K)) or squared_euclidean (from grid coordinates (S, 2);
+    ConfigError without them)."""
+    if kind == "squared_features" and phi.ndim > 2:
         raise ConfigError(
             "'loss=squared_features' measures states by their features phi(s), and this dataset's features are of a "
-            "state and an action (S, A, K); use loss=zero_one, or put the loss matrix in the file as 'loss'"
+            f"state and an action or depend on the step {tuple(phi.shape)}; use loss=zero_one, or put the loss matrix in the file as 'loss'"
         )
     if kind == "squared_features":
         return problems.squared_feature_loss(phi)
@@ -87,7 +89,7 @@ def loss_matrix(kind: str, phi: np.ndarray, coords: np.ndarray | None = None) ->
                 "use loss=squared_features, or put the loss matrix in the file as 'loss'"
             )
         return problems.squared_euclidean_loss(coords)
-    return problems.zero_one_loss(phi.shape[0])
+    return problems.zero_one_loss(phi.shape[0] if n_states is None else n_states)
 
 
 def with_loss(dataset: Dataset, kind: str) -> Dataset:
@@ -97,7 +99,7 @@ def with_loss(dataset: Dataset, kind: str) -> Dataset:
         if dataset.loss is not None:
             return dataset
         kind = "zero_one"
-    return Dataset(**{**dataset.__dict__, "loss": loss_matrix(kind, dataset.features)})
+    return Dataset(**{**dataset.__dict__, "loss": loss_matrix(kind, dataset.features, n_states=dataset.n_states)})
 
 
 def base_problem(mdp: MDPSettings, rng: np.random.Generator, seed: int) -> tuple[np.ndarray | None, np.ndarray, np.ndarray, np.ndarray, np.ndarray | None]:

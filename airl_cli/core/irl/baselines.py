@@ -25,7 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import minimize
 
-from airl_cli.core.mdp.basics import check_probabilities, check_transitions, discounted
+from airl_cli.core.mdp.basics import check_probabilities, check_transitions, discounted, marginal_feature_sum, per_time
 from airl_cli.core.mdp.planning import backward_induction, soft_backward_induction, state_marginals
 from airl_cli.core.mdp.sparse import SparseDynamics
 
@@ -61,8 +61,8 @@ def check_problem(
     S, _ = check_transitions(P)
     D = P.shape[0] - 1
     phi = np.array(features, dtype=np.float64)
-    if phi.ndim != 2 or phi.shape[0] != S:
-        raise ValueError(f"features must have shape (S, K) with S = {S}, got {phi.shape}")
+    if not (phi.ndim == 2 and phi.shape[0] == S or phi.ndim == 3 and phi.shape[:2] == (horizon, S)):
+        raise ValueError(f"features must have shape (S, K), or (T, S, K) when they depend on t, with S = {S} and T = {horizon}, got {phi.shape}")
     p0 = np.array(initial, dtype=np.float64)
     if p0.shape != (S,):
         raise ValueError(f"initial must have shape (S,) = ({S},), got {p0.shape}")
@@ -72,7 +72,7 @@ def check_problem(
     if targets is None:
         return P, phi, p0, None
     c = np.array(targets, dtype=np.float64)
-    K = phi.shape[1]
+    K = phi.shape[-1]
     if c.shape != (D, K):
         raise ValueError(f"targets must have shape (D, K) = ({D}, {K}), got {c.shape}")
     if not np.all(np.isfinite(c)):
@@ -89,11 +89,9 @@ def _check_weights(w: np.ndarray, K: int) -> np.ndarray:
 
 
 def feature_sum(P: np.ndarray, policy: np.ndarray, p0: np.ndarray, phi: np.ndarray, discount: float = 1.0) -> np.ndarray:
-    """Expected feature sum E[sum_t gamma^t phi(s_t)] (K,) of a (T-1, S) or (T-1, S, A) policy under P (S, A, S)."""
-    d = state_marginals(P, policy, p0)
-    if discount == 1.0:  # the thesis's sums, added in the order they always were (same bits)
-        return d.sum(axis=0) @ phi
-    return (discount ** np.arange(d.shape[0])) @ d @ phi
+    """Expected feature sum E[sum_t gamma^t phi_t(s_t)] (K,) of a (T-1, S) or (T-1, S, A) policy under
+    P (S, A, S); phi (S, K), or (T, S, K) time-dependent."""
+    return marginal_feature_sum(state_marginals(P, policy, p0), phi, discount)
 
 
 def expected_features_per_dynamics(
@@ -107,7 +105,7 @@ def expected_features_per_dynamics(
             policy per demonstration dynamics, (D, T-1, S) int or (D, T-1, S, A) float, where
             ``policies[j-1]`` is run under tau_j.
         initial: (S,) initial distribution p0.
-        features: (S, K) phi.
+        features: (S, K) phi, or (T, S, K) time-dependent phi_t(s).
 
     Returns:
         (D, K), row j-1 the expected feature sum under tau_j.
@@ -145,7 +143,7 @@ def _mce_value_and_grad(
     discount: float = 1.0,
 ) -> tuple[float, np.ndarray]:
     """g(w) and its gradient on validated inputs (see ``mce_objective``)."""
-    R = np.broadcast_to(phi @ w, (horizon, phi.shape[0]))
+    R = per_time(phi @ w, horizon)
     value = float(w @ targets.sum(axis=0)) - 0.5 * lam * float(w @ w)
     grad = targets.sum(axis=0) - lam * w
     for Pj in P[1:]:
@@ -178,7 +176,7 @@ def mce_objective(
     Args:
         w: (K,) shared reward weights.
         transitions: (M, S, A, S), index 0 = tau (not used), 1..D = tau_1..tau_D.
-        features: (S, K) phi.
+        features: (S, K) phi, or (T, S, K) time-dependent phi_t(s).
         initial: (S,) p0.
         horizon: T, the number of states per trajectory.
         targets: (D, K), row j-1 the demonstrations' mean feature sum c~_j under tau_j.
@@ -190,7 +188,7 @@ def mce_objective(
     P, phi, p0, c = check_problem(transitions, features, initial, horizon, targets)
     if lam < 0:
         raise ValueError(f"lam must be >= 0, got {lam}")
-    return _mce_value_and_grad(_check_weights(w, phi.shape[1]), P, phi, p0, horizon, c, lam, discount)
+    return _mce_value_and_grad(_check_weights(w, phi.shape[-1]), P, phi, p0, horizon, c, lam, discount)
 
 
 def mce_irl(
@@ -211,7 +209,7 @@ def mce_irl(
 
     Args:
         transitions: (M, S, A, S), index 0 = tau (not used), 1..D = tau_1..tau_D.
-        features: (S, K) phi.
+        features: (S, K) phi, or (T, S, K) time-dependent phi_t(s).
         initial: (S,) p0.
         horizon: T.
         targets: (D, K) c~_j.
@@ -228,7 +226,7 @@ def mce_irl(
     P, phi, p0, c = check_problem(transitions, features, initial, horizon, targets)
     if lam < 0 or max_iterations < 1 or tol < 0:
         raise ValueError(f"need lam >= 0, max_iterations >= 1 and tol >= 0, got {lam}, {max_iterations}, {tol}")
-    w, objective, grad_norm = lbfgs_ascent(lambda w: _mce_value_and_grad(w, P, phi, p0, horizon, c, lam, discount), phi.shape[1], max_iterations, tol=tol)
+    w, objective, grad_norm = lbfgs_ascent(lambda w: _mce_value_and_grad(w, P, phi, p0, horizon, c, lam, discount), phi.shape[-1], max_iterations, tol=tol)
     history = {
         "step": np.arange(len(objective)),
         "objective": np.array(objective),
@@ -307,7 +305,7 @@ def projection(
 
     Args:
         transitions: (M, S, A, S), index 0 = tau (not used), 1..D = tau_1..tau_D.
-        features: (S, K) phi.
+        features: (S, K) phi, or (T, S, K) time-dependent phi_t(s).
         initial: (S,) p0.
         horizon: T.
         targets: (D, K) c~_j.
@@ -325,7 +323,7 @@ def projection(
     if max_iterations < 1 or tol < 0:
         raise ValueError(f"need max_iterations >= 1 and tol >= 0, got {max_iterations}, {tol}")
     mu_E = c.sum(axis=0)
-    w = np.zeros(phi.shape[1])
+    w = np.zeros(phi.shape[-1])
     mu_bar = _optimal_features(P, phi, p0, horizon, w, discount)
     margins = [float(np.linalg.norm(mu_E - mu_bar))]
     gaps = list(margins)

@@ -35,7 +35,7 @@ def reward_effect(
     Args:
         transitions (np.ndarray | SparseDynamics): (D, S, A, S) the demonstration dynamics tau_1..tau_D (dense, or the
             ``SparseDynamics`` of those models).
-        phi: (S, K) state features.
+        phi: (S, K) state features, or (T, S, K) time-dependent phi_t(s).
         p0: (S,) the initial distribution.
         horizon: T, the number of states visited (features are summed over t = 0..T-1).
         weights: (D, K) w_j per demonstration dynamics (identical rows with weight sharing).

@@ -65,7 +65,7 @@ def max_margin_planning(
 
     Args:
         transitions: (M, S, A, S), index 0 = tau (not used), 1..D = tau_1..tau_D.
-        features: (S, K) phi.
+        features: (S, K) phi, or (T, S, K) time-dependent phi_t(s).
         initial: (S,) p0.
         horizon: T.
         targets: (D, K) c~_j.
@@ -88,7 +88,7 @@ def max_margin_planning(
     D = P.shape[0] - 1
     augment = loss_augmentation(demo_marginals, loss, D=D, T=horizon, S=P.shape[1])
     target_sum = c.sum(axis=0)
-    w = np.zeros(phi.shape[1])
+    w = np.zeros(phi.shape[-1])
     best_w, best_f = w, np.inf
     objective, grad_norm, etas = [], [], []
     for t in range(max_iterations):

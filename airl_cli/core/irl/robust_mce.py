@@ -34,7 +34,8 @@ weights); "adam" takes the paper's steps w += Adam(grad) (lr 0.5, betas (0.9, 0.
 200 iterations in the paper), from w = 0.
 
 Shapes: transitions (M, S, A, S), index 0 = tau (unused), 1..D the learner's dynamics tau_j
-(dense, or ``core.sparse.SparseDynamics``); features phi (S, K); initial p0 (S,); targets (D, K).
+(dense, or ``core.sparse.SparseDynamics``); features phi (S, K), or (T, S, K) time-dependent (the
+finite form's only: a stationary policy has no step t); initial p0 (S,); targets (D, K).
 """
 
 from __future__ import annotations
@@ -42,6 +43,7 @@ from __future__ import annotations
 import numpy as np
 
 from airl_cli.core.irl.baselines import BaselineResult, check_problem, feature_sum, lbfgs_ascent
+from airl_cli.core.mdp.basics import per_time
 from airl_cli.core.mdp.planning import expect_next
 from airl_cli.core.mdp.sparse import SparseModel
 from airl_cli.core.numerics.threads import blas_on_one_thread
@@ -171,7 +173,7 @@ def _value_and_grad(w, P, phi, p0, horizon, targets, lam, alpha, discount, form,
     r = phi @ w
     for j, Pj in enumerate(P[1:]):
         if form == "finite":
-            player, opponent, V = robust_soft_backup(Pj, np.broadcast_to(r, (horizon, r.size)), alpha=alpha, discount=discount, allowed=allowed)
+            player, opponent, V = robust_soft_backup(Pj, per_time(r, horizon), alpha=alpha, discount=discount, allowed=allowed)
             V0 = V[0]
         else:
             player, opponent, V0 = robust_soft_value_iteration(Pj, r, alpha=alpha, discount=discount, allowed=allowed, V0=warm.get(j))
@@ -189,7 +191,7 @@ def robust_policies(transitions, features: np.ndarray, horizon: int, w: np.ndarr
     out = []
     for Pj in transitions[1:]:
         if form == "finite":
-            player = robust_soft_backup(Pj, np.broadcast_to(r, (horizon, r.size)), alpha=alpha, discount=discount, allowed=allowed)[0]
+            player = robust_soft_backup(Pj, per_time(r, horizon), alpha=alpha, discount=discount, allowed=allowed)[0]
         else:
             stationary = robust_soft_value_iteration(Pj, r, alpha=alpha, discount=discount, allowed=allowed)[0]
             player = np.broadcast_to(stationary, (horizon - 1, *stationary.shape)).copy()
@@ -223,7 +225,7 @@ def robust_mce_irl(
     Args:
         transitions (np.ndarray | SparseDynamics): (M, S, A, S), index 0 = tau (not used); tau_j (j >= 1) is the learner's dynamics
             for the demonstrations c~_j.
-        features: (S, K) phi; initial: (S,) p0; horizon: T (states); targets: (D, K) c~_j, the
+        features: (S, K) phi, or (T, S, K) time-dependent phi_t(s) (form "finite" only); initial: (S,) p0; horizon: T (states); targets: (D, K) c~_j, the
             demonstrations' feature sums discounted as ``discount`` says.
         alpha: the player's strength in (0, 1]; discount: gamma in (0, 1]; form: "finite" or
             "infinite" (gamma < 1); optimizer: "lbfgs" (with ``lam``, ``tol``) or "adam" (``lr``,
@@ -237,15 +239,17 @@ def robust_mce_irl(
     P, phi, p0, c = check_problem(transitions, features, initial, horizon, targets)
     allowed = None if allowed is None else np.asarray(allowed, dtype=bool)
     _check(alpha, discount, form, optimizer, lam, max_iterations, lr, allowed, P.shape[1], P.shape[2])
+    if form == "infinite" and phi.ndim == 3:
+        raise ValueError("the infinite-horizon form's policy is stationary and cannot follow time-dependent features (T, S, K)")
     warm: dict[int, np.ndarray] = {}
 
     def evaluate(w: np.ndarray) -> tuple[float, np.ndarray]:
         return _value_and_grad(w, P, phi, p0, horizon, c, lam, alpha, discount, form, allowed, warm)
 
     if optimizer == "lbfgs":
-        w, objective, grad_norm = lbfgs_ascent(evaluate, phi.shape[1], max_iterations, tol=tol)
+        w, objective, grad_norm = lbfgs_ascent(evaluate, phi.shape[-1], max_iterations, tol=tol)
     else:
-        w, objective, grad_norm = _adam(evaluate, phi.shape[1], max_iterations, lr=lr)
+        w, objective, grad_norm = _adam(evaluate, phi.shape[-1], max_iterations, lr=lr)
     history = {"step": np.arange(len(objective)), "objective": np.array(objective), "grad_norm": np.array(grad_norm)}
     return BaselineResult(np.tile(w, (P.shape[0] - 1, 1)), None, history)
 

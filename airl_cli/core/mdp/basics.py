@@ -8,6 +8,9 @@ Conventions used everywhere in ``airl_cli.core``:
 * The horizon T counts states: a trajectory is s_1, a_1, ..., a_{T-1}, s_T. Arrays over
   time are 0-based, ``t = 0..T-1``. Returns are sums over all T states.
 * Rewards are per state, R(s) = w . phi(s); sub-problems use per-time rewards R[t, s] (T, S).
+  Features are phi (S, K), or phi (T, S, K) for time-dependent features phi_t(s) (a dataset's
+  own, or the post-decision expansion's of time-dependent features of (s, a)): then
+  w . phi is the per-time reward (T, S) and a feature sum counts phi_t(s_t) at step t.
 * A deterministic non-stationary policy is an int array (T-1, S); a stochastic one is a
   float array (T-1, S, A) whose last axis sums to 1.
 
@@ -81,6 +84,23 @@ def discounted(R: np.ndarray, horizon: int, discount: float = 1.0) -> np.ndarray
     if discount == 1.0:
         return R
     return R * (discount ** np.arange(horizon))[:, None]
+
+
+def marginal_feature_sum(d: np.ndarray, phi: np.ndarray, discount: float = 1.0) -> np.ndarray:
+    """(K,) sum_t gamma^t sum_s d[t, s] phi_t(s): the expected feature sum of state marginals d (T, S).
+
+    Args:
+        d: (T, S) the state distribution at each step t = 0..T-1.
+        phi: (S, K) features of a state, or (T, S, K) time-dependent features phi_t(s).
+        discount: gamma in (0, 1].
+    """
+    if phi.ndim == 3:
+        if phi.shape[:2] != d.shape:
+            raise ValueError(f"time-dependent features must have shape (T, S, K) with (T, S) = {d.shape}, got {phi.shape}")
+        return np.einsum("t,ts,tsk->k", discount ** np.arange(d.shape[0], dtype=np.float64), d, phi)
+    if discount == 1.0:  # the thesis's sums, added in the order they always were (same bits)
+        return d.sum(axis=0) @ phi
+    return (discount ** np.arange(d.shape[0])) @ d @ phi
 
 
 def per_time(R: np.ndarray, horizon: int) -> np.ndarray:

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from airl_cli.core.mdp.basics import marginal_feature_sum
 from airl_cli.core.mdp.planning import state_marginals
 from airl_cli.core.mdp.sparse import SparseDynamics, SparseModel
 
@@ -120,12 +121,16 @@ def feature_sums(states: np.ndarray, phi: np.ndarray, *, discount: float = 1.0) 
 
     Args:
         states: (..., T) int.
-        phi: (S, K).
+        phi: (S, K), or (T, S, K) time-dependent phi_t(s) (step t's features of s_t).
         discount: gamma in (0, 1].
 
     Returns:
         (..., K).
     """
+    if phi.ndim == 3:  # phi_t(s_t): step t's own features
+        T = np.shape(states)[-1]
+        weights = discount ** np.arange(T, dtype=np.float64)
+        return np.einsum("...tk,t->...k", phi[np.arange(T), states], weights)
     if discount == 1.0:
         return phi[states].sum(axis=-2)
     weights = discount ** np.arange(np.shape(states)[-1])
@@ -138,8 +143,8 @@ def expected_feature_sums(P: np.ndarray, policy: np.ndarray, p0: np.ndarray, phi
     The "infinitely many demonstrations" input of thesis §7.3.2 (gamma = 1 there).
 
     Args:
-        P: (S, A, S) or (D, S, A, S); policy: (T-1, S) int or (T-1, S, A); p0: (S,); phi: (S, K);
-        discount: gamma in (0, 1].
+        P: (S, A, S) or (D, S, A, S); policy: (T-1, S) int or (T-1, S, A); p0: (S,); phi: (S, K),
+        or (T, S, K) time-dependent phi_t(s); discount: gamma in (0, 1].
 
     Returns:
         (K,) or (D, K).
@@ -148,10 +153,7 @@ def expected_feature_sums(P: np.ndarray, policy: np.ndarray, p0: np.ndarray, phi
         P = np.asarray(P, dtype=np.float64)
 
     def one(Pj) -> np.ndarray:
-        d = state_marginals(Pj, policy, p0)
-        if discount == 1.0:  # the thesis's sums, added in the order they always were (same bits)
-            return d.sum(axis=0) @ phi
-        return (discount ** np.arange(d.shape[0])) @ d @ phi
+        return marginal_feature_sum(state_marginals(Pj, policy, p0), phi, discount)
 
     if P.ndim == 3:
         return one(P)

@@ -113,12 +113,13 @@ def optimal_expert(P, r: np.ndarray, horizon: int, *, discount: float = 1.0, bet
     (soft backward induction on r / beta, Q_t = r / beta + gamma E[V_{t+1}]: a (T-1, S, A) policy).
 
     Args:
-        P (np.ndarray | SparseModel): (S, A, S), dense or sparse; r: (S,); horizon: T; discount: gamma in (0, 1].
+        P (np.ndarray | SparseModel): (S, A, S), dense or sparse; r: (S,), or (T, S) per time;
+        horizon: T; discount: gamma in (0, 1].
     """
     r = np.asarray(r, dtype=np.float64)
     if beta is None:
         return backward_induction(P, discounted(r, horizon, discount))[0]
-    return soft_backward_induction(P, np.tile(r / beta, (horizon, 1)), discount=discount)[0]
+    return soft_backward_induction(P, per_time(r / beta, horizon), discount=discount)[0]
 
 
 def _next_state_matrix(P: np.ndarray, policy_t: np.ndarray) -> np.ndarray:
