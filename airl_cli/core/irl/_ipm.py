@@ -43,6 +43,21 @@ LOOSE = 1e-6
 
 
 @njit(cache=True)
+def _objective(C: np.ndarray, lam: float, N: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The QP's linear term c = (-C, 1, 0), Q's diagonal (lam on w, 0 else) and the simplex row a = (0, 0, 1)
+    over x = (w (d,), v, p (N - d - 1,))."""
+    d = C.size
+    c = np.zeros(N)
+    c[:d] = -C
+    c[d] = 1.0
+    qdiag = np.zeros(N)
+    qdiag[:d] = lam
+    a = np.zeros(N)
+    a[d + 1 :] = 1.0
+    return c, qdiag, a
+
+
+@njit(cache=True)
 def _gram(GmT: np.ndarray, W: np.ndarray) -> np.ndarray:
     """(N, N) sum_k W[k] g_k g_k^T for the columns g_k of GmT (N, m), W (>= m,) >= 0, by dsyrk: its
     row-major lower triangle (the diagonal included); the rest is zero."""
@@ -198,13 +213,7 @@ def mehrotra(C: np.ndarray, lam: float, L: np.ndarray, Phi: np.ndarray, tol: flo
         h[m0 + i] = radius + centre[i]
         h[m0 + b + i] = radius - centre[i]
     GmT = np.ascontiguousarray(Gm.T)
-    c = np.zeros(N)
-    c[:d] = -C
-    c[d] = 1.0
-    qdiag = np.zeros(N)
-    qdiag[:d] = lam
-    a = np.zeros(N)
-    a[d + 1 :] = 1.0
+    c, qdiag, a = _objective(C, lam, N)
     scale = max(1.0, np.max(np.abs(C)) if d else 0.0, np.max(np.abs(Gm)))
     # start: w = 0, p uniform, v above every row; slacks and duals >= 1. (w at its unconstrained
     # optimum C / lam, 4,485 where the answer is 0.06 on a 16 x 16 grid, cost the solves a third

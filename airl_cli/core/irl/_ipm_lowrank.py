@@ -26,7 +26,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from airl_cli.core.irl._ipm import LOOSE, LOOSE_REFINEMENTS, REFINEMENTS, STATIONARITY, _factor, _forward_backward, _longest
+from airl_cli.core.irl._ipm import LOOSE, LOOSE_REFINEMENTS, REFINEMENTS, STATIONARITY, _factor, _forward_backward, _longest, _objective
 
 
 @njit(cache=True)
@@ -141,13 +141,7 @@ def mehrotra(C: np.ndarray, lam: float, L: np.ndarray, Phi: np.ndarray, tol: flo
     for i in range(b):
         h[m + i] = radius + centre[i]
         h[m + b + i] = radius - centre[i]
-    c = np.zeros(N)
-    c[:d] = -C
-    c[d] = 1.0
-    qdiag = np.zeros(N)
-    qdiag[:d] = lam
-    a = np.zeros(N)
-    a[d + 1 :] = 1.0
+    c, qdiag, a = _objective(C, lam, N)
     scale = max(1.0, np.max(np.abs(C)) if d else 0.0, np.max(np.abs(Phi)) if m else 0.0, np.max(np.abs(L)) if m else 0.0, 1.0)
     if x0.size > 0:
         x, s, z = x0.copy(), s0.copy(), z0.copy()
