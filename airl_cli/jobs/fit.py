@@ -83,6 +83,12 @@ def ignored_settings(cfg: DictConfig, overrides: list[str], method: str) -> list
 
 
 #: How the summary names each loss (eq. 5.9's L; ``metrics.json`` keeps the key).
+#: The history-dependent adversary's planners other than PBVI, as the summary names them (pbvi.method).
+PLANNER_WORDS = {
+    "exact": "exact best responses (every history enumerated)",
+    "counts": "exact best responses (the posterior as counts of kinds of move)",
+    "mean": "the averaged MDP's best responses",
+}
 LOSS_WORDS = {"zero_one": "zero-one loss", "squared_features": "squared feature distance", "squared_euclidean": "squared grid distance", "file": "the file's own loss"}
 
 
@@ -97,6 +103,8 @@ def summary_text(dataset: Dataset, settings: FitSettings, learned: Learned, rows
             how += f"gradient descent (Table I): {info['steps']} steps (stopped: {info['stopped']}), "
         if o.planner.adversary == "markov":
             how += "Markov adversary (" + ("every Markov policy enumerated" if o.planner.method == "exact" else "CADP best responses") + ")"
+        elif o.planner.method in PLANNER_WORDS:
+            how += PLANNER_WORDS[o.planner.method]
         else:
             grown = f", grown to {info['sharpened_beliefs']} where its policy goes" if info.get("sharpened_beliefs", info["n_beliefs"]) > info["n_beliefs"] else ""
             how += f"PBVI {o.planner.iterations} iterations ({info['n_beliefs']} beliefs{grown})"

@@ -248,7 +248,7 @@ def _method_options(r: Reader, name: str) -> dict:
 def _planner(node: Any) -> PlannerOptions:
     r = Reader(node, "pbvi")
     return PlannerOptions(
-        method=r.choice("method", ("pbvi", "exact", "mean")),
+        method=r.choice("method", ("pbvi", "exact", "mean", "counts")),
         iterations=r.int("iterations", lo=1, hi=PBVI_MAX_ITERATIONS),
         expansion=r.choice("expansion", ("sample", "all")),
         expectations=r.choice("expectations", ("exact", "monte_carlo")),
@@ -285,6 +285,8 @@ def fit_settings(cfg: DictConfig | Mapping) -> FitSettings:
             "pbvi.sharpen_rounds grows the fit's reused PBVI belief set, so it needs pbvi.method=pbvi, "
             "pbvi.reuse_beliefs=true and game.adversary=history (or pbvi.sharpen_rounds=0)"
         )
+    if method == "airl" and planner.method == "counts" and planner.adversary != "history":
+        raise ConfigError("pbvi.method=counts plans for the history-dependent adversary (game.adversary=history); the Markov adversary's oracle is CADP, or pbvi.method=exact")
     sharing, normalize_loss = _bool(o, "weight_sharing"), _bool(g, "normalize_loss")
     # double oracle's settings (used by optim=gradient) are checked whatever the optimiser
     game = dict(

@@ -11,14 +11,15 @@ from airl_cli.core.irl.game_problem import GameProblem
 from airl_cli.core.irl.options import BRACKET_MAX_BELIEFS
 from airl_cli.core.mdp.sparse import sparse_dynamics
 from airl_cli.settings.config import FitSettings
+from airl_cli.usecases.oracles import EXACT_PLANNERS
 
 
 def closer(problem: GameProblem, oracle, settings: FitSettings) -> Closer | None:
     """The bracket's planner for a certified fit, or None: ``pbvi.bracket_beliefs`` = 0 turns it off,
-    and ``pbvi.method=exact`` needs none (its best responses are exact, so the certificate already
-    holds for eq. 5.9 itself). It plans PBVI at the fit's belief set (if the fit reuses one)."""
+    and ``pbvi.method=exact`` or ``counts`` needs none (their best responses are exact, so the
+    certificate already holds for eq. 5.9 itself). It plans PBVI at the fit's belief set (if the fit reuses one)."""
     planner = settings.options.planner
-    if planner.bracket_beliefs == 0 or planner.method == "exact":
+    if planner.bracket_beliefs == 0 or planner.method in EXACT_PLANNERS:
         return None
     P = getattr(oracle, "P", None)
     P = P if P is not None and not isinstance(P, np.ndarray) else sparse_dynamics(problem.transitions)
@@ -38,12 +39,12 @@ def bracket_info(res, settings: FitSettings, targets: np.ndarray, close: Closer 
     much higher than the certified bound the bracket's policy bounds the answer (relative), with the
     gap against it (``checked_relative_gap``), as the finer PBVI of ``pbvi.check_rounds`` did.
 
-    ``pbvi.method=exact``: U is the certified bound itself. A Markov adversary's fit (not closed)
+    ``pbvi.method=exact`` or ``counts``: U is the certified bound itself. A Markov adversary's fit (not closed)
     gets the bracket at its answer: the history-dependent bound, valid, as a Markov adversary can
     do no better than a history-dependent one. Empty when the bracket is off.
     """
     planner = settings.options.planner
-    if planner.method == "exact":
+    if planner.method in EXACT_PLANNERS:
         upper = res.objective
     elif close is None:
         return {}

@@ -24,6 +24,7 @@ from airl_cli.io.dataset import Dataset
 from airl_cli.methods import REGISTRY
 from airl_cli.settings.config import FitSettings
 from airl_cli.usecases.bracket import bracket_info, bracket_phrase, closer, closes
+from airl_cli.usecases.oracles import certificate, oracle_name, planner_refusal
 from airl_cli.usecases.memory import affordable_beliefs, affordable_check
 from airl_cli.usecases.state_action import expanded, original_policies
 
@@ -203,43 +204,6 @@ def _learn_mmp(dataset: Dataset, settings: FitSettings, *_) -> Learned:
     return _weights_learned("mmp", res)
 
 
-def certificate(relative_gap: float, tol: float, converged: bool, oracle: str, check: dict | None = None, *, sharpened: bool = False) -> str:
-    """One phrase for the summary: how far from the minimum the fit is proven to be.
-
-    The bounds are exact when the adversary's oracle is (pbvi.method=exact). PBVI's best response
-    can fall short of the true one, so its upper bound can too: then the gap is relative to PBVI,
-    and a negative gap shows that PBVI missed better adversary strategies. ``check``
-    (``_planner_check``) says what a finer PBVI's bound at the answer makes of the gap, and, unless
-    the fit ``sharpened`` its own belief set already, how to make the certificate hold against it.
-    """
-    if not converged:
-        text = f"NOT converged: the iteration cap was reached with relative gap {relative_gap:.2g} (tolerance {tol:g})"
-    elif oracle == "pbvi":
-        text = f"optimal to {tol:g} against PBVI's best responses (relative gap {relative_gap:.2g})"
-        if relative_gap < -1e-9:
-            text += "; the gap is negative because PBVI missed better adversary strategies: more pbvi.iterations sharpen it"
-    else:
-        text = f"optimal to {tol:g} (relative gap {relative_gap:.2g})"
-        if oracle != "exact":
-            text += f" against the {oracle} oracle's best responses"
-    if check:
-        dense = f"PBVI on {check['check_beliefs']} beliefs (grown where its policy goes)"
-        if check["planner_resolution"] > tol:
-            text += (
-                f"; {dense} bounds the answer {check['planner_resolution']:.2g} higher (relative gap {check['checked_relative_gap']:.2g} against it):"
-                " the gap is against the planner's best responses, which a finer belief set still improves"
-                + ("" if sharpened else " (pbvi.sharpen_rounds=2 grows the fit's own set until it does not)")
-            )
-        elif check["checked_relative_gap"] > tol:
-            text += (
-                f"; against {dense} the relative gap is {check['checked_relative_gap']:.2g}, above the tolerance"
-                f" (it bounds the answer {check['planner_resolution']:.2g} higher)"
-            )
-        else:
-            text += f"; {dense} finds nothing better at the answer (relative gap {check['checked_relative_gap']:.2g} against it)"
-    return text
-
-
 def _learn_airl(
     problem: GameProblem,
     targets: np.ndarray,
@@ -249,6 +213,7 @@ def _learn_airl(
     planner_progress: Callable[[int, int], None] | None = None,
 ) -> Learned:
     """The thesis's method: the certified minimiser of eq. 5.9, or Table I's gradient steps."""
+    planner_refusal(problem, settings.options.planner)
     oracle, screen, n_beliefs = make_oracles(problem, settings.options.planner, rng, planner_progress)
     if settings.optimizer == "exact":
         sharpen = _sharpener(problem, oracle, settings)
@@ -258,7 +223,7 @@ def _learn_airl(
         res = minimize(problem, targets, fit_oracle, screen=screen, options=settings.certified, callback=callback, sharpen=sharpen, close=close)
         h = res.history
         zero = bool(res.converged and not np.any(res.weights))  # certified by the exact bound on f(0)
-        name = "exact" if zero else _oracle_name(settings)
+        name = "exact" if zero else oracle_name(settings.options.planner)
         bracketed = bracket_info(res, settings, targets, bracketer)
         check = {} if "planner_resolution" in bracketed else _planner_check(problem, targets, res, settings, rng, oracle, grown=sharpen is not None)
         certified_text = certificate(res.relative_gap, settings.certified.tol, res.converged, name, check, sharpened=sharpen is not None)
@@ -271,7 +236,7 @@ def _learn_airl(
             "gap": res.gap,
             "relative_gap": res.relative_gap,
             "tol": settings.certified.tol,
-            "oracle": _oracle_name(settings),
+            "oracle": oracle_name(settings.options.planner),
             "adversary": settings.options.planner.adversary,
             "certificate": certified_text + bracket_phrase(bracketed, settings.certified.bracket_tol),
             "zero_answer": zero,
@@ -371,13 +336,6 @@ def _planner_check(problem: GameProblem, targets: np.ndarray, res, settings: Fit
         "checked_relative_gap": (upper - res.lower) / max(1.0, abs(upper)),
         "planner_resolution": (upper - res.objective) / scale,
     }
-
-
-def _oracle_name(settings: FitSettings) -> str:
-    """The adversary's best response as the certificate names it: the planner's method, or for the
-    Markov adversary (``core.markov_adversary``) "cadp" (exact enumeration keeps "exact")."""
-    planner = settings.options.planner
-    return "cadp" if planner.adversary == "markov" and planner.method != "exact" else planner.method
 
 
 def _degeneracy(problem: GameProblem, targets: np.ndarray, res, tol: float) -> dict:

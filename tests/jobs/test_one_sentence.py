@@ -123,7 +123,7 @@ def test_plot_of_an_empty_results_table_names_the_file(tmp_path):
 
 
 def test_the_certificate_never_says_nothing_better_when_the_checked_gap_is_above_the_tolerance():
-    from airl_cli.usecases.fit import certificate
+    from airl_cli.usecases.oracles import certificate
 
     check = {"check_beliefs": 800, "planner_resolution": 2e-5, "checked_relative_gap": 1.4e-4}
     text = certificate(9e-5, 1e-4, True, "pbvi", check)

@@ -22,8 +22,10 @@ from airl_cli.core.irl.game import RestrictedGame, double_oracle, idle_counters
 from airl_cli.core.irl.game_problem import AdversaryOracle, GameProblem
 from airl_cli.core.irl.markov_adversary import markov_oracle
 from airl_cli.core.irl.options import SCHEDULES, FitOptions, PlannerOptions  # noqa: F401 (re-exported)
-from airl_cli.core.mdp.sparse import sparse_dynamics
+from airl_cli.core.mdp.sparse import SparseDynamics, sparse_dynamics
+from airl_cli.core.mmdp import counts
 from airl_cli.core.mmdp.planner import expand_beliefs, solve
+from airl_cli.core.mmdp.policy_graph import layered_rewards
 from airl_cli.core.mmdp.refine import PER_ROUND, refine
 from airl_cli.core.numerics.threads import blas_on_one_thread
 
@@ -86,6 +88,8 @@ def make_oracles(
     ``screen_beliefs`` beliefs of that set (None if there is nothing to screen with).
     """
     p0 = problem.initial
+    if options.method == "counts" and options.adversary != "markov":  # exact where the posterior is a count (core.mmdp.counts)
+        return CountOracle(problem.transitions, p0, problem.horizon), None, 0
     if options.adversary == "markov":  # the variant of core.markov_adversary: no beliefs, no screen
         return markov_oracle(problem.transitions, p0, exact=options.method == "exact"), None, 0
     # PBVI works over the reachable next states; found once here, not in every call
@@ -122,6 +126,26 @@ class BeliefOracle:
             self.P, R, self.p0, method=o.method, iterations=o.iterations, rng=self.rng, beliefs=self.beliefs,
             expansion=o.expansion, expectations=o.expectations, n_samples=o.n_samples, progress=self.progress,
         )
+        return sol.value, sol.marginals
+
+
+class CountOracle:
+    """The adversary's exact best response by the count program (``mmdp.counts``): rewards (M, T, S)
+    -> (its value, its marginals (M, T, S)); the program is built once for the dynamics.
+
+    Raises:
+        ValueError: where the dynamics' moves have too many kinds or the program too many nodes.
+    """
+
+    def __init__(self, P, p0: np.ndarray, horizon: int):
+        self.dyn = P if isinstance(P, SparseDynamics) else sparse_dynamics(P)
+        self.program = counts.program(self.dyn, horizon)
+        if self.program is None:
+            raise ValueError(counts.declined_sentence(self.dyn, horizon))
+        self.p0 = p0
+
+    def __call__(self, R: np.ndarray) -> tuple[float, np.ndarray]:
+        sol = self.program.solve(layered_rewards(self.dyn, R), self.p0)
         return sol.value, sol.marginals
 
 
@@ -223,7 +247,7 @@ def fit(
     start = time.perf_counter()  # each history row's seconds: the wall time since here
     problem = problem.with_scaled_loss(options.normalize_loss)
     targets = np.asarray(targets, dtype=np.float64)
-    D, K = problem.n_models - 1, problem.features.shape[1]
+    D, K = problem.n_models - 1, problem.n_features
     if targets.shape != (D, K):
         raise ValueError(f"targets must have shape (D, K) = ({D}, {K}), got {targets.shape}")
     shared = options.weight_sharing

@@ -143,8 +143,8 @@ def expected_feature_sums(P: np.ndarray, policy: np.ndarray, p0: np.ndarray, phi
     The "infinitely many demonstrations" input of thesis §7.3.2 (gamma = 1 there).
 
     Args:
-        P: (S, A, S) or (D, S, A, S); policy: (T-1, S) int or (T-1, S, A); p0: (S,); phi: (S, K),
-        or (T, S, K) time-dependent phi_t(s); discount: gamma in (0, 1].
+        P: (S, A, S) or (D, S, A, S); policy: (T-1, S) int or (T-1, S, A); p0: (S,);
+        phi: (S, K), or (T, S, K) time-dependent phi_t(s); discount: gamma in (0, 1].
 
     Returns:
         (K,) or (D, K).

@@ -1,0 +1,314 @@
+"""The multiple-MDP problem solved exactly where the posterior is a count of kinds of moves.
+
+The best history-dependent policy of eq. 6.1 acts on (t, s, b), b the posterior over the models
+after the history (Theorem 6.2.1). A move s -a-> s' multiplies the unnormalised posterior by its
+likelihood vector L(s, a, s') = (P_1(s'|s, a), ..., P_M(s'|s, a)). Where the likelihood vectors
+of all moves point in a few directions v_1..v_n (a *kind* of move: L(s, a, s') = lambda v_k with
+lambda > 0), the posterior after t moves is
+
+    b(c) ~ prior (.) v_1^c_1 (.) ... (.) v_n^c_n,          c_1 + ... + c_n = t,
+
+with c the number of moves of each kind seen: it depends on the counts, not on the path. On slip
+and wind grids every model moves to an unintended cell with probability proportional to its slip
+p_j, and to the intended one with 1 - p_j + p_j k / |A| (k the actions that also lead there), so
+n = 4 on a grid (n counts the kinds that occur). Then the dynamic program of Theorem 6.2.1 over
+
+    (t, s, c),   |{c : |c| = t}| = C(t + n - 1, n - 1)   (1,540 at t = 19 with n = 4),
+
+is exact and small: at every node the action maximises b(c) . sum_{s'} P(s'|s, a) (.) alpha(t+1,
+s', c + e_k(s, a, s')), and alpha(t, s, c) = r(t, s, a*) + that sum is the node's exact value under
+each model (the alpha-vector of Theorem 6.2.2 at the one posterior the node is ever reached
+with). The answer is the optimum of eq. 6.1, not a bound: every posterior reachable is a node.
+
+Where the moves point in more directions (a dense random MDP: every (s, a, s') its own), the
+count space grows as t^(n-1) and ``plan`` returns None; PBVI is the planner there.
+
+Kinds are found by normalising every likelihood vector to sum 1 and grouping vectors equal to
+``KIND_TOL``; the backup uses each move's own probabilities, so the values are those of the policy
+found, exactly, and only its optimality rests on the grouping.
+
+Shapes: dynamics as ``SparseDynamics`` (next states (S, R), probabilities (M, S, A, R)); rewards
+``LayeredRewards`` (step (M, T-1, S, A), last (M, S)); p0 (S,); prior (M,); marginals (M, T, S).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from math import comb
+
+import numba
+import numpy as np
+
+from airl_cli.core.mdp.sparse import SparseDynamics
+from airl_cli.core.mmdp.policy_graph import LayeredRewards
+
+#: Two normalised likelihood vectors closer than this (max entry difference) are one kind of move.
+KIND_TOL = 1e-9
+#: ``plan`` declines above this many (t, s, c) nodes (its memory: an action byte per node, and
+#: two layers of alpha-vectors).
+MAX_NODES = 30_000_000
+
+
+@dataclass(frozen=True)
+class Kinds:
+    """The kinds of move of a dynamics.
+
+    Attributes:
+        kind: (S, A, R) int, the kind of the move to ``next_states[s, r]`` (-1 where no model moves there).
+        directions: (n, M) each kind's likelihood vector, normalised to sum 1.
+    """
+
+    kind: np.ndarray
+    directions: np.ndarray
+
+    @property
+    def n_kinds(self) -> int:
+        return int(self.directions.shape[0])
+
+
+def move_kinds(dyn: SparseDynamics, max_kinds: int = 12) -> Kinds | None:
+    """The kinds of move of ``dyn`` (module docstring), or None when there are more than ``max_kinds``."""
+    probs = np.asarray(dyn.probs, dtype=np.float64)  # (M, S, A, R)
+    M = probs.shape[0]
+    L = np.moveaxis(probs, 0, -1).reshape(-1, M)
+    total = L.sum(axis=1)
+    moves = total > 0
+    directions = L[moves] / total[moves, None]
+    keys = np.round(directions / KIND_TOL).astype(np.int64)
+    _, first, inverse = np.unique(keys, axis=0, return_index=True, return_inverse=True)
+    if first.size > max_kinds:
+        return None
+    reps = directions[first]
+    if np.abs(directions - reps[inverse.reshape(-1)]).max(initial=0.0) > KIND_TOL:
+        return None  # rounding split or merged two directions unevenly: do not trust the grouping
+    kind = np.full(L.shape[0], -1, dtype=np.int64)
+    kind[moves] = inverse.reshape(-1)
+    return Kinds(kind.reshape(probs.shape[1:]), reps)
+
+
+def count_tables(n: int, horizon: int) -> tuple[list[np.ndarray], list[np.ndarray]]:
+    """The count vectors c (|c| = t) of each layer t = 0..T-1 and, for t < T-1, the index in
+    layer t+1 of c + e_k: (``counts[t]`` (C_t, n), ``successor[t]`` (C_t, n))."""
+    counts = [np.zeros((1, n), dtype=np.int64)]
+    successor = []
+    for _ in range(horizon - 1):
+        prev = counts[-1]
+        nxt: dict[tuple, int] = {}
+        table = np.empty((prev.shape[0], n), dtype=np.int64)
+        for i, c in enumerate(prev):
+            for k in range(n):
+                key = tuple(c + np.eye(n, dtype=np.int64)[k])
+                table[i, k] = nxt.setdefault(key, len(nxt))
+        successor.append(table)
+        counts.append(np.array(list(nxt), dtype=np.int64).reshape(-1, n))
+    return counts, successor
+
+
+def n_nodes(S: int, n: int, horizon: int) -> int:
+    """sum_t S C(t + n - 1, n - 1): the (t, s, c) nodes of the dynamic program."""
+    return S * comb(horizon - 1 + n, n)
+
+
+def posteriors(counts: np.ndarray, directions: np.ndarray, prior: np.ndarray) -> np.ndarray:
+    """(C, M) b(c) ~ prior (.) prod_k v_k^c_k, normalised (zero rows where no model reaches c)."""
+    with np.errstate(divide="ignore"):
+        log_v = np.log(directions)  # (n, M), -inf where a model never makes that move
+        log_p = np.log(prior)
+    finite = np.isfinite(log_v)
+    log_b = log_p[None, :] + counts @ np.where(finite, log_v, 0.0)
+    never = (counts > 0).astype(np.int64) @ (~finite).astype(np.int64) > 0  # (C, M): a move this model never makes
+    log_b = np.where(never, -np.inf, log_b)
+    top = log_b.max(axis=1, keepdims=True)
+    b = np.where(np.isfinite(top), np.exp(log_b - np.where(np.isfinite(top), top, 0.0)), 0.0)
+    return b / np.maximum(b.sum(axis=1, keepdims=True), 1e-300)
+
+
+@dataclass(frozen=True)
+class CountSolution:
+    """The optimal policy of eq. 6.1 over (t, s, c) nodes.
+
+    Attributes:
+        value: the objective, sum_j values[j] (or prior . values).
+        values: (M,) each model's expected return under the policy.
+        marginals: (M, T, S) the state distribution of each model at each layer.
+        action: per t < T-1, (S, C_t) the action of node (s, c).
+        n_nodes: the nodes of the program.
+    """
+
+    value: float
+    values: np.ndarray
+    marginals: np.ndarray
+    action: list[np.ndarray]
+    n_nodes: int
+
+
+class CountProgram:
+    """The count program of a dynamics and horizon, built once and solved for any rewards.
+
+    Args:
+        dyn: the dynamics (M models); kinds: its ``move_kinds``; horizon: T layers;
+        prior: (M,) or None (uniform: the objective is the sum over the models).
+    """
+
+    def __init__(self, dyn: SparseDynamics, kinds: Kinds, horizon: int, prior: np.ndarray | None = None):
+        M = dyn.probs.shape[0]
+        self.reach = np.ascontiguousarray(dyn.next_states, dtype=np.int64)
+        self.probs = np.ascontiguousarray(dyn.probs, dtype=np.float64)
+        self.kinds, self.horizon, self.prior = kinds, horizon, prior
+        self.counts, self.successor = count_tables(kinds.n_kinds, horizon)
+        w = np.full(M, 1.0 / M) if prior is None else np.asarray(prior, dtype=np.float64)
+        beliefs = [posteriors(c, kinds.directions, w) for c in self.counts]
+        self.beliefs, self.last_beliefs = beliefs[:-1], beliefs[-1]
+        self.along = [np.ascontiguousarray(b @ kinds.directions.T) for b in self.beliefs]  # (C, n): b(c) . v_k
+        self.kind = np.ascontiguousarray(kinds.kind)
+        self.scale = self.probs.sum(axis=0)  # (S, A, R): lambda, P(s'|s, a) = lambda v_k
+        self.n_nodes = n_nodes(self.probs.shape[1], kinds.n_kinds, horizon)
+
+    def solve(self, L: LayeredRewards, p0: np.ndarray) -> CountSolution:
+        """The optimal policy for the rewards ``L`` (its horizon the program's) from p0 (S,)."""
+        T, kind = self.horizon, self.kinds.kind
+        if L.horizon != T:
+            raise ValueError(f"the rewards have {L.horizon} layers and the program {T}")
+        S = self.probs.shape[1]
+        W = np.ascontiguousarray(self.last_beliefs @ L.last).T  # (S, C): b(c) . r(T-1, s)
+        actions: list[np.ndarray] = [np.empty((S, 0), dtype=np.int16)] * (T - 1)
+        for t in range(T - 2, -1, -1):
+            step = np.ascontiguousarray(L.step[:, t])
+            same = bool((step == step[:, :, :1]).all())
+            W, actions[t] = _backup(self.reach, self.scale, self.kind, self.successor[t], self.beliefs[t], self.along[t], step, W, same)
+        p0 = np.asarray(p0, dtype=np.float64)
+        values, marginals = _forward(self.reach, self.probs, kind, self.successor, actions, p0, L)
+        value = float(values.sum()) if self.prior is None else float(self.prior @ values)
+        return CountSolution(value, values, marginals, actions, self.n_nodes)
+
+
+def program(dyn: SparseDynamics, horizon: int, prior: np.ndarray | None = None, *, max_kinds: int = 12,
+            max_nodes: int = MAX_NODES) -> CountProgram | None:
+    """The count program of ``dyn`` over ``horizon`` layers, or None when its moves have more than
+    ``max_kinds`` kinds or the program more than ``max_nodes`` nodes (PBVI is the planner there)."""
+    kinds = move_kinds(dyn, max_kinds)
+    if kinds is None or n_nodes(dyn.probs.shape[1], kinds.n_kinds, horizon) > max_nodes:
+        return None
+    return CountProgram(dyn, kinds, horizon, prior)
+
+
+def program_size(dyn: SparseDynamics, horizon: int, *, max_kinds: int = 12, max_nodes: int = MAX_NODES) -> int | None:
+    """The nodes of the count program of ``dyn`` over ``horizon`` layers, or None where ``program`` declines."""
+    kinds = move_kinds(dyn, max_kinds)
+    if kinds is None:
+        return None
+    size = n_nodes(dyn.probs.shape[1], kinds.n_kinds, horizon)
+    return size if size <= max_nodes else None
+
+
+def declined_sentence(dyn: SparseDynamics, horizon: int, max_kinds: int = 12, max_nodes: int = MAX_NODES) -> str:
+    """Why ``program`` declines ``dyn``, in one sentence."""
+    kinds = move_kinds(dyn, max_kinds)
+    if kinds is None:
+        return (f"the exact count planner needs the posterior over the models to be a count of a few kinds of move (at most "
+                f"{max_kinds}), and these dynamics' moves point in more directions (a dense random MDP: every move its own); use PBVI")
+    need = n_nodes(dyn.probs.shape[1], kinds.n_kinds, horizon)
+    return (f"the exact count planner would need {need:,} nodes ({kinds.n_kinds} kinds of move over T = {horizon}), above its "
+            f"{max_nodes:,}; use PBVI")
+
+
+def plan(dyn: SparseDynamics, L: LayeredRewards, p0: np.ndarray, prior: np.ndarray | None = None, *,
+         max_kinds: int = 12, max_nodes: int = MAX_NODES) -> CountSolution | None:
+    """The exact optimum of eq. 6.1 by the count program (module docstring), or None (``program``)."""
+    built = program(dyn, L.horizon, prior, max_kinds=max_kinds, max_nodes=max_nodes)
+    return None if built is None else built.solve(L, p0)
+
+
+@numba.njit(cache=True, nogil=True, parallel=True)
+def _backup(reach, scale, kind, succ, B, along, step, W_next, state_rewards):  # pragma: no cover - compiled
+    """One layer of the program on values at the nodes' posteriors: W (S, C_t) and actions (S, C_t) from
+    W_next (S, C_t+1), with W(s, c) = max_a b(c) . r(t, s, a) + sum_s' lambda (b(c) . v_k) W_next(s', c + e_k).
+
+    scale (S, A, R) lambda; along (C_t, n) b(c) . v_k; step (M, S, A) r_j(t, s, a); B (C_t, M) b(c);
+    state_rewards: whether step is the same for every action (read from a = 0 only)."""
+    M, S, A = step.shape
+    R = reach.shape[1]
+    C, n = succ.shape
+    W = np.empty((S, C))
+    action = np.zeros((S, C), dtype=np.int16)
+    for s in numba.prange(S):
+        G = np.zeros((R, n))
+        n_r = R
+        for r in range(R):
+            if reach[s, r] < 0:
+                n_r = r
+                break
+        for i in range(C):
+            for r in range(n_r):  # G[r, k] = (b(c) . v_k) W_next(s'_r, c + e_k)
+                row = reach[s, r]
+                for k in range(n):
+                    G[r, k] = along[i, k] * W_next[row, succ[i, k]]
+            best = 0.0
+            base = 0.0
+            if state_rewards:  # the same reward for every action: once
+                for j in range(M):
+                    base += B[i, j] * step[j, s, 0]
+            for a in range(A):
+                v = base
+                if not state_rewards:
+                    for j in range(M):
+                        v += B[i, j] * step[j, s, a]
+                for r in range(n_r):
+                    k = kind[s, a, r]
+                    if k >= 0:
+                        v += scale[s, a, r] * G[r, k]
+                if a == 0 or v > best + 1e-12 * (1.0 + abs(best)):  # near-ties to the lowest action
+                    best = v
+                    action[s, i] = a
+            W[s, i] = best
+    return W, action
+
+
+def _forward(reach, probs, kind, successor, actions, p0, L: LayeredRewards) -> tuple[np.ndarray, np.ndarray]:
+    """(values (M,), marginals (M, T, S)): each model's expected return and state distributions under the policy."""
+    M, S = probs.shape[0], probs.shape[1]
+    T = L.horizon
+    out = np.zeros((M, T, S))
+    values = np.zeros(M)
+    mass = np.ascontiguousarray(np.broadcast_to(p0[None, :, None], (M, S, 1)))
+    out[:, 0, :] = p0[None, :]
+    for t in range(T - 1):
+        values += _push(reach, probs, kind, successor[t], actions[t], mass, np.ascontiguousarray(L.step[:, t]), out[:, t + 1, :],
+                        succ_next := np.empty((M, S, successor[t].max(initial=-1) + 1)))
+        mass = succ_next
+    values += np.einsum("js,js->j", L.last, out[:, T - 1, :])
+    return values, out
+
+
+@numba.njit(cache=True, nogil=True, parallel=True)
+def _push(reach, probs, kind, succ, action, mass, step, marginal, out):  # pragma: no cover - compiled
+    """One layer forward, each model on its own thread: ``out`` (M, S, C_t+1) the next layer's node
+    masses from ``mass`` (M, S, C_t), ``marginal`` (M, S) their sums over c; returns (M,) the
+    reward earned at this layer, sum over nodes of mass_j(s, c) r_j(t, s, a(s, c))."""
+    M, S, A, R = probs.shape
+    C = succ.shape[0]
+    earned = np.zeros(M)
+    for j in numba.prange(M):
+        out[j] = 0.0
+        e = 0.0
+        for s in range(S):
+            for i in range(C):
+                x = mass[j, s, i]
+                if x == 0.0:
+                    continue
+                a = action[s, i]
+                e += x * step[j, s, a]
+                for r in range(R):
+                    nxt = reach[s, r]
+                    if nxt < 0:
+                        break
+                    k = kind[s, a, r]
+                    if k >= 0:
+                        out[j, nxt, succ[i, k]] += x * probs[j, s, a, r]
+        earned[j] = e
+        for s in range(S):
+            m = 0.0
+            for i in range(out.shape[2]):
+                m += out[j, s, i]
+            marginal[j, s] = m
+    return earned

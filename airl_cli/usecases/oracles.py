@@ -1,0 +1,77 @@
+"""The adversary's planner in a certified fit: whether it can plan the problem (one sentence where
+it cannot), what the certificate calls it, and the certificate's phrase (thesis §5.3.1, ch. 6)."""
+
+from __future__ import annotations
+
+from airl_cli.core.irl.game_problem import GameProblem
+from airl_cli.core.irl.options import PlannerOptions
+from airl_cli.core.mdp.sparse import sparse_dynamics
+from airl_cli.core.mmdp import counts
+from airl_cli.core.mmdp.exact import EXACT_MAX_HISTORIES
+from airl_cli.errors import ConfigError
+
+#: The planners whose best responses are exact (``pbvi.method``): enumeration of the histories, and
+#: the count program (``core.mmdp.counts``) where the posterior is a count of kinds of move.
+EXACT_PLANNERS = ("exact", "counts")
+
+
+def planner_refusal(problem: GameProblem, planner: PlannerOptions) -> None:
+    """Raise ``ConfigError`` (one sentence) where an exact planner cannot plan ``problem`` (the
+    game's problem: a dataset's, or its post-decision expansion); the other planners always can."""
+    if planner.adversary != "history":
+        return
+    M, S, A, _ = problem.transitions.shape
+    T = problem.horizon
+    if planner.method == "exact" and S * (A * S) ** (T - 1) > EXACT_MAX_HISTORIES:
+        raise ConfigError(
+            f"pbvi.method=exact enumerates every history, S (A S)^(T-1) = {S * (A * S) ** (T - 1):.3g} here (S = {S}, A = {A}, "
+            f"T = {T}), above its {EXACT_MAX_HISTORIES:,}; use pbvi.method=pbvi, or pbvi.method=counts where the dynamics allow it"
+        )
+    if planner.method == "counts":
+        P = problem.transitions
+        dyn = P if hasattr(P, "next_states") else sparse_dynamics(P)
+        if counts.program_size(dyn, T) is None:
+            raise ConfigError(f"pbvi.method=counts cannot plan this problem: {counts.declined_sentence(dyn, T)}")
+
+
+def oracle_name(planner: PlannerOptions) -> str:
+    """The adversary's best response as the certificate names it: the planner's method, or for the
+    Markov adversary (``core.markov_adversary``) "cadp" (exact enumeration keeps "exact")."""
+    return "cadp" if planner.adversary == "markov" and planner.method != "exact" else planner.method
+
+
+def certificate(relative_gap: float, tol: float, converged: bool, oracle: str, check: dict | None = None, *, sharpened: bool = False) -> str:
+    """One phrase for the summary: how far from the minimum the fit is proven to be.
+
+    The bounds are exact when the adversary's oracle is (pbvi.method=exact, counts). PBVI's best response
+    can fall short of the true one, so its upper bound can too: then the gap is relative to PBVI,
+    and a negative gap shows that PBVI missed better adversary strategies. ``check``
+    (``_planner_check``) says what a finer PBVI's bound at the answer makes of the gap, and, unless
+    the fit ``sharpened`` its own belief set already, how to make the certificate hold against it.
+    """
+    if not converged:
+        text = f"NOT converged: the iteration cap was reached with relative gap {relative_gap:.2g} (tolerance {tol:g})"
+    elif oracle == "pbvi":
+        text = f"optimal to {tol:g} against PBVI's best responses (relative gap {relative_gap:.2g})"
+        if relative_gap < -1e-9:
+            text += "; the gap is negative because PBVI missed better adversary strategies: more pbvi.iterations sharpen it"
+    else:
+        text = f"optimal to {tol:g} (relative gap {relative_gap:.2g})"
+        if oracle not in EXACT_PLANNERS:
+            text += f" against the {oracle} oracle's best responses"
+    if check:
+        dense = f"PBVI on {check['check_beliefs']} beliefs (grown where its policy goes)"
+        if check["planner_resolution"] > tol:
+            text += (
+                f"; {dense} bounds the answer {check['planner_resolution']:.2g} higher (relative gap {check['checked_relative_gap']:.2g} against it):"
+                " the gap is against the planner's best responses, which a finer belief set still improves"
+                + ("" if sharpened else " (pbvi.sharpen_rounds=2 grows the fit's own set until it does not)")
+            )
+        elif check["checked_relative_gap"] > tol:
+            text += (
+                f"; against {dense} the relative gap is {check['checked_relative_gap']:.2g}, above the tolerance"
+                f" (it bounds the answer {check['planner_resolution']:.2g} higher)"
+            )
+        else:
+            text += f"; {dense} finds nothing better at the answer (relative gap {check['checked_relative_gap']:.2g} against it)"
+    return text

@@ -1,0 +1,81 @@
+"""The count program (core.mmdp.counts) against exact enumeration of every history (core.mmdp.exact)."""
+
+from __future__ import annotations
+
+from math import comb
+
+import numpy as np
+import pytest
+
+from airl_cli.core.mdp.objectworld import slip_sparse, uniform_initial
+from airl_cli.core.mdp.sparse import sparse_dynamics
+from airl_cli.core.mmdp import counts
+from airl_cli.core.mmdp.exact import exact_graph
+from airl_cli.core.mmdp.planner import solve
+from airl_cli.core.mmdp.policy_graph import layered_rewards
+
+
+def exact_value(P, R, p0, prior=None):
+    L = layered_rewards(P, R)
+    graph = exact_graph(P, L, prior)
+    values = graph.values(p0)
+    return float(values.sum()) if prior is None else float(prior @ values), values
+
+
+@pytest.mark.parametrize("seed", range(24))
+def test_the_optimum_of_tiny_random_problems_equals_enumeration(seed):
+    """A dense random MDP has a kind per move; on tiny ones the program is still small: exact there too.
+    State rewards (M, T, S) and action rewards (M, T, S, A), with and without a prior."""
+    rng = np.random.default_rng(seed)
+    M, S, A, T = int(rng.integers(2, 4)), int(rng.integers(2, 4)), 2, int(rng.integers(2, 5))
+    P = rng.dirichlet(np.ones(S), size=(M, S, A))
+    R = rng.normal(size=(M, T, S, A) if seed % 3 == 0 else (M, T, S))
+    p0 = rng.dirichlet(np.ones(S))
+    prior = None if seed % 2 else rng.dirichlet(np.ones(M))
+    sol = counts.plan(sparse_dynamics(P), layered_rewards(P, R), p0, prior, max_kinds=S * A * S)
+    value, values = exact_value(P, R, p0, prior)
+    assert sol.value == pytest.approx(value, abs=1e-9 * (1 + abs(value)))
+    assert np.allclose(sol.values, values, atol=1e-9)
+    if R.ndim == 3:  # the marginals are the policy's: they earn its values
+        assert np.allclose(np.einsum("mts,mts->m", sol.marginals, R), sol.values, atol=1e-9)
+    assert np.allclose(sol.marginals.sum(axis=2), 1.0)
+
+
+def test_a_slip_grid_has_four_kinds_of_move_and_its_optimum_equals_enumeration():
+    """3 x 3 slip grid, tau without slip and slips 0.1, 0.2, 0.3: unintended moves (one kind, ~ p_j), and
+    intended moves that k = 1, 2, 3 actions make (a corner's stay cell); 9 (45)^2 histories at T = 3."""
+    dyn = slip_sparse(3, [0.0, 0.1, 0.2, 0.3])
+    kinds = counts.move_kinds(dyn)
+    assert kinds.n_kinds == 4
+    assert any(np.allclose(v, np.array([0.0, 0.1, 0.2, 0.3]) / 0.6) for v in kinds.directions)
+    P = dyn.dense()
+    rng = np.random.default_rng(0)
+    p0 = uniform_initial(3)
+    for _ in range(3):
+        R = rng.normal(size=(4, 3, 9))
+        sol = counts.plan(dyn, layered_rewards(P, R), p0)
+        assert sol.value == pytest.approx(exact_value(P, R, p0)[0], abs=1e-9)
+        assert sol.value >= solve(dyn, R, p0).value - 1e-9  # PBVI's policy is one of the policies
+
+
+def test_the_count_tables():
+    n, T = 3, 6
+    tables, successor = counts.count_tables(n, T)
+    for t, c in enumerate(tables):
+        assert c.shape == (comb(t + n - 1, n - 1), n) and (c.sum(axis=1) == t).all()
+        assert len({tuple(x) for x in c}) == len(c)
+    for t in range(T - 1):
+        for i, c in enumerate(tables[t]):
+            for k in range(n):
+                assert (tables[t + 1][successor[t][i, k]] == c + np.eye(n, dtype=int)[k]).all()
+    assert counts.n_nodes(7, n, T) == 7 * sum(comb(t + n - 1, n - 1) for t in range(T))
+
+
+def test_a_dense_random_mdp_is_declined_in_one_sentence():
+    rng = np.random.default_rng(0)
+    dyn = sparse_dynamics(rng.dirichlet(np.ones(10), size=(4, 10, 5)))
+    assert counts.program(dyn, 10) is None and counts.program_size(dyn, 10) is None
+    assert "more directions" in counts.declined_sentence(dyn, 10)
+    grid = slip_sparse(8, [0.0, 0.1, 0.2, 0.3])
+    assert counts.program(grid, 20, max_nodes=1000) is None
+    assert "would need 566,720 nodes" in counts.declined_sentence(grid, 20, max_nodes=1000)

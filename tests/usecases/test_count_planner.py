@@ -1,0 +1,37 @@
+"""pbvi.method=counts in a certified fit: exact best responses on slip grids, so the certificate is one of
+eq. 5.9 itself; refused in one sentence where it cannot plan."""
+
+from __future__ import annotations
+
+import pytest
+
+from airl_cli import api
+from airl_cli.errors import ConfigError
+
+
+@pytest.fixture(scope="module")
+def tiny_grid():
+    return api.make_dataset("problem=objectworld", "mdp.size=3", "mdp.horizon=3", "mdp.n_objects=2", "demos.n=20")
+
+
+@pytest.mark.parametrize("loss", ["zero_one", "squared_features"])
+def test_the_count_planner_certifies_the_minimum_enumeration_certifies(tiny_grid, loss):
+    counted = api.fit(tiny_grid, "pbvi=counts", f"loss={loss}")
+    enumerated = api.fit(tiny_grid, "pbvi=exact", f"loss={loss}")
+    for fit in (counted, enumerated):
+        assert fit.info["converged"]
+    f, g = counted.info["objective"], enumerated.info["objective"]
+    assert abs(f - g) <= 2e-4 * max(1.0, abs(g))
+    lo, up = counted.info["minimum_bracket"]
+    assert up == counted.info["objective"] and lo <= g + 1e-9 and f >= enumerated.info["lower_bound"] - 1e-9
+    assert "against" not in counted.info["certificate"].split(";")[0]  # exact: no planner named as the reference
+
+
+def test_what_the_count_planner_cannot_plan_is_refused_in_one_sentence(tiny_grid):
+    random = api.make_dataset("mdp.n_states=10", "demos.n=5")
+    with pytest.raises(ConfigError, match="pbvi.method=counts cannot plan this problem: .* point in more directions"):
+        api.fit(random, "pbvi=counts")
+    with pytest.raises(ConfigError, match="game.adversary=history"):
+        api.fit(tiny_grid, "pbvi=counts", "game.adversary=markov")
+    with pytest.raises(ConfigError, match=r"pbvi.method=exact enumerates every history, .* above its 2,000,000"):
+        api.fit(random, "pbvi=exact")
