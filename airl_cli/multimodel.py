@@ -27,6 +27,10 @@ belief starts there; ``value`` becomes sum_j lambda_j values[j])::
 The published Markov heuristics (WSU, MVP, CADP) and exact evaluation of any policy on other
 models are in ``airl_cli.core.mmdp.baselines``; ``airl plan`` runs them all from the command line.
 
+Where the posterior over the models is a count of a few kinds of move (slip and wind grids),
+``solve_counts(P, R, p0)`` returns the exact optimum (value, values, marginals; the policy as an
+action per (t, s, counts)) at a cost linear in the number of states (``core.mmdp.counts``).
+
 Methods: ``"pbvi"`` (modified point-based value iteration, thesis Tables II-IV), ``"exact"``
 (enumerate every history; tiny problems) and ``"mean"`` (the optimal policy of the averaged MDP,
 the naive baseline). See ``airl_cli.core.mmdp.planner`` for the details.
@@ -39,7 +43,8 @@ from airl_cli.core.mmdp.planner import (
     expand_beliefs,
     solve,
 )
+from airl_cli.core.mmdp.counts import CountSolution, solve_counts
 from airl_cli.core.mmdp.refine import refine
 from airl_cli.readings.alpha_values import upper_envelope_1d
 
-__all__ = ["PolicyGraph", "Solution", "exact_alpha_vectors", "expand_beliefs", "refine", "solve", "upper_envelope_1d"]
+__all__ = ["CountSolution", "PolicyGraph", "Solution", "solve_counts", "exact_alpha_vectors", "expand_beliefs", "refine", "solve", "upper_envelope_1d"]

@@ -39,8 +39,8 @@ from math import comb
 import numba
 import numpy as np
 
-from airl_cli.core.mdp.sparse import SparseDynamics
-from airl_cli.core.mmdp.policy_graph import LayeredRewards
+from airl_cli.core.mdp.sparse import SparseDynamics, sparse_dynamics
+from airl_cli.core.mmdp.policy_graph import LayeredRewards, layered_rewards
 
 #: Two normalised likelihood vectors closer than this (max entry difference) are one kind of move.
 KIND_TOL = 1e-9
@@ -210,6 +210,28 @@ def declined_sentence(dyn: SparseDynamics, horizon: int, max_kinds: int = 12, ma
     need = n_nodes(dyn.probs.shape[1], kinds.n_kinds, horizon)
     return (f"the exact count planner would need {need:,} nodes ({kinds.n_kinds} kinds of move over T = {horizon}), above its "
             f"{max_nodes:,}; use PBVI")
+
+
+def solve_counts(transitions, rewards: np.ndarray, initial: np.ndarray, *, horizon: int | None = None, discount: float = 1.0,
+                 prior: np.ndarray | None = None, max_kinds: int = 12, max_nodes: int = MAX_NODES) -> CountSolution:
+    """The optimum of eq. 6.1 by the count program, for the planner's inputs (``planner.solve``'s forms).
+
+    Args:
+        transitions: (M, S, A, S) dense, or ``SparseDynamics``; rewards: any form ``layered_rewards``
+            takes ((M, T, S) state rewards; (M, T, S, A), (M, T, S, A, S) over T decisions; the
+            stationary forms with ``horizon``); initial: (S,) p0; discount: gamma in (0, 1];
+        prior: (M,) or None (the objective is then the sum over the models);
+        max_kinds, max_nodes: the program's limits (``program``).
+
+    Raises:
+        ValueError: where the program declines (``declined_sentence``).
+    """
+    dyn = transitions if isinstance(transitions, SparseDynamics) else sparse_dynamics(np.asarray(transitions, dtype=np.float64))
+    L = layered_rewards(dyn if isinstance(transitions, SparseDynamics) else np.asarray(transitions, dtype=np.float64), rewards, horizon=horizon, discount=discount)
+    built = program(dyn, L.horizon, prior, max_kinds=max_kinds, max_nodes=max_nodes)
+    if built is None:
+        raise ValueError(declined_sentence(dyn, L.horizon, max_kinds, max_nodes))
+    return built.solve(L, np.asarray(initial, dtype=np.float64))
 
 
 def plan(dyn: SparseDynamics, L: LayeredRewards, p0: np.ndarray, prior: np.ndarray | None = None, *,

@@ -79,3 +79,22 @@ def test_a_dense_random_mdp_is_declined_in_one_sentence():
     grid = slip_sparse(8, [0.0, 0.1, 0.2, 0.3])
     assert counts.program(grid, 20, max_nodes=1000) is None
     assert "would need 566,720 nodes" in counts.declined_sentence(grid, 20, max_nodes=1000)
+
+
+def test_the_public_entry_takes_the_fields_problem_form():
+    """multimodel.solve_counts with rewards r_j(s, a, s'), a discount, a prior and a horizon, on a 3 x 3 slip
+    grid (3 decisions, 9 (45)^3 histories): the optimum enumeration finds."""
+    from airl_cli.multimodel import solve_counts
+
+    dyn = slip_sparse(3, [0.05, 0.2, 0.4])
+    P = dyn.dense()
+    rng = np.random.default_rng(2)
+    r = rng.normal(size=(3, 9, 5, 9))
+    prior = np.array([0.2, 0.5, 0.3])
+    p0 = uniform_initial(3)
+    exact = solve(P, r, p0, horizon=3, discount=0.9, prior=prior, method="exact")
+    for given in (P, dyn):
+        sol = solve_counts(given, r, p0, horizon=3, discount=0.9, prior=prior)
+        assert sol.value == pytest.approx(exact.value, abs=1e-9) and np.allclose(sol.values, exact.values, atol=1e-9)
+    with pytest.raises(ValueError, match="more directions"):
+        solve_counts(np.random.default_rng(0).dirichlet(np.ones(4), size=(2, 4, 2)), np.zeros((2, 3, 4)), np.full(4, 0.25))
