@@ -59,7 +59,7 @@ def main(cfg: DictConfig) -> dict:
         "beliefs": result.n_beliefs,
         "nodes": int(result.graph.n_nodes.sum()),
         "cadp_sweeps": result.sweeps if settings.method == "cadp" else None,
-        "optimum_bracket": None if br is None else [br.lower, br.upper],
+        "optimum_bracket": [result.objective] * 2 if settings.method == "counts" else None if br is None else [br.lower, br.upper],
         "each_model_known": None if br is None else br.corner,
         "bracket_beliefs": None if br is None else br.beliefs,
     }
@@ -72,6 +72,8 @@ def main(cfg: DictConfig) -> dict:
         f"  mean return on the {record['test_models']} test models: {test:.4f}" if test is not None else "  no test models",
         f"  planning time: {seconds:.2f} s; policy graph: {record['nodes']:,} nodes",
     ]
+    if settings.method == "counts":
+        lines.append("  this is the optimum on the training models: exact, the posterior over the models being a count of kinds of move")
     if br is not None:
         lines.append(
             f"  the optimum on the training models lies in [{br.lower:.4f}, {br.upper:.4f}] whatever the planner "

@@ -44,8 +44,9 @@ def run_plan(
 def bracket_optimum(problem: MMDPProblem, settings: PlanSettings, result: Plan, discount: float) -> Bracket | None:
     """The optimum on the training models bracketed whatever the planner (``core.mmdp.bounds``), in
     the plan's objective (the prior-weighted, or uniform, mean return); its lower side starts from
-    the plan's own policy when it is PBVI's, else from PBVI's. None when plan.bracket_beliefs is 0."""
-    if settings.bracket_beliefs == 0:
+    the plan's own policy when it is PBVI's, else from PBVI's. None when plan.bracket_beliefs is 0,
+    and for plan.method=counts, whose plan is the optimum itself."""
+    if settings.bracket_beliefs == 0 or settings.method == "counts":
         return None
     M, S, _ = problem.shape
     prior = problem.prior if problem.prior is not None else np.full(M, 1.0 / M)

@@ -123,11 +123,11 @@ def test_a_missing_initial_file_and_a_missing_input(tmp_path):
     assert result.exit_code == 2 and "plan.input" in result.output and not (tmp_path / "r").exists()
 
 
-@pytest.mark.parametrize("method", ["pbvi", "exact", "mean", "wsu", "mvp", "cadp"])
+@pytest.mark.parametrize("method", ["pbvi", "exact", "counts", "mean", "wsu", "mvp", "cadp"])
 def test_plan_end_to_end_writes_objective_test_return_and_a_policy_that_runs_again(tmp_path, method):
     folder = write_folder(tmp_path / "mmdp", test=TRAINING)
     out = tmp_path / method
-    horizon = 3 if method == "exact" else 6
+    horizon = 3 if method in ("exact", "counts") else 6
     result = runner.invoke(app, ["plan", f"plan.input={folder}", f"plan.method={method}", f"plan.horizon={horizon}", f"hydra.run.dir={out}"])
     assert result.exit_code == 0, result.output
     assert {p.name for p in out.iterdir()} >= {"plan.json", "policy.npz", "config.yaml"}
@@ -139,6 +139,11 @@ def test_plan_end_to_end_writes_objective_test_return_and_a_policy_that_runs_aga
     graph = load_policy(out / "policy.npz")
     L = layered_rewards(problem.transitions, problem.rewards, horizon=horizon, discount=0.9)
     assert graph_returns(graph, problem.transitions, L, problem.initial).mean() == pytest.approx(record["objective"], rel=1e-12)
+    if method == "counts":  # the optimum: what enumerating every history finds, and its own bracket
+        exact = runner.invoke(app, ["plan", f"plan.input={folder}", "plan.method=exact", "plan.horizon=3", f"hydra.run.dir={tmp_path / 'x'}"])
+        assert exact.exit_code == 0
+        assert record["objective"] == pytest.approx(json.loads((tmp_path / "x" / "plan.json").read_text())["objective"], abs=1e-9)
+        assert record["optimum_bracket"] == [record["objective"]] * 2 and "this is the optimum" in result.output
     with np.load(out / "policy.npz") as npz:
         assert ("markov_policy" in npz.files) == (method in ("mean", "wsu", "mvp", "cadp"))
         if "markov_policy" in npz.files:

@@ -40,6 +40,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from airl_cli.core.mdp.basics import argmax_lowest
+from airl_cli.core.mdp.sparse import sparse_dynamics
+from airl_cli.core.mmdp import counts
+from airl_cli.core.mmdp.count_graph import count_graph
 from airl_cli.core.mmdp.planner import (
     METHODS,
     LayeredRewards,
@@ -55,7 +58,16 @@ from airl_cli.core.mmdp.planner import (
 )
 
 MARKOV_METHODS = ("wsu", "mvp", "cadp")
-PLAN_METHODS = METHODS + MARKOV_METHODS
+PLAN_METHODS = METHODS + ("counts",) + MARKOV_METHODS
+
+
+def _count_graph(P: np.ndarray, L, p0: np.ndarray, prior: np.ndarray | None):
+    """The count program's optimal policy as a graph; ValueError where the program declines."""
+    dyn = sparse_dynamics(P)
+    program = counts.program(dyn, L.horizon, prior)
+    if program is None:
+        raise ValueError(counts.declined_sentence(dyn, L.horizon))
+    return count_graph(program, L, program.solve(L, p0))
 
 
 def _weights(prior: np.ndarray | None, M: int) -> np.ndarray:
@@ -257,7 +269,8 @@ def plan(
     """Solve a multi-model MDP over ``horizon`` decisions with any method of ``PLAN_METHODS``.
 
     Args:
-        method: pbvi | exact | mean (``multimodel.solve``) or wsu | mvp | cadp (Markov heuristics).
+        method: pbvi | exact | mean (``multimodel.solve``), counts (``multimodel.solve_counts``; its
+            graph by ``count_graph``) or wsu | mvp | cadp (Markov heuristics).
         transitions: (M, S, A, S); rewards: stationary (M, S, A, S) r_j(s, a, s') or (M, S, A);
         initial: (S,); horizon: T decisions; discount: gamma; prior: (M,) lambda or None (uniform);
         iterations: PBVI's iterations (at most 2^(iterations-1) belief points).
@@ -272,6 +285,10 @@ def plan(
     w = _weights(prior, M)
     L = layered_rewards(P, rewards, horizon=horizon, discount=discount)
     p0 = np.asarray(initial, dtype=np.float64)
+    if method == "counts":  # exact where the posterior is a count of kinds of move (core.mmdp.counts)
+        graph = _count_graph(P, L, p0, w if prior is not None else None)
+        values = graph.values(p0)
+        return Plan(graph, None, values, float(w @ values), 0)
     if method in METHODS:  # as multimodel.solve, without the state marginals
         n_beliefs = 0
         if method == "pbvi":
