@@ -59,6 +59,8 @@ from airl_cli.core.mmdp.planner import (
 
 MARKOV_METHODS = ("wsu", "mvp", "cadp")
 PLAN_METHODS = METHODS + ("counts",) + MARKOV_METHODS
+#: plan.method=counts refuses a policy graph above this many bytes (a number per model, per next state and two per node).
+GRAPH_BYTES = 4 * 2**30
 
 
 def _count_graph(P: np.ndarray, L, p0: np.ndarray, prior: np.ndarray | None):
@@ -67,6 +69,9 @@ def _count_graph(P: np.ndarray, L, p0: np.ndarray, prior: np.ndarray | None):
     program = counts.program(dyn, L.horizon, prior)
     if program is None:
         raise ValueError(counts.declined_sentence(dyn, L.horizon))
+    need = program.n_nodes * (P.shape[0] + dyn.next_states.shape[1] + 2) * 8
+    if need > GRAPH_BYTES:
+        raise ValueError(f"the count planner's policy graph would take {need / 2**30:.1f} GiB ({program.n_nodes:,} nodes), above {GRAPH_BYTES / 2**30:.0f} GiB")
     return count_graph(program, L, program.solve(L, p0))
 
 
