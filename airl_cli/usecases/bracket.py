@@ -33,19 +33,24 @@ def closes(settings: FitSettings) -> bool:
     return settings.certified.bracket_tol is not None and settings.options.planner.adversary == "history"
 
 
-def bracket_info(res, settings: FitSettings, targets: np.ndarray, close: Closer | None) -> dict:
+def bracket_info(res, settings: FitSettings, targets: np.ndarray, close: Closer | None, exact=None) -> dict:
     """The metrics of the bracket [L, U] on min f: ``minimum_bracket``, ``bracket_relative_gap``,
     the beliefs its last call backed up and the strategies it added; and ``planner_resolution``, how
     much higher than the certified bound the bracket's policy bounds the answer (relative), with the
     gap against it (``checked_relative_gap``), as the finer PBVI of ``pbvi.check_rounds`` did.
 
-    ``pbvi.method=exact`` or ``counts``: U is the certified bound itself. A Markov adversary's fit (not closed)
+    ``pbvi.method=exact``: U is the certified bound itself. ``pbvi.method=counts`` (``exact``, the
+    count oracle, once the fit switched to it): U is the larger of the certified bound and the exact
+    bound at the best bound's rewards (the certified one may be PBVI's, from before the switch, if
+    the exact response did not raise it past the tolerance); without the switch, no bracket. A Markov adversary's fit (not closed)
     gets the bracket at its answer: the history-dependent bound, valid, as a Markov adversary can
     do no better than a history-dependent one. Empty when the bracket is off.
     """
     planner = settings.options.planner
-    if planner.method in EXACT_PLANNERS:
+    if planner.method == "exact" or (exact is not None and res.upper_rewards is None):
         upper = res.objective
+    elif exact is not None:
+        upper = max(res.objective, exact(res.upper_rewards)[0] + answer_penalty(targets, res, settings.certified))
     elif close is None:
         return {}
     elif np.isfinite(res.bracket_upper):

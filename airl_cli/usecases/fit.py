@@ -14,7 +14,7 @@ from airl_cli.core.irl.certified import minimize, upper_at
 from airl_cli.core.irl.degeneracy import is_degenerate, reward_effect
 from airl_cli.core.irl.game import objective_at
 from airl_cli.core.irl.game_problem import GameProblem, scaled
-from airl_cli.core.irl.learn import belief_set, fit, make_oracles, sharpener
+from airl_cli.core.irl.learn import PBVIThenExact, belief_set, fit, make_oracles, sharpener
 from airl_cli.core.irl.options import PBVI_MAX_ITERATIONS
 from airl_cli.core.irl.per_step import step_blocks, step_features, step_targets
 from airl_cli.core.mdp.state_action import decision_policy
@@ -224,7 +224,8 @@ def _learn_airl(
         h = res.history
         zero = bool(res.converged and not np.any(res.weights))  # certified by the exact bound on f(0)
         name = "exact" if zero else oracle_name(settings.options.planner)
-        bracketed = bracket_info(res, settings, targets, bracketer)
+        exact = oracle.exact if isinstance(oracle, PBVIThenExact) and oracle.switched else None
+        bracketed = bracket_info(res, settings, targets, bracketer, exact)
         check = {} if "planner_resolution" in bracketed else _planner_check(problem, targets, res, settings, rng, oracle, grown=sharpen is not None)
         certified_text = certificate(res.relative_gap, settings.certified.tol, res.converged, name, check, sharpened=sharpen is not None)
         info = {
@@ -245,7 +246,7 @@ def _learn_airl(
             "screen_calls": int(h["screen_calls"][-1]),
             "qp_fallbacks": res.qp_fallbacks,
             "n_beliefs": int(n_beliefs),
-            **({"sharpen_steps": res.sharpen_steps, "sharpened_beliefs": int(len(oracle.beliefs))} if sharpen else {}),
+            **({"sharpen_steps": res.sharpen_steps, "sharpened_beliefs": int(len(oracle.beliefs))} if sharpen and not isinstance(oracle, PBVIThenExact) else {}),
             **check,
             **bracketed,
             # how many strategies each player's equilibrium mixture uses (weight above 1e-8)
@@ -295,6 +296,8 @@ def _sharpener(problem: GameProblem, oracle, settings: FitSettings):
     set for a history-dependent adversary (``learn.sharpener``): the set may grow to
     ``SHARPEN_GROWTH`` times its size, less if half the free memory holds fewer nodes; else None."""
     planner = settings.options.planner
+    if isinstance(oracle, PBVIThenExact):  # pbvi=counts: exact from where the fit would first stop
+        return oracle.switch
     if planner.sharpen_rounds == 0 or getattr(oracle, "beliefs", None) is None:  # config: only PBVI's reused set
         return None
     T, S = problem.horizon, problem.transitions.shape[1]

@@ -27,6 +27,13 @@ def test_the_count_planner_certifies_the_minimum_enumeration_certifies(tiny_grid
     assert "against" not in counted.info["certificate"].split(";")[0]  # exact: no planner named as the reference
 
 
+def test_a_fit_stopped_before_its_exact_part_claims_no_bracket(tiny_grid):
+    """pbvi=counts answers with PBVI until the fit would first stop; stopped earlier (the iteration cap),
+    its bounds are PBVI's, and no bracket on eq. 5.9 is claimed."""
+    early = api.fit(tiny_grid, "pbvi=counts", "optim.max_iterations=2")
+    assert not early.info["converged"] and "minimum_bracket" not in early.info
+
+
 def test_what_the_count_planner_cannot_plan_is_refused_in_one_sentence(tiny_grid):
     random = api.make_dataset("mdp.n_states=10", "demos.n=5")
     with pytest.raises(ConfigError, match="pbvi.method=counts cannot plan this problem: .* point in more directions"):
