@@ -224,8 +224,7 @@ def _learn_airl(
         h = res.history
         zero = bool(res.converged and not np.any(res.weights))  # certified by the exact bound on f(0)
         name = "exact" if zero else oracle_name(settings.options.planner)
-        exact = oracle.exact if isinstance(oracle, PBVIThenExact) and oracle.switched else None
-        bracketed = bracket_info(res, settings, targets, bracketer, exact)
+        bracketed = bracket_info(res, settings, targets, bracketer, oracle.exact if isinstance(oracle, PBVIThenExact) and oracle.switched else None)
         check = {} if "planner_resolution" in bracketed else _planner_check(problem, targets, res, settings, rng, oracle, grown=sharpen is not None)
         certified_text = certificate(res.relative_gap, settings.certified.tol, res.converged, name, check, sharpened=sharpen is not None)
         info = {
