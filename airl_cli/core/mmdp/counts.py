@@ -21,7 +21,7 @@ each model (the alpha-vector of Theorem 6.2.2 at the one posterior the node is e
 with). The answer is the optimum of eq. 6.1, not a bound: every posterior reachable is a node.
 
 Where the moves point in more directions (a dense random MDP: every (s, a, s') its own), the
-count space grows as t^(n-1) and ``plan`` returns None; PBVI is the planner there.
+count space grows as t^(n-1) and ``program`` returns None; PBVI is the planner there.
 
 Kinds are found by normalising every likelihood vector to sum 1 and grouping vectors equal to
 ``KIND_TOL``; the backup uses each move's own probabilities, so the values are those of the policy
@@ -44,7 +44,7 @@ from airl_cli.core.mmdp.policy_graph import LayeredRewards, layered_rewards
 
 #: Two normalised likelihood vectors closer than this (max entry difference) are one kind of move.
 KIND_TOL = 1e-9
-#: ``plan`` declines above this many (t, s, c) nodes (its memory: an action byte per node, and
+#: ``program`` declines above this many (t, s, c) nodes (its memory: an action byte per node, and
 #: two layers of alpha-vectors).
 MAX_NODES = 30_000_000
 
@@ -173,9 +173,8 @@ class CountProgram:
         W = np.ascontiguousarray(self.last_beliefs @ L.last).T  # (S, C): b(c) . r(T-1, s)
         actions: list[np.ndarray] = [np.empty((S, 0), dtype=np.int16)] * (T - 1)
         for t in range(T - 2, -1, -1):
-            step = np.ascontiguousarray(L.step[:, t])
-            same = bool((step == step[:, :, :1]).all())
-            W, actions[t] = _backup(self.reach, self.scale, self.kind, self.successor[t], self.beliefs[t], self.along[t], step, W, same)
+            W, actions[t] = _backup(self.reach, self.scale, self.kind, self.successor[t], self.beliefs[t], self.along[t],
+                                    np.ascontiguousarray(L.step[:, t]), W)
         p0 = np.asarray(p0, dtype=np.float64)
         values, marginals = _forward(self.reach, self.probs, kind, self.successor, actions, p0, L)
         value = float(values.sum()) if self.prior is None else float(self.prior @ values)
@@ -234,20 +233,12 @@ def solve_counts(transitions, rewards: np.ndarray, initial: np.ndarray, *, horiz
     return built.solve(L, np.asarray(initial, dtype=np.float64))
 
 
-def plan(dyn: SparseDynamics, L: LayeredRewards, p0: np.ndarray, prior: np.ndarray | None = None, *,
-         max_kinds: int = 12, max_nodes: int = MAX_NODES) -> CountSolution | None:
-    """The exact optimum of eq. 6.1 by the count program (module docstring), or None (``program``)."""
-    built = program(dyn, L.horizon, prior, max_kinds=max_kinds, max_nodes=max_nodes)
-    return None if built is None else built.solve(L, p0)
-
-
 @numba.njit(cache=True, nogil=True, parallel=True)
-def _backup(reach, scale, kind, succ, B, along, step, W_next, state_rewards):  # pragma: no cover - compiled
+def _backup(reach, scale, kind, succ, B, along, step, W_next):  # pragma: no cover - compiled
     """One layer of the program on values at the nodes' posteriors: W (S, C_t) and actions (S, C_t) from
     W_next (S, C_t+1), with W(s, c) = max_a b(c) . r(t, s, a) + sum_s' lambda (b(c) . v_k) W_next(s', c + e_k).
 
-    scale (S, A, R) lambda; along (C_t, n) b(c) . v_k; step (M, S, A) r_j(t, s, a); B (C_t, M) b(c);
-    state_rewards: whether step is the same for every action (read from a = 0 only)."""
+    scale (S, A, R) lambda; along (C_t, n) b(c) . v_k; step (M, S, A) r_j(t, s, a); B (C_t, M) b(c)."""
     M, S, A = step.shape
     R = reach.shape[1]
     C, n = succ.shape
@@ -266,15 +257,10 @@ def _backup(reach, scale, kind, succ, B, along, step, W_next, state_rewards):  #
                 for k in range(n):
                     G[r, k] = along[i, k] * W_next[row, succ[i, k]]
             best = 0.0
-            base = 0.0
-            if state_rewards:  # the same reward for every action: once
-                for j in range(M):
-                    base += B[i, j] * step[j, s, 0]
             for a in range(A):
-                v = base
-                if not state_rewards:
-                    for j in range(M):
-                        v += B[i, j] * step[j, s, a]
+                v = 0.0
+                for j in range(M):
+                    v += B[i, j] * step[j, s, a]
                 for r in range(n_r):
                     k = kind[s, a, r]
                     if k >= 0:

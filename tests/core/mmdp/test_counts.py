@@ -32,7 +32,7 @@ def test_the_optimum_of_tiny_random_problems_equals_enumeration(seed):
     R = rng.normal(size=(M, T, S, A) if seed % 3 == 0 else (M, T, S))
     p0 = rng.dirichlet(np.ones(S))
     prior = None if seed % 2 else rng.dirichlet(np.ones(M))
-    sol = counts.plan(sparse_dynamics(P), layered_rewards(P, R), p0, prior, max_kinds=S * A * S)
+    sol = counts.solve_counts(P, R, p0, prior=prior, max_kinds=S * A * S)
     value, values = exact_value(P, R, p0, prior)
     assert sol.value == pytest.approx(value, abs=1e-9 * (1 + abs(value)))
     assert np.allclose(sol.values, values, atol=1e-9)
@@ -53,7 +53,7 @@ def test_a_slip_grid_has_four_kinds_of_move_and_its_optimum_equals_enumeration()
     p0 = uniform_initial(3)
     for _ in range(3):
         R = rng.normal(size=(4, 3, 9))
-        sol = counts.plan(dyn, layered_rewards(P, R), p0)
+        sol = counts.solve_counts(dyn, R, p0)
         assert sol.value == pytest.approx(exact_value(P, R, p0)[0], abs=1e-9)
         assert sol.value >= solve(dyn, R, p0).value - 1e-9  # PBVI's policy is one of the policies
 
