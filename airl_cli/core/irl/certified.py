@@ -62,7 +62,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from airl_cli.core.irl.bracket import TARGET_SHARE, Close, closed, relative_width
+from airl_cli.core.irl.bracket import CLOSE_SHARE, TARGET_SHARE, Close, closed, relative_width
 from airl_cli.core.irl.certified_steps import REFRESH_AFTER, Run, adversary_side, first_strategies, learner_side, penalty, polish, probe_zero, prune, region, sharpened, zero_side
 from airl_cli.core.irl.game import adversary_rewards
 from airl_cli.core.irl.game_problem import AdversaryOracle, GameProblem
@@ -236,7 +236,7 @@ def minimize(
         rows.append(_row(it, run, sol, qp, qp_seconds, start))
         if callback is not None:
             callback(rows[-1])
-        done = rows[-1]["relative_gap"] <= options.tol or not (added_l or added_a) and sol.accuracy <= TIGHT
+        done = rows[-1]["relative_gap"] <= stop_tol(options, close) or not (added_l or added_a) and sol.accuracy <= TIGHT
         if done and _goes_on(sets, sharpen, close, run, C, options, it):
             accuracy, limit = LOOSEST, it + options.max_iterations
             continue
@@ -263,6 +263,12 @@ def _finish(sets: StrategySets, oracle, close, per_dynamics, targets: np.ndarray
     if close is not None:  # the answer's own bracket: min f <= f(answer) <= its upper side
         _bracket_answer(close, rewards, upper, penalty(answer, C, options.lam), options.bracket_tol or 0.0, run)
     return _result(per_dynamics(answer), upper, rewards, run, rows, stopped, final, sets)
+
+
+def stop_tol(options: CertifiedOptions, close) -> float:
+    """The gap the run stops at: ``tol``, or while it closes a bracket (``close`` and ``bracket_tol``)
+    at most ``CLOSE_SHARE`` of ``bracket_tol``, so that the fit's own gap leaves the bracket room."""
+    return options.tol if close is None or not options.bracket_tol else min(options.tol, CLOSE_SHARE * options.bracket_tol)
 
 
 def _goes_on(sets: StrategySets, sharpen, close, run: Run, C: np.ndarray, options: CertifiedOptions, it: int) -> bool:

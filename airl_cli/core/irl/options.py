@@ -110,8 +110,9 @@ class CertifiedOptions:
     normalize_loss: divide the loss by its largest entry (as the gradient learner does).
     bracket_tol: None: the bracket on min f is measured at the answer only. A number: the fit closes
         it, adding the bracket's best responses (``core.irl.bracket``) where it would stop and
-        answering with PBVI refined where they go, until its relative width is within this or they
-        no longer raise the bound.
+        answering with the grid's policy (or PBVI refined where they go), until its relative width is
+        within this or they no longer raise the bound; the fit's own gap is then driven to a
+        quarter of it as well, where ``tol`` is larger.
     """
 
     weight_sharing: bool = True

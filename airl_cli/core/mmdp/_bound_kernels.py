@@ -14,6 +14,9 @@ Layouts:
 * ``exact_next``: the next layer's nodes hold its whole value function (the last two layers:
   V_{T-2}(s, .) is the max over the A one-step plans), so its upper bound is its lower bound.
 * Lower-bound nodes of a layer, grouped by state with ``a_off`` (S+1,): ``alpha`` (n, M).
+* The grid's upper bound of a layer (``grid_bound``): ``gU`` (S, G) its values, ``gm`` its
+  resolution (0: no grid), ``gtab`` its lookup table; the upper bound is the smaller of the
+  sawtooth's and the grid's interpolation, both valid.
 """
 
 from __future__ import annotations
@@ -22,6 +25,7 @@ import numpy as np
 from numba import njit, prange
 
 from airl_cli.core.mmdp._kernels import ACTION_RTOL
+from airl_cli.core.mmdp.grid_bound import interpolate
 
 
 @njit(cache=True)
@@ -92,30 +96,44 @@ def corner_values(PR, nxt, cnt, step, last):  # pragma: no cover - compiled
 
 
 @njit(cache=True, parallel=True)
-def gaps(states, X, c, ub_ib, ub_g, ub_off, alpha, a_off, exact):  # pragma: no cover - compiled
+def gaps(states, X, c, ub_ib, ub_g, ub_off, gU, gm, gtab, alpha, a_off, exact):  # pragma: no cover - compiled
     """(upper (n,), lower (n,)) at the unnormalised beliefs X (n, M) in ``states`` (n,) of one layer."""
     n = states.size
+    M = X.shape[1]
     up, lo = np.empty(n), np.empty(n)
     for i in prange(n):
         s = states[i]
         lo[i] = best_node(X[i], alpha, a_off[s], a_off[s + 1])[0]
-        up[i] = lo[i] if exact else sawtooth(X[i], c[s], ub_ib, ub_g, ub_off[s], ub_off[s + 1])
+        if exact:
+            up[i] = lo[i]
+        else:
+            up[i] = _sawtooth_or_grid(X[i], s, c, ub_ib, ub_g, ub_off, gU, gm, gtab, np.empty(3 * M), np.empty(3 * M, np.int64))
     return up, lo
 
 
 @njit(cache=True)
-def _upper(y, s2, c_next, ub_ib, ub_g, ub_off, alpha, a_off, exact_next):  # pragma: no cover - compiled
-    """The next layer's upper bound at (s2, y)."""
-    if exact_next:
-        return best_node(y, alpha, a_off[s2], a_off[s2 + 1])[0]
-    return sawtooth(y, c_next[s2], ub_ib, ub_g, ub_off[s2], ub_off[s2 + 1])
+def _sawtooth_or_grid(x, s, c, ub_ib, ub_g, ub_off, gU, gm, gtab, work_f, work_i):  # pragma: no cover - compiled
+    """The smaller of the sawtooth's and the grid's upper bounds at (s, x)."""
+    u = sawtooth(x, c[s], ub_ib, ub_g, ub_off[s], ub_off[s + 1])
+    if gm > 0:
+        u = min(u, interpolate(gU[s], x, gm, gtab, work_f, work_i))
+    return u
 
 
 @njit(cache=True)
-def _upper_values(s, x, step, PR, nxt, cnt, c_next, ub_ib, ub_g, ub_off, alpha, a_off, exact_next, q_up):  # pragma: no cover
+def _upper(y, s2, c_next, ub_ib, ub_g, ub_off, gU, gm, gtab, alpha, a_off, exact_next, work_f, work_i):  # pragma: no cover - compiled
+    """The next layer's upper bound at (s2, y)."""
+    if exact_next:
+        return best_node(y, alpha, a_off[s2], a_off[s2 + 1])[0]
+    return _sawtooth_or_grid(y, s2, c_next, ub_ib, ub_g, ub_off, gU, gm, gtab, work_f, work_i)
+
+
+@njit(cache=True)
+def _upper_values(s, x, step, PR, nxt, cnt, c_next, ub_ib, ub_g, ub_off, gU, gm, gtab, alpha, a_off, exact_next, q_up):  # pragma: no cover
     """q_up[a]: each action's backed-up upper value at (s, x)."""
     A, M = PR.shape[1], PR.shape[3]
     y = np.empty(M)
+    work_f, work_i = np.empty(3 * M), np.empty(3 * M, np.int64)
     for a in range(A):
         u = 0.0
         for j in range(M):
@@ -123,7 +141,7 @@ def _upper_values(s, x, step, PR, nxt, cnt, c_next, ub_ib, ub_g, ub_off, alpha, 
         for r in range(cnt[s]):
             for j in range(M):
                 y[j] = x[j] * PR[s, a, r, j]
-            u += _upper(y, nxt[s, r], c_next, ub_ib, ub_g, ub_off, alpha, a_off, exact_next)
+            u += _upper(y, nxt[s, r], c_next, ub_ib, ub_g, ub_off, gU, gm, gtab, alpha, a_off, exact_next, work_f, work_i)
         q_up[a] = u
 
 
@@ -170,7 +188,7 @@ PRUNE_MARGIN = 1e-9
 
 
 @njit(cache=True, parallel=True)
-def action_values(states, X, step, PR, nxt, cnt, c_next, ub_ib, ub_g, ub_off, alpha, a_off, exact_next):  # pragma: no cover - compiled
+def action_values(states, X, step, PR, nxt, cnt, c_next, ub_ib, ub_g, ub_off, gU, gm, gtab, alpha, a_off, exact_next):  # pragma: no cover - compiled
     """Each action's backed-up upper value at each (s, x) of one layer, and the best lower one.
 
     An action whose upper value is below the best lower value cannot be optimal at x: only the
@@ -185,7 +203,7 @@ def action_values(states, X, step, PR, nxt, cnt, c_next, ub_ib, ub_g, ub_off, al
     lo = np.empty(n)
     for i in prange(n):
         q_lo, kids = np.empty(A), np.empty((A, Rm), np.int64)
-        _upper_values(states[i], X[i], step, PR, nxt, cnt, c_next, ub_ib, ub_g, ub_off, alpha, a_off, exact_next, q_up[i])
+        _upper_values(states[i], X[i], step, PR, nxt, cnt, c_next, ub_ib, ub_g, ub_off, gU, gm, gtab, alpha, a_off, exact_next, q_up[i])
         lo[i] = q_lo[_lower_values(states[i], X[i], step, PR, nxt, cnt, alpha, a_off, q_up[i], q_lo, kids)]
     return q_up, lo
 
@@ -201,7 +219,7 @@ def _first_best(q):  # pragma: no cover - compiled
 
 
 @njit(cache=True, parallel=True)
-def backup(states, X, step, PR, nxt, cnt, c_next, ub_ib, ub_g, ub_off, alpha, a_off, exact_next):  # pragma: no cover - compiled
+def backup(states, X, step, PR, nxt, cnt, c_next, ub_ib, ub_g, ub_off, gU, gm, gtab, alpha, a_off, exact_next):  # pragma: no cover - compiled
     """Both bounds backed up at each (s, x) of one layer from the next layer's.
 
     The upper bound: max_a [x . R(s, a) + sum_{s'} U_{t+1}(s', x (.) P(s'|s, a))] >= V_t(s, x).
@@ -222,7 +240,7 @@ def backup(states, X, step, PR, nxt, cnt, c_next, ub_ib, ub_g, ub_off, alpha, a_
     for i in prange(n):
         s, x = states[i], X[i]
         q_up, q_lo, kids = np.empty(A), np.empty(A), np.empty((A, Rm), np.int64)
-        _upper_values(s, x, step, PR, nxt, cnt, c_next, ub_ib, ub_g, ub_off, alpha, a_off, exact_next, q_up)
+        _upper_values(s, x, step, PR, nxt, cnt, c_next, ub_ib, ub_g, ub_off, gU, gm, gtab, alpha, a_off, exact_next, q_up)
         a = _lower_values(s, x, step, PR, nxt, cnt, alpha, a_off, q_up, q_lo, kids)
         up[i] = q_up.max()
         lo[i], action[i] = q_lo[a], a

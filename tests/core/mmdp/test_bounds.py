@@ -61,9 +61,9 @@ def test_the_corner_bound_is_each_model_known():
     P, R, p0 = tiny(3)
     M = P.shape[0]
     known = sum(optimum(P[j : j + 1], R[j : j + 1], p0) for j in range(M))
-    br = bounds.bracket(P, R, p0, graph=poor_graph(P, R), rounds=0)
+    br = bounds.bracket(P, R, p0, graph=poor_graph(P, R), rounds=0, grid=None)
     assert br.corner == pytest.approx(known, abs=1e-10)
-    assert br.upper == pytest.approx(known, abs=1e-10)  # no round: the corners alone
+    assert br.upper == pytest.approx(known, abs=1e-10)  # no round, no grid: the corners alone
 
 
 @pytest.mark.parametrize("seed", range(4))

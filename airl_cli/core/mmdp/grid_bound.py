@@ -1,0 +1,290 @@
+"""An upper bound on the multiple-MDP value on a regular grid of beliefs (Lovejoy 1991).
+
+The value V_t(s, x) of eq. 6.29 (``bounds``) is convex and positively homogeneous in the
+unnormalised belief x (Theorem 6.2.2). On the simplex of normalised beliefs b take the regular
+grid of resolution m, the points k / m with k integer and sum_j k_j = m, and Freudenthal's
+(Kuhn's) triangulation of it: in the coordinates y_i = m sum_{j >= i} b_j (y_0 = m), a belief with
+y = v + d (v = floor y, 1 > d >= 0) lies in the simplex of the M vertices
+
+    v,  v + e_{p_1},  v + e_{p_1} + e_{p_2},  ...        (d_{p_1} >= d_{p_2} >= ...)
+
+with barycentric weights 1 - d_{p_1}, d_{p_1} - d_{p_2}, ..., d_{p_{M-1}} (Lovejoy 1991, sec. 3).
+Convexity gives V(b) <= sum_k w_k V(g_k) for the vertices g_k of b's simplex, so values
+U_t(s, g) >= V_t(s, g) at the grid points bound V everywhere by interpolation:
+
+    I_t(s, x) = |x| sum_k w_k(x / |x|) U_t(s, g_k)  >=  V_t(s, x),
+
+and the grid values themselves are backed up from the next layer's interpolation,
+
+    U_{T-1}(s, g) = g . R_{T-1}(s)                         (exact: V_{T-1} is linear)
+    U_t(s, g)     = max_a [ g . R_t(s, a) + sum_{s'} I_{t+1}(s', g (.) P(s'|s, a)) ]  >=  V_t(s, g),
+
+valid at every layer because the next one is. At the corners the grid values are each model's
+own optimal value or less, so I is never above the corner bound c . x. Unlike the sawtooth's
+points (``bounds``), which lower the bound one belief at a time, the grid lowers it everywhere
+at once; it pays with G = C(m + M - 1, M - 1) points per state and layer, so the resolution m is
+chosen from a budget of work (``resolution``).
+
+Shapes: PR (S, A, R, M) with next states ``nxt`` (S, R) and counts ``cnt`` (S,) as in
+``_bound_kernels``; grid beliefs (G, M); grid values per layer (S, G); ``table`` maps the
+integer coordinates (y_1, ..., y_{M-1}) (base m + 1 digits) to a grid index.
+"""
+
+from __future__ import annotations
+
+from math import comb
+
+import numpy as np
+from numba import njit, prange
+
+#: The grid holds at most this many (state, grid point, action, next state) posteriors (each with
+#: its simplex's M vertices and weights, 16 M bytes): the finest resolution under it is used.
+WORK = 1_000_000
+#: No finer grid than this, whatever the budget (the lookup table has (m + 1)^(M - 1) entries).
+MAX_RESOLUTION = 256
+#: The lookup table's size at most.
+MAX_TABLE = 4_000_000
+
+
+def resolution(M: int, per_point: int, work: int = WORK) -> int:
+    """The finest m whose G = C(m + M - 1, M - 1) points times ``per_point`` (S * A * R) stay within
+    ``work``; 0 when even m = 1 does not, or M = 1 (one model: the corner bound is exact)."""
+    if M < 2:
+        return 0
+    m = 0
+    while m < MAX_RESOLUTION and comb(m + M, M - 1) * per_point <= work and (m + 2) ** (M - 1) <= MAX_TABLE:
+        m += 1
+    return m
+
+
+def grid_points(M: int, m: int) -> tuple[np.ndarray, np.ndarray]:
+    """(beliefs (G, M) normalised, table) of the regular grid of resolution m (every composition of m)."""
+    comps = np.zeros((1, 0), np.int64)
+    left = np.full(1, m, np.int64)
+    for _ in range(M - 1):
+        reps = left + 1
+        first = np.concatenate([np.arange(r, dtype=np.int64) for r in reps])
+        comps = np.column_stack([np.repeat(comps, reps, axis=0), first])
+        left = np.repeat(left, reps) - first
+    comps = np.column_stack([comps, left])  # (G, M), rows sum to m
+    y = np.cumsum(comps[:, ::-1], axis=1)[:, ::-1]
+    key = np.zeros(comps.shape[0], np.int64)
+    for i in range(1, M):
+        key = key * (m + 1) + y[:, i]
+    table = np.full((m + 1) ** (M - 1), -1, np.int64)
+    table[key] = np.arange(comps.shape[0])
+    return comps / m, table
+
+
+@njit(cache=True)
+def simplex(x, m, table, work_f, work_i, idx, w):  # pragma: no cover - compiled
+    """The simplex of Freudenthal's triangulation holding x / |x| (x (M,) >= 0, unnormalised):
+    its M vertices' grid indices in ``idx`` (M,) and barycentric weights in ``w`` (M,) (a vertex of
+    weight 0 gets index -1). Returns |x| (0, and nothing filled, when x = 0).
+
+    ``work_f`` (M,) float and ``work_i`` (2M,) int are scratch."""
+    M = x.size
+    mass = 0.0
+    for j in range(M):
+        mass += x[j]
+    if mass <= 0.0:
+        return 0.0
+    acc = 0.0
+    for i in range(M - 1, 0, -1):  # d_i = frac(y_i), base v_i = floor(y_i), y_i = m sum_{j >= i} b_j
+        acc += x[i]
+        y = min(acc / mass * m, float(m))
+        f = np.floor(y)
+        work_i[i] = np.int64(f)
+        work_f[i] = y - f
+    for i in range(1, M):  # p: the coordinates 1..M-1 by decreasing d (insertion sort)
+        work_i[M + i] = i
+        k = i
+        while k > 1 and work_f[work_i[M + k]] > work_f[work_i[M + k - 1]]:
+            work_i[M + k], work_i[M + k - 1] = work_i[M + k - 1], work_i[M + k]
+            k -= 1
+    prev = 1.0
+    for k in range(M):
+        d = work_f[work_i[M + k + 1]] if k < M - 1 else 0.0
+        w[k] = prev - d
+        idx[k] = -1
+        if w[k] > 0.0:
+            key = 0
+            for i in range(1, M):
+                key = key * (m + 1) + work_i[i]
+            idx[k] = table[key]
+        if k < M - 1:
+            prev = d
+            work_i[work_i[M + k + 1]] += 1
+    return mass
+
+
+@njit(cache=True)
+def interpolate(U, x, m, table, work_f, work_i):  # pragma: no cover - compiled
+    """I(x) = |x| sum_k w_k U[g_k] at unnormalised x (M,) >= 0 (0 when |x| = 0).
+
+    ``U`` (G,) one state's grid values; ``work_f`` (3M,) float and ``work_i`` (3M,) int scratch."""
+    M = x.size
+    mass = simplex(x, m, table, work_f[:M], work_i[: 2 * M], work_i[2 * M :], work_f[M : 2 * M])
+    out = 0.0
+    for k in range(M):
+        if work_i[2 * M + k] >= 0:
+            out += work_f[M + k] * U[work_i[2 * M + k]]
+    return mass * out
+
+
+@njit(cache=True, parallel=True)
+def _vertices(PR, nxt, cnt, B, G_next, m, table):  # pragma: no cover - compiled
+    """For every (s, belief i of B, a, r): the posterior y = B[i] (.) P(nxt[s, r] | s, a)'s simplex,
+    as next-layer node indices nxt[s, r] * G_next + g (-1: weight 0; int32, as the arrays are read
+    at every call and int64 would double the bytes) and weights times |y|.
+
+    Returns vidx (S, nb, A, R, M) int32, vw (S, nb, A, R, M) float64 (0 past ``cnt[s]``)."""
+    S, A, Rm, M = PR.shape
+    nb = B.shape[0]
+    vidx = np.full((S, nb, A, Rm, M), -1, np.int32)
+    vw = np.zeros((S, nb, A, Rm, M))
+    for s in prange(S):
+        y = np.empty(M)
+        work_f, work_i = np.empty(2 * M), np.empty(3 * M, np.int64)
+        for i in range(nb):
+            for a in range(A):
+                for r in range(cnt[s]):
+                    for j in range(M):
+                        y[j] = B[i, j] * PR[s, a, r, j]
+                    mass = simplex(y, m, table, work_f[:M], work_i[: 2 * M], work_i[2 * M :], work_f[M:])
+                    if mass > 0.0:
+                        for k in range(M):
+                            g = work_i[2 * M + k]
+                            if g >= 0:
+                                vidx[s, i, a, r, k] = nxt[s, r] * G_next + g
+                                vw[s, i, a, r, k] = mass * work_f[M + k]
+    return vidx, vw
+
+
+@njit(cache=True, parallel=True)
+def _upper_layer(U_next, step, B, vidx, vw, cnt):  # pragma: no cover - compiled
+    """(S * nb,) max_a [b . R(s, a) + sum_{s'} I_{t+1}(s', b (.) P(s'|s, a))] at every (s, b of B);
+    ``U_next`` the next layer's grid values, flat by node (s' * G + g)."""
+    S, nb, A, Rm, M = vidx.shape
+    U = np.empty(S * nb)
+    for s in prange(S):
+        for i in range(nb):
+            best = -np.inf
+            for a in range(A):
+                q = 0.0
+                for j in range(M):
+                    q += B[i, j] * step[j, s, a]
+                for r in range(cnt[s]):
+                    for k in range(M):
+                        if vidx[s, i, a, r, k] >= 0:
+                            q += vw[s, i, a, r, k] * U_next[vidx[s, i, a, r, k]]
+                best = max(best, q)
+            U[s * nb + i] = best
+    return U
+
+
+@njit(cache=True, parallel=True)
+def _policy_layer(alpha_next, G_next, step, PR, nxt, B, vidx, cnt):  # pragma: no cover - compiled
+    """One node per (s, belief i of B): the action best at the belief, each next state's successor
+    the best (at the posterior) of the next layer's nodes at the vertices of the posterior's simplex.
+
+    Returns action (S*nb,), succ (S*nb, R) (-1 on the padding), alpha (S*nb, M): node s * nb + i's
+    exact values alpha_j = R_j(s, a) + sum_{s'} P_j(s'|s, a) alpha_next[succ]_j."""
+    S, nb, A, Rm, M = vidx.shape
+    action = np.zeros(S * nb, np.int64)
+    succ = np.full((S * nb, Rm), -1, np.int64)
+    alpha = np.zeros((S * nb, M))
+    for s in prange(S):
+        kids, best_kids = np.empty(Rm, np.int64), np.empty(Rm, np.int64)
+        y = np.empty(M)
+        for i in range(nb):
+            best, best_a = -np.inf, 0
+            for a in range(A):
+                q = 0.0
+                for j in range(M):
+                    q += B[i, j] * step[j, s, a]
+                for r in range(cnt[s]):
+                    for j in range(M):
+                        y[j] = B[i, j] * PR[s, a, r, j]
+                    top, arg = -np.inf, -1
+                    for k in range(M):
+                        node = vidx[s, i, a, r, k]
+                        if node >= 0:
+                            v = 0.0
+                            for j in range(M):
+                                v += alpha_next[node, j] * y[j]
+                            if v > top:
+                                top, arg = v, node
+                    if arg < 0:  # the posterior has no mass: any successor will do, worth 0
+                        top, arg = 0.0, nxt[s, r] * G_next
+                    q += top
+                    kids[r] = arg
+                if q > best:
+                    best, best_a = q, a
+                    best_kids[:] = kids
+            n = s * nb + i
+            action[n] = best_a
+            for j in range(M):
+                alpha[n, j] = step[j, s, best_a]
+            for r in range(cnt[s]):
+                succ[n, r] = best_kids[r]
+                for j in range(M):
+                    alpha[n, j] += PR[s, best_a, r, j] * alpha_next[best_kids[r], j]
+    return action, succ, alpha
+
+
+class GridPlanner:
+    """The grid's two bounds for one set of dynamics (the posteriors' simplices computed once).
+
+    Args:
+        PR, nxt, cnt: the sparse dynamics (module docstring); horizon: T; m: the resolution (>= 1);
+        root: (M,) the normalised initial belief (the prior, or uniform): layer 0 is planned there only.
+    """
+
+    def __init__(self, PR: np.ndarray, nxt: np.ndarray, cnt: np.ndarray, horizon: int, m: int, root: np.ndarray):
+        M = PR.shape[3]
+        self.PR, self.nxt, self.cnt, self.T, self.m = PR, nxt, cnt, horizon, m
+        self.beliefs, self.table = grid_points(M, m)
+        self.root = np.ascontiguousarray(root, dtype=np.float64)[None, :]
+        G = self.beliefs.shape[0]
+        self.inner = _vertices(PR, nxt, cnt, self.beliefs, G, m, self.table)
+        self.first = _vertices(PR, nxt, cnt, self.root, G, m, self.table)
+
+    @property
+    def n_points(self) -> int:
+        """G, the grid points per state and layer."""
+        return self.beliefs.shape[0]
+
+    def _layer(self, t: int) -> tuple:
+        return (self.root, *self.first) if t == 0 else (self.beliefs, *self.inner)
+
+    def upper(self, step: np.ndarray, last: np.ndarray) -> list[np.ndarray]:
+        """Per layer t, (S, nb_t) the grid's upper values (nb_0 = 1: at the root belief; else G).
+
+        step: (M, T-1, S, A) and last: (M, S) the layered rewards."""
+        U = [np.ascontiguousarray((self.beliefs @ last).ravel(order="F"))]
+        for t in range(self.T - 2, -1, -1):
+            B, vidx, vw = self._layer(t)
+            U.append(_upper_layer(U[-1], np.ascontiguousarray(step[:, t]), B, vidx, vw, self.cnt))
+        S = last.shape[1]
+        return [u.reshape(S, -1) for u in U[::-1]]
+
+    def policy(self, step: np.ndarray, last: np.ndarray) -> tuple[list, list, list, list, list]:
+        """A policy graph on the grid (Lovejoy 1991's lower bound): at layers 1..T-1 a node per
+        (s, grid point) planned at that point, at layer 0 a node per state planned at the root.
+        Every node's alpha-vector is its plan's exact value, so the graph's value is a lower bound
+        on the optimum. Returns (state, action, successor, alpha, offsets) per layer, as
+        ``PolicyGraph`` holds them."""
+        M, S = last.shape
+        G = self.n_points
+        alpha = [np.ascontiguousarray(np.repeat(last.T, G, axis=0))]
+        action, succ = [], []
+        for t in range(self.T - 2, -1, -1):
+            _, vidx, _ = self._layer(t)
+            B = self._layer(t)[0]
+            a, k, al = _policy_layer(alpha[-1], G, np.ascontiguousarray(step[:, t]), self.PR, self.nxt, B, vidx, self.cnt)
+            action.append(a), succ.append(k), alpha.append(al)
+        sizes = [1] + [G] * (self.T - 1)
+        state = [np.repeat(np.arange(S), n) for n in sizes]
+        offsets = [np.arange(S + 1, dtype=np.int64) * n for n in sizes]
+        return state, action[::-1], succ[::-1], alpha[::-1], offsets

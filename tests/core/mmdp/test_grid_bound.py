@@ -1,0 +1,108 @@
+"""The grid's bounds on the multiple-MDP optimum (``core.mmdp.grid_bound``): Freudenthal's
+interpolation by hand, and both bounds against exact enumeration of every history."""
+
+from __future__ import annotations
+
+from math import comb
+
+import numpy as np
+import pytest
+from test_bounds import optimum, tiny
+
+from airl_cli.core.mdp.sparse import sparse_dynamics
+from airl_cli.core.mmdp import bounds
+from airl_cli.core.mmdp.grid_bound import GridPlanner, grid_points, interpolate, resolution, simplex
+from airl_cli.core.mmdp.policy_graph import PolicyGraph, layered_rewards
+
+
+def scratch(M):
+    return np.empty(3 * M), np.empty(3 * M, np.int64)
+
+
+@pytest.mark.parametrize(("M", "m"), [(2, 5), (3, 4), (4, 3)])
+def test_the_grid_is_every_composition_once(M, m):
+    B, table = grid_points(M, m)
+    assert B.shape == (comb(m + M - 1, M - 1), M)
+    assert np.allclose(B.sum(axis=1), 1.0) and B.min() >= 0
+    counts = np.rint(B * m).astype(int)
+    assert len({tuple(c) for c in counts}) == len(B)  # no composition twice
+    assert sorted(table[table >= 0]) == list(range(len(B)))
+
+
+def test_the_simplex_of_a_point_by_hand():
+    """M = 3, m = 2: b = (0.5, 0.3, 0.2) has y = (2, 1.0, 0.4); v = (2, 1, 0), d = (0, 0, 0.4): the
+    vertices y = (2, 1, 0), (2, 1, 1), i.e. the compositions (1, 1, 0) and (1, 0, 1), weights 0.6, 0.4."""
+    B, table = grid_points(3, 2)
+    idx, w = np.empty(3, np.int64), np.empty(3)
+    mass = simplex(np.array([1.0, 0.6, 0.4]), 2, table, np.empty(3), np.empty(6, np.int64), idx, w)
+    assert mass == pytest.approx(2.0)
+    got = {tuple(np.rint(B[i] * 2).astype(int)): wi for i, wi in zip(idx, w) if i >= 0}
+    assert got == pytest.approx({(1, 1, 0): 0.6, (1, 0, 1): 0.4})
+
+
+@pytest.mark.parametrize(("M", "m"), [(2, 5), (3, 7), (4, 6)])
+def test_interpolation_is_exact_on_linear_and_above_convex_functions(M, m):
+    rng = np.random.default_rng(M)
+    B, table = grid_points(M, m)
+    c = rng.normal(size=M)
+    Q = rng.normal(size=(6, M))  # a convex piecewise-linear function max_k Q_k . b
+    linear, convex = B @ c, (B @ Q.T).max(axis=1)
+    for _ in range(300):
+        x = rng.dirichlet(np.full(M, 0.5)) * rng.uniform(0.1, 3.0)
+        assert interpolate(linear, x, m, table, *scratch(M)) == pytest.approx(x @ c, abs=1e-9)
+        assert interpolate(convex, x, m, table, *scratch(M)) >= (Q @ x).max() - 1e-9
+    for g in range(len(B)):  # at a grid point, the grid's value
+        assert interpolate(convex, 2.0 * B[g], m, table, *scratch(M)) == pytest.approx(2.0 * convex[g])
+
+
+def test_the_resolution_fits_the_budget():
+    assert resolution(1, 10) == 0
+    m = resolution(4, 2000, work=2_000_000)
+    assert comb(m + 3, 3) * 2000 <= 2_000_000 < comb(m + 4, 3) * 2000
+
+
+def grid_bounds(P, R, p0, m):
+    dyn = sparse_dynamics(P)
+    M, S = P.shape[0], P.shape[1]
+    L = layered_rewards(P, R)
+    step, last = np.ascontiguousarray(L.step), np.ascontiguousarray(L.last)
+    planner = GridPlanner(dyn.model_axis_last(), dyn.next_states, dyn.count, L.horizon, m, np.full(M, 1.0 / M))
+    upper = float(p0 @ planner.upper(step, last)[0][:, 0]) * M
+    graph = PolicyGraph(*map(tuple, planner.policy(step, last)), np.arange(S), dyn.next_states)
+    return upper, graph
+
+
+@pytest.mark.parametrize("seed", range(6))
+@pytest.mark.parametrize("m", [1, 3, 12])
+def test_the_grid_brackets_the_optimum_at_every_resolution(seed, m):
+    P, R, p0 = tiny(seed, T=5)
+    best = optimum(P, R, p0)
+    upper, graph = grid_bounds(P, R, p0, m)
+    lower = float(graph.values(p0).sum())
+    assert lower <= best + 1e-9 <= upper + 2e-9
+    # the policy's alpha-vectors are its exact value: the forward pass earns the same rewards
+    earned = float(np.einsum("mts,mts->", graph.marginals(P, p0), R))
+    assert earned == pytest.approx(lower, abs=1e-9)
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_a_fine_grid_closes_on_the_optimum(seed):
+    P, R, p0 = tiny(seed, M=2, T=5)
+    best = optimum(P, R, p0)
+    upper, graph = grid_bounds(P, R, p0, 400)
+    assert float(graph.values(p0).sum()) == pytest.approx(best, rel=1e-3)
+    assert upper == pytest.approx(best, rel=1e-3)
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_the_grid_tightens_the_bracket_and_it_still_holds(seed):
+    """With a deliberately poor PBVI graph and no rounds, the grid alone narrows the bracket."""
+    P, R, p0 = tiny(seed, T=6)
+    best = optimum(P, R, p0)
+    from test_bounds import poor_graph
+
+    without = bounds.bracket(P, R, p0, graph=poor_graph(P, R), rounds=0, grid=None)
+    with_grid = bounds.bracket(P, R, p0, graph=poor_graph(P, R), rounds=0)
+    assert with_grid.lower <= best + 1e-9 <= with_grid.upper + 2e-9
+    assert with_grid.upper <= without.upper + 1e-9 and with_grid.lower >= without.lower - 1e-9
+    assert with_grid.upper - with_grid.lower < without.upper - without.lower
