@@ -344,14 +344,14 @@ def grid_graph(grid: GridPlanner, dyn: SparseDynamics, rewards) -> PolicyGraph:
 
 def grid_planner(dyn: SparseDynamics, horizon: int, lam: np.ndarray, work: int = WORK) -> GridPlanner | None:
     """The grid's bounds for these dynamics at the finest resolution within ``work`` posteriors
-    (``grid_bound.resolution``), planned at the root belief lambda / |lambda|. None where even
-    m = 1 is too many, with one model, with T <= 3 (the last two layers are exact already), and
+    (``grid_bound.resolution``), planned at the root belief lambda / |lambda|. None where m = 2 is too
+    many (m = 1 is the corner bound), with one model, with T <= 3 (the last two layers are exact already), and
     where the moves are of a few kinds (``counts.move_kinds``: the slip and wind grids), whose
     posteriors are few along one policy, so that the sawtooth's points close the bracket there
     (Objectworld 8 x 8: 3e-5 with or without the grid, 0.7 s more with it)."""
     S, A = dyn.shape[1], dyn.shape[2]
     m = resolution(dyn.shape[0], int(dyn.count.sum()) * A, work)
-    if m == 0 or horizon <= 3 or move_kinds(dyn) is not None:
+    if m < 2 or horizon <= 3 or move_kinds(dyn) is not None:
         return None
     return GridPlanner(dyn.model_axis_last(), dyn.next_states, dyn.count, horizon, m, lam / lam.sum())
 

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 from test_certified import adversary_marginals, brute_minimum, enumerated_game, tiny
@@ -87,3 +89,22 @@ def test_a_markov_adversary_s_minimum_lies_below_the_history_dependent_bound(see
     else:
         upper = _closer(problem).bracket(res.upper_rewards).upper + penalty(res.weights[0], targets.sum(axis=0), lam)
     assert res.lower <= f_markov + 1e-7 <= upper + 2e-7
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_a_closing_fit_answering_with_the_grid_s_policy_brackets_the_exact_minimum(seed):
+    """T = 5 on a dense tiny MDP: the bracket builds its grid (``mmdp.grid_bound``) and, once it has
+    run, the fit answers with the grid's policy. The minimum that the exact planner (every history
+    enumerated) certifies lies in [L, U], and the closed bracket is within its tolerance."""
+    problem, targets = tiny(seed, S=3, loss="zero_one")
+    problem = dataclasses.replace(problem, horizon=5)
+    lam = 0.05
+    exact = make_oracle(problem, PlannerOptions(method="exact"), np.random.default_rng(0))[0]
+    f_star = minimize(problem, targets, exact, options=CertifiedOptions(lam=lam, tol=1e-9)).objective
+    closer = _closer(problem)
+    assert closer.grid(np.zeros((problem.transitions.shape[0], 5, 3))) is not None  # the grid is in play
+    oracle = make_oracle(problem, PlannerOptions(), np.random.default_rng(0))[0]
+    res = minimize(problem, targets, oracle, options=CertifiedOptions(lam=lam, bracket_tol=1e-3), close=closer)
+    assert closer.ran
+    assert res.lower <= f_star + 1e-6 <= res.bracket_upper + 2e-6
+    assert res.bracket_relative_gap <= 1e-3
