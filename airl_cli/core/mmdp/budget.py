@@ -30,6 +30,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from airl_cli.core.mmdp.grid_bound import WORK
+
 #: Resident memory of a fit before any problem-sized array (measured: 235-250 MB with the
 #: gradient learner, about 290 MB with the certified one, which also loads HiGHS's QP and Clarabel),
 #: and the first fit after an install, which compiles the planner's kernels (numba, LLVM) before
@@ -104,6 +106,7 @@ def estimate_fit(
         if planner == "pbvi":
             nb = max_beliefs(iterations)
             parts["policy graph"] = graph_bytes(S, T, M, R, iterations)
+            parts["bracket grid"] = grid_bytes(A, T, M, R)
         else:
             parts["policy graph"] = T * S * (R + M) * 8
     return Estimate(total=sum(parts.values()), parts=parts, n_beliefs=nb)
@@ -116,6 +119,15 @@ def graph_bytes(n_states: int, horizon: int, n_models: int, n_next: int, iterati
     plus ``extra_nodes`` for beliefs added to the set (one node per belief at most)."""
     S, T, M, R, nodes = n_states, horizon, n_models, n_next, _nodes(iterations) + extra_nodes
     return T * S * nodes * (R + M) * 8 + S * nodes * R * 8
+
+
+def grid_bytes(n_actions: int, horizon: int, n_models: int, n_next: int, work: int = WORK) -> int:
+    """Bytes of the bracket's grid (``grid_bound``) at most: ``work`` posteriors' simplices (M int32
+    vertices and M float64 weights each), and an eighth more for the best responses' coarser grid
+    when the fit closes, and its policy graph, a node per (state, grid point) and layer, at most
+    work / (A R) of them per layer with R successors and M values."""
+    A, T, M, R = n_actions, horizon, n_models, n_next
+    return work * M * 12 * 9 // 8 + T * (work // (A * R)) * (R + M) * 8
 
 
 def fewer_iterations(estimate: Estimate, available: float, *, iterations: int) -> int | None:
