@@ -135,8 +135,9 @@ def interpolate(U, x, m, table, work_f, work_i):  # pragma: no cover - compiled
 @njit(cache=True, parallel=True)
 def _vertices(PR, nxt, cnt, B, G_next, m, table):  # pragma: no cover - compiled
     """For every (s, belief i of B, a, r): the posterior y = B[i] (.) P(nxt[s, r] | s, a)'s simplex,
-    as next-layer node indices nxt[s, r] * G_next + g (-1: weight 0; int32, as the arrays are read
-    at every call and int64 would double the bytes) and weights times |y|.
+    as next-layer node indices nxt[s, r] * G_next + g (int32, as the arrays are read at every call
+    and int64 would double the bytes; a vertex of weight 0 repeats vertex 0, and a posterior of no
+    mass points at the next state's first node) and weights times |y| (0 for those).
 
     Returns vidx (S, nb, A, R, M) int32, vw (S, nb, A, R, M) float64 (0 past ``cnt[s]``)."""
     S, A, Rm, M = PR.shape
@@ -152,12 +153,14 @@ def _vertices(PR, nxt, cnt, B, G_next, m, table):  # pragma: no cover - compiled
                     for j in range(M):
                         y[j] = B[i, j] * PR[s, a, r, j]
                     mass = simplex(y, m, table, work_f[:M], work_i[: 2 * M], work_i[2 * M :], work_f[M:])
-                    if mass > 0.0:
+                    if mass > 0.0:  # vertex 0's weight 1 - d_(1) is never 0: it stands in for the vertices of weight 0
                         for k in range(M):
-                            g = work_i[2 * M + k]
-                            if g >= 0:
-                                vidx[s, i, a, r, k] = nxt[s, r] * G_next + g
-                                vw[s, i, a, r, k] = mass * work_f[M + k]
+                            g = work_i[2 * M + k] if work_i[2 * M + k] >= 0 else work_i[2 * M]
+                            vidx[s, i, a, r, k] = nxt[s, r] * G_next + g
+                            vw[s, i, a, r, k] = mass * work_f[M + k] if work_i[2 * M + k] >= 0 else 0.0
+                    else:  # no model reaches it: any node of the next state, weight 0
+                        for k in range(M):
+                            vidx[s, i, a, r, k] = nxt[s, r] * G_next
     return vidx, vw
 
 
@@ -176,8 +179,7 @@ def _upper_layer(U_next, step, B, vidx, vw, cnt):  # pragma: no cover - compiled
                     q += B[i, j] * step[j, s, a]
                 for r in range(cnt[s]):
                     for k in range(M):
-                        if vidx[s, i, a, r, k] >= 0:
-                            q += vw[s, i, a, r, k] * U_next[vidx[s, i, a, r, k]]
+                        q += vw[s, i, a, r, k] * U_next[vidx[s, i, a, r, k]]
                 best = max(best, q)
             U[s * nb + i] = best
     return U
@@ -206,17 +208,14 @@ def _policy_layer(alpha_next, G_next, step, PR, nxt, B, vidx, cnt):  # pragma: n
                 for r in range(cnt[s]):
                     for j in range(M):
                         y[j] = B[i, j] * PR[s, a, r, j]
-                    top, arg = -np.inf, -1
+                    top, arg = -np.inf, 0
                     for k in range(M):
                         node = vidx[s, i, a, r, k]
-                        if node >= 0:
-                            v = 0.0
-                            for j in range(M):
-                                v += alpha_next[node, j] * y[j]
-                            if v > top:
-                                top, arg = v, node
-                    if arg < 0:  # the posterior has no mass: any successor will do, worth 0
-                        top, arg = 0.0, nxt[s, r] * G_next
+                        v = 0.0
+                        for j in range(M):
+                            v += alpha_next[node, j] * y[j]
+                        if v > top:
+                            top, arg = v, node
                     q += top
                     kids[r] = arg
                 if q > best:
