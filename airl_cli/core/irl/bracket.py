@@ -52,9 +52,11 @@ CLOSE_SHARE = 0.25
 #: The fit's best responses after the first bracket use a grid of at most this many posteriors,
 #: doubled at each later bracket up to the bracket's own (``grid_bound.WORK``): where the coarse
 #: grid's policy is not good enough the bracket's policy keeps joining the game, and the finer
-#: grid follows. On the default problem (M = 4, S = 20): m = 7, 0.04 s a response, 3e-4 of the
-#: value below the optimum on seed 0 and 1e-3 on seed 1; m = 16 (the bracket's), 0.3 s, 3e-5.
-RESPOND_WORK = WORK // 8
+#: grid follows. On the default problem (M = 4, S = 20) this is m = 7, 0.03 s a response, 4e-4
+#: of the value below the optimum on seed 0 (the bracket's m = 12: 0.15 s, 3e-5). Closing fits of
+#: seeds 0 and 2 took 15.2 and 29.4 s with it, 20.7 and 39.1 s starting at WORK // 8 (m = 5),
+#: 29.0 and 31.6 s at WORK // 2.
+RESPOND_WORK = WORK // 4
 
 #: The closing step: (rewards (M, T, S), absolute target) -> (a policy's exact value, its marginals
 #: (M, T, S), an upper bound on every policy's value).
@@ -96,8 +98,8 @@ class Closer:
 
     def respond(self, R: np.ndarray) -> tuple[float, np.ndarray]:
         """The fit's best response once a bracket has run: the grid's policy (``mmdp.grid_bound``)
-        where the grid fits (on the default problem 2e-4 of the value below the optimum where PBVI
-        is 5e-3 below), else PBVI and one backup at the posteriors
+        where the grid fits (on the default problem's answer 4e-4 of the value below the optimum
+        where PBVI is 5e-3 below), else PBVI and one backup at the posteriors
         where the brackets' policies went (``reached``): a better policy, at a small part of a
         bracket's cost (its value is exact, as any policy graph's)."""
         grid = self.grid(R, min(WORK, RESPOND_WORK * 2 ** (self.calls - 1)))
