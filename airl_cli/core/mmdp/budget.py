@@ -30,14 +30,16 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from airl_cli.core.mmdp.grid_bound import WORK
-
 #: Resident memory of a fit before any problem-sized array (measured: 235-250 MB with the
 #: gradient learner, about 290 MB with the certified one, which also loads HiGHS's QP and Clarabel),
 #: and the first fit after an install, which compiles the planner's kernels (numba, LLVM) before
 #: caching them: 510 MB at S=20.
 BASE_BYTES = 600 * 2**20
 GB = 2**30
+#: The bracket's grid of beliefs (``grid_bound``) holds at most this many (state, grid point,
+#: action, next state) posteriors, each with its simplex's M vertices and weights (12 M bytes): the
+#: finest resolution under it is used. Here, so that the memory estimate needs no compiled code.
+GRID_WORK = 1_000_000
 
 
 @dataclass(frozen=True)
@@ -121,7 +123,7 @@ def graph_bytes(n_states: int, horizon: int, n_models: int, n_next: int, iterati
     return T * S * nodes * (R + M) * 8 + S * nodes * R * 8
 
 
-def grid_bytes(n_actions: int, horizon: int, n_models: int, n_next: int, work: int = WORK) -> int:
+def grid_bytes(n_actions: int, horizon: int, n_models: int, n_next: int, work: int = GRID_WORK) -> int:
     """Bytes of the bracket's grid (``grid_bound``) at most: ``work`` posteriors' simplices (M int32
     vertices and M float64 weights each), and an eighth more for the best responses' coarser grid
     when the fit closes, and its policy graph, a node per (state, grid point) and layer, at most

@@ -37,9 +37,9 @@ from math import comb
 import numpy as np
 from numba import njit, prange
 
-#: The grid holds at most this many (state, grid point, action, next state) posteriors (each with
-#: its simplex's M vertices and weights, 16 M bytes): the finest resolution under it is used.
-WORK = 1_000_000
+from airl_cli.core.mmdp.budget import GRID_WORK
+
+WORK = GRID_WORK  # the posteriors the grid holds at most (``budget.GRID_WORK``)
 #: No finer grid than this, whatever the budget (the lookup table has (m + 1)^(M - 1) entries).
 MAX_RESOLUTION = 256
 #: The lookup table's size at most.
@@ -164,6 +164,15 @@ def _vertices(PR, nxt, cnt, B, G_next, m, table):  # pragma: no cover - compiled
     return vidx, vw
 
 
+@njit(cache=True)
+def _expected_reward(B, i, step, s, a):  # pragma: no cover - compiled
+    """b_i . R(s, a): belief i of B (nb, M) weighting the models' rewards ``step`` (M, S, A)."""
+    q = 0.0
+    for j in range(B.shape[1]):
+        q += B[i, j] * step[j, s, a]
+    return q
+
+
 @njit(cache=True, parallel=True)
 def _upper_layer(U_next, step, B, vidx, vw, cnt):  # pragma: no cover - compiled
     """(S * nb,) max_a [b . R(s, a) + sum_{s'} I_{t+1}(s', b (.) P(s'|s, a))] at every (s, b of B);
@@ -174,9 +183,7 @@ def _upper_layer(U_next, step, B, vidx, vw, cnt):  # pragma: no cover - compiled
         for i in range(nb):
             best = -np.inf
             for a in range(A):
-                q = 0.0
-                for j in range(M):
-                    q += B[i, j] * step[j, s, a]
+                q = _expected_reward(B, i, step, s, a)
                 for r in range(cnt[s]):
                     for k in range(M):
                         q += vw[s, i, a, r, k] * U_next[vidx[s, i, a, r, k]]
@@ -202,9 +209,7 @@ def _policy_layer(alpha_next, G_next, step, PR, nxt, B, vidx, cnt):  # pragma: n
         for i in range(nb):
             best, best_a = -np.inf, 0
             for a in range(A):
-                q = 0.0
-                for j in range(M):
-                    q += B[i, j] * step[j, s, a]
+                q = _expected_reward(B, i, step, s, a)
                 for r in range(cnt[s]):
                     for j in range(M):
                         y[j] = B[i, j] * PR[s, a, r, j]
