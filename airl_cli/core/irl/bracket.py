@@ -102,7 +102,7 @@ class Closer:
         where PBVI is 5e-3 below), else PBVI and one backup at the posteriors
         where the brackets' policies went (``reached``): a better policy, at a small part of a
         bracket's cost (its value is exact, as any policy graph's)."""
-        grid = self.grid(R, min(WORK, RESPOND_WORK * 2 ** (self.calls - 1)))
+        grid = self.grid(R, min(WORK, RESPOND_WORK * 2 ** (self.calls - 1))) or self.grid(R)
         if grid is None:
             found = bracket(self.P, R, self.p0, graph=self._pbvi(R), rounds=0, points=self.reached, grid=None).graph
         else:
