@@ -223,7 +223,7 @@ def _learn_airl(
         res = minimize(problem, targets, fit_oracle, screen=screen, options=settings.certified, callback=callback, sharpen=sharpen, close=close)
         h = res.history
         zero = bool(res.converged and not np.any(res.weights))  # certified by the exact bound on f(0)
-        name = "exact" if zero else oracle_name(settings.options.planner)
+        name = "exact" if zero else "grid" if close is not None and close.answered_on_grid else oracle_name(settings.options.planner)
         bracketed = bracket_info(res, settings, targets, bracketer, oracle.exact if isinstance(oracle, PBVIThenExact) and oracle.switched else None)
         check = {} if "planner_resolution" in bracketed else _planner_check(problem, targets, res, settings, rng, oracle, grown=sharpen is not None)
         certified_text = certificate(res.relative_gap, settings.certified.tol, res.converged, name, check, sharpened=sharpen is not None)

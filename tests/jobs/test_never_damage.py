@@ -92,6 +92,8 @@ def test_strict_passes_a_certified_fit_whose_bracket_is_within_the_tolerance(tmp
     assert "warning" not in result.stderr
     metrics = json.loads((tmp_path / "a" / "metrics.json").read_text())
     assert metrics["bracket_relative_gap"] <= 1e-3 and metrics["close_steps"] >= 1
+    # once its bracket ran, the fit answered with the belief grid's policy (a dense MDP), and says so
+    assert "against the best responses of PBVI and then of the bracket's belief grid" in metrics["certificate"]
 
 
 def test_strict_fails_a_certificate_that_holds_against_pbvi_only(tmp_path):

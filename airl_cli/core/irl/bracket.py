@@ -79,7 +79,7 @@ class Closer:
         self.points: tuple | None = None  # every belief the brackets backed up, per layer
         self.reached: tuple | None = None  # the posteriors where the brackets' policies go, per layer
         self.last: Bracket | None = None
-        self.calls, self.ran = 0, False
+        self.calls, self.ran, self.answered_on_grid = 0, False, False
         self._grids: dict = {}  # the grids' bounds (``mmdp.grid_bound``) by budget, built at the first call: they depend on the dynamics only
 
     def bracket(self, R: np.ndarray, target: float = 0.0) -> Bracket:
@@ -103,6 +103,7 @@ class Closer:
         where the brackets' policies went (``reached``): a better policy, at a small part of a
         bracket's cost (its value is exact, as any policy graph's)."""
         grid = self.grid(R, min(WORK, RESPOND_WORK * 2 ** (self.calls - 1))) or self.grid(R)
+        self.answered_on_grid = self.answered_on_grid or grid is not None
         if grid is None:
             found = bracket(self.P, R, self.p0, graph=self._pbvi(R), rounds=0, points=self.reached, grid=None).graph
         else:
