@@ -329,8 +329,9 @@ def bracket(
     lower = graph_value(g, p0, lam)
     if grid is not None:
         on_grid = grid_graph(grid, dyn, L)
-        if graph_value(on_grid, p0, lam) > lower:
-            g, lower = on_grid, graph_value(on_grid, p0, lam)
+        on_grid_value = graph_value(on_grid, p0, lam)
+        if on_grid_value > lower:
+            g, lower = on_grid, on_grid_value
     corner = float(np.einsum("nm,nm->", layers.c[0][roots], X0))
     return Bracket(lower, float(up.sum()), corner, g, done, backed, tuple(_stored(h, M) for h in history))
 
@@ -349,8 +350,7 @@ def grid_planner(dyn: SparseDynamics, horizon: int, lam: np.ndarray, work: int =
     where the moves are of a few kinds (``counts.move_kinds``: the slip and wind grids), whose
     posteriors are few along one policy, so that the sawtooth's points close the bracket there
     (Objectworld 8 x 8: 3e-5 with or without the grid, 0.7 s more with it)."""
-    S, A = dyn.shape[1], dyn.shape[2]
-    m = resolution(dyn.shape[0], int(dyn.count.sum()) * A, work)
+    m = resolution(dyn.shape[0], int(dyn.count.sum()) * dyn.shape[2], work)
     if m < 2 or horizon <= 3 or move_kinds(dyn) is not None:
         return None
     return GridPlanner(dyn.model_axis_last(), dyn.next_states, dyn.count, horizon, m, lam / lam.sum())

@@ -125,11 +125,11 @@ def graph_bytes(n_states: int, horizon: int, n_models: int, n_next: int, iterati
 
 def grid_bytes(n_actions: int, horizon: int, n_models: int, n_next: int, work: int = GRID_WORK) -> int:
     """Bytes of the bracket's grid (``grid_bound``) at most: ``work`` posteriors' simplices (M int32
-    vertices and M float64 weights each), and an eighth more for the best responses' coarser grid
-    when the fit closes, and its policy graph, a node per (state, grid point) and layer, at most
-    work / (A R) of them per layer with R successors and M values."""
+    vertices and M float64 weights each), as much again for the best responses' coarser grids when
+    the fit closes (a quarter, a half of it), and its policy graph, a node per (state, grid point)
+    and layer, at most work / (A R) of them per layer with R successors and M values."""
     A, T, M, R = n_actions, horizon, n_models, n_next
-    return work * M * 12 * 9 // 8 + T * (work // (A * R)) * (R + M) * 8
+    return work * M * 12 * 2 + T * (work // (A * R)) * (R + M) * 8
 
 
 def fewer_iterations(estimate: Estimate, available: float, *, iterations: int) -> int | None:

@@ -284,8 +284,7 @@ class GridPlanner:
         alpha = [np.ascontiguousarray(np.repeat(last.T, G, axis=0))]
         action, succ = [], []
         for t in range(self.T - 2, -1, -1):
-            _, vidx, _ = self._layer(t)
-            B = self._layer(t)[0]
+            B, vidx, _ = self._layer(t)
             a, k, al = _policy_layer(alpha[-1], G, np.ascontiguousarray(step[:, t]), self.PR, self.nxt, B, vidx, self.cnt)
             action.append(a), succ.append(k), alpha.append(al)
         sizes = [1] + [G] * (self.T - 1)
