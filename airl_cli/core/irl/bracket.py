@@ -50,12 +50,13 @@ TARGET_SHARE = 0.5
 CLOSE_SHARE = 0.25
 
 #: The fit's best responses after the first bracket use a grid of at most this many posteriors,
-#: doubled at each later bracket up to the bracket's own (``grid_bound.WORK``): where the coarse
-#: grid's policy is not good enough the bracket's policy keeps joining the game, and the finer
-#: grid follows. On the default problem (M = 4, S = 20) this is m = 7, 0.03 s a response, 4e-4
-#: of the value below the optimum on seed 0 (the bracket's m = 12: 0.15 s, 3e-5). Closing fits of
-#: seeds 0 and 2 took 15.2 and 29.4 s with it, 20.7 and 39.1 s starting at WORK // 8 (m = 5),
-#: 29.0 and 31.6 s at WORK // 2.
+#: doubled up to the bracket's own (``grid_bound.WORK``) after each later bracket whose policy
+#: beats the response at its rewards by more than the wanted width (``Closer.__call__``): the
+#: coarse grid's responses then cannot close the bracket, the finer grid's may. On the default
+#: problem (M = 4, S = 20) this is m = 7, 0.03 s a response, 4e-4 of the value below the optimum
+#: on seed 0 (the bracket's m = 12: 0.15 s, 3e-5). Closing fits of seeds 0 and 2 took 15.2 and
+#: 29.4 s with it (doubling at every bracket; 16.0 and 22.8 s doubling only where the responses
+#: fall short), 20.7 and 39.1 s starting at WORK // 8 (m = 5), 29.0 and 31.6 s at WORK // 2.
 RESPOND_WORK = WORK // 4
 
 #: The closing step: (rewards (M, T, S), absolute target) -> (a policy's exact value, its marginals
@@ -80,6 +81,7 @@ class Closer:
         self.reached: tuple | None = None  # the posteriors where the brackets' policies go, per layer
         self.last: Bracket | None = None
         self.calls, self.ran, self.answered_on_grid = 0, False, False
+        self.level = 0  # the responses' grid holds RESPOND_WORK * 2^level posteriors (at most WORK)
         self._grids: dict = {}  # the grids' bounds (``mmdp.grid_bound``) by budget, built at the first call: they depend on the dynamics only
 
     def bracket(self, R: np.ndarray, target: float = 0.0) -> Bracket:
@@ -93,7 +95,14 @@ class Closer:
         return self.last
 
     def __call__(self, R: np.ndarray, target: float) -> tuple[float, np.ndarray, float]:
+        """The closing step at rewards R (M, T, S): the bracket, its policy's value and marginals,
+        and its upper side. Where the fit's responses come from the grid and the bracket's policy
+        beats theirs at R by more than the wanted width (``target / TARGET_SHARE``), the responses'
+        grid is doubled (``level``): only then are they too coarse to close the bracket."""
+        on_grid = self.ran and self._response_grid(R) is not None
         br = self.bracket(R, target)
+        if on_grid and br.lower - self.respond(R)[0] > target / TARGET_SHARE:
+            self.level += 1
         return br.lower, br.graph.marginals(self.P, self.p0), br.upper
 
     def respond(self, R: np.ndarray) -> tuple[float, np.ndarray]:
@@ -102,13 +111,16 @@ class Closer:
         where PBVI is 5e-3 below), else PBVI and one backup at the posteriors
         where the brackets' policies went (``reached``): a better policy, at a small part of a
         bracket's cost (its value is exact, as any policy graph's)."""
-        grid = self.grid(R, min(WORK, RESPOND_WORK * 2 ** (self.calls - 1))) or self.grid(R)
+        grid = self._response_grid(R) or self.grid(R)
         self.answered_on_grid = self.answered_on_grid or grid is not None
         if grid is None:
             found = bracket(self.P, R, self.p0, graph=self._pbvi(R), rounds=0, points=self.reached, grid=None).graph
         else:
             found = grid_graph(grid, self._dyn, R)
         return float(found.values(self.p0).sum()), found.marginals(self.P, self.p0)
+
+    def _response_grid(self, R: np.ndarray):
+        return self.grid(R, min(WORK, RESPOND_WORK * 2**self.level))
 
     def grid(self, R: np.ndarray, work: int = WORK):
         """The grid's bounds for the fit's dynamics and R's horizon within ``work`` posteriors

@@ -108,3 +108,27 @@ def test_a_closing_fit_answering_with_the_grid_s_policy_brackets_the_exact_minim
     assert closer.ran
     assert res.lower <= f_star + 1e-6 <= res.bracket_upper + 2e-6
     assert res.bracket_relative_gap <= 1e-3
+
+
+def test_the_responses_grid_is_refined_only_where_the_bracket_s_policy_beats_them_by_the_wanted_width(monkeypatch):
+    """``Closer.__call__``: once the fit answers on the grid, a closing step whose bracket's policy
+    beats the response at its rewards by more than the wanted width (target / TARGET_SHARE)
+    doubles the responses' grid; one that does not (a wide target) leaves it."""
+    from math import comb
+
+    import airl_cli.core.irl.bracket as bracket_module
+
+    problem, _ = tiny(0, S=3, loss="zero_one")
+    problem = dataclasses.replace(problem, horizon=5)
+    M, S, A, _ = problem.transitions.shape
+    monkeypatch.setattr(bracket_module, "RESPOND_WORK", comb(2 + M - 1, M - 1) * S * A * S)  # m = 2 at level 0
+    closer = _closer(problem)
+    R = np.random.default_rng(3).normal(size=(M, 5, S))
+    closer(R, 0.0)  # the first closing step: the fit's responses were PBVI's, nothing to compare
+    assert closer.level == 0 and closer._response_grid(R).m == 2
+    closer(R, 1e6)
+    assert closer.level == 0
+    coarse = closer.respond(R)[0]
+    assert closer.last.lower - coarse > 1e-6  # the case this test is about: the coarse grid's policy falls short
+    closer(R, 1e-9)
+    assert closer.level == 1 and closer._response_grid(R).m > 2
