@@ -20,6 +20,7 @@ from airl_cli.jobs.common import check_memory, err_console, out_console, output_
 from airl_cli.plain_progress import PlainProgress
 from airl_cli.settings.config import FitSettings, fit_settings, loss_and_seed, problem_settings
 from airl_cli.settings.paths import conf_dir
+from airl_cli.usecases.bracket import narrower
 from airl_cli.usecases.evaluate import identifiability_lines, score_learned
 from airl_cli.usecases.fit import Learned, check_supported, learn
 from airl_cli.usecases.problem import build_dataset, learner_rng, loss_kind, with_loss
@@ -334,7 +335,7 @@ def wide_sentence(info: dict) -> str | None:
     lo, up = info["minimum_bracket"]
     return (
         f"not converged for --strict: eq. 5.9's minimum is known only within [{lo:.6g}, {up:.6g}] whatever the planner, "
-        f"a relative width of {width:.2g} above optim.tol={info['tol']:g} (a larger pbvi.bracket_beliefs narrows it)"
+        f"a relative width of {width:.2g} above optim.tol={info['tol']:g} ({narrower(info)})"
     )
 
 

@@ -14,7 +14,7 @@ from typing import Any
 
 from omegaconf import DictConfig
 
-from airl_cli.core.irl.options import BRACKET_BELIEFS, PBVI_MAX_ITERATIONS, SCHEDULES, CertifiedOptions, FitOptions, PlannerOptions
+from airl_cli.core.irl.options import BRACKET_BELIEFS, GRID_WORK, PBVI_MAX_ITERATIONS, SCHEDULES, CertifiedOptions, FitOptions, PlannerOptions
 from airl_cli.core.mdp.windy import WINDS
 from airl_cli.errors import ConfigError
 from airl_cli.methods import NAMES, REGISTRY
@@ -260,6 +260,7 @@ def _planner(node: Any) -> PlannerOptions:
         check_rounds=r.int("check_rounds", lo=0, hi=20, default=2),
         sharpen_rounds=r.int("sharpen_rounds", lo=0, hi=20, default=0),
         bracket_beliefs=r.int("bracket_beliefs", lo=0, default=BRACKET_BELIEFS),
+        bracket_grid=r.int("bracket_grid", lo=0, default=GRID_WORK),
     )
 
 
@@ -350,6 +351,7 @@ class PlanSettings:
     discount: float | None
     seed: int
     bracket_beliefs: int = BRACKET_BELIEFS
+    bracket_grid: int = GRID_WORK
 
 
 def plan_settings(cfg: DictConfig | Mapping) -> PlanSettings:
@@ -370,6 +372,7 @@ def plan_settings(cfg: DictConfig | Mapping) -> PlanSettings:
         horizon=p.int("horizon", lo=1),
         iterations=p.int("iterations", lo=1, hi=20),
         bracket_beliefs=p.int("bracket_beliefs", lo=0, default=BRACKET_BELIEFS),
+        bracket_grid=p.int("bracket_grid", lo=0, default=GRID_WORK),
         expansion=p.choice("expansion", EXPANSIONS),
         discount=None if discount is None else p.float("discount", lo=0.0, hi=1.0, open_lo=True),
         seed=top.int("seed", lo=0),

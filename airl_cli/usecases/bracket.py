@@ -24,7 +24,7 @@ def closer(problem: GameProblem, oracle, settings: FitSettings) -> Closer | None
     P = getattr(oracle, "P", None)
     P = P if P is not None and not isinstance(P, np.ndarray) else sparse_dynamics(problem.transitions)
     budget = min(planner.bracket_beliefs * P.shape[1] * max(1, problem.horizon - 2), BRACKET_MAX_BELIEFS)
-    return Closer(P, problem.initial, getattr(oracle, "beliefs", None), budget)
+    return Closer(P, problem.initial, getattr(oracle, "beliefs", None), budget, planner.bracket_grid)
 
 
 def closes(settings: FitSettings) -> bool:
@@ -66,6 +66,7 @@ def bracket_info(res, settings: FitSettings, targets: np.ndarray, close: Closer 
     checked = max(res.objective, close.last.lower + answer_penalty(targets, res, settings.certified)) if res.upper_rewards is not None else res.objective
     return info | {
         "bracket_beliefs": int(close.last.beliefs),
+        "bracket_grid_resolution": close.resolution,
         "bracket_calls": int(close.calls),
         "close_steps": int(res.close_steps),
         "checked_objective": float(checked),
@@ -81,5 +82,18 @@ def bracket_phrase(info: dict, bracket_tol: float | None) -> str:
     lo, up = info["minimum_bracket"]
     text = f"; eq. 5.9's minimum lies in [{lo:.6g}, {up:.6g}] whatever the planner (relative width {info['bracket_relative_gap']:.2g})"
     if bracket_tol is not None and info["bracket_relative_gap"] > bracket_tol:
-        text += f", wider than optim.bracket_tol = {bracket_tol:g}: a larger pbvi.bracket_beliefs narrows it"
+        text += f", wider than optim.bracket_tol = {bracket_tol:g}: {narrower(info)}"
     return text
+
+
+def narrower(info: dict) -> str:
+    """What narrows a fit's bracket (its metrics ``info``): closing it inside the fit where it was
+    not closed, else the grid's budget where the bracket had a grid of beliefs (its resolution limits
+    both sides there: the bound and the responses), else the bracket's beliefs."""
+    if not info.get("converged", True):
+        return "the fit stopped at its iteration cap (optim.max_iterations)"
+    if "close_steps" not in info:
+        return "optim.bracket_tol closes it inside the fit"
+    if info.get("bracket_grid_resolution"):
+        return f"a larger pbvi.bracket_grid narrows it (its grid of beliefs had resolution {info['bracket_grid_resolution']})"
+    return "a larger pbvi.bracket_beliefs narrows it"

@@ -96,7 +96,7 @@ def fit_memory(sizes: dict, settings: FitSettings) -> tuple[Estimate, int | None
     """The fit's memory estimate for these sizes (``problem_sizes``) and its PBVI iterations
     (None if it does not run PBVI)."""
     planner = settings.options.planner
-    estimate = with_heap_slack(estimate_fit(**sizes, method=settings.method, planner=planner.method, iterations=planner.iterations))
+    estimate = with_heap_slack(estimate_fit(**sizes, method=settings.method, planner=planner.method, iterations=planner.iterations, grid_work=planner.bracket_grid))
     pbvi = settings.method == "airl" and planner.method == "pbvi"
     return estimate, (planner.iterations if pbvi else None)
 
@@ -153,6 +153,8 @@ def refusal(
         else:
             smallest = total_with_iterations(estimate, iterations, 1)
             nothing_fits = f"; it does not fit even with the smallest planner (pbvi.iterations=1, about {_size(smallest)})"
+    if estimate.parts.get("bracket grid", 0) > estimate.total / 2:
+        what = "pbvi.bracket_grid, or " + what
     if workers > 1:
         what += ", or hydra.launcher.n_jobs"
     beliefs = f" (up to {estimate.n_beliefs} belief points in the planner's policy graph)" if estimate.n_beliefs else ""
@@ -166,6 +168,9 @@ def size_note(estimate: Estimate, iterations: int | None, optimizer: str) -> str
         return None
     if refusal(estimate, available_memory(), iterations=iterations) is not None:
         return None
+    grid = estimate.parts.get("bracket grid", 0)
+    if estimate.n_beliefs <= 1024 and grid > estimate.parts.get("policy graph", 0):  # the grid, not the planner, makes it large
+        return f"note: the bracket's grid of beliefs (pbvi.bracket_grid) takes about {grid / GB:,.1f} GB of the fit's {estimate.total / GB:,.1f} GB of memory"
     # the planner is called once per gradient step, or up to once per iteration of the exact solve
     each = "gradient step" if optimizer == "gradient" else "iteration of the exact solve"
     return (

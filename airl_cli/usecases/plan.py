@@ -52,4 +52,4 @@ def bracket_optimum(problem: MMDPProblem, settings: PlanSettings, result: Plan, 
     prior = problem.prior if problem.prior is not None else np.full(M, 1.0 / M)
     graph = result.graph if settings.method == "pbvi" else None
     budget = min(settings.bracket_beliefs * S * max(1, settings.horizon - 1), BRACKET_MAX_BELIEFS)
-    return bracket(problem.transitions, problem.rewards, problem.initial, graph=graph, prior=prior, horizon=settings.horizon, discount=discount, max_beliefs=budget)
+    return bracket(problem.transitions, problem.rewards, problem.initial, graph=graph, prior=prior, horizon=settings.horizon, discount=discount, max_beliefs=budget, grid_work=settings.bracket_grid)

@@ -158,6 +158,8 @@ def test_bad_data_file_one_sentence_and_no_run_folder(tmp_path):
         (["game.max_iterations=0"], "game.max_iterations"),
         (["pbvi.iterations=0"], "pbvi.iterations"),
         (["pbvi.expectations=guess"], "pbvi.expectations"),
+        (["pbvi.bracket_grid=-1"], "pbvi.bracket_grid"),
+        (["pbvi.bracket_grid=10000000000000"], "lower pbvi.bracket_grid"),  # a grid of 10^13 posteriors is refused before any work
         (["data=/nonexistent/file.npz"], "does not exist"),
     ],
 )

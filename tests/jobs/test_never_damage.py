@@ -92,6 +92,7 @@ def test_strict_passes_a_certified_fit_whose_bracket_is_within_the_tolerance(tmp
     assert "warning" not in result.stderr
     metrics = json.loads((tmp_path / "a" / "metrics.json").read_text())
     assert metrics["bracket_relative_gap"] <= 1e-3 and metrics["close_steps"] >= 1
+    assert metrics["bracket_grid_resolution"] >= 2  # pbvi.bracket_grid's grid of beliefs was built
     # once its bracket ran, the fit answered with the belief grid's policy (a dense MDP), and says so
     assert "against the best responses of PBVI and then of the bracket's belief grid" in metrics["certificate"]
 
@@ -102,6 +103,7 @@ def test_strict_fails_a_certificate_that_holds_against_pbvi_only(tmp_path):
     result = runner.invoke(app, ["fit", "--strict", *SMALL, f"hydra.run.dir={tmp_path / 'a'}"])
     assert result.exit_code == 3, result.output
     assert "not converged for --strict: eq. 5.9's minimum is known only within" in result.stderr
+    assert "optim.bracket_tol closes it inside the fit" in result.stderr  # the fit did not close it: that is the remedy
     metrics = json.loads((tmp_path / "a" / "metrics.json").read_text())
     assert metrics["converged"] and metrics["bracket_relative_gap"] > metrics["tol"]
     lo, up = metrics["minimum_bracket"]

@@ -49,15 +49,16 @@ TARGET_SHARE = 0.5
 #: wanted width (and than the tolerance): below it, the fit's answer is within the width anyway.
 CLOSE_SHARE = 0.25
 
-#: The fit's best responses after the first bracket use a grid of at most this many posteriors,
-#: doubled up to the bracket's own (``grid_bound.WORK``) after each later bracket whose policy
+#: The fit's best responses after the first bracket use a grid of at most this share of the
+#: bracket's posteriors (``Closer``'s ``grid_work``, ``grid_bound.WORK`` by default), doubled up to
+#: the bracket's own after each later bracket whose policy
 #: beats the response at its rewards by more than the wanted width (``Closer.__call__``): the
 #: coarse grid's responses then cannot close the bracket, the finer grid's may. On the default
 #: problem (M = 4, S = 20) this is m = 7, 0.03 s a response, 4e-4 of the value below the optimum
 #: on seed 0 (the bracket's m = 12: 0.15 s, 3e-5). Closing fits of seeds 0 and 2 took 15.2 and
 #: 29.4 s with it (doubling at every bracket; 16.0 and 22.8 s doubling only where the responses
-#: fall short), 20.7 and 39.1 s starting at WORK // 8 (m = 5), 29.0 and 31.6 s at WORK // 2.
-RESPOND_WORK = WORK // 4
+#: fall short), 20.7 and 39.1 s starting at an eighth (m = 5), 29.0 and 31.6 s at a half.
+RESPOND_SHARE = 1 / 4
 
 #: The closing step: (rewards (M, T, S), absolute target) -> (a policy's exact value, its marginals
 #: (M, T, S), an upper bound on every policy's value).
@@ -72,16 +73,17 @@ class Closer:
     Args:
         P: the oracle's dynamics (M, S, A, S), sparse or dense; p0: (S,);
         beliefs: (nb, M) the oracle's belief set, or None (PBVI's default set);
-        max_beliefs: beliefs backed up per call at most.
+        max_beliefs: beliefs backed up per call at most;
+        grid_work: the posteriors the bracket's grid of beliefs holds at most (``grid_bound.resolution``; 0: no grid).
     """
 
-    def __init__(self, P, p0: np.ndarray, beliefs: np.ndarray | None, max_beliefs: int):
-        self.P, self.p0, self.beliefs, self.max_beliefs = P, p0, beliefs, max_beliefs
+    def __init__(self, P, p0: np.ndarray, beliefs: np.ndarray | None, max_beliefs: int, grid_work: int = WORK):
+        self.P, self.p0, self.beliefs, self.max_beliefs, self.grid_work = P, p0, beliefs, max_beliefs, grid_work
         self.points: tuple | None = None  # every belief the brackets backed up, per layer
         self.reached: tuple | None = None  # the posteriors where the brackets' policies go, per layer
         self.last: Bracket | None = None
         self.calls, self.ran, self.answered_on_grid = 0, False, False
-        self.level = 0  # the responses' grid holds RESPOND_WORK * 2^level posteriors (at most WORK)
+        self.level = 0  # the responses' grid holds RESPOND_SHARE * 2^level of grid_work's posteriors (at most all)
         self._grids: dict = {}  # the grids' bounds (``mmdp.grid_bound``) by budget, built at the first call: they depend on the dynamics only
 
     def bracket(self, R: np.ndarray, target: float = 0.0) -> Bracket:
@@ -119,12 +121,19 @@ class Closer:
             found = grid_graph(grid, self._dyn, R)
         return float(found.values(self.p0).sum()), found.marginals(self.P, self.p0)
 
-    def _response_grid(self, R: np.ndarray):
-        return self.grid(R, min(WORK, RESPOND_WORK * 2**self.level))
+    @property
+    def resolution(self) -> int:
+        """m, the resolution of the bracket's grid of beliefs (0 without one, or before the first call)."""
+        grid = self._grids.get(self.grid_work)
+        return 0 if grid is None else int(grid.m)
 
-    def grid(self, R: np.ndarray, work: int = WORK):
+    def _response_grid(self, R: np.ndarray):
+        return self.grid(R, min(self.grid_work, int(self.grid_work * RESPOND_SHARE * 2**self.level)))
+
+    def grid(self, R: np.ndarray, work: int | None = None):
         """The grid's bounds for the fit's dynamics and R's horizon within ``work`` posteriors
-        (``bounds.grid_planner``), or None where too large; built once per budget."""
+        (``grid_work`` by default; ``bounds.grid_planner``), or None where too large; built once per budget."""
+        work = self.grid_work if work is None else work
         if work not in self._grids:
             self._dyn = self.P if isinstance(self.P, SparseDynamics) else sparse_dynamics(self.P)
             self._grids[work] = grid_planner(self._dyn, R.shape[1], np.ones(self._dyn.shape[0]), work)

@@ -10,6 +10,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+from airl_cli.core.mmdp.budget import GRID_WORK
+
 #: The step-size schedules eta_t of ``FitOptions.schedule`` (thesis Table I).
 SCHEDULES = ("inverse_sqrt", "inverse", "constant")
 
@@ -46,6 +48,9 @@ class PlannerOptions:
     bracket_beliefs: the certified learner brackets the adversary's best value whatever the planner
         (``core.irl.bracket``), backing up at most this many beliefs per call per state and layer
         (S * (T - 2) times this, and at most ``BRACKET_MAX_BELIEFS``, in all); 0 turns the bracket off.
+    bracket_grid: the bracket's grid of beliefs (``core.mmdp.grid_bound``, on MDPs whose moves are not
+        of a few kinds) holds at most this many posteriors (S * A * R per grid point), which sets
+        its resolution; a closing fit's responses start on a quarter of it. 0: no grid.
     sharpen_rounds: when > 0, each time the certified learner's gap meets the tolerance, the fit's
         belief set grows by this many such rounds at the best bound's rewards, and the fit goes on
         while that raises the bound (``certified.minimize``'s ``sharpen``); 0 keeps the set fixed.
@@ -64,6 +69,7 @@ class PlannerOptions:
     check_rounds: int = 2
     sharpen_rounds: int = 0
     bracket_beliefs: int = BRACKET_BELIEFS
+    bracket_grid: int = GRID_WORK
 
 
 @dataclass(frozen=True)

@@ -275,6 +275,7 @@ def bracket(
     horizon: int | None = None,
     discount: float = 1.0,
     grid: GridPlanner | None | bool = True,
+    grid_work: int = WORK,
 ) -> Bracket:
     """Bracket the optimum of eq. 6.1: [the value of a policy, a bound no policy exceeds].
 
@@ -290,7 +291,7 @@ def bracket(
             width: see the module's docstring.
         points: a previous ``Bracket.points``: those beliefs are backed up first (one pass).
         grid: the grid's bounds (``grid_bound``) for these dynamics and prior, True to build them at
-            the finest resolution within ``grid_bound.WORK`` (``grid_planner``), or None (the
+            the finest resolution within ``grid_work`` posteriors (``grid_planner``), or None (the
             sawtooth and PBVI's graph alone). The better of the grid's policy and the backed-up
             graph is the lower side.
 
@@ -304,7 +305,7 @@ def bracket(
     if graph is None:
         graph = pbvi_graph(dyn, L, expand_beliefs(dyn, prior=prior) if beliefs is None else beliefs, prior=prior)
     if grid is True:
-        grid = grid_planner(dyn, L.horizon, lam)
+        grid = grid_planner(dyn, L.horizon, lam, grid_work)
     layers = _Layers(dyn, L, graph, grid)
     p0 = np.asarray(initial, dtype=np.float64)
     roots = np.flatnonzero(p0 > 0)

@@ -75,6 +75,7 @@ def estimate_fit(
     planner: str = "pbvi",
     iterations: int = 8,
     n_next: int | None = None,
+    grid_work: int = GRID_WORK,
 ) -> Estimate:
     """The peak memory of one fit of a problem of these sizes.
 
@@ -88,6 +89,7 @@ def estimate_fit(
         iterations: PBVI iterations.
         n_next: R, the most next states any state reaches (``core.sparse.reachable``); None
             means S (a dense MDP).
+        grid_work: the posteriors the bracket's grid of beliefs holds at most (``grid_bytes``).
 
     Returns:
         An ``Estimate``; its ``total`` is meant as an upper bound for the refusal.
@@ -108,7 +110,7 @@ def estimate_fit(
         if planner == "pbvi":
             nb = max_beliefs(iterations)
             parts["policy graph"] = graph_bytes(S, T, M, R, iterations)
-            parts["bracket grid"] = grid_bytes(A, T, M, R)
+            parts["bracket grid"] = grid_bytes(A, T, M, R, grid_work)
         else:
             parts["policy graph"] = T * S * (R + M) * 8
     return Estimate(total=sum(parts.values()), parts=parts, n_beliefs=nb)

@@ -121,8 +121,8 @@ def test_the_responses_grid_is_refined_only_where_the_bracket_s_policy_beats_the
     problem, _ = tiny(0, S=3, loss="zero_one")
     problem = dataclasses.replace(problem, horizon=5)
     M, S, A, _ = problem.transitions.shape
-    monkeypatch.setattr(bracket_module, "RESPOND_WORK", comb(2 + M - 1, M - 1) * S * A * S)  # m = 2 at level 0
     closer = _closer(problem)
+    monkeypatch.setattr(bracket_module, "RESPOND_SHARE", comb(2 + M - 1, M - 1) * S * A * S / closer.grid_work)  # m = 2 at level 0
     R = np.random.default_rng(3).normal(size=(M, 5, S))
     closer(R, 0.0)  # the first closing step: the fit's responses were PBVI's, nothing to compare
     assert closer.level == 0 and closer._response_grid(R).m == 2
@@ -132,3 +132,14 @@ def test_the_responses_grid_is_refined_only_where_the_bracket_s_policy_beats_the
     assert closer.last.lower - coarse > 1e-6  # the case this test is about: the coarse grid's policy falls short
     closer(R, 1e-9)
     assert closer.level == 1 and closer._response_grid(R).m > 2
+
+
+def test_without_a_grid_budget_the_closer_builds_no_grid():
+    """``grid_work`` = 0 (``pbvi.bracket_grid=0``): the sawtooth alone, on a problem where the default builds a grid."""
+    problem, _ = tiny(0, S=3, loss="zero_one")
+    problem = dataclasses.replace(problem, horizon=5)
+    R = np.random.default_rng(3).normal(size=(problem.transitions.shape[0], 5, 3))
+    with_grid, without = _closer(problem), Closer(problem.transitions, problem.initial, None, 10_000, grid_work=0)
+    with_grid.bracket(R), without.bracket(R)
+    assert with_grid.resolution >= 2 and without.resolution == 0 and without.grid(R) is None
+    assert without.last.lower <= with_grid.last.upper + 1e-9 and with_grid.last.lower <= without.last.upper + 1e-9
