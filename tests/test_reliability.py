@@ -392,6 +392,17 @@ def test_the_estimate_grows_with_the_problem_and_the_refusal_says_what_to_lower(
     assert "hydra.launcher.n_jobs" in refusal(lowered, 4 * 2**30, iterations=9, workers=4)
 
 
+def test_the_estimate_counts_the_bracket_s_grid_and_the_refusal_names_it():
+    """``pbvi.bracket_grid``: four times the posteriors, four times the grid's simplices; none without a
+    grid; a grid too large for memory is refused naming the setting."""
+    sizes = dict(n_states=20, n_actions=5, horizon=10, n_dynamics=3, n_demos=100, iterations=8)
+    default, finer, none = (estimate_fit(**sizes, grid_work=w) for w in (10**6, 4 * 10**6, 0))
+    assert none.parts["bracket grid"] == 0 and finer.parts["bracket grid"] == 4 * default.parts["bracket grid"]
+    huge = estimate_fit(**sizes, grid_work=10**12)
+    assert refusal(huge, 23 * 2**30, iterations=8).endswith("lower pbvi.bracket_grid, or mdp.n_states, mdp.horizon")
+    assert refusal(finer, 23 * 2**30, iterations=8) is None
+
+
 def test_the_command_line_s_estimates_count_the_heap_it_keeps():
     """`airl fit` and `airl generate` keep up to TOP_PAD bytes of freed heap mapped (airl_cli.heap):
     their estimates add it to the fit's and the build's."""
