@@ -17,6 +17,7 @@ for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMB
 import time  # noqa: E402
 from pathlib import Path  # noqa: E402
 
+import airl_cli  # noqa: E402,F401  (first, before numpy: it pins OpenBLAS's kernels, as the commands do)
 import numpy as np  # noqa: E402
 from rich.console import Console  # noqa: E402
 from rich.table import Table  # noqa: E402

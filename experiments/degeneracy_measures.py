@@ -33,6 +33,7 @@ from __future__ import annotations
 
 import argparse
 
+import airl_cli  # noqa: F401  (first, before numpy: it pins OpenBLAS's kernels, as the commands do)
 import numpy as np
 
 from airl_cli import api

@@ -75,3 +75,29 @@ def test_the_blas_kernels_are_pinned_so_the_fit_is_the_same_on_any_such_processo
     # a choice of the user's is kept (Sandybridge's kernels run on every AVX machine)
     own = subprocess.run([sys.executable, "-c", FIT], capture_output=True, text=True, env={**env, "OPENBLAS_CORETYPE": "Sandybridge"}, check=True).stdout.split()
     assert own[0] == "Sandybridge"
+
+
+_CHOSEN = """
+import numpy
+from threadpoolctl import threadpool_info
+print(" ".join({i.get("architecture") for i in threadpool_info() if i.get("internal_api") == "openblas"} - {None}))
+"""
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux") or not {"avx2", "fma"} <= _cpu_flags(), reason="the pin is for x86-64 Linux with AVX2")
+def test_importing_airl_cli_after_numpy_warns_where_openblas_chose_other_kernels():
+    """Imported first, airl_cli pins OpenBLAS's kernels and says nothing; imported after numpy, it
+    warns exactly when OpenBLAS chose other kernels than Haswell's by itself (an AVX-512 Xeon's)."""
+    env = {k: v for k, v in os.environ.items() if k != "OPENBLAS_CORETYPE"}
+
+    def stderr(code: str, **extra) -> str:
+        return subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env={**env, **extra}, check=True).stderr
+
+    chosen = subprocess.run([sys.executable, "-c", _CHOSEN], capture_output=True, text=True, env=env, check=True).stdout.split()
+    assert "imported after numpy" not in stderr("import airl_cli, numpy")
+    late = stderr("import numpy, airl_cli")
+    if set(chosen) - {"Haswell"}:
+        assert "RuntimeWarning: airl_cli was imported after numpy or scipy" in late and "OPENBLAS_CORETYPE=Haswell" in late
+    else:
+        assert "imported after numpy" not in late
+    assert "imported after numpy" not in stderr("import numpy, airl_cli", OPENBLAS_CORETYPE="Haswell")  # the user's own pin
