@@ -103,7 +103,7 @@ class Closer:
         grid is doubled (``level``): only then are they too coarse to close the bracket."""
         on_grid = self.ran and self._response_grid(R) is not None
         br = self.bracket(R, target)
-        if on_grid and br.lower - self.respond(R)[0] > target / TARGET_SHARE:
+        if on_grid and br.lower - float(self._response(R).values(self.p0).sum()) > target / TARGET_SHARE:
             self.level += 1
         return br.lower, br.graph.marginals(self.P, self.p0), br.upper
 
@@ -113,13 +113,16 @@ class Closer:
         where PBVI is 5e-3 below), else PBVI and one backup at the posteriors
         where the brackets' policies went (``reached``): a better policy, at a small part of a
         bracket's cost (its value is exact, as any policy graph's)."""
+        found = self._response(R)
+        return float(found.values(self.p0).sum()), found.marginals(self.P, self.p0)
+
+    def _response(self, R: np.ndarray):
+        """``respond``'s policy graph (its value and marginals are the caller's to compute)."""
         grid = self._response_grid(R) or self.grid(R)
         self.answered_on_grid = self.answered_on_grid or grid is not None
         if grid is None:
-            found = bracket(self.P, R, self.p0, graph=self._pbvi(R), rounds=0, points=self.reached, grid=None).graph
-        else:
-            found = grid_graph(grid, self._dyn, R)
-        return float(found.values(self.p0).sum()), found.marginals(self.P, self.p0)
+            return bracket(self.P, R, self.p0, graph=self._pbvi(R), rounds=0, points=self.reached, grid=None).graph
+        return grid_graph(grid, self._dyn, R)
 
     @property
     def resolution(self) -> int:
