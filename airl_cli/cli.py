@@ -149,7 +149,7 @@ def fit(
     strict: bool = typer.Option(
         False,
         "--strict",
-        help="Exit with status 3 if the fit warns (NOT converged, a degenerate optimum) or its bracket on eq. 5.9's minimum is wider than optim.tol.",
+        help="Exit with status 3 if the fit warns (NOT converged, a degenerate optimum) or its bracket on eq. 5.9's minimum is wider than optim.bracket_tol where set, else optim.tol.",
     ),
 ) -> None:
     """``airl fit`` (its help, ``FIT_HELP``, names the methods of the registry)."""

@@ -20,7 +20,7 @@ from airl_cli.jobs.common import check_memory, err_console, out_console, output_
 from airl_cli.plain_progress import PlainProgress
 from airl_cli.settings.config import FitSettings, fit_settings, loss_and_seed, problem_settings
 from airl_cli.settings.paths import conf_dir
-from airl_cli.usecases.bracket import narrower
+from airl_cli.usecases.bracket import fit_tol, narrower
 from airl_cli.usecases.evaluate import identifiability_lines, score_learned
 from airl_cli.usecases.fit import Learned, check_supported, learn
 from airl_cli.usecases.problem import build_dataset, learner_rng, loss_kind, with_loss
@@ -269,7 +269,7 @@ def fit_and_write(
 def fit_with_progress(cfg: DictConfig, folder: Path, settings: FitSettings) -> FitRun:
     """``fit_and_write`` under a live display: the learner's iterations, and the current planner call's time steps."""
     exact = settings.optimizer == "exact"
-    tol = settings.certified.tol
+    tol = fit_tol(settings)
     columns = (TextColumn("{task.description}"), BarColumn(bar_width=12), TextColumn("{task.fields[info]}"), TimeElapsedColumn())
     name = "fit (exact)" if exact else "fit (gradient)"
     plain, last = PlainProgress(err_console), [""]  # stderr to a file: plain lines, the last step's info
@@ -317,25 +317,29 @@ def main(cfg: DictConfig) -> None:
     for sentence in fit_warnings(run.learned.info):
         err_console.print(f"warning: {sentence}", soft_wrap=True)
         WARNED.append(sentence)
-    if run.learned.method == "airl" and (wide := wide_sentence(run.learned.info)):
+    if run.learned.method == "airl" and (wide := wide_sentence(run.learned.info, settings.certified.bracket_tol)):
         WIDE.append(wide)
 
 
 #: The warnings of the fits run in this process (``airl fit --strict`` exits 3 if there are any).
 WARNED: list[str] = []
-#: What ``airl fit --strict`` also counts as not converged: a bracket on eq. 5.9's minimum wider than optim.tol.
+#: What ``airl fit --strict`` also counts as not converged: a bracket on eq. 5.9's minimum wider than optim.bracket_tol where set, else optim.tol.
 WIDE: list[str] = []
 
 
-def wide_sentence(info: dict) -> str | None:
-    """The sentence ``--strict`` adds when the bracket, valid whatever the planner, is wider than optim.tol."""
+def wide_sentence(info: dict, bracket_tol: float | None = None) -> str | None:
+    """The sentence ``--strict`` adds when the bracket, valid whatever the planner, is wider than
+    optim.bracket_tol where set (the width the fit closed it to), else optim.tol."""
     width = info.get("bracket_relative_gap")
-    if width is None or width <= info["tol"]:
+    if width is None:
+        return None
+    limit, name = (info["tol"], "optim.tol") if bracket_tol is None else (bracket_tol, "optim.bracket_tol")
+    if width <= limit:
         return None
     lo, up = info["minimum_bracket"]
     return (
         f"not converged for --strict: eq. 5.9's minimum is known only within [{lo:.6g}, {up:.6g}] whatever the planner, "
-        f"a relative width of {width:.2g} above optim.tol={info['tol']:g} ({narrower(info)})"
+        f"a relative width of {width:.2g} above {name}={limit:g} ({narrower(info)})"
     )
 
 

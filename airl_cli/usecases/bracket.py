@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from airl_cli.core.irl.bracket import TARGET_SHARE, Closer, relative_width
-from airl_cli.core.irl.certified import answer_penalty
+from airl_cli.core.irl.certified import answer_penalty, stop_tol
 from airl_cli.core.irl.game_problem import GameProblem
 from airl_cli.core.irl.options import BRACKET_MAX_BELIEFS
 from airl_cli.core.mdp.sparse import sparse_dynamics
@@ -18,13 +18,24 @@ def closer(problem: GameProblem, oracle, settings: FitSettings) -> Closer | None
     """The bracket's planner for a certified fit, or None: ``pbvi.bracket_beliefs`` = 0 turns it off,
     and ``pbvi.method=exact`` or ``counts`` needs none (their best responses are exact, so the
     certificate already holds for eq. 5.9 itself). It plans PBVI at the fit's belief set (if the fit reuses one)."""
-    planner = settings.options.planner
-    if planner.bracket_beliefs == 0 or planner.method in EXACT_PLANNERS:
+    if not _brackets(settings):
         return None
+    planner = settings.options.planner
     P = getattr(oracle, "P", None)
     P = P if P is not None and not isinstance(P, np.ndarray) else sparse_dynamics(problem.transitions)
     budget = min(planner.bracket_beliefs * P.shape[1] * max(1, problem.horizon - 2), BRACKET_MAX_BELIEFS)
     return Closer(P, problem.initial, getattr(oracle, "beliefs", None), budget, planner.bracket_grid)
+
+
+def _brackets(settings: FitSettings) -> bool:
+    planner = settings.options.planner
+    return planner.bracket_beliefs > 0 and planner.method not in EXACT_PLANNERS
+
+
+def fit_tol(settings: FitSettings) -> float:
+    """The relative gap the certified fit drives its own certificate to (``certified.stop_tol``): a
+    share of optim.bracket_tol where it closes the bracket (the bracket is the certificate then), else optim.tol."""
+    return stop_tol(settings.certified, closes(settings) and _brackets(settings))
 
 
 def closes(settings: FitSettings) -> bool:

@@ -226,7 +226,7 @@ def _learn_airl(
         name = "exact" if zero else "grid" if close is not None and close.answered_on_grid else oracle_name(settings.options.planner)
         bracketed = bracket_info(res, settings, targets, bracketer, oracle.exact if isinstance(oracle, PBVIThenExact) and oracle.switched else None)
         check = {} if "planner_resolution" in bracketed else _planner_check(problem, targets, res, settings, rng, oracle, grown=sharpen is not None)
-        certified_text = certificate(res.relative_gap, settings.certified.tol, res.converged, name, check, sharpened=sharpen is not None)
+        certified_text = certificate(res.relative_gap, res.tol, res.converged, name, check, sharpened=sharpen is not None)
         info = {
             "optimizer": "exact",
             "stopped": res.stopped,
@@ -235,7 +235,7 @@ def _learn_airl(
             "lower_bound": res.lower,
             "gap": res.gap,
             "relative_gap": res.relative_gap,
-            "tol": settings.certified.tol,
+            "tol": res.tol,
             "oracle": oracle_name(settings.options.planner),
             "adversary": settings.options.planner.adversary,
             "certificate": certified_text + bracket_phrase(bracketed, settings.certified.bracket_tol),
@@ -251,7 +251,7 @@ def _learn_airl(
             # how many strategies each player's equilibrium mixture uses (weight above 1e-8)
             "learner_support": int(np.sum(res.learner_mix > 1e-8)),
             "adversary_support": int(np.sum(res.adversary_mix > 1e-8)),
-            **_degeneracy(problem, targets, res, settings.certified.tol),
+            **_degeneracy(problem, targets, res, res.tol),
         }
         return Learned("airl", res.weights, None, res.history, info, (res.learner_policies, res.learner_mix))
     result = fit(problem, targets, rng=rng, options=settings.options, oracle=oracle, callback=callback)

@@ -7,7 +7,7 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-from airl_cli.core.mmdp.budget import GB, Estimate, estimate_fit, fewer_iterations, graph_bytes, total_with_iterations
+from airl_cli.core.mmdp.budget import GB, GRID_GROWTH, Estimate, estimate_fit, fewer_iterations, graph_bytes, total_with_iterations
 from airl_cli.heap import TOP_PAD
 from airl_cli.settings.config import FitSettings, ProblemSettings
 
@@ -96,7 +96,8 @@ def fit_memory(sizes: dict, settings: FitSettings) -> tuple[Estimate, int | None
     """The fit's memory estimate for these sizes (``problem_sizes``) and its PBVI iterations
     (None if it does not run PBVI)."""
     planner = settings.options.planner
-    estimate = with_heap_slack(estimate_fit(**sizes, method=settings.method, planner=planner.method, iterations=planner.iterations, grid_work=planner.bracket_grid))
+    grid = planner.bracket_grid * (GRID_GROWTH if settings.certified.bracket_tol is not None else 1)  # a closing fit may refine it
+    estimate = with_heap_slack(estimate_fit(**sizes, method=settings.method, planner=planner.method, iterations=planner.iterations, grid_work=grid))
     pbvi = settings.method == "airl" and planner.method == "pbvi"
     return estimate, (planner.iterations if pbvi else None)
 

@@ -86,12 +86,14 @@ def test_a_fit_stopped_at_its_cap_says_not_converged_on_stderr_and_strict_fails(
 
 
 def test_strict_passes_a_certified_fit_whose_bracket_is_within_the_tolerance(tmp_path):
-    closed = ["optim.tol=1e-3", "optim.bracket_tol=1e-3"]  # the fit closes its bracket to optim.tol
+    closed = ["optim.bracket_tol=1e-3"]  # the fit closes its bracket to this, --strict judges it against this
     result = runner.invoke(app, ["fit", "--strict", *SMALL, *closed, f"hydra.run.dir={tmp_path / 'a'}"])
     assert result.exit_code == 0, result.output
     assert "warning" not in result.stderr
     metrics = json.loads((tmp_path / "a" / "metrics.json").read_text())
     assert metrics["bracket_relative_gap"] <= 1e-3 and metrics["close_steps"] >= 1
+    # the bracket is the certificate: the fit's own gap is driven to a quarter of its width, not to optim.tol = 1e-4
+    assert metrics["tol"] == pytest.approx(2.5e-4) and metrics["relative_gap"] <= metrics["tol"] and metrics["converged"]
     assert metrics["bracket_grid_resolution"] >= 2  # pbvi.bracket_grid's grid of beliefs was built
     # once its bracket ran, the fit answered with the belief grid's policy (a dense MDP), and says so
     assert "against the best responses of PBVI and then of the bracket's belief grid" in metrics["certificate"]

@@ -117,8 +117,9 @@ class CertifiedOptions:
     bracket_tol: None: the bracket on min f is measured at the answer only. A number: the fit closes
         it, adding the bracket's best responses (``core.irl.bracket``) where it would stop and
         answering with the grid's policy (or PBVI refined where they go), until its relative width is
-        within this or they no longer raise the bound; the fit's own gap is then driven to a
-        quarter of it as well, where ``tol`` is larger.
+        within this or they no longer raise the bound, refining the bracket's grid where its
+        resolution holds it open (``bracket.Closer``); the bracket is then the certificate, and the
+        fit's own gap is driven to a quarter of this whatever ``tol`` (``certified.stop_tol``).
     """
 
     weight_sharing: bool = True

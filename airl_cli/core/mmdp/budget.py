@@ -40,6 +40,9 @@ GB = 2**30
 #: action, next state) posteriors, each with its simplex's M vertices and weights (12 M bytes): the
 #: finest resolution under it is used. Here, so that the memory estimate needs no compiled code.
 GRID_WORK = 1_000_000
+#: A fit that closes its bracket (``core.irl.bracket.Closer``) refines the grid where its resolution
+#: keeps the bracket wider than wanted, doubling its posteriors up to this many times the setting's.
+GRID_GROWTH = 8
 
 
 @dataclass(frozen=True)

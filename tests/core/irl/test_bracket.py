@@ -13,6 +13,7 @@ from airl_cli.core.irl.bracket import Closer
 from airl_cli.core.irl.certified import CertifiedOptions, minimize
 from airl_cli.core.irl.certified_steps import penalty
 from airl_cli.core.irl.learn import PlannerOptions, make_oracle
+from airl_cli.core.mmdp.planner import solve
 
 CASES = [(0, 2, True, "zero_one"), (1, 3, False, "zero_one"), (2, 3, True, "squared_features"), (3, 2, False, "squared_features"), (4, 3, True, "random")]
 
@@ -108,6 +109,19 @@ def test_a_closing_fit_answering_with_the_grid_s_policy_brackets_the_exact_minim
     assert closer.ran
     assert res.lower <= f_star + 1e-6 <= res.bracket_upper + 2e-6
     assert res.bracket_relative_gap <= 1e-3
+    assert res.tol == 2.5e-4 and res.relative_gap <= res.tol  # the fit's own gap: a quarter of the bracket's width
+
+
+def test_a_closing_fit_drives_its_own_gap_to_a_share_of_the_bracket_s_width_whatever_tol():
+    """``certified.stop_tol``: where the fit closes a bracket, the bracket is the certificate and the
+    fit's gap against its planner stops at ``CLOSE_SHARE`` of ``bracket_tol``, below or above ``tol``."""
+    from airl_cli.core.irl.bracket import CLOSE_SHARE
+    from airl_cli.core.irl.certified import stop_tol
+
+    for tol in (1e-6, 1e-2):
+        assert stop_tol(CertifiedOptions(tol=tol, bracket_tol=1e-3), True) == CLOSE_SHARE * 1e-3
+        assert stop_tol(CertifiedOptions(tol=tol, bracket_tol=1e-3), False) == tol  # no closing: tol
+        assert stop_tol(CertifiedOptions(tol=tol), True) == tol
 
 
 def test_the_responses_grid_is_refined_only_where_the_bracket_s_policy_beats_them_by_the_wanted_width(monkeypatch):
@@ -122,6 +136,7 @@ def test_the_responses_grid_is_refined_only_where_the_bracket_s_policy_beats_the
     problem = dataclasses.replace(problem, horizon=5)
     M, S, A, _ = problem.transitions.shape
     closer = _closer(problem)
+    closer.max_grid_work = closer.grid_work  # the bracket's own grid stays as it is (its refinement: the next test)
     monkeypatch.setattr(bracket_module, "RESPOND_SHARE", comb(2 + M - 1, M - 1) * S * A * S / closer.grid_work)  # m = 2 at level 0
     R = np.random.default_rng(3).normal(size=(M, 5, S))
     closer(R, 0.0)  # the first closing step: the fit's responses were PBVI's, nothing to compare
@@ -132,6 +147,32 @@ def test_the_responses_grid_is_refined_only_where_the_bracket_s_policy_beats_the
     assert closer.last.lower - coarse > 1e-6  # the case this test is about: the coarse grid's policy falls short
     closer(R, 1e-9)
     assert closer.level == 1 and closer._response_grid(R).m > 2
+
+
+def test_a_bracket_wider_than_its_target_refines_the_grid_up_to_its_cap():
+    """``Closer.__call__``: a closing step whose bracket is wider than the target on the grid doubles
+    the grid's posteriors and brackets again, up to ``GRID_GROWTH`` times the setting's; a wide
+    target leaves the grid as it is. The finer grid's bracket is no wider, and still valid (it
+    holds the exact optimum)."""
+    from math import comb
+
+    from airl_cli.core.mmdp.budget import GRID_GROWTH
+
+    problem, _ = tiny(0, S=3, loss="zero_one")
+    problem = dataclasses.replace(problem, horizon=5)
+    M, S, A, _ = problem.transitions.shape
+    R = np.random.default_rng(3).normal(size=(M, 5, S))
+    exact = solve(problem.transitions, R, problem.initial, method="exact").value
+    start = comb(3 + M - 1, M - 1) * S * A * S  # m = 3: coarse enough to leave a gap (10 sawtooth beliefs at most)
+    wide, tight = Closer(problem.transitions, problem.initial, None, 10, start), Closer(problem.transitions, problem.initial, None, 10, start)
+    wide(R, 1e6)
+    assert wide.grid_work == start and wide.resolution == 3
+    coarse = wide.last.upper - wide.last.lower
+    assert coarse > 1e-6  # the case this test is about: the coarse grid leaves the bracket open
+    tight(R, 1e-12)
+    assert tight.grid_work == GRID_GROWTH * start and tight.resolution > 3
+    assert tight.last.upper - tight.last.lower <= coarse + 1e-12
+    assert tight.last.lower <= exact + 1e-9 <= tight.last.upper + 2e-9
 
 
 def test_without_a_grid_budget_the_closer_builds_no_grid():
