@@ -435,6 +435,22 @@ def test_the_refusal_never_advises_iterations_that_do_not_fit():
             assert estimate_fit(n_states=S, **sizes, iterations=int(advice.group(1))).total <= 23 * 2**30, (S, T)
 
 
+def test_a_closing_fit_s_estimate_counts_the_grid_it_may_refine_to_and_its_note_names_the_grid(monkeypatch):
+    """``optim.bracket_tol``: the closing fit may refine the bracket's grid up to ``GRID_GROWTH`` times
+    ``pbvi.bracket_grid`` (``bracket.Closer``), so its estimate counts that much, and the note before
+    it says that the grid is what makes the default problem's closing fit large."""
+    from airl_cli import api
+    from airl_cli.core.mmdp.budget import GRID_GROWTH
+    from airl_cli.jobs import common
+
+    monkeypatch.setattr(memory, "available_memory", lambda: 1 << 50)
+    measured, closing = (common.memory_estimate(api.config(*extra))[0] for extra in ([], ["optim.bracket_tol=1e-3"]))
+    assert closing.parts["bracket grid"] == GRID_GROWTH * measured.parts["bracket grid"] > 0
+    assert common.size_note(api.config()) is None  # the README's first command: no note
+    note = common.size_note(api.config("optim.bracket_tol=1e-3"))
+    assert note is not None and "bracket's grid of beliefs (pbvi.bracket_grid) may take up to about" in note
+
+
 @pytest.mark.parametrize("optim, each", [("exact", "each iteration of the exact solve"), ("gradient", "each gradient step")])
 def test_the_large_fit_note_names_the_optimiser_in_use(monkeypatch, optim, each):
     from airl_cli import api

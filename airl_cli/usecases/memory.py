@@ -171,7 +171,7 @@ def size_note(estimate: Estimate, iterations: int | None, optimizer: str) -> str
         return None
     grid = estimate.parts.get("bracket grid", 0)
     if estimate.n_beliefs <= 1024 and grid > estimate.parts.get("policy graph", 0):  # the grid, not the planner, makes it large
-        return f"note: the bracket's grid of beliefs (pbvi.bracket_grid) takes about {grid / GB:,.1f} GB of the fit's {estimate.total / GB:,.1f} GB of memory"
+        return f"note: the bracket's grid of beliefs (pbvi.bracket_grid) may take up to about {grid / GB:,.1f} GB of the fit's {estimate.total / GB:,.1f} GB of memory"
     # the planner is called once per gradient step, or up to once per iteration of the exact solve
     each = "gradient step" if optimizer == "gradient" else "iteration of the exact solve"
     return (
