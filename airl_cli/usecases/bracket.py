@@ -33,9 +33,14 @@ def _brackets(settings: FitSettings) -> bool:
 
 
 def fit_tol(settings: FitSettings) -> float:
-    """The relative gap the certified fit drives its own certificate to (``certified.stop_tol``): a
-    share of optim.bracket_tol where it closes the bracket (the bracket is the certificate then), else optim.tol."""
-    return stop_tol(settings.certified, closes(settings) and _brackets(settings))
+    """The relative gap the certified fit drives its own certificate to: with optim.bracket_tol set
+    (the thesis's adversary), a share of it where the fit closes a bracket (``certified.stop_tol``),
+    and all of it where its planner is exact (``pbvi=exact``, ``pbvi=counts``: its certificate is
+    then the bracket itself, so optim.bracket_tol asks for that width); else optim.tol."""
+    certified = settings.certified
+    if closes(settings) and settings.options.planner.method in EXACT_PLANNERS:
+        return certified.bracket_tol
+    return stop_tol(certified, closes(settings) and _brackets(settings))
 
 
 def closes(settings: FitSettings) -> bool:

@@ -23,7 +23,7 @@ from airl_cli.errors import ConfigError
 from airl_cli.io.dataset import Dataset
 from airl_cli.methods import REGISTRY
 from airl_cli.settings.config import FitSettings
-from airl_cli.usecases.bracket import bracket_info, bracket_phrase, closer, closes
+from airl_cli.usecases.bracket import bracket_info, bracket_phrase, closer, closes, fit_tol
 from airl_cli.usecases.oracles import certificate, oracle_name, planner_refusal
 from airl_cli.usecases.memory import affordable_beliefs, affordable_check
 from airl_cli.usecases.state_action import expanded, original_policies
@@ -220,7 +220,8 @@ def _learn_airl(
         bracketer = closer(problem, oracle, settings)
         close = bracketer if closes(settings) else None
         fit_oracle = oracle if close is None else closing_oracle(oracle, close)
-        res = minimize(problem, targets, fit_oracle, screen=screen, options=settings.certified, callback=callback, sharpen=sharpen, close=close)
+        options = replace(settings.certified, tol=fit_tol(settings))
+        res = minimize(problem, targets, fit_oracle, screen=screen, options=options, callback=callback, sharpen=sharpen, close=close)
         h = res.history
         zero = bool(res.converged and not np.any(res.weights))  # certified by the exact bound on f(0)
         name = "exact" if zero else "grid" if close is not None and close.answered_on_grid else oracle_name(settings.options.planner)
