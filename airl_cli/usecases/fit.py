@@ -220,8 +220,7 @@ def _learn_airl(
         bracketer = closer(problem, oracle, settings)
         close = bracketer if closes(settings) else None
         fit_oracle = oracle if close is None else closing_oracle(oracle, close)
-        options = replace(settings.certified, tol=fit_tol(settings))
-        res = minimize(problem, targets, fit_oracle, screen=screen, options=options, callback=callback, sharpen=sharpen, close=close)
+        res = minimize(problem, targets, fit_oracle, screen=screen, options=replace(settings.certified, tol=fit_tol(settings)), callback=callback, sharpen=sharpen, close=close)
         h = res.history
         zero = bool(res.converged and not np.any(res.weights))  # certified by the exact bound on f(0)
         name = "exact" if zero else "grid" if close is not None and close.answered_on_grid else oracle_name(settings.options.planner)
