@@ -27,6 +27,7 @@ def one_blas_thread() -> Any:
     from threadpoolctl import ThreadpoolController
 
     if not _controller:
+        import scipy.linalg  # noqa: F401  scipy's own BLAS, loaded now so that the controller made once sees it
         _controller.append(ThreadpoolController())
     return _controller[0].limit(limits=1, user_api="blas")
 
