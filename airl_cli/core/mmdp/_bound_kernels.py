@@ -69,32 +69,6 @@ def best_node(x, alpha, lo, hi):  # pragma: no cover - compiled
     return best, arg
 
 
-@njit(cache=True)
-def corner_values(PR, nxt, cnt, step, last):  # pragma: no cover - compiled
-    """(T, S, M) each model's own optimal value from (t, s): the value if the model were known.
-
-    Args:
-        step: (M, T-1, S, A) layered rewards; last: (M, S) the final layer's.
-    """
-    S, A, _, M = PR.shape
-    T = step.shape[1] + 1
-    c = np.empty((T, S, M))
-    for s in range(S):
-        for j in range(M):
-            c[T - 1, s, j] = last[j, s]
-    for t in range(T - 2, -1, -1):
-        for s in range(S):
-            for j in range(M):
-                best = -np.inf
-                for a in range(A):
-                    q = step[j, t, s, a]
-                    for r in range(cnt[s]):
-                        q += PR[s, a, r, j] * c[t + 1, nxt[s, r], j]
-                    best = max(best, q)
-                c[t, s, j] = best
-    return c
-
-
 @njit(cache=True, parallel=True)
 def gaps(states, X, c, ub_ib, ub_g, ub_off, gU, gm, gtab, alpha, a_off, exact):  # pragma: no cover - compiled
     """(upper (n,), lower (n,)) at the unnormalised beliefs X (n, M) in ``states`` (n,) of one layer."""

@@ -49,7 +49,7 @@ import numpy as np
 from airl_cli.core.mdp.sparse import SparseDynamics, sparse_dynamics
 from airl_cli.core.mmdp import _bound_kernels as K
 from airl_cli.core.mmdp.counts import move_kinds
-from airl_cli.core.mmdp.grid_bound import WORK, GridPlanner, resolution
+from airl_cli.core.mmdp.grid_bound import WORK, GridPlanner, corner_values, resolution
 from airl_cli.core.mmdp.planner import expand_beliefs, pbvi_graph
 from airl_cli.core.mmdp.policy_graph import LayeredRewards, PolicyGraph, check_prior, layered_rewards
 from airl_cli.core.numerics.threads import blas_on_one_thread
@@ -106,10 +106,11 @@ class _Layers:
         self.PR, self.nxt, self.cnt = dyn.model_axis_last(), dyn.next_states, dyn.count
         self.step = [np.ascontiguousarray(L.step[:, t]) for t in range(L.horizon - 1)]
         step, last = np.ascontiguousarray(L.step), np.ascontiguousarray(L.last)
-        self.c = K.corner_values(self.PR, self.nxt, self.cnt, step, last)
+        self.c = corner_values(self.PR, self.nxt, self.cnt, step, last)
         T, S, M = self.c.shape
         self.grid = grid
-        self.gU = grid.upper(step, last) if grid is not None else None
+        # the grid's upper values and its policy (the lower side's candidate), planned at once
+        self.gU, self.grid_policy = grid.plan(step, last, self.c) if grid is not None else (None, None)
         self.ub_ib = [np.empty((0, M)) for _ in range(T)]
         self.ub_g = [np.empty(0) for _ in range(T)]
         self.ub_off = [np.zeros(S + 1, np.int64) for _ in range(T)]
@@ -329,7 +330,7 @@ def bracket(
     g = layers.graph(lam)
     lower = graph_value(g, p0, lam)
     if grid is not None:
-        on_grid = grid_graph(grid, dyn, L)
+        on_grid = PolicyGraph(*map(tuple, layers.grid_policy), np.arange(dyn.shape[1]), dyn.next_states)
         on_grid_value = graph_value(on_grid, p0, lam)
         if on_grid_value > lower:
             g, lower = on_grid, on_grid_value
