@@ -158,8 +158,11 @@ class CountProgram:
         self.counts, self.successor = count_tables(kinds.n_kinds, horizon)
         w = np.full(M, 1.0 / M) if prior is None else np.asarray(prior, dtype=np.float64)
         beliefs = [posteriors(c, kinds.directions, w) for c in self.counts]
-        self.beliefs, self.last_beliefs = beliefs[:-1], beliefs[-1]
-        self.along = [np.ascontiguousarray(b @ kinds.directions.T) for b in self.beliefs]  # (C, n): b(c) . v_k
+        self.last_beliefs = beliefs[-1]
+        # the backup's layouts, counts last (``_backup`` runs along them): (M, C) b(c), (n, C) b(c) . v_k and c + e_k
+        self.beliefs_T = [np.ascontiguousarray(b.T) for b in beliefs[:-1]]
+        self.along_T = [np.ascontiguousarray((b @ kinds.directions.T).T) for b in beliefs[:-1]]
+        self.successor_T = [np.ascontiguousarray(k.T) for k in self.successor]
         self.kind = np.ascontiguousarray(kinds.kind)
         self.scale = self.probs.sum(axis=0)  # (S, A, R): lambda, P(s'|s, a) = lambda v_k
         self.n_nodes = n_nodes(self.probs.shape[1], kinds.n_kinds, horizon)
@@ -173,7 +176,7 @@ class CountProgram:
         W = np.ascontiguousarray(self.last_beliefs @ L.last).T  # (S, C): b(c) . r(T-1, s)
         actions: list[np.ndarray] = [np.empty((S, 0), dtype=np.int16)] * (T - 1)
         for t in range(T - 2, -1, -1):
-            W, actions[t] = _backup(self.reach, self.scale, self.kind, self.successor[t], self.beliefs[t], self.along[t],
+            W, actions[t] = _backup(self.reach, self.scale, self.kind, self.successor_T[t], self.beliefs_T[t], self.along_T[t],
                                     np.ascontiguousarray(L.step[:, t]), W)
         p0 = np.asarray(p0, dtype=np.float64)
         values, marginals = _forward(self.reach, self.probs, kind, self.successor, actions, p0, L)
@@ -238,37 +241,44 @@ def _backup(reach, scale, kind, succ, B, along, step, W_next):  # pragma: no cov
     """One layer of the program on values at the nodes' posteriors: W (S, C_t) and actions (S, C_t) from
     W_next (S, C_t+1), with W(s, c) = max_a b(c) . r(t, s, a) + sum_s' lambda (b(c) . v_k) W_next(s', c + e_k).
 
-    scale (S, A, R) lambda; along (C_t, n) b(c) . v_k; step (M, S, A) r_j(t, s, a); B (C_t, M) b(c)."""
+    scale (S, A, R) lambda; succ (n, C_t) c + e_k's index; along (n, C_t) b(c) . v_k; B (M, C_t) b(c);
+    step (M, S, A) r_j(t, s, a). Each state's loops run along the counts c (contiguous, vectorised:
+    half the time of a loop over nodes), each node's sum in the same order as one node at a time."""
     M, S, A = step.shape
     R = reach.shape[1]
-    C, n = succ.shape
+    n, C = succ.shape
     W = np.empty((S, C))
     action = np.zeros((S, C), dtype=np.int16)
     for s in numba.prange(S):
-        G = np.zeros((R, n))
+        G = np.empty((R * n, C))  # G[r n + k, c] = (b(c) . v_k) W_next(s'_r, c + e_k)
+        v, best = np.empty(C), W[s]
         n_r = R
         for r in range(R):
             if reach[s, r] < 0:
                 n_r = r
                 break
-        for i in range(C):
-            for r in range(n_r):  # G[r, k] = (b(c) . v_k) W_next(s'_r, c + e_k)
-                row = reach[s, r]
-                for k in range(n):
-                    G[r, k] = along[i, k] * W_next[row, succ[i, k]]
-            best = 0.0
-            for a in range(A):
-                v = 0.0
-                for j in range(M):
-                    v += B[i, j] * step[j, s, a]
-                for r in range(n_r):
-                    k = kind[s, a, r]
-                    if k >= 0:
-                        v += scale[s, a, r] * G[r, k]
-                if a == 0 or v > best + 1e-12 * (1.0 + abs(best)):  # near-ties to the lowest action
-                    best = v
+        for r in range(n_r):
+            row = W_next[reach[s, r]]
+            for k in range(n):
+                g, al, to = G[r * n + k], along[k], succ[k]
+                for i in range(C):
+                    g[i] = al[i] * row[to[i]]
+        for a in range(A):
+            v[:] = 0.0
+            for j in range(M):
+                rj, b = step[j, s, a], B[j]
+                for i in range(C):
+                    v[i] += b[i] * rj
+            for r in range(n_r):
+                k = kind[s, a, r]
+                if k >= 0:
+                    lam, g = scale[s, a, r], G[r * n + k]
+                    for i in range(C):
+                        v[i] += lam * g[i]
+            for i in range(C):
+                if a == 0 or v[i] > best[i] + 1e-12 * (1.0 + abs(best[i])):  # near-ties to the lowest action
+                    best[i] = v[i]
                     action[s, i] = a
-            W[s, i] = best
     return W, action
 
 
