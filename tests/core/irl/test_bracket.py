@@ -150,8 +150,8 @@ def test_the_responses_grid_is_refined_only_where_the_bracket_s_policy_beats_the
 
 
 def test_a_bracket_wider_than_its_target_refines_the_grid_up_to_its_cap():
-    """``Closer.__call__``: a closing step whose bracket is wider than the target on the grid doubles
-    the grid's posteriors and brackets again, up to ``GRID_GROWTH`` times the setting's; a wide
+    """``Closer.__call__``: a closing step whose bracket is wider than the target on the grid refines
+    it (``_growth``) and brackets again, up to ``GRID_GROWTH`` times the setting's; a wide
     target leaves the grid as it is. The finer grid's bracket is no wider, and still valid (it
     holds the exact optimum)."""
     from math import comb
@@ -173,6 +173,17 @@ def test_a_bracket_wider_than_its_target_refines_the_grid_up_to_its_cap():
     assert tight.grid_work == GRID_GROWTH * start and tight.resolution > 3
     assert tight.last.upper - tight.last.lower <= coarse + 1e-12
     assert tight.last.lower <= exact + 1e-9 <= tight.last.upper + 2e-9
+
+
+def test_a_refinement_grows_the_grid_by_the_power_of_two_its_width_asks_for():
+    """``bracket._growth``: the posteriors' factor (gap / target)^((M - 1) / 1.6), to the nearest power
+    of two, at least 2 (one doubling where the bracket is barely too wide)."""
+    from airl_cli.core.irl.bracket import _growth
+
+    assert _growth(4.0, 1.0, 4) == 16  # 4^(3/1.6) = 13.5: 2^3.75
+    assert _growth(0.01786, 0.00462, 4) == 16  # seed 1 of the default problem at m = 12 (the cap, 8, takes it to m = 26 at once)
+    assert _growth(1.01, 1.0, 4) == 2 and _growth(1.5, 1.0, 2) == 2
+    assert _growth(100.0, 1.0, 2) == 16  # 100^0.625 = 17.8: 2^4.2
 
 
 def test_without_a_grid_budget_the_closer_builds_no_grid():
