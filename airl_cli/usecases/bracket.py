@@ -6,7 +6,8 @@ from __future__ import annotations
 import numpy as np
 
 from airl_cli.core.irl.bracket import TARGET_SHARE, Closer, relative_width
-from airl_cli.core.irl.certified import answer_penalty, stop_tol
+from airl_cli.core.irl.certified import stop_tol
+from airl_cli.core.irl.certified_steps import answer_penalty
 from airl_cli.core.irl.game_problem import GameProblem
 from airl_cli.core.irl.options import BRACKET_MAX_BELIEFS
 from airl_cli.core.mdp.sparse import sparse_dynamics

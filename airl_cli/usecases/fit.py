@@ -14,7 +14,7 @@ from airl_cli.core.irl.certified import minimize, upper_at
 from airl_cli.core.irl.degeneracy import is_degenerate, reward_effect
 from airl_cli.core.irl.game import objective_at
 from airl_cli.core.irl.game_problem import GameProblem, scaled
-from airl_cli.core.irl.learn import PBVIThenExact, belief_set, fit, make_oracles, sharpener
+from airl_cli.core.irl.learn import SWITCH_WITHIN, PBVIThenExact, belief_set, fit, make_oracles, sharpener
 from airl_cli.core.irl.options import PBVI_MAX_ITERATIONS
 from airl_cli.core.irl.per_step import step_blocks, step_features, step_targets
 from airl_cli.core.mdp.state_action import decision_policy
@@ -220,7 +220,7 @@ def _learn_airl(
         bracketer = closer(problem, oracle, settings)
         close = bracketer if closes(settings) else None
         fit_oracle = oracle if close is None else closing_oracle(oracle, close)
-        res = minimize(problem, targets, fit_oracle, screen=screen, options=replace(settings.certified, tol=fit_tol(settings)), callback=callback, sharpen=sharpen, close=close)
+        res = minimize(problem, targets, fit_oracle, screen=screen, options=replace(settings.certified, tol=fit_tol(settings)), callback=callback, sharpen=sharpen, sharpen_within=SWITCH_WITHIN if isinstance(oracle, PBVIThenExact) else 1.0, close=close)
         h = res.history
         zero = bool(res.converged and not np.any(res.weights))  # certified by the exact bound on f(0)
         name = "exact" if zero else "grid" if close is not None and close.answered_on_grid else oracle_name(settings.options.planner)

@@ -63,7 +63,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from airl_cli.core.irl.bracket import CLOSE_SHARE, TARGET_SHARE, Close, closed, relative_width
-from airl_cli.core.irl.certified_steps import REFRESH_AFTER, Run, adversary_side, first_strategies, learner_side, penalty, polish, probe_zero, prune, region, sharpened, zero_side
+from airl_cli.core.irl.certified_steps import REFRESH_AFTER, Run, adversary_side, answer_penalty, first_strategies, learner_side, penalty, polish, probe_zero, prune, region, sharpened, sharpened_early, zero_side
 from airl_cli.core.irl.game import adversary_rewards
 from airl_cli.core.irl.game_problem import AdversaryOracle, GameProblem
 from airl_cli.core.irl.options import CertifiedOptions
@@ -185,6 +185,7 @@ def minimize(
     options: CertifiedOptions = CertifiedOptions(),
     callback: Callable[[dict], None] | None = None,
     sharpen: AdversaryOracle | None = None,
+    sharpen_within: float = 1.0,
     close: Close | None = None,
 ) -> CertifiedResult:
     """Minimise f (eq. 5.9) by column and constraint generation on the QP above: a ``CertifiedResult``.
@@ -204,7 +205,7 @@ def minimize(
         options: see ``CertifiedOptions``; callback: called with each iteration's history row (a dict).
         sharpen: makes ``oracle`` finer (``learn.sharpener``) and returns its best response, or None;
             asked where the run would stop; it goes on, with a new iteration cap, while that raises
-            the bound (``certified_steps.sharpened``).
+            the bound (``certified_steps.sharpened``); first once within ``sharpen_within`` tolerances (``sharpened_early``).
         close: brackets the adversary's best value (``bracket.Closer``); asked where the run would
             stop (after ``sharpen``), it bounds min f from above whatever the planner and adds its
             policy while that raises the bound (``bracket.closed``), and once more at the answer.
@@ -241,7 +242,8 @@ def minimize(
         if callback is not None:
             callback(rows[-1])
         done = rows[-1]["relative_gap"] <= options.tol or not (added_l or added_a) and sol.accuracy <= TIGHT
-        if done and _goes_on(sets, sharpen, close, run, C, options, it):
+        early = not done and sharpened_early(sets, sharpen, run, C, options.lam, options.tol, it, rows[-1]["relative_gap"], sharpen_within)
+        if early or done and _goes_on(sets, sharpen, close, run, C, options, it):
             accuracy, limit = LOOSEST, it + options.max_iterations
             continue
         if done:
@@ -321,12 +323,6 @@ def upper_at(targets: np.ndarray, result: CertifiedResult, oracle: AdversaryOrac
         return result.objective
     value, _ = oracle(result.upper_rewards)
     return max(result.objective, value + answer_penalty(targets, result, options))
-
-
-def answer_penalty(targets: np.ndarray, result: CertifiedResult, options: CertifiedOptions) -> float:
-    """-w . C + (lambda/2)|w|^2 at ``result``'s weights, in the QP's own w and C (``targets`` (D, K))."""
-    w, C = (result.weights[0], targets.sum(axis=0)) if options.weight_sharing else (result.weights.reshape(-1), targets.reshape(-1))
-    return penalty(w, C, options.lam)
 
 
 def _ask_oracles(sets: StrategySets, sol: MasterSolution, oracle, screen, per_dynamics, it: int, run: Run) -> tuple[bool, bool]:

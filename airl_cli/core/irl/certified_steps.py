@@ -17,6 +17,7 @@ import numpy as np
 from airl_cli.core.irl.degeneracy import reward_effect
 from airl_cli.core.irl.game import adversary_rewards, learner_best_policy
 from airl_cli.core.irl.game_problem import AdversaryOracle
+from airl_cli.core.irl.options import CertifiedOptions
 from airl_cli.core.irl.qp import TIGHT, MasterSolution
 from airl_cli.core.irl.strategy_sets import StrategySets
 from airl_cli.core.irl.zero_bound import ZeroBound, best_at_zero
@@ -70,6 +71,7 @@ class Run:
     #: planner, ``certified.upper_at``); None while ``upper`` is the exact bound through f(0)
     upper_rewards: np.ndarray | None = None
     sharpen_steps: int = 0  # how often a finer oracle raised the certified bound (``sharpened``)
+    sharpen_asked: bool = False  # whether ``sharpened`` has asked (``sharpened_early`` asks only before that)
     bracket_upper: float = np.inf  # the smallest upper bound on min f that holds whatever the planner (``bracket``)
     close_steps: int = 0  # how often the bracket's policy raised the certified bound (``bracket.closed``)
 
@@ -78,6 +80,13 @@ def penalty(w: np.ndarray, C: np.ndarray, lam: float) -> float:
     """-w . C + (lambda/2)|w|^2, the part of f(w) (eq. 5.9) outside the game: a bound on the game's
     value at w plus this bounds f(w); w, C (d,)."""
     return -float(w @ C) + 0.5 * lam * float(w @ w)
+
+
+def answer_penalty(targets: np.ndarray, result, options: CertifiedOptions) -> float:
+    """-w . C + (lambda/2)|w|^2 at the weights of ``result`` (a ``certified.CertifiedResult``), in the
+    QP's own w and C (``targets`` (D, K))."""
+    w, C = (result.weights[0], targets.sum(axis=0)) if options.weight_sharing else (result.weights.reshape(-1), targets.reshape(-1))
+    return penalty(w, C, options.lam)
 
 
 def first_strategies(sets: StrategySets, targets: np.ndarray, oracle: AdversaryOracle, run: Run) -> StrategySets:
@@ -138,6 +147,16 @@ def adversary_side(sets: StrategySets, rewards, oracle, screen, w, v: float, reg
     return added
 
 
+def sharpened_early(sets: StrategySets, sharpen, run: Run, C: np.ndarray, lam: float, tol: float, it: int, gap: float, within: float) -> bool:
+    """``sharpened`` asked once, before the run would stop, as soon as the relative ``gap`` is within
+    ``within`` tolerances (never for ``within`` <= 1: then only where it would stop). For a switch to
+    an exact oracle (``learn.PBVIThenExact``), the coarse oracle's game need not be played to the
+    tolerance: the exact responses change it by more (``learn.SWITCH_WITHIN``)."""
+    if sharpen is None or run.sharpen_asked or within <= 1.0 or gap > within * tol:
+        return False
+    return sharpened(sets, sharpen, run, C, lam, tol, it)
+
+
 def sharpened(sets: StrategySets, sharpen, run: Run, C: np.ndarray, lam: float, tol: float, it: int) -> bool:
     """Where the run would stop (the gap within the tolerance, or neither oracle improving): ask ``sharpen`` (``certified.minimize``; it makes the fit's
     oracle finer for the calls that follow, e.g. PBVI's belief set grown where its policy goes,
@@ -148,6 +167,7 @@ def sharpened(sets: StrategySets, sharpen, run: Run, C: np.ndarray, lam: float, 
     exact (through f(0)), or the oracle cannot be made finer (None)."""
     if run.upper_rewards is None:
         return False
+    run.sharpen_asked = True
     found = sharpen(run.upper_rewards)
     if found is None:
         return False

@@ -558,3 +558,33 @@ def test_the_iteration_cap_counts_again_from_each_sharpening():
             assert len(res.history["iteration"]) > capped.max_iterations
             return
     pytest.fail("no seed sharpened")
+
+
+@pytest.mark.parametrize("seed", [0, 1, 3])
+def test_a_switch_asked_within_some_tolerances_of_the_stop_still_reaches_the_brute_force_minimum(seed):
+    """``sharpen_within`` (``pbvi=counts``' switch to the exact planner, ``learn.SWITCH_WITHIN``):
+    the switch is asked once the gap is within that many tolerances, before the run would stop
+    (on these games the gap falls from above 30 tolerances to 2.7e-2, 1.5e-2 and 2.2e-3 of a
+    tolerance of 1e-3 in one step), early once only, and the run still ends at the brute-force minimum."""
+    problem, targets, options, _, weak = _weak_fit(seed)
+    options = replace(options, tol=1e-3)
+    exact = exact_oracle(problem)
+    gaps, state = [], {"exact": False, "asked_at": []}
+
+    def sharpen(R):
+        state["asked_at"].append(gaps[-1])
+        if state["exact"]:
+            return None
+        state["exact"] = True
+        return exact(R)
+
+    within = 30.0
+    res = minimize(problem, targets, lambda R: exact(R) if state["exact"] else weak(R), options=options, sharpen=sharpen,
+                   sharpen_within=within, callback=lambda row: gaps.append(row["relative_gap"]))
+    L, Phi, C = enumerated_game(problem, targets, True)
+    _, f_star = brute_minimum(L, Phi, C, options.lam)
+    assert res.converged and res.lower <= f_star + 1e-7 and res.objective <= f_star + options.tol * max(1.0, abs(f_star))
+    first = state["asked_at"][0]
+    assert options.tol < first <= within * options.tol  # asked within 30 tolerances, before the stop ...
+    assert all(g > within * options.tol for g in gaps[: gaps.index(first)])  # ... at the first such iteration
+    assert all(g <= options.tol for g in state["asked_at"][1:])  # later only where the run would stop (the switch then answers None)
