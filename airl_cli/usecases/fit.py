@@ -216,11 +216,11 @@ def _learn_airl(
     planner_refusal(problem, settings.options.planner)
     oracle, screen, n_beliefs = make_oracles(problem, settings.options.planner, rng, planner_progress)
     if settings.optimizer == "exact":
-        sharpen = _sharpener(problem, oracle, settings)
+        sharpen, sharpen_within = _sharpener(problem, oracle, settings)
         bracketer = closer(problem, oracle, settings)
         close = bracketer if closes(settings) else None
         fit_oracle = oracle if close is None else closing_oracle(oracle, close)
-        res = minimize(problem, targets, fit_oracle, screen=screen, options=replace(settings.certified, tol=fit_tol(settings)), callback=callback, sharpen=sharpen, sharpen_within=SWITCH_WITHIN if isinstance(oracle, PBVIThenExact) else 1.0, close=close)
+        res = minimize(problem, targets, fit_oracle, screen=screen, options=replace(settings.certified, tol=fit_tol(settings)), callback=callback, sharpen=sharpen, sharpen_within=sharpen_within, close=close)
         h = res.history
         zero = bool(res.converged and not np.any(res.weights))  # certified by the exact bound on f(0)
         name = "exact" if zero else "grid" if close is not None and close.answered_on_grid else oracle_name(settings.options.planner)
@@ -290,19 +290,21 @@ def _learn_airl(
 SHARPEN_GROWTH = 4
 
 
-def _sharpener(problem: GameProblem, oracle, settings: FitSettings):
-    """``minimize``'s ``sharpen`` when ``pbvi.sharpen_rounds`` > 0 and the fit reuses one PBVI belief
-    set for a history-dependent adversary (``learn.sharpener``): the set may grow to
-    ``SHARPEN_GROWTH`` times its size, less if half the free memory holds fewer nodes; else None."""
+def _sharpener(problem: GameProblem, oracle, settings: FitSettings) -> tuple:
+    """``minimize``'s ``sharpen`` and ``sharpen_within``: ``pbvi=counts``' switch to the exact planner,
+    asked within ``learn.SWITCH_WITHIN`` tolerances; when ``pbvi.sharpen_rounds`` > 0 and the fit reuses one
+    PBVI belief set for a history-dependent adversary (``learn.sharpener``), the set grown where the
+    fit would stop, up to ``SHARPEN_GROWTH`` times its size, less if half the free memory holds fewer
+    nodes; else None."""
     planner = settings.options.planner
-    if isinstance(oracle, PBVIThenExact):  # pbvi=counts: exact from where the fit would first stop
-        return oracle.switch
+    if isinstance(oracle, PBVIThenExact):  # pbvi=counts: exact from where the fit nears its stop
+        return oracle.switch, SWITCH_WITHIN
     if planner.sharpen_rounds == 0 or getattr(oracle, "beliefs", None) is None:  # config: only PBVI's reused set
-        return None
+        return None, 1.0
     T, S = problem.horizon, problem.transitions.shape[1]
     nb = len(oracle.beliefs)
     extra = affordable_beliefs(S, T, problem.n_models, oracle.P.next_states.shape[1], planner.iterations, (SHARPEN_GROWTH - 1) * nb)
-    return sharpener(oracle, planner.sharpen_rounds, nb + extra)
+    return sharpener(oracle, planner.sharpen_rounds, nb + extra), 1.0
 
 
 def _planner_check(problem: GameProblem, targets: np.ndarray, res, settings: FitSettings, rng: np.random.Generator, oracle, grown: bool = False) -> dict:

@@ -330,7 +330,7 @@ def bracket(
     g = layers.graph(lam)
     lower = graph_value(g, p0, lam)
     if grid is not None:
-        on_grid = PolicyGraph(*map(tuple, layers.grid_policy), np.arange(dyn.shape[1]), dyn.next_states)
+        on_grid = _as_graph(layers.grid_policy, dyn)
         on_grid_value = graph_value(on_grid, p0, lam)
         if on_grid_value > lower:
             g, lower = on_grid, on_grid_value
@@ -339,9 +339,13 @@ def bracket(
 
 
 def grid_graph(grid: GridPlanner, dyn: SparseDynamics, rewards) -> PolicyGraph:
-    """The grid's policy (``GridPlanner.policy``) at these rewards, as a policy graph."""
+    """The grid's policy (``GridPlanner.plan``) at these rewards, as a policy graph."""
     L = rewards if isinstance(rewards, LayeredRewards) else layered_rewards(dyn, rewards)
-    arrays = grid.policy(np.ascontiguousarray(L.step), np.ascontiguousarray(L.last))
+    return _as_graph(grid.plan(np.ascontiguousarray(L.step), np.ascontiguousarray(L.last))[1], dyn)
+
+
+def _as_graph(arrays: tuple, dyn: SparseDynamics) -> PolicyGraph:
+    """``GridPlanner.plan``'s policy arrays as a policy graph over ``dyn``'s states."""
     return PolicyGraph(*map(tuple, arrays), np.arange(dyn.shape[1]), dyn.next_states)
 
 

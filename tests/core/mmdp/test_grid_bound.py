@@ -67,8 +67,9 @@ def grid_bounds(P, R, p0, m):
     L = layered_rewards(P, R)
     step, last = np.ascontiguousarray(L.step), np.ascontiguousarray(L.last)
     planner = GridPlanner(dyn.model_axis_last(), dyn.next_states, dyn.count, L.horizon, m, np.full(M, 1.0 / M))
-    upper = float(p0 @ planner.upper(step, last)[0][:, 0]) * M
-    graph = PolicyGraph(*map(tuple, planner.policy(step, last)), np.arange(S), dyn.next_states)
+    U, arrays = planner.plan(step, last)
+    upper = float(p0 @ U[0][:, 0]) * M
+    graph = PolicyGraph(*map(tuple, arrays), np.arange(S), dyn.next_states)
     return upper, graph
 
 
