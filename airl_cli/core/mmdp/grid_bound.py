@@ -202,10 +202,10 @@ def corner_values(PR, nxt, cnt, step, last):  # pragma: no cover - compiled
 
 
 @njit(cache=True)
-def _expected_reward(B, i, step, s, a):  # pragma: no cover - compiled
+def _expected_reward(B, i, step, s, a, tag):  # pragma: no cover - compiled
     """b_i . R(s, a): belief i of B (nb, M) weighting the models' rewards ``step`` (M, S, A)."""
     q = 0.0
-    for j in range(B.shape[1]):
+    for j in range(len(tag)):
         q += B[i, j] * step[j, s, a]
     return q
 
@@ -223,27 +223,30 @@ def _corner_q(step, PR, nxt, cnt, c_next, s, Qc):  # pragma: no cover - compiled
 
 
 @njit(cache=True)
-def _upper_q(U_next, step, B, vidx, vw, cnt, s, i, a):  # pragma: no cover - compiled
+def _upper_q(U_next, step, B, vidx, vw, cnt, s, i, a, tag):  # pragma: no cover - compiled
     """b . R(s, a) + sum_{s'} I_{t+1}(s', b (.) P(s'|s, a)) at belief i of B: the grid's bound on action a."""
-    q = _expected_reward(B, i, step, s, a)
+    q = _expected_reward(B, i, step, s, a, tag)
     for r in range(cnt[s]):
-        for k in range(vidx.shape[4]):
+        for k in range(len(tag)):
             q += vw[s, i, a, r, k] * U_next[vidx[s, i, a, r, k]]
     return q
 
 
 @njit(cache=True)
-def _lower_q(alpha_next, step, PR, B, vidx, cnt, s, i, a, y, kids):  # pragma: no cover - compiled
-    """The value at belief i of B of action a, each next state's successor (into ``kids``) the best
-    at the posterior of the next layer's nodes at the vertices of the posterior's simplex."""
-    M = y.size
-    q = _expected_reward(B, i, step, s, a)
+def _both_q(alpha_next, U_next, step, PR, B, vidx, vw, cnt, s, i, a, y, kids, tag):  # pragma: no cover - compiled
+    """(the value, the grid's bound ``_upper_q``) of action a at belief i of B in one pass over its
+    successors: the value with each next state's successor (into ``kids``) the best at the posterior
+    of the next layer's nodes at the vertices of the posterior's simplex."""
+    M = len(tag)
+    q = _expected_reward(B, i, step, s, a, tag)
+    qu = q
     for r in range(cnt[s]):
         for j in range(M):
             y[j] = B[i, j] * PR[s, a, r, j]
         top, arg = -np.inf, 0
         for k in range(M):
             node = vidx[s, i, a, r, k]
+            qu += vw[s, i, a, r, k] * U_next[node]
             v = 0.0
             for j in range(M):
                 v += alpha_next[node, j] * y[j]
@@ -251,13 +254,16 @@ def _lower_q(alpha_next, step, PR, B, vidx, cnt, s, i, a, y, kids):  # pragma: n
                 top, arg = v, node
         q += top
         kids[r] = arg
-    return q
+    return q, qu
 
 
 @njit(cache=True, parallel=True)
-def _layer(alpha_next, U_next, c_next, step, PR, nxt, B, vidx, vw, cnt):  # pragma: no cover - compiled
+def _layer(alpha_next, U_next, c_next, step, PR, nxt, B, vidx, vw, cnt, tag):  # pragma: no cover - compiled
     """Both bounds of one layer at every (s, belief i of B), node s * nb + i; ``alpha_next`` (N, M),
-    ``U_next`` (N,) and ``c_next`` (S, M) the next layer's nodes, grid values and corner values.
+    ``U_next`` (N,) and ``c_next`` (S, M) the next layer's nodes, grid values and corner values;
+    ``tag`` M zeros, a tuple: its length is a constant to the compiler, which unrolls the loops over
+    the models in the per-action sums (one kernel per M; the response on the default problem's m = 16
+    grid 0.15 -> 0.10 s with the first action's two sums in one pass, ``_both_q``).
 
     Actions by decreasing corner bound; an action whose corner bound, then grid bound, is below the
     best policy value so far (by ``PRUNE``) is neither bounded nor planned further (module docstring).
@@ -284,11 +290,13 @@ def _layer(alpha_next, U_next, c_next, step, PR, nxt, B, vidx, vw, cnt):  # prag
                 a = order[o]
                 if qc[a] < best - PRUNE * (1.0 + abs(best)):
                     break  # and every later action: their corner bounds are lower still
-                qu = _upper_q(U_next, step, B, vidx, vw, cnt, s, i, a)
+                if o > 0:  # the first is planned whatever its bound: both at once
+                    qu = _upper_q(U_next, step, B, vidx, vw, cnt, s, i, a, tag)
+                    up = max(up, qu)
+                    if qu < best - PRUNE * (1.0 + abs(best)):
+                        continue
+                q, qu = _both_q(alpha_next, U_next, step, PR, B, vidx, vw, cnt, s, i, a, y, kids, tag)
                 up = max(up, qu)
-                if qu < best - PRUNE * (1.0 + abs(best)):
-                    continue
-                q = _lower_q(alpha_next, step, PR, B, vidx, cnt, s, i, a, y, kids)
                 if q > best or (q == best and a < best_a):
                     best, best_a = q, a
                     best_kids[:] = kids
@@ -346,7 +354,7 @@ class GridPlanner:
         action, succ = [], []
         for t in range(self.T - 2, -1, -1):
             B, vidx, vw = self._layer(t)
-            a, k, al, u = _layer(alpha[-1], U[-1], c[t + 1], np.ascontiguousarray(step[:, t]), self.PR, self.nxt, B, vidx, vw, self.cnt)
+            a, k, al, u = _layer(alpha[-1], U[-1], c[t + 1], np.ascontiguousarray(step[:, t]), self.PR, self.nxt, B, vidx, vw, self.cnt, (0,) * M)
             action.append(a), succ.append(k), alpha.append(al), U.append(u)
         sizes = [1] + [G] * (self.T - 1)
         state = [np.repeat(np.arange(S), n) for n in sizes]
