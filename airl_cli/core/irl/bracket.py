@@ -199,7 +199,10 @@ def closed(sets: StrategySets, close: Close, run: Run, C: np.ndarray, lam: float
     smallest valid upper bound on min f). True, with the bracket's policy added and ``run.upper``
     raised to its bound, if that policy beats the fit's bound there by more than ``tol`` and
     ``CLOSE_SHARE`` of ``bracket_tol`` (relative) and fewer than ``MAX_CLOSE_STEPS`` were added: the fit goes on. False (the fit stops) otherwise,
-    or when the bound is exact (through f(0)).
+    when the bound is exact (through f(0)), or when [L, U] is already as narrow as asked
+    (``relative_width`` at most ``bracket_tol``): the bracket is the certificate, and a better
+    policy at this w could only narrow it further (default problem, seed 1: 165 iterations instead
+    of 171, the last three closing steps not taken, the bracket 9.7e-4 wide instead of 9.0e-4).
     """
     scale = max(1.0, abs(run.upper))
     if run.upper_rewards is None:
@@ -210,6 +213,8 @@ def closed(sets: StrategySets, close: Close, run: Run, C: np.ndarray, lam: float
     run.bracket_upper = min(run.bracket_upper, upper + reg)
     bound = value + reg
     if bound - run.upper <= max(tol, CLOSE_SHARE * bracket_tol) * scale or run.close_steps >= MAX_CLOSE_STEPS:
+        return False
+    if relative_width(run.lower, run.bracket_upper) <= bracket_tol:
         return False
     sets.add_adversary(marginals)
     run.upper, run.last_full, run.close_steps = bound, it, run.close_steps + 1

@@ -195,3 +195,30 @@ def test_without_a_grid_budget_the_closer_builds_no_grid():
     with_grid.bracket(R), without.bracket(R)
     assert with_grid.resolution >= 2 and without.resolution == 0 and without.grid(R) is None
     assert without.last.lower <= with_grid.last.upper + 1e-9 and with_grid.last.lower <= without.last.upper + 1e-9
+
+
+def test_a_closing_step_stops_the_fit_once_the_bracket_is_as_narrow_as_asked():
+    """``bracket.closed``: a bracket's policy that beats the fit's bound at its w by more than the
+    closing share goes into the game (the fit goes on) while [L, U] is wider than ``bracket_tol``,
+    and not once it is within it: the bracket is then the certificate the fit was asked for."""
+    from airl_cli.core.irl.bracket import closed
+    from airl_cli.core.irl.certified_steps import Run
+
+    class Sets:
+        def __init__(self):
+            self.added = []
+
+        def add_adversary(self, marginals):
+            self.added.append(marginals)
+
+    C, lam, w = np.array([1.0, -1.0]), 0.1, np.array([0.5, 0.5])
+    reg = penalty(w, C, lam)  # -0 + 0.025
+    marginals = np.ones((2, 3, 4))
+    for lower, goes_on in ((9.0, True), (9.995, False)):
+        run = Run(best_w=w, upper=10.0, lower=lower, upper_rewards=np.zeros((2, 3, 4)))
+        sets = Sets()
+        # the bracket's policy: 10.004 at w (0.4 of the wanted width above the fit's bound), its upper side 10.005
+        out = closed(sets, lambda R, target: (10.004 - reg, marginals, 10.005 - reg), run, C, lam, 1e-6, 1e-3, 7)
+        assert out is goes_on and len(sets.added) == int(goes_on)
+        assert run.bracket_upper == pytest.approx(10.005)
+        assert run.upper == (pytest.approx(10.004) if goes_on else 10.0)  # raised only where the policy joins the game
