@@ -222,3 +222,17 @@ def test_a_closing_step_stops_the_fit_once_the_bracket_is_as_narrow_as_asked():
         assert out is goes_on and len(sets.added) == int(goes_on)
         assert run.bracket_upper == pytest.approx(10.005)
         assert run.upper == (pytest.approx(10.004) if goes_on else 10.0)  # raised only where the policy joins the game
+
+
+def test_a_closing_step_brackets_nothing_where_an_earlier_bracket_is_already_narrow_enough():
+    """``bracket.closed``: with [L, U] from earlier brackets within ``bracket_tol``, the fit stops
+    without a new bracket (its cost is a grid plan on the bracket's finest grid)."""
+    from airl_cli.core.irl.bracket import closed
+    from airl_cli.core.irl.certified_steps import Run
+
+    def close(R, target):
+        raise AssertionError("no bracket should be taken")
+
+    run = Run(best_w=np.zeros(2), upper=10.0, lower=9.995, upper_rewards=np.zeros((2, 3, 4)), bracket_upper=10.004)
+    assert closed(None, close, run, np.ones(2), 0.1, 1e-6, 1e-3, 3) is False
+    assert run.bracket_upper == 10.004 and run.close_steps == 0
