@@ -216,9 +216,7 @@ def closed(sets: StrategySets, close: Close, run: Run, C: np.ndarray, lam: float
     reg = penalty(run.best_w, C, lam)
     run.bracket_upper = min(run.bracket_upper, upper + reg)
     bound = value + reg
-    if bound - run.upper <= max(tol, CLOSE_SHARE * bracket_tol) * scale or run.close_steps >= MAX_CLOSE_STEPS:
-        return False
-    if relative_width(run.lower, run.bracket_upper) <= bracket_tol:
+    if bound - run.upper <= max(tol, CLOSE_SHARE * bracket_tol) * scale or run.close_steps >= MAX_CLOSE_STEPS or relative_width(run.lower, run.bracket_upper) <= bracket_tol:
         return False
     sets.add_adversary(marginals)
     run.upper, run.last_full, run.close_steps = bound, it, run.close_steps + 1
