@@ -109,6 +109,8 @@ def summary_text(dataset: Dataset, settings: FitSettings, learned: Learned, rows
         else:
             grown = f", grown to {info['sharpened_beliefs']} where its policy goes" if info.get("sharpened_beliefs", info["n_beliefs"]) > info["n_beliefs"] else ""
             how += f"PBVI {o.planner.iterations} iterations ({info['n_beliefs']} beliefs{grown})"
+            # a closing fit (optim.bracket_tol) on a grid of beliefs: PBVI plans only the brackets' first policies
+            how += " in the bracket; best responses on its grid of beliefs" if info.get("best_responses") == "grid" else ""
         if settings.matching == "per_step":
             how += ", features matched at every step (game.matching=per_step)"
     elif learned.method == "bc":

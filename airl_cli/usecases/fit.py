@@ -237,7 +237,7 @@ def _learn_airl(
             "relative_gap": res.relative_gap,
             "tol": res.tol,
             "oracle": oracle_name(settings.options.planner),
-            "adversary": settings.options.planner.adversary,
+            "adversary": settings.options.planner.adversary, "best_responses": name,
             "certificate": certified_text + bracket_phrase(bracketed, settings.certified.bracket_tol),
             "zero_answer": zero,
             "iterations": int(h["iteration"][-1]),

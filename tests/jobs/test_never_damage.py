@@ -91,12 +91,13 @@ def test_strict_passes_a_certified_fit_whose_bracket_is_within_the_tolerance(tmp
     assert result.exit_code == 0, result.output
     assert "warning" not in result.stderr
     metrics = json.loads((tmp_path / "a" / "metrics.json").read_text())
-    assert metrics["bracket_relative_gap"] <= 1e-3 and metrics["close_steps"] >= 1
+    assert metrics["bracket_relative_gap"] <= 1e-3 and metrics["bracket_calls"] >= 1  # the grid's responses closed it (no closing step needed)
     # the bracket is the certificate: the fit's own gap is driven to a quarter of its width, not to optim.tol = 1e-4
     assert metrics["tol"] == pytest.approx(2.5e-4) and metrics["relative_gap"] <= metrics["tol"] and metrics["converged"]
     assert metrics["bracket_grid_resolution"] >= 2  # pbvi.bracket_grid's grid of beliefs was built
-    # once its bracket ran, the fit answered with the belief grid's policy (a dense MDP), and says so
-    assert "against the best responses of PBVI and then of the bracket's belief grid" in metrics["certificate"]
+    # the bracket has a grid (a dense MDP): the fit answered with the grid's policy from its first call, and says so
+    assert "against the best responses of the bracket's belief grid" in metrics["certificate"] and metrics["best_responses"] == "grid"
+    assert "best responses on its grid of beliefs" in (tmp_path / "a" / "summary.txt").read_text()
 
 
 def test_strict_fails_a_certificate_that_holds_against_pbvi_only(tmp_path):

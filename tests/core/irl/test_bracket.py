@@ -9,7 +9,7 @@ import pytest
 from test_certified import adversary_marginals, brute_minimum, enumerated_game, tiny
 from test_markov_adversary import markov_game
 
-from airl_cli.core.irl.bracket import Closer
+from airl_cli.core.irl.bracket import Closer, closing_oracle
 from airl_cli.core.irl.certified import CertifiedOptions, minimize
 from airl_cli.core.irl.certified_steps import penalty
 from airl_cli.core.irl.learn import PlannerOptions, make_oracle
@@ -110,6 +110,35 @@ def test_a_closing_fit_answering_with_the_grid_s_policy_brackets_the_exact_minim
     assert res.lower <= f_star + 1e-6 <= res.bracket_upper + 2e-6
     assert res.bracket_relative_gap <= 1e-3
     assert res.tol == 2.5e-4 and res.relative_gap <= res.tol  # the fit's own gap: a quarter of the bracket's width
+
+
+def test_a_closing_fit_answers_on_the_grid_from_its_first_call_where_the_bracket_has_one():
+    """``Closer.answers``: on a dense tiny MDP with T = 5 the bracket has a grid, so the fit's oracle
+    is the grid's policy from the first call (PBVI is never asked): an exact policy value, at most
+    the optimum, equal to its marginals' return. With T = 3 (no grid: the last two layers are
+    exact already) PBVI answers until a bracket has run, and the closer after it."""
+    asked = []
+
+    def planner(R):
+        asked.append(R)
+        return 0.0, np.zeros_like(R)
+
+    for horizon, gridded in ((5, True), (3, False)):
+        problem, _ = tiny(0, S=3, loss="zero_one")
+        problem = dataclasses.replace(problem, horizon=horizon)
+        M, S = problem.transitions.shape[:2]
+        R = np.random.default_rng(horizon).normal(size=(M, horizon, S))
+        closer, asked[:] = _closer(problem), []
+        oracle = closing_oracle(planner, closer)
+        value, marginals = oracle(R)
+        assert (not asked) == gridded and closer.answered_on_grid == gridded and not closer.ran
+        if gridded:
+            best = solve(problem.transitions, R, problem.initial, method="exact").value
+            assert value <= best + 1e-9 and value == pytest.approx(float((marginals * R).sum()), abs=1e-9)
+            assert np.allclose(marginals.sum(axis=2), 1.0)
+        closer(R, 0.0)  # a closing step: the bracket has run
+        oracle(R)
+        assert len(asked) == (0 if gridded else 1)  # after a bracket the closer answers, grid or not
 
 
 def test_a_closing_fit_drives_its_own_gap_to_a_share_of_the_bracket_s_width_whatever_tol():
