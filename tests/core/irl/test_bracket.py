@@ -178,6 +178,35 @@ def test_the_responses_grid_is_refined_only_where_the_bracket_s_policy_beats_the
     assert closer.level == 1 and closer._response_grid(R).m > 2
 
 
+def test_a_closing_step_compares_the_bracket_s_policy_with_the_fit_s_own_response_where_it_has_it(monkeypatch):
+    """``Closer._answered``: at rewards the fit asked for on the grid the responses use now, the
+    level check takes that response's value instead of planning it again; at other rewards, or
+    once the responses' grid has changed, it plans again (and the value is the same either way)."""
+    from math import comb
+
+    import airl_cli.core.irl.bracket as bracket_module
+
+    problem, _ = tiny(0, S=3, loss="zero_one")
+    problem = dataclasses.replace(problem, horizon=5)
+    M, S, A, _ = problem.transitions.shape
+    closer = _closer(problem)
+    closer.max_grid_work = closer.grid_work
+    monkeypatch.setattr(bracket_module, "RESPOND_SHARE", comb(2 + M - 1, M - 1) * S * A * S / closer.grid_work)  # m = 2 at level 0
+    R, other = np.random.default_rng(3).normal(size=(2, M, 5, S))
+    value = closer.respond(R)[0]
+    planned = []
+    plan = closer._response
+    monkeypatch.setattr(closer, "_response", lambda rewards: planned.append(rewards) or plan(rewards))
+    assert closer._answered(R) == value and not planned  # the fit's own response
+    assert closer._answered(R.copy()) == value and len(planned) == 1  # equal rewards, another array: planned again
+    closer._answered(other)
+    assert len(planned) == 2
+    closer(R, 1e-9)  # the bracket's policy beats the coarse response: the responses' grid is refined
+    assert closer.level == 1 and len(planned) == 2
+    closer._answered(R)  # the kept value is the coarser grid's: planned again on the finer one
+    assert len(planned) == 3 and planned[-1] is R
+
+
 def test_a_bracket_wider_than_its_target_refines_the_grid_up_to_its_cap():
     """``Closer.__call__``: a closing step whose bracket is wider than the target on the grid refines
     it (``_growth``) and brackets again, up to ``GRID_GROWTH`` times the setting's; a wide
