@@ -64,6 +64,11 @@ CLOSE_SHARE = 0.25
 #: fall short), 20.7 and 39.1 s starting at an eighth (m = 5), 29.0 and 31.6 s at a half.
 RESPOND_SHARE = 1 / 4
 
+#: After this many closing steps with the fit's responses on one grid, the responses' grid is
+#: refined (``Closer.__call__``) whatever the bracket's policy beats them by (default problem,
+#: seed 1: 4 closing steps at the first level, closed).
+LEVEL_PATIENCE = 5
+
 #: The closing step: (rewards (M, T, S), absolute target) -> (a policy's exact value, its marginals
 #: (M, T, S), an upper bound on every policy's value).
 Close = Callable[[np.ndarray, float], tuple[float, np.ndarray, float]]
@@ -90,6 +95,7 @@ class Closer:
         self.last: Bracket | None = None
         self.calls, self.ran, self.answered_on_grid = 0, False, False
         self.level = 0  # the responses' grid holds RESPOND_SHARE * 2^level of grid_work's posteriors (at most all)
+        self.steps_at_level = 0  # closing steps with the responses on the grid since ``level`` last changed
         self._values: dict = {}  # id(R) -> (a weak reference to R, the responses' grid budget, the response's value): ``_answered``
         self._grids: dict = {}  # the grids' bounds (``mmdp.grid_bound``) by budget, built at the first call: they depend on the dynamics only
 
@@ -110,15 +116,21 @@ class Closer:
         again: the grid's resolution bounds both of its sides (default problem, seed 1: 2.8e-3 of
         the objective at m = 12, 9e-4 at m = 26). Where the fit's responses come from the grid and
         the bracket's policy beats theirs at R by more than the wanted width (``target / TARGET_SHARE``),
-        the responses' grid is doubled (``level``): only then are they too coarse to close the bracket."""
+        the responses' grid is doubled (``level``): only then are they too coarse to close the bracket;
+        and after ``LEVEL_PATIENCE`` closing steps at one level, whatever they beat it by: a policy
+        that beats the responses by less than the width, but enough to join the game, can otherwise
+        keep the fit closing step after step (default problem, seed 1, with the responses' share of
+        the setting's grid instead of the bracket's: 40 steps, m = 12, not closed)."""
         on_grid = self.answered_on_grid and self._response_grid(R) is not None
         br = self.bracket(R, target)
         while br.upper - br.lower > target and self.grid(R) is not None and 2 * self.grid_work <= self.max_grid_work:
             self.grid_work *= min(_growth(br.upper - br.lower, target, self.P.shape[0]), self.max_grid_work // self.grid_work)
             self._grids.clear()  # the coarser grids' arrays are not used again
+            self.steps_at_level = 0  # the responses' grid grows with it
             br = self.bracket(R, target)
-        if on_grid and br.lower - self._answered(R) > target / TARGET_SHARE:
-            self.level += 1
+        self.steps_at_level += on_grid
+        if on_grid and (self.steps_at_level >= LEVEL_PATIENCE or br.lower - self._answered(R) > target / TARGET_SHARE):
+            self.level, self.steps_at_level = self.level + 1, 0
         return br.lower, br.graph.marginals(self.P, self.p0), br.upper
 
     def _answered(self, R: np.ndarray) -> float:

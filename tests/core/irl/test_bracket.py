@@ -178,6 +178,29 @@ def test_the_responses_grid_is_refined_only_where_the_bracket_s_policy_beats_the
     assert closer.level == 1 and closer._response_grid(R).m > 2
 
 
+def test_the_responses_grid_is_refined_after_a_run_of_closing_steps_whatever_they_fell_short_by(monkeypatch):
+    """``LEVEL_PATIENCE``: closing steps whose bracket's policy beats the responses by less than the
+    wanted width (a wide target) leave the responses' grid as it is, up to that many in a row;
+    the next refines it and starts the count again."""
+    from math import comb
+
+    import airl_cli.core.irl.bracket as bracket_module
+
+    problem, _ = tiny(0, S=3, loss="zero_one")
+    problem = dataclasses.replace(problem, horizon=5)
+    M, S, A, _ = problem.transitions.shape
+    closer = _closer(problem)
+    closer.max_grid_work = closer.grid_work
+    monkeypatch.setattr(bracket_module, "RESPOND_SHARE", comb(2 + M - 1, M - 1) * S * A * S / closer.grid_work)  # m = 2 at level 0
+    R = np.random.default_rng(3).normal(size=(M, 5, S))
+    closer.respond(R)  # the fit answers on the grid
+    for _ in range(bracket_module.LEVEL_PATIENCE - 1):
+        closer(R, 1e6)
+    assert closer.level == 0 and closer.steps_at_level == bracket_module.LEVEL_PATIENCE - 1
+    closer(R, 1e6)
+    assert closer.level == 1 and closer.steps_at_level == 0 and closer._response_grid(R).m > 2
+
+
 def test_a_closing_step_compares_the_bracket_s_policy_with_the_fit_s_own_response_where_it_has_it(monkeypatch):
     """``Closer._answered``: at rewards the fit asked for on the grid the responses use now, the
     level check takes that response's value instead of planning it again; at other rewards, or
