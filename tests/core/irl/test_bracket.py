@@ -9,7 +9,7 @@ import pytest
 from test_certified import adversary_marginals, brute_minimum, enumerated_game, tiny
 from test_markov_adversary import markov_game
 
-from airl_cli.core.irl.bracket import Closer, closing_oracle
+from airl_cli.core.irl.bracket import LEVEL_PATIENCE, Closer, closing_oracle
 from airl_cli.core.irl.certified import CertifiedOptions, minimize
 from airl_cli.core.irl.certified_steps import penalty
 from airl_cli.core.irl.learn import PlannerOptions, make_oracle
@@ -153,10 +153,9 @@ def test_a_closing_fit_drives_its_own_gap_to_a_share_of_the_bracket_s_width_what
         assert stop_tol(CertifiedOptions(tol=tol), True) == tol
 
 
-def test_the_responses_grid_is_refined_only_where_the_bracket_s_policy_beats_them_by_the_wanted_width(monkeypatch):
-    """``Closer.__call__``: once the fit answers on the grid, a closing step whose bracket's policy
-    beats the response at its rewards by more than the wanted width (target / TARGET_SHARE)
-    doubles the responses' grid; one that does not (a wide target) leaves it."""
+def _coarse_closer(monkeypatch):
+    """A closer on a dense tiny problem (T = 5) whose responses' grid has m = 2 at level 0 and
+    whose bracket's grid stays as it is (its refinement: ``test_a_bracket_wider_than_...``)."""
     from math import comb
 
     import airl_cli.core.irl.bracket as bracket_module
@@ -165,10 +164,18 @@ def test_the_responses_grid_is_refined_only_where_the_bracket_s_policy_beats_the
     problem = dataclasses.replace(problem, horizon=5)
     M, S, A, _ = problem.transitions.shape
     closer = _closer(problem)
-    closer.max_grid_work = closer.grid_work  # the bracket's own grid stays as it is (its refinement: the next test)
-    monkeypatch.setattr(bracket_module, "RESPOND_SHARE", comb(2 + M - 1, M - 1) * S * A * S / closer.grid_work)  # m = 2 at level 0
+    closer.max_grid_work = closer.grid_work
+    monkeypatch.setattr(bracket_module, "RESPOND_SHARE", comb(2 + M - 1, M - 1) * S * A * S / closer.grid_work)
+    return closer, M, S
+
+
+def test_the_responses_grid_is_refined_only_where_the_bracket_s_policy_beats_them_by_the_wanted_width(monkeypatch):
+    """``Closer.__call__``: once the fit answers on the grid, a closing step whose bracket's policy
+    beats the response at its rewards by more than the wanted width (target / TARGET_SHARE)
+    doubles the responses' grid; one that does not (a wide target) leaves it."""
+    closer, M, S = _coarse_closer(monkeypatch)
     R = np.random.default_rng(3).normal(size=(M, 5, S))
-    closer(R, 0.0)  # the first closing step: the fit's responses were PBVI's, nothing to compare
+    closer(R, 0.0)  # the fit has not answered on the grid yet: nothing to compare
     assert closer.level == 0 and closer._response_grid(R).m == 2
     closer(R, 1e6)
     assert closer.level == 0
@@ -182,21 +189,12 @@ def test_the_responses_grid_is_refined_after_a_run_of_closing_steps_whatever_the
     """``LEVEL_PATIENCE``: closing steps whose bracket's policy beats the responses by less than the
     wanted width (a wide target) leave the responses' grid as it is, up to that many in a row;
     the next refines it and starts the count again."""
-    from math import comb
-
-    import airl_cli.core.irl.bracket as bracket_module
-
-    problem, _ = tiny(0, S=3, loss="zero_one")
-    problem = dataclasses.replace(problem, horizon=5)
-    M, S, A, _ = problem.transitions.shape
-    closer = _closer(problem)
-    closer.max_grid_work = closer.grid_work
-    monkeypatch.setattr(bracket_module, "RESPOND_SHARE", comb(2 + M - 1, M - 1) * S * A * S / closer.grid_work)  # m = 2 at level 0
+    closer, M, S = _coarse_closer(monkeypatch)
     R = np.random.default_rng(3).normal(size=(M, 5, S))
     closer.respond(R)  # the fit answers on the grid
-    for _ in range(bracket_module.LEVEL_PATIENCE - 1):
+    for _ in range(LEVEL_PATIENCE - 1):
         closer(R, 1e6)
-    assert closer.level == 0 and closer.steps_at_level == bracket_module.LEVEL_PATIENCE - 1
+    assert closer.level == 0 and closer.steps_at_level == LEVEL_PATIENCE - 1
     closer(R, 1e6)
     assert closer.level == 1 and closer.steps_at_level == 0 and closer._response_grid(R).m > 2
 
@@ -205,16 +203,7 @@ def test_a_closing_step_compares_the_bracket_s_policy_with_the_fit_s_own_respons
     """``Closer._answered``: at rewards the fit asked for on the grid the responses use now, the
     level check takes that response's value instead of planning it again; at other rewards, or
     once the responses' grid has changed, it plans again (and the value is the same either way)."""
-    from math import comb
-
-    import airl_cli.core.irl.bracket as bracket_module
-
-    problem, _ = tiny(0, S=3, loss="zero_one")
-    problem = dataclasses.replace(problem, horizon=5)
-    M, S, A, _ = problem.transitions.shape
-    closer = _closer(problem)
-    closer.max_grid_work = closer.grid_work
-    monkeypatch.setattr(bracket_module, "RESPOND_SHARE", comb(2 + M - 1, M - 1) * S * A * S / closer.grid_work)  # m = 2 at level 0
+    closer, M, S = _coarse_closer(monkeypatch)
     R, other = np.random.default_rng(3).normal(size=(2, M, 5, S))
     value = closer.respond(R)[0]
     planned = []
