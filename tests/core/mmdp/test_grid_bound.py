@@ -107,3 +107,26 @@ def test_the_grid_tightens_the_bracket_and_it_still_holds(seed):
     assert with_grid.lower <= best + 1e-9 <= with_grid.upper + 2e-9
     assert with_grid.upper <= without.upper + 1e-9 and with_grid.lower >= without.lower - 1e-9
     assert with_grid.upper - with_grid.lower < without.upper - without.lower
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_the_layer_before_the_last_takes_the_corner_bound_s_best_action_as_the_search_would(seed):
+    """``_layer``'s ``linear``: before the last layer every value is linear in the belief, so the
+    first action by corner bound is the best, with no search: the same actions, successors and
+    alpha-vectors to the bit as the search, and grid values equal up to rounding."""
+    from airl_cli.core.mmdp.grid_bound import _layer, corner_values
+
+    P, R, _ = tiny(seed, T=5)
+    dyn = sparse_dynamics(P)
+    M, S = P.shape[0], P.shape[1]
+    L = layered_rewards(P, R)
+    step, last = np.ascontiguousarray(L.step), np.ascontiguousarray(L.last)
+    planner = GridPlanner(dyn.model_axis_last(), dyn.next_states, dyn.count, L.horizon, 6, np.full(M, 1.0 / M))
+    G, t = planner.n_points, L.horizon - 2
+    c = corner_values(planner.PR, planner.nxt, planner.cnt, step, last)
+    alpha, U = np.ascontiguousarray(np.repeat(last.T, G, axis=0)), np.ascontiguousarray((planner.beliefs @ last).ravel(order="F"))
+    args = (alpha, U, c[t + 1], np.ascontiguousarray(step[:, t]), planner.PR, planner.nxt, planner.beliefs, *planner.inner, planner.cnt)
+    searched, direct = _layer(*args, False, (0,) * M), _layer(*args, True, (0,) * M)
+    for a, b in zip(searched[:3], direct[:3]):
+        assert np.array_equal(a, b)
+    assert np.allclose(searched[3], direct[3], rtol=1e-13, atol=1e-13)
