@@ -127,19 +127,21 @@ class MasterQP:
         self._Phi.keep(adversary)
         self._start.keep(learner, adversary)
 
-    def solve(self, accuracy: float = TIGHT, box: tuple[np.ndarray, float] | None = None) -> MasterSolution:
+    def solve(self, accuracy: float = TIGHT, box: tuple[np.ndarray, float] | None = None, record: bool = True) -> MasterSolution:
         """The QP solved to relative ``accuracy`` (>= ``TIGHT``) by ``solve_dense``, by Clarabel if that fails.
 
         ``box`` (centre (d,), radius) keeps w within radius of centre in every coordinate (the
         certified learner's region that must hold the minimiser); the tight solve and Clarabel ignore it.
+        ``record``: a loose solve's final point becomes the next loose solve's start (``qp_start``);
+        False leaves the start as it was (a solve beside the path, ``certified_steps.lower_side``).
         """
         accuracy = max(float(accuracy), TIGHT)
         box = _finite(box) if accuracy > TIGHT else None
         answer = None
         if accuracy > TIGHT and self._start.ready and WARM:  # a loose solve from the last point (``qp_start``)
-            answer = self._dense(accuracy, box, self._start.point(self.L, self.Phi, box))
+            answer = self._dense(accuracy, box, self._start.point(self.L, self.Phi, box), record)
         if answer is None:
-            answer = self._dense(accuracy, box, None)
+            answer = self._dense(accuracy, box, None, record)
         if answer is None:
             self.fallbacks += 1
             answer, accuracy = solve_clarabel(self.C, self.lam, self.L, self.Phi), TIGHT
@@ -147,14 +149,14 @@ class MasterQP:
             answer = crossover(self.C, self.lam, self.L, self.Phi, answer[2], answer[3]) or self._clear_crossover(answer) or answer
         return MasterSolution(*answer, accuracy)
 
-    def _dense(self, accuracy: float, box: tuple[np.ndarray, float] | None, start: tuple | None):
+    def _dense(self, accuracy: float, box: tuple[np.ndarray, float] | None, start: tuple | None, record: bool = True):
         """``solve_dense``'s answer from ``start`` (None: from scratch), a loose solve's final point
-        recorded for the next start; None if it failed."""
+        recorded for the next start (with ``record``); None if it failed."""
         iterate = interior_point(self.C, self.lam, self.L, self.Phi, accuracy, box=box, start=start)
         if iterate is None:
             return None
         x, s, z, objective = iterate
-        if accuracy > TIGHT:
+        if accuracy > TIGHT and record:
             self._start.record(x, s, z, self.m, 0 if box is None else self.d)
         return _answer(x, s, z, objective, self.d, self.m, box, centred=accuracy > TIGHT)
 
