@@ -98,3 +98,51 @@ def test_the_public_entry_takes_the_fields_problem_form():
         assert sol.value == pytest.approx(exact.value, abs=1e-9) and np.allclose(sol.values, exact.values, atol=1e-9)
     with pytest.raises(ValueError, match="more directions"):
         solve_counts(np.random.default_rng(0).dirichlet(np.ones(4), size=(2, 4, 2)), np.zeros((2, 3, 4)), np.full(4, 0.25))
+
+
+def _every_node_forward(program, actions, p0, L):
+    """Each model's values (M,) and marginals (M, T, S) by a pass over every (s, c) node of every layer,
+    in plain Python: the mass of (s, c) goes along each move of a(s, c) to (s', c + e_k)."""
+    probs, reach, kind = program.probs, program.reach, program.kinds.kind
+    M, S, _, R = probs.shape
+    T = L.horizon
+    marginals, values = np.zeros((M, T, S)), np.zeros(M)
+    marginals[:, 0] = p0
+    for j in range(M):
+        mass = p0[:, None].copy()  # (S, C_0 = 1)
+        for t in range(T - 1):
+            succ = program.successor[t]
+            nxt_mass = np.zeros((S, succ.max() + 1))
+            for s in range(S):
+                for c in range(mass.shape[1]):
+                    x = mass[s, c]
+                    if x == 0.0:
+                        continue
+                    a = actions[t][s, c]
+                    values[j] += x * L.step[j, t, s, a]
+                    for r in range(R):
+                        if reach[s, r] < 0:
+                            break
+                        if kind[s, a, r] >= 0:
+                            nxt_mass[reach[s, r], succ[c, kind[s, a, r]]] += x * probs[j, s, a, r]
+            mass = nxt_mass
+            for s in range(S):  # in order along c, as a pass over every node adds them
+                for x in mass[s]:
+                    marginals[j, t + 1, s] += x
+        values[j] += L.last[j] @ marginals[j, T - 1]
+    return values, marginals
+
+
+@pytest.mark.parametrize("start", ["one cell", "uniform"])
+def test_the_forward_pass_over_the_nodes_reached_equals_one_over_every_node(start):
+    """The policy's marginals and values, pushed over the nodes it reaches only (a few percent of them
+    on a grid), are those of a pass over every node, to the last bit, from one start cell or all."""
+    dyn = slip_sparse(4, [0.0, 0.1, 0.2, 0.3])
+    p0 = uniform_initial(4) if start == "uniform" else np.eye(16)[5]
+    R = np.random.default_rng(1).normal(size=(4, 7, 16))
+    program = counts.program(dyn, 7)
+    sol = program.solve(layered_rewards(dyn, R), p0)
+    values, marginals = _every_node_forward(program, sol.action, p0, layered_rewards(dyn, R))
+    assert np.array_equal(sol.marginals, marginals)
+    assert np.allclose(sol.values, values, rtol=1e-13, atol=1e-13)  # summed per layer there, per model here
+    assert np.allclose(np.einsum("mts,mts->m", sol.marginals, R), sol.values, atol=1e-12)
