@@ -70,7 +70,7 @@ from airl_cli.core.irl.certified_steps import REFRESH_AFTER, Run, adversary_side
 from airl_cli.core.irl.game import adversary_rewards
 from airl_cli.core.irl.game_problem import AdversaryOracle, GameProblem
 from airl_cli.core.irl.options import CertifiedOptions
-from airl_cli.core.irl.qp import TIGHT, MasterQP, MasterSolution
+from airl_cli.core.irl.qp import LOOSEST, TIGHT, MasterQP, MasterSolution, accuracy_for
 from airl_cli.core.irl.strategy_sets import StrategySets
 from airl_cli.core.numerics.threads import blas_on_one_thread
 
@@ -78,9 +78,8 @@ from airl_cli.core.numerics.threads import blas_on_one_thread
 #: than ``certified_steps.PRUNE_AGE``) are dropped, the adversary's only beyond
 #: ``certified_steps.ADVERSARY_KEEP`` (``certified_steps.prune``): the QP stays small. The bounds stay valid whatever the sets hold.
 PRUNE_AFTER = 20
-#: The QP is solved to this share of the current relative gap (between ``LOOSEST`` and ``qp.TIGHT``).
+#: The QP is solved to this share of the current relative gap (between ``qp.LOOSEST`` and ``qp.TIGHT``).
 ACCURACY_SHARE = 0.5
-LOOSEST = 0.1
 #: The planner is skipped while the learner's improvement exceeds this fraction of the gap, unless
 #: it was last asked ``REFRESH_AFTER`` iterations ago or the QP's value is below the lower bound
 #: (the kept adversary rows then miss a violated one: f(w) >= f* >= lower > the QP's value).
@@ -242,7 +241,7 @@ def minimize(
             stopped = "tolerance" if rows[-1]["relative_gap"] <= options.tol else "no_improvement"
             break
         # a loose solve whose point neither oracle improves on is tightened, else the gap sets it
-        accuracy = TIGHT if not (added_l or added_a) else min(LOOSEST, max(TIGHT, ACCURACY_SHARE * rows[-1]["relative_gap"]))
+        accuracy = TIGHT if not (added_l or added_a) else accuracy_for(ACCURACY_SHARE * rows[-1]["relative_gap"])
         born_l += [it] * (qp.n - len(born_l))
         born_a += [it] * (qp.m - len(born_a))
         if it % PRUNE_AFTER == 0:

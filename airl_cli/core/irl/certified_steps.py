@@ -18,7 +18,7 @@ from airl_cli.core.irl.degeneracy import reward_effect
 from airl_cli.core.irl.game import adversary_rewards, learner_best_policy
 from airl_cli.core.irl.game_problem import AdversaryOracle
 from airl_cli.core.irl.options import CertifiedOptions
-from airl_cli.core.irl.qp import TIGHT, MasterSolution
+from airl_cli.core.irl.qp import TIGHT, MasterSolution, accuracy_for
 from airl_cli.core.irl.strategy_sets import StrategySets
 from airl_cli.core.irl.zero_bound import ZeroBound, best_at_zero
 from airl_cli.core.mdp.planning import backward_induction, state_marginals
@@ -29,12 +29,11 @@ SCREEN_FRACTION = 0.1
 #: The full oracle is asked at least once in this many iterations, even while screening succeeds.
 REFRESH_AFTER = 10
 #: A closing fit's lower bound is taken at a second solve's q too, solved to this share of the
-#: relative gap (``lower_side``; at most ``LOWER_LOOSEST``). Default problem's closing fits: seed 1
+#: relative gap (``lower_side``; at most ``qp.LOOSEST``). Default problem's closing fits: seed 1
 #: 185 -> 131 iterations, its responses on the grid of resolution 16 121 -> 77, process 22-23 -> 17 s;
 #: seeds 0 and 2 257 -> 160 and 275 -> 183 iterations, the same time. Not in other fits, whose PBVI
 #: responses cost a few ms: the default fit took 154 -> 129 iterations, more planner calls, 0.5 s more.
 LOWER_SHARE = 0.01
-LOWER_LOOSEST = 0.1  # as ``certified.LOOSEST``
 #: Learner strategies (one backward induction each) out of the optimum of the kept sets are dropped
 #: once this many iterations old (``prune``).
 PRUNE_AGE = 60
@@ -135,7 +134,7 @@ def lower_side(sets: StrategySets, run: Run, box: tuple[np.ndarray, float] | Non
     adversary at. Returns whether a learner strategy was added."""
     qp = sets.qp
     gap = (run.upper - run.lower) / max(1.0, abs(run.upper)) if np.isfinite(run.upper - run.lower) else 1.0
-    sol = qp.solve(min(LOWER_LOOSEST, max(TIGHT, LOWER_SHARE * gap)), box, record=False)
+    sol = qp.solve(accuracy_for(LOWER_SHARE * gap), box, record=False)
     tiny = 1e-9 * (1.0 + abs(sol.v))
     return learner_side(sets, sol.q, qp.C, qp.lam, tiny, run) > tiny
 

@@ -63,6 +63,8 @@ from airl_cli.core.numerics.threads import one_blas_thread
 #: The tightest accuracy asked of a solve (relative duality gap and constraints): the dense
 #: factorisation's limit on the masters met here.
 TIGHT = 1e-10
+#: The loosest accuracy a solve of the certified learner is asked for (``accuracy_for``).
+LOOSEST = 0.1
 #: ``MasterQP._clear_crossover`` keeps a weight only if it exceeds this many times its slack.
 CLEAR = 1e3
 #: A warm-started solve stops only once every complementary pair s_i z_i is at least this share
@@ -86,6 +88,12 @@ class MasterSolution:
     q: np.ndarray
     objective: float
     accuracy: float
+
+
+def accuracy_for(share_of_gap: float) -> float:
+    """A solve's accuracy for this share of the certified learner's relative gap, within
+    [``TIGHT``, ``LOOSEST``] (an infinite gap asks for ``LOOSEST``)."""
+    return min(LOOSEST, max(TIGHT, share_of_gap))
 
 
 class MasterQP:
