@@ -22,40 +22,17 @@ themselves must come out the same every time, or the script says so and stops.
 from __future__ import annotations
 
 import argparse
-import json
 import os
-import subprocess
-import sys
 import tempfile
-import time
 from pathlib import Path
 from statistics import median
 
 from rich.console import Console
 from rich.table import Table
 
+from _runs import fit_row, run, without_loss
+
 console = Console(width=160)
-
-
-def run(args: list[str]) -> tuple[float, int]:
-    """Run ``airl ARGS`` in a fresh process: (wall seconds, its peak resident memory in bytes)."""
-    with tempfile.TemporaryFile("w+") as err:
-        start = time.perf_counter()
-        proc = subprocess.Popen([sys.executable, "-m", "airl_cli", *args], stdout=subprocess.DEVNULL, stderr=err)
-        _, status, usage = os.wait4(proc.pid, 0)  # this child's own resource usage
-        wall = time.perf_counter() - start
-        proc.returncode = os.waitstatus_to_exitcode(status)
-        if proc.returncode != 0:
-            err.seek(0)
-            raise SystemExit(f"airl {' '.join(args)} failed:\n{err.read()}")
-    return wall, usage.ru_maxrss * 1024
-
-
-def fit_row(folder: Path) -> dict:
-    metrics = json.loads((folder / "metrics.json").read_text())
-    timing = json.loads((folder / "timing.json").read_text())
-    scores = [r["learner_score"] for r in metrics["dynamics"][1:]] if metrics.get("scored") else []
-    return {"metrics": metrics, "fit_seconds": timing["fit_seconds"], "qp_seconds": timing.get("qp_seconds", 0.0), "scores": scores}
 
 
 def main() -> None:
@@ -94,17 +71,6 @@ COLUMNS = (
     "grid", "S", "T", "loss", "fit s", "process s", "iterations", "planner calls", "QP s", "rel. gap", "converged", "planner resolution", "bracket width", "peak GB",
     "score tau_1..3", "MCE fit s", "MCE process s", "process / MCE",
 )
-
-
-def without_loss(path: Path) -> Path:
-    """A copy of the dataset file ``path`` without its ``loss`` key, beside it."""
-    import numpy as np
-
-    with np.load(path) as z:
-        arrays = {k: z[k] for k in z.files if k != "loss"}
-    out = path.with_name("dataset-no-loss.npz")
-    np.savez(out, **arrays)
-    return out
 
 
 def measure(file: Path, folder: Path, n: int, T: int, loss: str, extra: list[str], repeat: int = 1) -> tuple[str, ...]:

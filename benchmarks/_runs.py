@@ -1,0 +1,61 @@
+"""What the benchmark scripts share: a command in a fresh process, timed, and a fit folder's numbers."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+
+class TimedOut(Exception):
+    """A command ran past its time limit (it was stopped)."""
+
+
+def run(args: list[str], timeout: float | None = None) -> tuple[float, int]:
+    """Run ``airl ARGS`` in a fresh process: (wall seconds, its peak resident memory in bytes).
+
+    Raises:
+        TimedOut: if it ran longer than ``timeout`` seconds (it is killed).
+    """
+    with tempfile.TemporaryFile("w+") as err:
+        start = time.perf_counter()
+        proc = subprocess.Popen([sys.executable, "-m", "airl_cli", *args], stdout=subprocess.DEVNULL, stderr=err)
+        while True:
+            pid, status, usage = os.wait4(proc.pid, os.WNOHANG)  # this child's own resource usage
+            if pid:
+                break
+            if timeout is not None and time.perf_counter() - start > timeout:
+                proc.kill()
+                os.wait4(proc.pid, 0)
+                raise TimedOut(f"airl {' '.join(args)} ran past {timeout:g} s")
+            time.sleep(0.02)
+        wall = time.perf_counter() - start
+        proc.returncode = os.waitstatus_to_exitcode(status)
+        if proc.returncode != 0:
+            err.seek(0)
+            raise SystemExit(f"airl {' '.join(args)} failed:\n{err.read()}")
+    return wall, usage.ru_maxrss * 1024
+
+
+def fit_row(folder: Path) -> dict:
+    """A finished fit folder's metrics, its fit and QP seconds and its learner's scores in tau_1..tau_D."""
+    metrics = json.loads((folder / "metrics.json").read_text())
+    timing = json.loads((folder / "timing.json").read_text())
+    scores = [r["learner_score"] for r in metrics["dynamics"][1:]] if metrics.get("scored") else []
+    return {"metrics": metrics, "fit_seconds": timing["fit_seconds"], "qp_seconds": timing.get("qp_seconds", 0.0), "scores": scores}
+
+
+def without_loss(path: Path) -> Path:
+    """A copy of the dataset file ``path`` without its ``loss`` key, beside it (a user's own file
+    without one is fitted with the zero-one loss)."""
+    import numpy as np
+
+    with np.load(path) as z:
+        arrays = {k: z[k] for k in z.files if k != "loss"}
+    out = path.with_name("dataset-no-loss.npz")
+    np.savez(out, **arrays)
+    return out
