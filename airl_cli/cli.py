@@ -149,16 +149,20 @@ def fit(
     strict: bool = typer.Option(
         False,
         "--strict",
-        help="Exit with status 3 if the fit warns (NOT converged, a degenerate optimum) or its bracket on eq. 5.9's minimum is wider than optim.bracket_tol where set, else optim.tol.",
+        help="Exit with status 3 if the fit warns (NOT converged, a degenerate optimum) or its bracket on eq. 5.9's minimum is wider than optim.tol.",
+    ),
+    verbose: bool = typer.Option(
+        False, "--verbose", help="After the summary, what stands behind the certificate: the planner chosen and why, its own gap, the bracket's effort."
     ),
 ) -> None:
     """``airl fit`` (its help, ``FIT_HELP``, names the methods of the registry)."""
-    if strict and multirun:
-        refuse("--strict judges one fit; a multirun's jobs run in worker processes (read each job's metrics.json instead)")
-    from airl_cli.jobs.fit import WARNED, WIDE
+    if (strict or verbose) and multirun:
+        refuse(f"{'--strict judges' if strict else '--verbose shows'} one fit; a multirun's jobs run in worker processes (read each job's metrics.json instead)")
+    from airl_cli.jobs.fit import VERBOSE, WARNED, WIDE
 
     WARNED.clear()
     WIDE.clear()  # what an earlier command in this process saw is not this fit's
+    VERBOSE[:] = [True] if verbose else []
     run_hydra("fit", _overrides(ctx), cfg=cfg, resolve=resolve, multirun=multirun, replace=replace)
     if strict and cfg is None:
 

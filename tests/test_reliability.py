@@ -409,12 +409,12 @@ def test_the_command_line_s_estimates_count_the_heap_it_keeps():
     from airl_cli.api import config
     from airl_cli.heap import TOP_PAD
     from airl_cli.settings.config import fit_settings
-    from airl_cli.usecases.memory import build_memory, fit_memory
+    from airl_cli.usecases.memory import REFINED, build_memory, fit_memory
 
     sizes = dict(n_states=200, n_actions=5, horizon=10, n_dynamics=3, n_demos=100, n_next=None)
     estimate, iterations = fit_memory(sizes, fit_settings(config()))
     core = estimate_fit(**sizes, iterations=iterations)
-    assert estimate.parts["heap slack"] == TOP_PAD and estimate.total == core.total + TOP_PAD
+    assert estimate.parts["heap slack"] == TOP_PAD and estimate.total == core.total + estimate.parts[REFINED] + TOP_PAD
     assert build_memory(sizes).total == estimate_fit(**sizes, method="mce").total + TOP_PAD + 8 * 200**2
 
 
@@ -436,18 +436,20 @@ def test_the_refusal_never_advises_iterations_that_do_not_fit():
 
 
 def test_a_closing_fit_s_estimate_counts_the_grid_it_may_refine_to_and_its_note_names_the_grid(monkeypatch):
-    """``optim.bracket_tol``: the closing fit may refine the bracket's grid up to ``GRID_GROWTH`` times
-    ``pbvi.bracket_grid`` (``bracket.Closer``), so its estimate counts that much, and the note before
-    it says that the grid is what makes the default problem's closing fit large."""
+    """A fit that closes its bracket (the default) may refine the bracket's grid up to ``GRID_GROWTH``
+    times ``pbvi.bracket_grid`` (``bracket.Closer``), so its estimate counts that much (a Markov
+    adversary's fit, which does not close it, does not); the note before a fit leaves the refinement
+    out (the README's first command gets none) and names the grid where the grid makes the fit large."""
     from airl_cli import api
     from airl_cli.core.mmdp.budget import GRID_GROWTH
     from airl_cli.jobs import common
 
     monkeypatch.setattr(memory, "available_memory", lambda: 1 << 50)
-    measured, closing = (common.memory_estimate(api.config(*extra))[0] for extra in ([], ["optim.bracket_tol=1e-3"]))
-    assert closing.parts["bracket grid"] == GRID_GROWTH * measured.parts["bracket grid"] > 0
+    measured, closing = (common.memory_estimate(api.config(*extra))[0] for extra in (["game.adversary=markov"], []))
+    assert closing.parts["bracket grid"] + closing.parts[memory.REFINED] == GRID_GROWTH * measured.parts["bracket grid"] > 0
+    assert memory.REFINED not in measured.parts
     assert common.size_note(api.config()) is None  # the README's first command: no note
-    note = common.size_note(api.config("optim.bracket_tol=1e-3"))
+    note = common.size_note(api.config("pbvi.bracket_grid=12000000"))
     assert note is not None and "bracket's grid of beliefs (pbvi.bracket_grid) may take up to about" in note
 
 

@@ -20,7 +20,6 @@ from airl_cli.jobs.common import check_memory, err_console, out_console, output_
 from airl_cli.plain_progress import PlainProgress
 from airl_cli.settings.config import FitSettings, fit_settings, loss_and_seed, problem_settings
 from airl_cli.settings.paths import conf_dir
-from airl_cli.usecases.bracket import fit_tol, narrower
 from airl_cli.usecases.evaluate import identifiability_lines, score_learned
 from airl_cli.usecases.fit import Learned, check_supported, learn
 from airl_cli.usecases.problem import build_dataset, learner_rng, loss_kind, with_loss
@@ -104,12 +103,12 @@ def summary_text(dataset: Dataset, settings: FitSettings, learned: Learned, rows
             how += f"gradient descent (Table I): {info['steps']} steps (stopped: {info['stopped']}), "
         if o.planner.adversary == "markov":
             how += "Markov adversary (" + ("every Markov policy enumerated" if o.planner.method == "exact" else "CADP best responses") + ")"
-        elif o.planner.method in PLANNER_WORDS:
-            how += PLANNER_WORDS[o.planner.method]
+        elif info.get("planner", o.planner.method) in PLANNER_WORDS:
+            how += PLANNER_WORDS[info.get("planner", o.planner.method)]
         else:
             grown = f", grown to {info['sharpened_beliefs']} where its policy goes" if info.get("sharpened_beliefs", info["n_beliefs"]) > info["n_beliefs"] else ""
             how += f"PBVI {o.planner.iterations} iterations ({info['n_beliefs']} beliefs{grown})"
-            # a closing fit (optim.bracket_tol) on a grid of beliefs: PBVI plans only the brackets' first policies
+            # a closing fit on a grid of beliefs: PBVI plans only the brackets' first policies
             how += " in the bracket; best responses on its grid of beliefs" if info.get("best_responses") == "grid" else ""
         if settings.matching == "per_step":
             how += ", features matched at every step (game.matching=per_step)"
@@ -168,7 +167,7 @@ def degenerate_sentence(info: dict) -> str:
     # median cos(w, w*) of 0.83 on such fits of the degeneracy experiment, 0.47 on the ones above)
     return (
         f"the learned reward is barely constrained: w = 0 passes the certificate too (relative gap "
-        f"{info['zero_relative_gap']:.2g} at w = 0, within twice the tolerance), so the demonstrations hardly tell this "
+        f"{info['zero_relative_gap']:.2g} at w = 0, within optim.tol), so the demonstrations hardly tell this "
         f"reward from the zero reward, though it moves the game's payoff by {info['reward_effect']:.2g} and its direction "
         "may still carry signal (see the documentation, docs/method.md, 'A degenerate optimum')"
     )
@@ -191,11 +190,10 @@ def _score_table(rows: list[dict], *, held_out: bool) -> list[str]:
 
 
 def _objective_lines(info: dict) -> list[str]:
-    """The objective and where the optimiser stopped relative to the minimum."""
+    """The certificate (the exact solve: the bracket on eq. 5.9's minimum, ``usecases.bracket.certificate_line``)
+    or where the gradient steps stopped relative to the minimum."""
     if info["optimizer"] == "exact":
-        return [
-            f"objective {info['objective']:.6g} (lower bound {info['lower_bound']:.6g}): {info['certificate']}",
-        ]
+        return [f"certified {info['certificate']}"]
     lines = [f"objective {info['objective']:.6g} at the last step, (1/K)|grad|_1 = {info['grad_norm']:.3g}"]
     if "certified_optimum" in info:
         lines.append(
@@ -271,7 +269,7 @@ def fit_and_write(
 def fit_with_progress(cfg: DictConfig, folder: Path, settings: FitSettings) -> FitRun:
     """``fit_and_write`` under a live display: the learner's iterations, and the current planner call's time steps."""
     exact = settings.optimizer == "exact"
-    tol = fit_tol(settings)
+    tol = settings.certified.tol
     columns = (TextColumn("{task.description}"), BarColumn(bar_width=12), TextColumn("{task.fields[info]}"), TimeElapsedColumn())
     name = "fit (exact)" if exact else "fit (gradient)"
     plain, last = PlainProgress(err_console), [""]  # stderr to a file: plain lines, the last step's info
@@ -282,9 +280,11 @@ def fit_with_progress(cfg: DictConfig, folder: Path, settings: FitSettings) -> F
 
         def on_step(row: dict) -> None:
             if "relative_gap" in row:  # an iteration of the exact solve (or of optim.certify's, after the steps)
+                bracket = row.get("bracket_upper", np.inf)
+                width = f"  bracket [{row['lower']:.6g}, {bracket:.6g}] -> {tol:g}" if np.isfinite(bracket) else ""
                 info = (
-                    f"{'' if exact else 'certifying: '}iteration {row['iteration']}  gap {row['relative_gap']:.2g} -> {tol:g}  "
-                    f"f in [{row['lower']:.6g}, {row['upper']:.6g}]"
+                    f"{'' if exact else 'certifying: '}iteration {row['iteration']}  gap {row['relative_gap']:.2g}  "
+                    f"f in [{row['lower']:.6g}, {row['upper']:.6g}]{width}"
                 )
             else:
                 info = f"step {int(row['step']) + 1}/{settings.options.max_steps}  objective {row['objective']:.5g}  |grad| {row['grad_norm']:.3g}"
@@ -315,54 +315,61 @@ def main(cfg: DictConfig) -> None:
             warm_up()
         run = fit_with_progress(cfg, folder, settings)
     out_console.print(run.text, end="", soft_wrap=True)
+    if VERBOSE and run.learned.method == "airl":
+        out_console.print("\n" + "\n".join(verbose_lines(run.learned.info)), soft_wrap=True)
     out_console.print(f"\nwrote {folder} (fit in {run.seconds:.2f} s)", soft_wrap=True)
     for sentence in fit_warnings(run.learned.info):
         err_console.print(f"warning: {sentence}", soft_wrap=True)
         WARNED.append(sentence)
-    if run.learned.method == "airl" and (wide := wide_sentence(run.learned.info, settings.certified.bracket_tol)):
+    if run.learned.method == "airl" and (wide := wide_sentence(run.learned.info)):
         WIDE.append(wide)
+
+
+#: ``airl fit --verbose``: the summary is followed by ``verbose_lines`` (set by the command line).
+VERBOSE: list[bool] = []
+
+
+def verbose_lines(info: dict) -> list[str]:
+    """``airl fit --verbose``: what stands behind the certificate, from the fit's metrics ``info``:
+    the planner chosen and why, the fit's own gap against it, the bracket's effort, the objective at
+    the learned w as the planner sees it."""
+    if info.get("optimizer") != "exact":
+        return []
+    lines = ["details (metrics.json):", f"  planner     pbvi.method={info['planner']}: {info['planner_reason']}"]
+    lines.append(f"  gap         {info['planner_certificate']}")
+    lines.append(f"  objective   {info['objective']:.6g} at the learned w against those best responses; lower bound {info['lower_bound']:.6g}")
+    if "bracket_calls" in info:
+        grid = f", its grid of beliefs at resolution {info['bracket_grid_resolution']}" if info.get("bracket_grid_resolution") else ""
+        lines.append(
+            f"  bracket     {info['bracket_calls']} bracket(s) of {info['bracket_beliefs']:,} beliefs{grid}; {info['close_steps']} closing step(s); "
+            f"the bracket's policy bounds the answer {info['planner_resolution']:.2g} (relative) above the planner's"
+        )
+    elif "planner_resolution" in info:
+        lines.append(f"  resolution  PBVI on {info['check_beliefs']} beliefs bounds the answer {info['planner_resolution']:.2g} (relative) higher")
+    return lines
 
 
 #: The warnings of the fits run in this process (``airl fit --strict`` exits 3 if there are any).
 WARNED: list[str] = []
-#: What ``airl fit --strict`` also counts as not converged: a bracket on eq. 5.9's minimum wider than optim.bracket_tol where set, else optim.tol.
+#: What ``airl fit --strict`` also counts as not converged: a bracket on eq. 5.9's minimum wider than optim.tol.
 WIDE: list[str] = []
 
 
-def wide_sentence(info: dict, bracket_tol: float | None = None) -> str | None:
-    """The sentence ``--strict`` adds when the bracket, valid whatever the planner, is wider than
-    optim.bracket_tol where set (the width the fit closed it to), else optim.tol."""
-    width = info.get("bracket_relative_gap")
-    if width is None:
-        return None
-    limit, name = (info["tol"], "optim.tol") if bracket_tol is None else (bracket_tol, "optim.bracket_tol")
-    if width <= limit:
-        return None
-    lo, up = info["minimum_bracket"]
-    return (
-        f"not converged for --strict: eq. 5.9's minimum is known only within [{lo:.6g}, {up:.6g}] whatever the planner, "
-        f"a relative width of {width:.2g} above {name}={limit:g} ({narrower(info)})"
-    )
+def wide_sentence(info: dict) -> str | None:
+    """The sentence ``--strict`` adds when the fit's certificate, the bracket valid whatever the
+    adversary's policy, is wider than optim.tol (or missing, where the fit closes none)."""
+    if info.get("optimizer") != "exact" or info.get("converged") or info.get("stopped") in ("max_iterations", "max_seconds"):
+        return None  # the gradient steps have no bracket; a fit at a budget warns already (``fit_warnings``)
+    return f"not converged: {info['certificate']}"
 
 
 def fit_warnings(info: dict) -> list[str]:
-    """The sentences a fit warns with on stderr: a certified learner stopped at its cap (no
-    certificate), a degenerate optimum (a certificate that says nothing of the reward)."""
+    """The sentences a fit warns with on stderr: a certified learner stopped at a budget with its
+    bracket wider than optim.tol (the width it reached, the setting that narrows it), a degenerate
+    optimum (a certificate that says nothing of the reward)."""
     out = []
-    if info.get("optimizer") == "exact" and not info.get("converged", True):
-        sentence = (
-            f"NOT converged: {info['iterations']} iterations reached optim.max_iterations"
-            + (f" (counted from the last of {info['sharpen_steps']} sharpenings)" if info.get("sharpen_steps") else "")
-            + f" with relative gap "
-            f"{info['relative_gap']:.2g} above optim.tol={info['tol']:g}; the weights carry no certificate "
-            "(raise optim.max_iterations, or loosen optim.tol)"
-        )
-        if info.get("planner_resolution", 0.0) > info["relative_gap"]:  # a finer gap would be finer than PBVI
-            sentence += (
-                f"; the planner's resolution at the answer, {info['planner_resolution']:.2g} (PBVI on "
-                f"{info['check_beliefs']} beliefs bounds it that much higher), is already coarser than the gap"
-            )
-        out.append(sentence)
+    if info.get("optimizer") == "exact" and info.get("stopped") in ("max_iterations", "max_seconds") and not info.get("converged"):
+        out.append(f"NOT converged: {info['certificate']}")
     if info.get("degenerate"):
         out.append(degenerate_sentence(info))
     return out

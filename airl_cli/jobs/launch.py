@@ -18,7 +18,7 @@ from rich.markup import escape
 from airl_cli.errors import ConfigError, ResultsUnwritable, interrupted, refuse
 from airl_cli.io.files import describe_os_error, is_unwritable, writable_problem, write_text
 from airl_cli.io.run_folder import claimed_folder, enter, holds_no_results, new_run_folder
-from airl_cli.settings.overrides import chosen_values, override_key, split_override
+from airl_cli.settings.overrides import RENAMED_KEYS, chosen_values, override_key, split_override
 from airl_cli.settings.paths import conf_dir
 from airl_cli.settings.problem_defaults import with_problem_defaults
 
@@ -169,7 +169,7 @@ def check_keys(overrides: list[str], primary: str = "airl") -> None:
             continue
         close = difflib.get_close_matches(leaf, keys, n=1, cutoff=0.7)
         hint = f"did you mean '{group}.{close[0]}'? " if close else ""
-        refuse(f"'{name}' is not a key of the config group '{group}' ({group}={option}){adds}; {hint}its keys are: {', '.join(keys)}")
+        refuse(RENAMED_KEYS.get(name) or f"'{name}' is not a key of the config group '{group}' ({group}={option}){adds}; {hint}its keys are: {', '.join(keys)}")
 
 
 def check_output_folder(overrides: list[str], *, multirun: bool) -> None:

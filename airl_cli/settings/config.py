@@ -248,7 +248,7 @@ def _method_options(r: Reader, name: str) -> dict:
 def _planner(node: Any) -> PlannerOptions:
     r = Reader(node, "pbvi")
     return PlannerOptions(
-        method=r.choice("method", ("pbvi", "exact", "mean", "counts")),
+        method=r.choice("method", ("auto", "pbvi", "exact", "mean", "counts")),
         iterations=r.int("iterations", lo=1, hi=PBVI_MAX_ITERATIONS),
         expansion=r.choice("expansion", ("sample", "all")),
         expectations=r.choice("expectations", ("exact", "monte_carlo")),
@@ -303,7 +303,7 @@ def fit_settings(cfg: DictConfig | Mapping) -> FitSettings:
             tol=o.float("tol", lo=0.0, open_lo=True),
             max_iterations=o.int("max_iterations", lo=1),
             normalize_loss=normalize_loss,
-            bracket_tol=None if o.raw("bracket_tol", None) is None else o.float("bracket_tol", lo=0.0, open_lo=True),
+            max_seconds=None if o.raw("max_seconds", None) is None else o.float("max_seconds", lo=0.0, open_lo=True),
         )
         options = FitOptions(weight_sharing=sharing, lam=certified.lam, normalize_loss=normalize_loss, planner=planner)
     else:
@@ -320,7 +320,8 @@ def fit_settings(cfg: DictConfig | Mapping) -> FitSettings:
             planner=planner,
         )
         certify = _bool(o, "certify") and options.lam > 0
-        certified = CertifiedOptions(weight_sharing=sharing, lam=max(options.lam, 1e-12), normalize_loss=normalize_loss)
+        # optim.certify: the game the steps play (PBVI's best responses, not closed) to a relative gap of 1e-4
+        certified = CertifiedOptions(weight_sharing=sharing, lam=max(options.lam, 1e-12), tol=1e-4, normalize_loss=normalize_loss)
     data = top.raw("data", None)
     if data is not None and not isinstance(data, str):
         raise ConfigError(f"'data' must be the path of a dataset file, got {data!r}")

@@ -6,6 +6,11 @@ Read by every command that looks at its overrides before Hydra does (``launch``,
 
 from __future__ import annotations
 
+#: Keys an earlier version had, and the sentence that says what took their place (``launch.check_keys``).
+RENAMED_KEYS = {
+    "optim.bracket_tol": "'optim.bracket_tol' is now 'optim.tol': every fit closes the bracket on eq. 5.9's minimum, to a relative width of optim.tol (1e-3 by default)",
+}
+
 
 def split_override(item: str) -> tuple[str, str, str]:
     """(key, "=" or "", value) of a command-line override, the key without Hydra's leading ``+``

@@ -35,7 +35,7 @@ from airl_cli.sweep.spec import ROWS
 FIT_COLUMNS = (
     "experiment", "method", "seed", "run", "x", "x_name", "mdp", "dynamics_kind", "n_dynamics", "n_features",
     "n_demos", "demos", "sigma", "weight_sharing", "loss", "dynamics", "learner_score", "demonstrator_score",
-    "cosine_similarity", "seconds", "optimizer", "objective", "relative_gap", "converged", "degenerate",
+    "cosine_similarity", "seconds", "optimizer", "objective", "relative_gap", "bracket_width", "converged", "degenerate",
     "equilibrium_score", "weight_scale", "n_test", "learner_return", "demonstrator_return",
 )  # fmt: skip
 #: The columns of the alpha-vector experiment's one row (thesis Figs. 2-3).
@@ -55,7 +55,7 @@ SETTING_GROUPS = ("mdp", "dynamics", "demos", "loss", "method", "pbvi", "game", 
 
 _INTEGERS = {"seed", "run", "n_dynamics", "n_test", "n_features", "n_demos", "n_exact", "n_envelope", "n_pbvi", "n_beliefs"}
 _FLOATS = {
-    "x", "sigma", "learner_score", "demonstrator_score", "cosine_similarity", "seconds", "objective", "relative_gap", "max_value_gap",
+    "x", "sigma", "learner_score", "demonstrator_score", "cosine_similarity", "seconds", "objective", "relative_gap", "bracket_width", "max_value_gap",
     "equilibrium_score", "weight_scale", "learner_return", "demonstrator_return",
 }  # fmt: skip
 _BOOLS = {"weight_sharing", "converged", "degenerate"}
@@ -218,6 +218,7 @@ def _check_fit(folder: Path, config: dict, header: list[str], rows: list[list[st
     exact = method == "airl" and first["optimizer"] == "exact"
     empty = set() if method == "airl" else {"optimizer", "objective"}
     empty |= set() if exact else {"relative_gap", "converged", "degenerate", "equilibrium_score"}
+    empty |= set() if exact and "bracket_relative_gap" in metrics else {"bracket_width"}  # a bracket on eq. 5.9's minimum (pbvi.bracket_beliefs=0: none)
     empty |= set() if metrics["scored"] else {"learner_score", "demonstrator_score", "cosine_similarity", "equilibrium_score", "learner_return", "demonstrator_return"}
     empty |= set() if _learns_reward(method) else {"cosine_similarity", "weight_scale"}  # a policy, no weights
     _check_types(ROWS, header, rows, empty | {k for k, v in settings.items() if v == ""})

@@ -60,6 +60,7 @@ def fit_rows(cfg: DictConfig, folder) -> list[dict]:
         "optimizer": info.get("optimizer", "") if run.settings.method == "airl" else "",
         "objective": info.get("objective", np.nan) if run.settings.method == "airl" else np.nan,
         "relative_gap": info["relative_gap"] if certified else np.nan,
+        "bracket_width": info.get("bracket_relative_gap", np.nan) if certified else np.nan,  # eq. 5.9's minimum's [L, U], relative
         "converged": info["converged"] if certified else np.nan,
         "degenerate": info["degenerate"] if certified else np.nan,
     }

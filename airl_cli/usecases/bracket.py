@@ -5,14 +5,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from airl_cli.core.irl.bracket import TARGET_SHARE, Closer, relative_width
+from airl_cli.core.irl.bracket import MAX_CLOSE_STEPS, TARGET_SHARE, Closer, relative_width
 from airl_cli.core.irl.certified import stop_tol
 from airl_cli.core.irl.certified_steps import answer_penalty
 from airl_cli.core.irl.game_problem import GameProblem
-from airl_cli.core.irl.options import BRACKET_MAX_BELIEFS
+from airl_cli.core.irl.options import BRACKET_MAX_BELIEFS, EXACT_PLANNERS, closes_bracket
 from airl_cli.core.mdp.sparse import sparse_dynamics
 from airl_cli.settings.config import FitSettings
-from airl_cli.usecases.oracles import EXACT_PLANNERS
 
 
 def closer(problem: GameProblem, oracle, settings: FitSettings) -> Closer | None:
@@ -33,21 +32,18 @@ def _brackets(settings: FitSettings) -> bool:
     return planner.bracket_beliefs > 0 and planner.method not in EXACT_PLANNERS
 
 
-def fit_tol(settings: FitSettings) -> float:
-    """The relative gap the certified fit drives its own certificate to: with optim.bracket_tol set
-    (the thesis's adversary), a share of it where the fit closes a bracket (``certified.stop_tol``),
-    and all of it where its planner is exact (``pbvi=exact``, ``pbvi=counts``: its certificate is
-    then the bracket itself, so optim.bracket_tol asks for that width); else optim.tol."""
-    certified = settings.certified
-    if closes(settings) and settings.options.planner.method in EXACT_PLANNERS:
-        return certified.bracket_tol
-    return stop_tol(certified, closes(settings) and _brackets(settings))
+def gap_tol(settings: FitSettings) -> float:
+    """The relative gap the certified fit drives its own certificate (against its planner) to:
+    ``optim.tol`` where its planner is exact (``pbvi=exact``, ``counts``: the gap is then the
+    bracket) or it does not close a bracket (the Markov adversary, ``pbvi.bracket_beliefs=0``), and
+    ``certified.stop_tol``'s share of it where it closes one (the bracket is then the certificate)."""
+    return stop_tol(settings.certified.tol, closes(settings) and _brackets(settings))
 
 
 def closes(settings: FitSettings) -> bool:
-    """Whether the fit closes the bracket (``optim.bracket_tol`` set; ``minimize``'s ``close``): the
-    thesis's history-dependent adversary only; a Markov adversary's game is bracketed, not closed."""
-    return settings.certified.bracket_tol is not None and settings.options.planner.adversary == "history"
+    """Whether the fit's certificate is a bracket on eq. 5.9's minimum closed to ``optim.tol``
+    (``minimize``'s ``close`` with an inexact planner; the exact planners' gap is that bracket; ``options.closes_bracket``)."""
+    return closes_bracket(settings.options.planner)
 
 
 def bracket_info(res, settings: FitSettings, targets: np.ndarray, close: Closer | None, exact=None) -> dict:
@@ -59,7 +55,8 @@ def bracket_info(res, settings: FitSettings, targets: np.ndarray, close: Closer 
     ``pbvi.method=exact``: U is the certified bound itself. ``pbvi.method=counts`` (``exact``, the
     count oracle, once the fit switched to it): U is the larger of the certified bound and the exact
     bound at the best bound's rewards (the certified one may be PBVI's, from before the switch, if
-    the exact response did not raise it past the tolerance); without the switch, no bracket. A Markov adversary's fit (not closed)
+    the exact response did not raise it past the tolerance), or the smallest of the exact responses'
+    own bounds (``res.bracket_upper``) where that is lower; without the switch, no bracket. A Markov adversary's fit (not closed)
     gets the bracket at its answer: the history-dependent bound, valid, as a Markov adversary can
     do no better than a history-dependent one. Empty when the bracket is off.
     """
@@ -67,7 +64,7 @@ def bracket_info(res, settings: FitSettings, targets: np.ndarray, close: Closer 
     if planner.method == "exact" or (exact is not None and res.upper_rewards is None):
         upper = res.objective
     elif exact is not None:
-        upper = max(res.objective, exact(res.upper_rewards)[0] + answer_penalty(targets, res, settings.certified))
+        upper = min(res.bracket_upper, max(res.objective, exact(res.upper_rewards)[0] + answer_penalty(targets, res, settings.certified)))
     elif close is None:
         return {}
     elif np.isfinite(res.bracket_upper):
@@ -75,7 +72,7 @@ def bracket_info(res, settings: FitSettings, targets: np.ndarray, close: Closer 
     elif res.upper_rewards is None:  # the bound through f(0) is exact
         upper = res.objective
     else:
-        target = TARGET_SHARE * (settings.certified.bracket_tol or settings.certified.tol) * max(1.0, abs(res.objective))
+        target = TARGET_SHARE * settings.certified.tol * max(1.0, abs(res.objective))
         upper = close.bracket(res.upper_rewards, target).upper + answer_penalty(targets, res, settings.certified)
     info = {"minimum_bracket": [float(res.lower), float(upper)], "bracket_relative_gap": relative_width(res.lower, upper)}
     if close is None or close.last is None or not closes(settings):
@@ -92,25 +89,37 @@ def bracket_info(res, settings: FitSettings, targets: np.ndarray, close: Closer 
     }
 
 
-def bracket_phrase(info: dict, bracket_tol: float | None) -> str:
-    """The certificate's clause on eq. 5.9 itself, or '' without a bracket."""
+def certificate_line(info: dict, tol: float) -> str:
+    """The fit's certificate in one line (``info``: its metrics): the bracket [L, U] on eq. 5.9's
+    minimum, valid whatever the adversary's policy, and whether it is within ``tol`` (``optim.tol``);
+    where it is wider, the one setting that narrows it. Without a bracket (``pbvi.bracket_beliefs=0``,
+    a count fit stopped before its exact part) the gap against the fit's planner, said as such."""
     if "minimum_bracket" not in info:
-        return ""
+        return f"{info['planner_certificate']}; no bracket on eq. 5.9's minimum itself ({narrower(info)})"
     lo, up = info["minimum_bracket"]
-    text = f"; eq. 5.9's minimum lies in [{lo:.6g}, {up:.6g}] whatever the planner (relative width {info['bracket_relative_gap']:.2g})"
-    if bracket_tol is not None and info["bracket_relative_gap"] > bracket_tol:
-        text += f", wider than optim.bracket_tol = {bracket_tol:g}: {narrower(info)}"
-    return text
+    width = info["bracket_relative_gap"]
+    markov = " with a Markov adversary" if info.get("adversary") == "markov" else ""
+    text = f"eq. 5.9's minimum{markov} lies in [{lo:.6g}, {up:.6g}] whatever the adversary's policy (relative width {width:.2g}"
+    if width <= tol:
+        return text + f", within optim.tol = {tol:g})"
+    return text + f", wider than optim.tol = {tol:g}: {narrower(info)})"
 
 
 def narrower(info: dict) -> str:
-    """What narrows a fit's bracket (its metrics ``info``): closing it inside the fit where it was
-    not closed, else the grid's budget where the bracket had a grid of beliefs (its resolution limits
-    both sides there: the bound and the responses), else the bracket's beliefs."""
-    if not info.get("converged", True):
-        return "the fit stopped at its iteration cap (optim.max_iterations)"
-    if "close_steps" not in info:
-        return "optim.bracket_tol closes it inside the fit"
+    """What narrows a fit's bracket (its metrics ``info``), in a phrase: the budget the fit stopped
+    at (its iteration cap, its time); closing it where the fit did not (a Markov adversary's game,
+    the bracket turned off); else the grid's budget where the bracket had a grid of beliefs (its
+    resolution limits both sides there: the bound and the responses), else the bracket's beliefs."""
+    if info.get("stopped") == "max_seconds":
+        return f"the fit stopped at its time limit, optim.max_seconds = {info.get('max_seconds', 0):g}; a longer one narrows it"
+    if info.get("stopped") == "max_iterations":
+        return f"the fit stopped at its iteration cap, optim.max_iterations = {info.get('max_iterations', 0)}; a higher one narrows it"
+    if info.get("adversary") == "markov":
+        return "the Markov adversary's game is bracketed at its answer, not closed"
+    if "minimum_bracket" not in info:
+        return "pbvi.bracket_beliefs=0 turns the bracket off" if info.get("planner") == "pbvi" else "the fit stopped before its exact part"
+    if info.get("close_steps", 0) >= MAX_CLOSE_STEPS:
+        return f"the fit took its {MAX_CLOSE_STEPS} closing steps; a larger pbvi.bracket_grid narrows it" if info.get("bracket_grid_resolution") else f"the fit took its {MAX_CLOSE_STEPS} closing steps; a larger pbvi.bracket_beliefs narrows it"
     if info.get("bracket_grid_resolution"):
         return f"a larger pbvi.bracket_grid narrows it (its grid of beliefs had resolution {info['bracket_grid_resolution']})"
     return "a larger pbvi.bracket_beliefs narrows it"

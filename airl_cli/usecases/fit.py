@@ -23,8 +23,8 @@ from airl_cli.errors import ConfigError
 from airl_cli.io.dataset import Dataset
 from airl_cli.methods import REGISTRY
 from airl_cli.settings.config import FitSettings
-from airl_cli.usecases.bracket import bracket_info, bracket_phrase, closer, closes, fit_tol
-from airl_cli.usecases.oracles import certificate, oracle_name, planner_refusal
+from airl_cli.usecases.bracket import bracket_info, certificate_line, closer, closes
+from airl_cli.usecases.oracles import certificate, choose_planner, oracle_name, planner_refusal
 from airl_cli.usecases.memory import affordable_beliefs, affordable_check
 from airl_cli.usecases.state_action import expanded, original_policies
 
@@ -213,47 +213,12 @@ def _learn_airl(
     planner_progress: Callable[[int, int], None] | None = None,
 ) -> Learned:
     """The thesis's method: the certified minimiser of eq. 5.9, or Table I's gradient steps."""
-    planner_refusal(problem, settings.options.planner)
-    oracle, screen, n_beliefs = make_oracles(problem, settings.options.planner, rng, planner_progress)
+    chosen = choose_planner(problem, settings.options.planner, optimizer=settings.optimizer)
+    settings = replace(settings, options=replace(settings.options, planner=chosen.planner))
+    planner_refusal(problem, chosen.planner)
+    oracle, screen, n_beliefs = make_oracles(problem, chosen.planner, rng, planner_progress)
     if settings.optimizer == "exact":
-        sharpen, sharpen_within = _sharpener(problem, oracle, settings)
-        bracketer = closer(problem, oracle, settings)
-        close = bracketer if closes(settings) else None
-        fit_oracle = oracle if close is None else closing_oracle(oracle, close)
-        res = minimize(problem, targets, fit_oracle, screen=screen, options=replace(settings.certified, tol=fit_tol(settings)), callback=callback, sharpen=sharpen, sharpen_within=sharpen_within, close=close)
-        h = res.history
-        zero = bool(res.converged and not np.any(res.weights))  # certified by the exact bound on f(0)
-        name = "exact" if zero else "grid" if close is not None and close.answered_on_grid else oracle_name(settings.options.planner)
-        bracketed = bracket_info(res, settings, targets, bracketer, oracle.exact if isinstance(oracle, PBVIThenExact) and oracle.switched else None)
-        check = {} if "planner_resolution" in bracketed else _planner_check(problem, targets, res, settings, rng, oracle, grown=sharpen is not None)
-        certified_text = certificate(res.relative_gap, res.tol, res.converged, name, check, sharpened=sharpen is not None)
-        info = {
-            "optimizer": "exact",
-            "stopped": res.stopped,
-            "converged": res.converged,
-            "objective": res.objective,
-            "lower_bound": res.lower,
-            "gap": res.gap,
-            "relative_gap": res.relative_gap,
-            "tol": res.tol,
-            "oracle": oracle_name(settings.options.planner),
-            "adversary": settings.options.planner.adversary, "best_responses": name,
-            "certificate": certified_text + bracket_phrase(bracketed, settings.certified.bracket_tol),
-            "zero_answer": zero,
-            "iterations": int(h["iteration"][-1]),
-            "planner_calls": int(h["planner_calls"][-1]),
-            "screen_calls": int(h["screen_calls"][-1]),
-            "qp_fallbacks": res.qp_fallbacks,
-            "n_beliefs": int(n_beliefs),
-            **({"sharpen_steps": res.sharpen_steps, "sharpened_beliefs": int(len(oracle.beliefs))} if sharpen and not isinstance(oracle, PBVIThenExact) else {}),
-            **check,
-            **bracketed,
-            # how many strategies each player's equilibrium mixture uses (weight above 1e-8)
-            "learner_support": int(np.sum(res.learner_mix > 1e-8)),
-            "adversary_support": int(np.sum(res.adversary_mix > 1e-8)),
-            **_degeneracy(problem, targets, res, res.tol),
-        }
-        return Learned("airl", res.weights, None, res.history, info, (res.learner_policies, res.learner_mix))
+        return _certified(problem, targets, settings, rng, callback, oracle, screen, n_beliefs, chosen.reason)
     result = fit(problem, targets, rng=rng, options=settings.options, oracle=oracle, callback=callback)
     history = dict(result.history)
     info = {
@@ -284,6 +249,58 @@ def _learn_airl(
         }
         history["above_optimum"] = history["objective"] - best.objective
     return Learned("airl", result.weights, None, history, info)
+
+
+def _certified(problem: GameProblem, targets: np.ndarray, settings: FitSettings, rng: np.random.Generator, callback, oracle, screen, n_beliefs: int, reason: str) -> Learned:
+    """The certified minimiser of eq. 5.9 (``core.irl.certified``) with the planner ``settings``
+    name (``pbvi.method`` resolved, ``reason`` why), its bracket and what the metrics say of it:
+    ``converged`` is the bracket within ``optim.tol`` (the fit's gap where it has none)."""
+    sharpen, sharpen_within = _sharpener(problem, oracle, settings)
+    bracketer = closer(problem, oracle, settings)
+    close = bracketer if closes(settings) else None
+    fit_oracle = oracle if close is None else closing_oracle(oracle, close)
+    res = minimize(problem, targets, fit_oracle, screen=screen, options=settings.certified, callback=callback, sharpen=sharpen, sharpen_within=sharpen_within, close=close)
+    h = res.history
+    planner = settings.options.planner
+    zero = bool(res.converged and not np.any(res.weights))  # certified by the exact bound on f(0)
+    name = "exact" if zero else "grid" if close is not None and close.answered_on_grid else oracle_name(planner)
+    bracketed = bracket_info(res, settings, targets, bracketer, oracle.exact if isinstance(oracle, PBVIThenExact) and oracle.switched else None)
+    check = {} if "planner_resolution" in bracketed else _planner_check(problem, targets, res, settings, rng, oracle, grown=sharpen is not None)
+    tol = settings.certified.tol
+    info = {
+        "optimizer": "exact",
+        "stopped": res.stopped,
+        # the certificate asked for: the bracket on eq. 5.9's minimum within optim.tol (the gap where there is no bracket)
+        "converged": bool(res.converged and bracketed.get("bracket_relative_gap", 0.0) <= tol),
+        "objective": res.objective,
+        "lower_bound": res.lower,
+        "gap": res.gap,
+        "relative_gap": res.relative_gap,
+        "tol": tol,
+        "gap_tol": res.tol,
+        "max_iterations": settings.certified.max_iterations,
+        **({"max_seconds": settings.certified.max_seconds} if settings.certified.max_seconds is not None else {}),
+        "planner": planner.method,
+        "planner_reason": reason,
+        "oracle": oracle_name(planner),
+        "adversary": planner.adversary, "best_responses": name,
+        "planner_certificate": certificate(res.relative_gap, res.tol, res.converged, name, check, sharpened=sharpen is not None),
+        "zero_answer": zero,
+        "iterations": int(h["iteration"][-1]),
+        "planner_calls": int(h["planner_calls"][-1]),
+        "screen_calls": int(h["screen_calls"][-1]),
+        "qp_fallbacks": res.qp_fallbacks,
+        "n_beliefs": int(n_beliefs),
+        **({"sharpen_steps": res.sharpen_steps, "sharpened_beliefs": int(len(oracle.beliefs))} if sharpen and not isinstance(oracle, PBVIThenExact) else {}),
+        **check,
+        **bracketed,
+        # how many strategies each player's equilibrium mixture uses (weight above 1e-8)
+        "learner_support": int(np.sum(res.learner_mix > 1e-8)),
+        "adversary_support": int(np.sum(res.adversary_mix > 1e-8)),
+        **_degeneracy(problem, targets, res, tol),
+    }
+    info["certificate"] = certificate_line(info, tol)
+    return Learned("airl", res.weights, None, res.history, info, (res.learner_policies, res.learner_mix))
 
 
 #: ``pbvi.sharpen_rounds`` grows the fit's belief set to at most this many times its size.
@@ -344,10 +361,11 @@ def _planner_check(problem: GameProblem, targets: np.ndarray, res, settings: Fit
 
 def _degeneracy(problem: GameProblem, targets: np.ndarray, res, tol: float) -> dict:
     """Whether the certified w is the zero reward in all but name (``airl_cli.core.irl.degeneracy``;
-    a fit stopped by its iteration cap is never flagged):
-    the weights cannot move the payoff by more than the tolerance, or the zero reward passes the
-    certificate itself (the oracle's upper bound at w = 0 within twice the tolerance of the lower
-    bound, ``res.zero_upper``). Values in the certificate's units (the loss scaled as the solve scaled it)."""
+    a fit stopped by a budget is never flagged): the weights cannot move the payoff by more than
+    the certificate's width ``tol`` (``optim.tol``), or the zero reward passes the certificate itself
+    (the exact upper bound at w = 0 within ``tol`` of the lower bound, ``res.zero_upper``: [L, f(0)]
+    is then as narrow a bracket as the fit's). Values in the certificate's units (the loss scaled as
+    the solve scaled it)."""
     effect = reward_effect(problem.transitions[1:], problem.features, problem.initial, problem.horizon, res.weights, targets, discount=problem.discount)
     scale = max(1.0, abs(res.objective))
     zero_gap = (res.zero_upper - res.lower) / scale
@@ -356,5 +374,5 @@ def _degeneracy(problem: GameProblem, targets: np.ndarray, res, tol: float) -> d
         "zero_relative_gap": zero_gap,
         # only a certificate supports the sentence: a fit stopped by the iteration cap has a small w
         # because it stopped early, and its loose lower bound says nothing of f(0)
-        "degenerate": bool(res.converged) and (is_degenerate(effect, res.objective, tol) or zero_gap <= 2 * tol),
+        "degenerate": bool(res.converged) and (is_degenerate(effect, res.objective, tol) or zero_gap <= tol),
     }

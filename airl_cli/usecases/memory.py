@@ -7,6 +7,7 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
+from airl_cli.core.irl.options import closes_bracket
 from airl_cli.core.mmdp.budget import GB, GRID_GROWTH, Estimate, estimate_fit, fewer_iterations, graph_bytes, total_with_iterations
 from airl_cli.heap import TOP_PAD
 from airl_cli.settings.config import FitSettings, ProblemSettings
@@ -96,10 +97,18 @@ def fit_memory(sizes: dict, settings: FitSettings) -> tuple[Estimate, int | None
     """The fit's memory estimate for these sizes (``problem_sizes``) and its PBVI iterations
     (None if it does not run PBVI)."""
     planner = settings.options.planner
-    grid = planner.bracket_grid * (GRID_GROWTH if settings.certified.bracket_tol is not None else 1)  # a closing fit may refine it
-    estimate = with_heap_slack(estimate_fit(**sizes, method=settings.method, planner=planner.method, iterations=planner.iterations, grid_work=grid))
-    pbvi = settings.method == "airl" and planner.method == "pbvi"
-    return estimate, (planner.iterations if pbvi else None)
+    runs_pbvi = planner.method in ("auto", "pbvi")  # auto: PBVI answers first, on every problem (``oracles.choose_planner``)
+    estimate = estimate_fit(**sizes, method=settings.method, planner="pbvi" if runs_pbvi else planner.method, iterations=planner.iterations, grid_work=planner.bracket_grid)
+    if closes_bracket(planner) and "bracket grid" in estimate.parts:  # a closing fit may refine the grid up to GRID_GROWTH times
+        refined = estimate_fit(**sizes, method=settings.method, planner="pbvi", iterations=planner.iterations, grid_work=planner.bracket_grid * GRID_GROWTH)
+        extra = refined.parts["bracket grid"] - estimate.parts["bracket grid"]
+        estimate = Estimate(total=estimate.total + extra, parts={**estimate.parts, REFINED: extra}, n_beliefs=estimate.n_beliefs)
+    pbvi = settings.method == "airl" and runs_pbvi
+    return with_heap_slack(estimate), (planner.iterations if pbvi else None)
+
+
+#: The part of a closing fit's estimate that only a refinement of the bracket's grid would use (``bracket.Closer``).
+REFINED = "bracket grid refined"
 
 
 def with_heap_slack(estimate: Estimate) -> Estimate:
@@ -154,7 +163,7 @@ def refusal(
         else:
             smallest = total_with_iterations(estimate, iterations, 1)
             nothing_fits = f"; it does not fit even with the smallest planner (pbvi.iterations=1, about {_size(smallest)})"
-    if estimate.parts.get("bracket grid", 0) > estimate.total / 2:
+    if estimate.parts.get("bracket grid", 0) + estimate.parts.get(REFINED, 0) > estimate.total / 2:
         what = "pbvi.bracket_grid, or " + what
     if workers > 1:
         what += ", or hydra.launcher.n_jobs"
@@ -165,11 +174,11 @@ def refusal(
 def size_note(estimate: Estimate, iterations: int | None, optimizer: str) -> str | None:
     """A line to print before a fit whose steps will be long (a large belief set, or over 1 GB
     without the heap slack); None for a short one, and for one that ``refusal`` refuses."""
-    if iterations is None or (estimate.total - estimate.parts.get("heap slack", 0) < GB and estimate.n_beliefs <= 1024):
+    if iterations is None or (estimate.total - estimate.parts.get("heap slack", 0) - estimate.parts.get(REFINED, 0) < GB and estimate.n_beliefs <= 1024):
         return None
     if refusal(estimate, available_memory(), iterations=iterations) is not None:
         return None
-    grid = estimate.parts.get("bracket grid", 0)
+    grid = estimate.parts.get("bracket grid", 0) + estimate.parts.get(REFINED, 0)
     if estimate.n_beliefs <= 1024 and grid > estimate.parts.get("policy graph", 0):  # the grid, not the planner, makes it large
         return f"note: the bracket's grid of beliefs (pbvi.bracket_grid) may take up to about {grid / GB:,.1f} GB of the fit's {estimate.total / GB:,.1f} GB of memory"
     # the planner is called once per gradient step, or up to once per iteration of the exact solve

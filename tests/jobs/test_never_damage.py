@@ -86,29 +86,32 @@ def test_a_fit_stopped_at_its_cap_says_not_converged_on_stderr_and_strict_fails(
 
 
 def test_strict_passes_a_certified_fit_whose_bracket_is_within_the_tolerance(tmp_path):
-    closed = ["optim.bracket_tol=1e-3"]  # the fit closes its bracket to this, --strict judges it against this
-    result = runner.invoke(app, ["fit", "--strict", *SMALL, *closed, f"hydra.run.dir={tmp_path / 'a'}"])
+    result = runner.invoke(app, ["fit", "--strict", *SMALL, f"hydra.run.dir={tmp_path / 'a'}"])  # the default: closed to optim.tol = 1e-3
     assert result.exit_code == 0, result.output
     assert "warning" not in result.stderr
     metrics = json.loads((tmp_path / "a" / "metrics.json").read_text())
     assert metrics["bracket_relative_gap"] <= 1e-3 and metrics["bracket_calls"] >= 1  # the grid's responses closed it (no closing step needed)
-    # the bracket is the certificate: the fit's own gap is driven to a quarter of its width, not to optim.tol = 1e-4
-    assert metrics["tol"] == pytest.approx(2.5e-4) and metrics["relative_gap"] <= metrics["tol"] and metrics["converged"]
+    # the bracket is the certificate: the fit's own gap is driven to a quarter of its width
+    assert metrics["tol"] == 1e-3 and metrics["gap_tol"] == pytest.approx(2.5e-4) and metrics["relative_gap"] <= metrics["gap_tol"] and metrics["converged"]
     assert metrics["bracket_grid_resolution"] >= 2  # pbvi.bracket_grid's grid of beliefs was built
     # the bracket has a grid (a dense MDP): the fit answered with the grid's policy from its first call, and says so
-    assert "against the best responses of the bracket's belief grid" in metrics["certificate"] and metrics["best_responses"] == "grid"
-    assert "best responses on its grid of beliefs" in (tmp_path / "a" / "summary.txt").read_text()
+    assert "against the best responses of the bracket's belief grid" in metrics["planner_certificate"] and metrics["best_responses"] == "grid"
+    assert metrics["planner"] == "pbvi" and "every move its own kind" in metrics["planner_reason"]
+    summary = (tmp_path / "a" / "summary.txt").read_text()
+    assert "best responses on its grid of beliefs" in summary
+    assert "certified eq. 5.9's minimum lies in [" in summary and "within optim.tol = 0.001" in summary
+    assert "optimal to" not in summary  # one certificate: the planner's own gap is in metrics.json (and --verbose)
 
 
-def test_strict_fails_a_certificate_that_holds_against_pbvi_only(tmp_path):
-    """The default fit certifies this problem to 1e-4 against PBVI, but eq. 5.9's minimum is known
-    only within a bracket 1.5% wide: --strict says so and exits 3, the results written all the same."""
-    result = runner.invoke(app, ["fit", "--strict", *SMALL, f"hydra.run.dir={tmp_path / 'a'}"])
+def test_strict_fails_a_bracket_wider_than_optim_tol(tmp_path):
+    """A fit whose bracket is not closed to optim.tol (here the Markov adversary's game, which is
+    bracketed at its answer, not closed): --strict says so and exits 3, the results written all the same."""
+    result = runner.invoke(app, ["fit", "--strict", *SMALL, "game.adversary=markov", f"hydra.run.dir={tmp_path / 'a'}"])
     assert result.exit_code == 3, result.output
-    assert "not converged for --strict: eq. 5.9's minimum is known only within" in result.stderr
-    assert "optim.bracket_tol closes it inside the fit" in result.stderr  # the fit did not close it: that is the remedy
+    assert "airl fit --strict: not converged: eq. 5.9's minimum with a Markov adversary lies in" in result.stderr
+    assert "wider than optim.tol = 0.001: the Markov adversary's game is bracketed at its answer, not closed" in result.stderr
     metrics = json.loads((tmp_path / "a" / "metrics.json").read_text())
-    assert metrics["converged"] and metrics["bracket_relative_gap"] > metrics["tol"]
+    assert not metrics["converged"] and metrics["bracket_relative_gap"] > metrics["tol"]
     lo, up = metrics["minimum_bracket"]
     assert lo == metrics["lower_bound"] and up > metrics["objective"]
 

@@ -67,7 +67,7 @@ def test_an_empty_new_folder_is_accepted(tmp_path):
     "args, needle",
     [
         (["fit", "--strcit"], "'--strcit' is not an option of airl fit (its options: --cfg, --resolve, --multirun, --replace, --strict"),
-        (["fit", "--verbose"], "'--verbose' is not an option of airl fit"),
+        (["fit", "--quiet"], "'--quiet' is not an option of airl fit"),
         (["fit", "mdp.n_states", "30"], "'mdp.n_states' sets nothing"),
         (["fit", "mdp.n_states==30"], "cannot read the override 'mdp.n_states==30'"),
         (["fit", "data=a", "b"], "'b' sets nothing"),

@@ -237,15 +237,15 @@ def reached_posteriors(graph, P, p0: np.ndarray) -> tuple:
     return tuple((graph.state[t][nodes], b) for t, (nodes, _, b) in enumerate(layer_posteriors(graph, P, p0)))
 
 
-def closed(sets: StrategySets, close: Close, run: Run, C: np.ndarray, lam: float, tol: float, bracket_tol: float, it: int) -> bool:
+def closed(sets: StrategySets, close: Close, run: Run, C: np.ndarray, lam: float, tol: float, width: float, it: int) -> bool:
     """Where the run would stop: bracket the adversary's best value at the best upper bound's rewards.
 
     Records the bracket's upper side plus the penalty at that w in ``run.bracket_upper`` (the
     smallest valid upper bound on min f). True, with the bracket's policy added and ``run.upper``
     raised to its bound, if that policy beats the fit's bound there by more than ``tol`` and
-    ``CLOSE_SHARE`` of ``bracket_tol`` (relative) and fewer than ``MAX_CLOSE_STEPS`` were added: the fit goes on. False (the fit stops) otherwise,
+    ``CLOSE_SHARE`` of ``width`` (the wanted relative width of [L, U]) and fewer than ``MAX_CLOSE_STEPS`` were added: the fit goes on. False (the fit stops) otherwise,
     when the bound is exact (through f(0)), or when [L, U] is already as narrow as asked
-    (``relative_width`` at most ``bracket_tol``): the bracket is the certificate, and a better
+    (``relative_width`` at most ``width``): the bracket is the certificate, and a better
     policy at this w could only narrow it further (default problem, seed 1: 165 iterations instead
     of 171, the last three closing steps not taken, the bracket 9.7e-4 wide instead of 9.0e-4).
     Where an earlier bracket's U already makes it that narrow, none is taken here (the answer's
@@ -255,13 +255,13 @@ def closed(sets: StrategySets, close: Close, run: Run, C: np.ndarray, lam: float
     if run.upper_rewards is None:
         run.bracket_upper = min(run.bracket_upper, run.upper)
         return False
-    if relative_width(run.lower, run.bracket_upper) <= bracket_tol:
+    if relative_width(run.lower, run.bracket_upper) <= width:
         return False
-    value, marginals, upper = close(run.upper_rewards, TARGET_SHARE * bracket_tol * scale)
+    value, marginals, upper = close(run.upper_rewards, TARGET_SHARE * width * scale)
     reg = penalty(run.best_w, C, lam)
     run.bracket_upper = min(run.bracket_upper, upper + reg)
     bound = value + reg
-    if bound - run.upper <= max(tol, CLOSE_SHARE * bracket_tol) * scale or run.close_steps >= MAX_CLOSE_STEPS or relative_width(run.lower, run.bracket_upper) <= bracket_tol:
+    if bound - run.upper <= max(tol, CLOSE_SHARE * width) * scale or run.close_steps >= MAX_CLOSE_STEPS or relative_width(run.lower, run.bracket_upper) <= width:
         return False
     sets.add_adversary(marginals)
     run.upper, run.last_full, run.close_steps = bound, it, run.close_steps + 1

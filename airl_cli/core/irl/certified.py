@@ -88,9 +88,12 @@ ACCURACY_SHARE = 0.5
 #: below the lower bound).
 BALANCE = 0.5
 
+#: The budgets a run can stop at without a certificate (``CertifiedResult.stopped``).
+CAPS = ("max_iterations", "max_seconds")
+
 HISTORY_COLUMNS = (
     "iteration", "upper", "lower", "gap", "relative_gap", "objective", "qp_accuracy", "learner_strategies",
-    "adversary_strategies", "planner_calls", "screen_calls", "qp_seconds", "seconds",
+    "adversary_strategies", "planner_calls", "screen_calls", "qp_seconds", "seconds", "bracket_upper",
 )
 
 
@@ -106,8 +109,10 @@ class CertifiedResult:
         gap: objective - lower (>= 0 up to the QP's tolerance).
         relative_gap: gap / max(1, |objective|), the quantity compared with ``tol``.
         converged: True if the gap met the tolerance (or no oracle could improve).
-        stopped: "tolerance", "no_improvement" or "max_iterations".
-        history: column -> (iterations,) array, columns ``HISTORY_COLUMNS``.
+        stopped: "tolerance", "no_improvement", or one of ``CAPS``: "max_iterations", "max_seconds".
+        history: column -> (iterations,) array, columns ``HISTORY_COLUMNS`` (``bracket_upper``: the
+            smallest upper bound on min f found so far that holds whatever the adversary's policy, inf
+            before the first).
         adversary_features: (D, K) the adversary mixture's expected feature sums F_j(q) at the end.
         learner_mix: (n,) p; adversary_mix: (m,) q, over the final strategy sets.
         learner_policies: (n, T-1, S) the learner strategies p mixes (deterministic Markov policies,
@@ -127,7 +132,7 @@ class CertifiedResult:
             [lower, bracket_upper].
         close_steps: how often ``minimize``'s ``close`` raised the bound past the tolerance.
         tol: the relative gap the run drove ``relative_gap`` to (``stop_tol``): ``options.tol``, or
-            a share of ``bracket_tol`` where it closed a bracket.
+            ``bracket.CLOSE_SHARE`` of it where it closed a bracket (whose width ``options.tol`` then is).
     """
 
     weights: np.ndarray
@@ -201,8 +206,8 @@ def minimize(
             stop (after ``sharpen``), it bounds min f from above whatever the planner and adds its
             policy while that raises the bound (``bracket.closed``), and once more at the answer.
     """
-    check_options(options)
-    options = replace(options, tol=stop_tol(options, close is not None))
+    check_options(options)  # tol is the certificate's width: the bracket's where the run closes one, else its own gap's
+    options, width = replace(options, tol=stop_tol(options.tol, close is not None)), options.tol
     start = time.perf_counter()  # each history row's seconds: the wall time since here
     problem = problem.with_scaled_loss(options.normalize_loss)
     targets = np.asarray(targets, dtype=np.float64)
@@ -222,7 +227,8 @@ def minimize(
     born_l, born_a = [0], [0]  # the iteration each kept strategy was added in
     rows, stopped, accuracy, limit = [], "max_iterations", LOOSEST, options.max_iterations
     for it in itertools.count(1):
-        if it > limit:  # the cap counts from the start, or from the last sharpening
+        if it > limit or options.max_seconds is not None and it > 1 and time.perf_counter() - start > options.max_seconds:
+            stopped = "max_iterations" if it > limit else "max_seconds"  # the cap counts from the start, or from the last sharpening
             break
         sol, qp_seconds = _timed(qp.solve, accuracy, region(run, lam))
         added_l, added_a = _ask_oracles(sets, sol, oracle, screen, per_dynamics, it, run)
@@ -234,7 +240,7 @@ def minimize(
             callback(rows[-1])
         done = rows[-1]["relative_gap"] <= options.tol or not (added_l or added_a) and sol.accuracy <= TIGHT
         early = not done and sharpened_early(sets, sharpen, run, C, options.lam, options.tol, it, rows[-1]["relative_gap"], sharpen_within)
-        if early or done and _goes_on(sets, sharpen, close, run, C, options, it):
+        if early or done and _goes_on(sets, sharpen, close, run, C, options, width, it):
             accuracy, limit = LOOSEST, it + options.max_iterations
             continue
         if done:
@@ -242,11 +248,10 @@ def minimize(
             break
         # a loose solve whose point neither oracle improves on is tightened, else the gap sets it
         accuracy = TIGHT if not (added_l or added_a) else accuracy_for(ACCURACY_SHARE * rows[-1]["relative_gap"])
-        born_l += [it] * (qp.n - len(born_l))
-        born_a += [it] * (qp.m - len(born_a))
+        born_l, born_a = born_l + [it] * (qp.n - len(born_l)), born_a + [it] * (qp.m - len(born_a))
         if it % PRUNE_AFTER == 0:
             born_l, born_a = prune(sets, born_l, born_a, it)
-    return _finish(sets, oracle, close, per_dynamics, targets, C, options, run, rows, stopped, start)
+    return _finish(sets, oracle, close, per_dynamics, targets, C, options, width, run, rows, stopped, start)
 
 
 def _timed(step, *args):
@@ -255,43 +260,43 @@ def _timed(step, *args):
     return step(*args), time.perf_counter() - t0
 
 
-def _finish(sets: StrategySets, oracle, close, per_dynamics, targets: np.ndarray, C: np.ndarray, options: CertifiedOptions, run: Run, rows: list[dict], stopped: str, start: float) -> CertifiedResult:
-    """The polish (``certified_steps.polish``), the answer and its bracket (with ``close``), the result."""
+def _finish(sets: StrategySets, oracle, close, per_dynamics, targets: np.ndarray, C: np.ndarray, options: CertifiedOptions, width: float, run: Run, rows: list[dict], stopped: str, start: float) -> CertifiedResult:
+    """The polish (``certified_steps.polish``), the answer and its bracket (with ``close``, to ``width``), the result."""
     final, polished, final_upper, final_rewards = polish(sets, oracle, per_dynamics, C, options.lam, run, targets)
     # the last row reports the best bounds with the polish (part of the last iteration)
     rows[-1] = _row(len(rows), run, final, sets.qp, rows[-1]["qp_seconds"] + polished, start)
-    if stopped == "max_iterations" and rows[-1]["relative_gap"] <= options.tol:
+    if stopped in CAPS and rows[-1]["relative_gap"] <= options.tol:
         stopped = "tolerance"
     answer, upper, rewards = _answer(final, (final_upper, final_rewards), run, options.tol)
     if close is not None:  # the answer's own bracket: min f <= f(answer) <= its upper side
-        _bracket_answer(close, rewards, upper, penalty(answer, C, options.lam), options.bracket_tol or 0.0, run)
+        _bracket_answer(close, rewards, upper, penalty(answer, C, options.lam), width, run)
     return replace(_result(per_dynamics(answer), upper, rewards, run, rows, stopped, final, sets), tol=options.tol)
 
 
-def stop_tol(options: CertifiedOptions, closing: bool) -> float:
+def stop_tol(tol: float, closing: bool) -> float:
     """The relative gap the run drives its own certificate to: ``tol``, or where it closes a bracket
-    (``closing`` and ``bracket_tol``) ``CLOSE_SHARE`` of ``bracket_tol``, whatever ``tol``: the
-    bracket is then the certificate, and the fit's gap against its planner needs only leave it room
-    (on the default problem, seed 2: 386 iterations and 11 s instead of 538 and 20 s at ``tol`` =
-    1e-4, bracket width 6.6e-4 instead of 5.3e-4, both within ``bracket_tol`` = 1e-3)."""
-    return CLOSE_SHARE * options.bracket_tol if closing and options.bracket_tol else options.tol
+    to the width ``tol`` (``closing``) ``CLOSE_SHARE`` of it: the bracket is then the certificate,
+    and the fit's gap against its planner needs only leave it room (on the default problem, seed 2:
+    386 iterations and 11 s instead of 538 and 20 s with the gap at 1e-4, bracket width 6.6e-4
+    instead of 5.3e-4, both within 1e-3)."""
+    return CLOSE_SHARE * tol if closing else tol
 
 
-def _goes_on(sets: StrategySets, sharpen, close, run: Run, C: np.ndarray, options: CertifiedOptions, it: int) -> bool:
-    """Where the run would stop: whether a finer planner (``sharpen``, then the bracket's ``close``)
-    raised the bound by more than the tolerance, so that the run goes on."""
+def _goes_on(sets: StrategySets, sharpen, close, run: Run, C: np.ndarray, options: CertifiedOptions, width: float, it: int) -> bool:
+    """Where the run would stop: whether a finer planner (``sharpen``, then the bracket's ``close``,
+    which closes it to ``width``) raised the bound by more than the tolerance, so that the run goes on."""
     if sharpen is not None and sharpened(sets, sharpen, run, C, options.lam, options.tol, it):
         return True
-    return close is not None and closed(sets, close, run, C, options.lam, options.tol, options.bracket_tol or 0.0, it)
+    return close is not None and closed(sets, close, run, C, options.lam, options.tol, width, it)
 
 
-def _bracket_answer(close: Close, rewards: np.ndarray | None, upper: float, reg: float, bracket_tol: float, run: Run) -> None:
+def _bracket_answer(close: Close, rewards: np.ndarray | None, upper: float, reg: float, width: float, run: Run) -> None:
     """Lower ``run.bracket_upper`` to the answer's own bound whatever the planner: its certified
     ``upper`` when that is exact (``rewards`` None, through f(0)), else the bracket at ``rewards``."""
     if rewards is None:
         run.bracket_upper = min(run.bracket_upper, upper)
         return
-    _, _, adversary = close(rewards, TARGET_SHARE * bracket_tol * max(1.0, abs(upper)))
+    _, _, adversary = close(rewards, TARGET_SHARE * width * max(1.0, abs(upper)))
     run.bracket_upper = min(run.bracket_upper, adversary + reg)
 
 
@@ -351,7 +356,7 @@ def _result(weights: np.ndarray, upper: float, rewards: np.ndarray | None, run: 
         lower=float(run.lower),
         gap=gap,
         relative_gap=_relative(gap, upper),
-        converged=stopped != "max_iterations",
+        converged=stopped not in CAPS,
         stopped=stopped,
         history={c: np.array([r[c] for r in rows]) for c in HISTORY_COLUMNS},
         adversary_features=np.einsum("m,mjk->jk", q, sets.adversary_features[: q.size]),
@@ -389,4 +394,5 @@ def _row(it: int, run: Run, sol: MasterSolution, qp: MasterQP, qp_seconds: float
         screen_calls=run.screen_calls,
         qp_seconds=qp_seconds,
         seconds=time.perf_counter() - start,
+        bracket_upper=run.bracket_upper,
     )

@@ -143,7 +143,9 @@ def adversary_side(sets: StrategySets, rewards, oracle, screen, w, v: float, reg
     """The adversary's best response against (w, p), ``rewards`` (M, T, S): the screen first (its
     strategy is added if it beats v, the best kept strategy's value at (w, p); if by more than
     ``SCREEN_FRACTION`` of the gap, the full oracle is not asked), else the full oracle: the better
-    of its value and v, plus ``reg``, bounds f(w) from above. Returns whether a row was added."""
+    of its value and v, plus ``reg``, bounds f(w) from above; where the oracle's responses are exact
+    (its ``exact_responses``), that bound holds whatever the adversary's policy and lowers
+    ``run.bracket_upper``. Returns whether a row was added."""
     added = weak = False
     stale = it - run.last_full >= REFRESH_AFTER  # the upper bound is from an old w: refresh it
     if screen is not None and np.isfinite(run.upper) and not stale:
@@ -158,6 +160,8 @@ def adversary_side(sets: StrategySets, rewards, oracle, screen, w, v: float, reg
     value, marg = oracle(rewards)
     run.planner_calls += 1
     run.last_full = it
+    if getattr(oracle, "exact_responses", False):  # the best value over every adversary policy: f(w) <= it, so min f <= it
+        run.bracket_upper = min(run.bracket_upper, max(value, v) + reg)
     if max(value, v) + reg < run.upper:
         run.upper, run.best_w, run.upper_rewards = max(value, v) + reg, w.copy(), rewards
     added = value - v > tiny

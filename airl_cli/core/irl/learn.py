@@ -121,6 +121,7 @@ class BeliefOracle:
 
     def __init__(self, P, p0: np.ndarray, beliefs: np.ndarray | None, options: PlannerOptions, rng: np.random.Generator, progress=None):
         self.P, self.p0, self.beliefs, self.options, self.rng, self.progress = P, p0, beliefs, options, rng, progress
+        self.exact_responses = options.method == "exact"  # every history enumerated: the best value over every policy
 
     def __call__(self, R: np.ndarray) -> tuple[float, np.ndarray]:
         o = self.options
@@ -145,6 +146,7 @@ class CountOracle:
         if self.program is None:
             raise ValueError(counts.declined_sentence(self.dyn, horizon))
         self.p0 = p0
+        self.exact_responses = True  # the optimum of eq. 6.1 over every history-dependent policy
 
     def __call__(self, R: np.ndarray) -> tuple[float, np.ndarray]:
         sol = self.program.solve(layered_rewards(self.dyn, R), self.p0)
@@ -153,7 +155,7 @@ class CountOracle:
 
 #: The fit switches from PBVI to the exact planner once PBVI's game is within this many tolerances
 #: (``minimize``'s ``sharpen_within``): the exact responses move the game by more than that anyway.
-#: On the 16 x 16 Objectworld files (N = 200, ``optim.bracket_tol=1e-3``): zero-one 975 iterations
+#: On the 16 x 16 Objectworld files (N = 200, closed to 1e-3): zero-one 975 iterations
 #: and 567 planner calls at 1 (the run's stop), 813 and 441 at 30, 797 and 426 (more of them exact)
 #: at 100; squared features 119, 112 and 110 iterations at 1, 10 and 30.
 SWITCH_WITHIN = 30.0
@@ -172,6 +174,11 @@ class PBVIThenExact:
 
     def __call__(self, R: np.ndarray) -> tuple[float, np.ndarray]:
         return self.exact(R) if self.switched else self.first(R)
+
+    @property
+    def exact_responses(self) -> bool:
+        """Whether the calls are exact now (``certified_steps.adversary_side`` then takes their bounds as the bracket's)."""
+        return self.switched
 
     def switch(self, R: np.ndarray) -> tuple[float, np.ndarray] | None:
         """The exact best response at R the first time (from then on every call is exact); None after."""

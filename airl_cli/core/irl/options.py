@@ -72,6 +72,21 @@ class PlannerOptions:
     bracket_grid: int = GRID_WORK
 
 
+#: The planners whose best responses are exact (``PlannerOptions.method``): enumeration of the
+#: histories, and the count program (``core.mmdp.counts``) where the posterior is a count of kinds of move.
+EXACT_PLANNERS = ("exact", "counts")
+
+
+def closes_bracket(planner: PlannerOptions) -> bool:
+    """Whether a certified fit with this planner certifies a bracket on eq. 5.9's minimum closed to
+    its tolerance: the thesis's history-dependent adversary, planned exactly (the gap is then the
+    bracket) or by PBVI (``auto`` included) with the bracket on (``core.irl.bracket`` closes it); a
+    Markov adversary's game, and the naive ``mean`` planner's, are bracketed at their answer only."""
+    if planner.adversary != "history":
+        return False
+    return planner.method in EXACT_PLANNERS or planner.method in ("auto", "pbvi") and planner.bracket_beliefs > 0
+
+
 @dataclass(frozen=True)
 class FitOptions:
     """Gradient descent and double-oracle settings (thesis Table I, §5.3).
@@ -110,21 +125,25 @@ class CertifiedOptions:
 
     weight_sharing: one w (eq. 5.4) or one w_j per dynamics (eq. 5.3).
     lam: lambda > 0, the L2 regularisation (it makes f strongly convex and the lower bound finite).
-    tol: stop when the relative gap (upper - lower) / max(1, |upper|) <= tol.
+    tol: the certificate's relative width. Where the fit closes a bracket on min f (``minimize``'s
+        ``close``: the history-dependent adversary with an inexact planner), it stops once the
+        bracket [L, U], valid whatever the adversary's policy, has (U - L) / max(1, |U|) <= tol,
+        adding the bracket's best responses (``core.irl.bracket``) where it would stop, answering
+        with the grid's policy (or PBVI refined where they go), refining the bracket's grid where its
+        resolution holds it open (``bracket.Closer``); its own gap against its planner is then driven
+        to ``CLOSE_SHARE`` of tol (``certified.stop_tol``). Otherwise it stops when its relative gap
+        (upper - lower) / max(1, |upper|) <= tol: with an exact planner that gap is the bracket.
     max_iterations: the cap on QP solves (reaching it is reported, never silent), counted again
         from each step that sharpens the planner (``minimize``'s ``sharpen``).
     normalize_loss: divide the loss by its largest entry (as the gradient learner does).
-    bracket_tol: None: the bracket on min f is measured at the answer only. A number: the fit closes
-        it, adding the bracket's best responses (``core.irl.bracket``) where it would stop and
-        answering with the grid's policy (or PBVI refined where they go), until its relative width is
-        within this or they no longer raise the bound, refining the bracket's grid where its
-        resolution holds it open (``bracket.Closer``); the bracket is then the certificate, and the
-        fit's own gap is driven to a quarter of this whatever ``tol`` (``certified.stop_tol``).
+    max_seconds: None, or a time limit: the run stops at the first iteration that starts after it
+        (reported as ``stopped`` "max_seconds", like the iteration cap; the answer then depends on
+        the machine's speed).
     """
 
     weight_sharing: bool = True
     lam: float = 1e-2
-    tol: float = 1e-4
+    tol: float = 1e-3
     max_iterations: int = 1500
     normalize_loss: bool = True
-    bracket_tol: float | None = None
+    max_seconds: float | None = None

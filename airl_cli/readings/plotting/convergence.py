@@ -25,6 +25,7 @@ from airl_cli.readings.plotting._style import METHOD_COLOURS, THRESHOLD_COLOUR, 
 
 LOWER_COLOUR = "#1f77b4"
 PLANNER_COLOUR = "#2ca02c"
+BRACKET_COLOUR = "#9467bd"
 PANEL_SIZE = (5.6, 4.2)  # inches per panel
 
 # what each comparison method's history.csv holds: column -> (axis label, log scale)
@@ -140,9 +141,12 @@ def _bounds_limits(upper: np.ndarray, lower: np.ndarray, gap: np.ndarray) -> tup
     """y-limits that show where the bounds close in, if the first iterations' bounds would flatten it.
 
     The first bounds are loose by orders of magnitude (a lower bound of -300 for an optimum of
-    10): the axis then spans the bounds from the first iteration whose relative gap is at most 1.
+    10): the axis then spans the bounds from the first iteration whose relative gap is at most 5%
+    (1 where that would leave out more than two thirds of the iterations).
     """
-    settled = np.flatnonzero(gap <= 1.0)
+    settled = np.flatnonzero(gap <= 0.05)
+    if settled.size < len(gap) / 3:
+        settled = np.flatnonzero(gap <= 1.0)
     if settled.size == 0 or settled[0] == 0:
         return None
     values = np.concatenate([upper[settled[0]:], lower[settled[0]:]])
@@ -153,14 +157,22 @@ def _bounds_limits(upper: np.ndarray, lower: np.ndarray, gap: np.ndarray) -> tup
 
 
 def exact_figure(history: pd.DataFrame, metrics: Mapping[str, Any]) -> Figure:
-    """optim=exact: the upper and lower bounds on f per iteration; the relative gap (log) and the tolerance."""
+    """optim=exact: the lower bound L on min f, the fit's upper bound against its planner and the
+    bracket's U (valid whatever the adversary's policy) per iteration; the relative gap and the
+    bracket's relative width (log), with optim.tol."""
     x = history["iteration"].to_numpy(dtype=float)
     upper, lower = history["upper"].to_numpy(dtype=float), history["lower"].to_numpy(dtype=float)
     gap = history["relative_gap"].to_numpy(dtype=float)
+    bracket = _bracket_upper(history, metrics)
     fig, (bounds, gap_ax) = _figure(2)
 
-    bounds.plot(x, upper, color=METHOD_COLOURS["airl"], linewidth=1.8, label="upper bound")
-    bounds.plot(x, lower, color=LOWER_COLOUR, linewidth=1.8, label="lower bound")
+    bounds.plot(x, upper, color=METHOD_COLOURS["airl"], linewidth=1.4, alpha=0.8, label="upper bound against the fit's planner")
+    bounds.plot(x, lower, color=LOWER_COLOUR, linewidth=1.8, label="L: lower bound on the minimum")
+    if np.isfinite(bracket).any():
+        if np.isfinite(bracket[:-1]).any():  # U known before the end (closing steps, exact responses)
+            bounds.plot(x, bracket, color=BRACKET_COLOUR, linewidth=1.8, drawstyle="steps-post", label="U: upper bound whatever the adversary's policy")
+        bounds.errorbar([x[-1]], [(bracket[-1] + lower[-1]) / 2], yerr=[(bracket[-1] - lower[-1]) / 2], color=BRACKET_COLOUR,
+                        capsize=5, linewidth=2.0, label="the final bracket [L, U]")
     bounds.fill_between(x, lower, upper, color="#999999", alpha=0.15, linewidth=0)
     limits = _bounds_limits(upper, lower, gap)
     if limits is not None:
@@ -168,30 +180,50 @@ def exact_figure(history: pd.DataFrame, metrics: Mapping[str, Any]) -> Figure:
         bounds.set_title("(the first iterations' looser bounds leave the axis)", fontsize=9, color="#555555")
     bounds.set_xlabel("iteration")
     bounds.set_ylabel("objective f(w) of eq. 5.9: bounds on its minimum")
-    bounds.legend(loc="best", frameon=False)
+    bounds.legend(loc="best", frameon=False, fontsize=8)
 
     positive = np.where(gap > 0, gap, np.nan)
-    gap_ax.plot(x, positive, color="black", linewidth=1.6, label="relative gap (upper - lower) / max(1, |upper|)")
+    gap_ax.plot(x, positive, color="black", linewidth=1.4, label="relative gap against the fit's planner")
     if "planner_calls" in history.columns:
         calls = history["planner_calls"].to_numpy(dtype=float)
         called = np.diff(calls, prepend=0.0) > 0
-        gap_ax.plot(x[called], positive[called], linestyle="none", marker="o", markersize=3.5, color=PLANNER_COLOUR,
+        gap_ax.plot(x[called], positive[called], linestyle="none", marker="o", markersize=3.0, color=PLANNER_COLOUR,
                     label=f"planner call at this iteration ({int(calls[-1])} in all)")
+    if np.isfinite(bracket).any():
+        with np.errstate(invalid="ignore"):  # inf before the first U
+            width = (bracket - lower) / np.maximum(1.0, np.abs(bracket))
+        gap_ax.plot(x, np.where(width > 0, width, np.nan), color=BRACKET_COLOUR, linewidth=1.8, drawstyle="steps-post",
+                    marker="D", markevery=[len(x) - 1], markersize=6, label=f"relative width of [L, U] (final {width[-1]:.2g})")
     if metrics.get("tol") is not None:
         gap_ax.axhline(float(metrics["tol"]), color=THRESHOLD_COLOUR, linewidth=1.6, linestyle="--",
-                       label=f"tolerance {float(metrics['tol']):g}")
+                       label=f"optim.tol = {float(metrics['tol']):g}")
     gap_ax.set_yscale("log")
     if (skipped := int(np.sum(gap <= 0))) > 0:  # PBVI's bound crossed the upper one: nothing to draw on a log axis
         gap_ax.set_title(f"{skipped} iteration(s) with a relative gap <= 0 are not drawn", fontsize=9, color="#555555")
     gap_ax.set_xlabel("iteration")
-    gap_ax.set_ylabel("relative gap (log scale)")
+    gap_ax.set_ylabel("relative gap and width (log scale)")
     gap_ax.legend(loc="best", frameon=False, fontsize=8)
-
-    title = "airl fit, optim=exact: the certified solve of eq. 5.9"
-    if metrics.get("certificate"):
-        title += f", {metrics['certificate']}"
-    _suptitle(fig, title, fontsize=11)
+    _suptitle(fig, _exact_title(metrics), fontsize=11)
     return fig
+
+
+def _bracket_upper(history: pd.DataFrame, metrics: Mapping[str, Any]) -> np.ndarray:
+    """U per iteration (inf where none is known yet): the history's ``bracket_upper``, the fit's
+    final U at its last iteration (``minimum_bracket``: the answer's own bracket comes after the loop)."""
+    U = history["bracket_upper"].to_numpy(dtype=float).copy() if "bracket_upper" in history.columns else np.full(len(history), np.inf)
+    final = metrics.get("minimum_bracket")
+    if final is not None and len(U):
+        U[-1] = min(U[-1], float(final[1]))
+    return U
+
+
+def _exact_title(metrics: Mapping[str, Any]) -> str:
+    """The figure's title: the certificate's bracket in a few words."""
+    final = metrics.get("minimum_bracket")
+    if final is None:
+        return "airl fit: the certified solve of eq. 5.9 (no bracket on its minimum)"
+    width = float(metrics.get("bracket_relative_gap", np.nan))
+    return f"airl fit: eq. 5.9's minimum in [{float(final[0]):.6g}, {float(final[1]):.6g}], relative width {width:.2g}"
 
 
 def gradient_figure(history: pd.DataFrame, metrics: Mapping[str, Any]) -> Figure:

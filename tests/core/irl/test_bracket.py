@@ -30,7 +30,7 @@ def test_the_minimum_lies_in_the_bracket_with_the_default_planner(seed, S, share
     f_star = brute_minimum(*enumerated_game(problem, targets, shared), lam)[1]
     oracle = make_oracle(problem, PlannerOptions(), np.random.default_rng(0))[0]
     closer = _closer(problem)
-    options = CertifiedOptions(weight_sharing=shared, lam=lam, bracket_tol=1e-3 if close else None)
+    options = CertifiedOptions(weight_sharing=shared, lam=lam, tol=1e-3 if close else 1e-4)  # closed to 1e-3, or to 1e-4
     res = minimize(problem, targets, oracle, options=options, close=closer)
     assert res.lower <= f_star + 1e-7
     assert f_star <= res.bracket_upper + 1e-7
@@ -105,7 +105,7 @@ def test_a_closing_fit_answering_with_the_grid_s_policy_brackets_the_exact_minim
     closer = _closer(problem)
     assert closer.grid(np.zeros((problem.transitions.shape[0], 5, 3))) is not None  # the grid is in play
     oracle = make_oracle(problem, PlannerOptions(), np.random.default_rng(0))[0]
-    res = minimize(problem, targets, oracle, options=CertifiedOptions(lam=lam, bracket_tol=1e-3), close=closer)
+    res = minimize(problem, targets, oracle, options=CertifiedOptions(lam=lam, tol=1e-3), close=closer)
     assert closer.ran
     assert res.lower <= f_star + 1e-6 <= res.bracket_upper + 2e-6
     assert res.bracket_relative_gap <= 1e-3
@@ -141,16 +141,15 @@ def test_a_closing_fit_answers_on_the_grid_from_its_first_call_where_the_bracket
         assert len(asked) == (0 if gridded else 1)  # after a bracket the closer answers, grid or not
 
 
-def test_a_closing_fit_drives_its_own_gap_to_a_share_of_the_bracket_s_width_whatever_tol():
-    """``certified.stop_tol``: where the fit closes a bracket, the bracket is the certificate and the
-    fit's gap against its planner stops at ``CLOSE_SHARE`` of ``bracket_tol``, below or above ``tol``."""
+def test_a_closing_fit_drives_its_own_gap_to_a_share_of_the_bracket_s_width():
+    """``certified.stop_tol``: where the fit closes a bracket, the bracket is the certificate (its
+    width ``tol``) and the fit's gap against its planner stops at ``CLOSE_SHARE`` of it; without one, at ``tol``."""
     from airl_cli.core.irl.bracket import CLOSE_SHARE
     from airl_cli.core.irl.certified import stop_tol
 
-    for tol in (1e-6, 1e-2):
-        assert stop_tol(CertifiedOptions(tol=tol, bracket_tol=1e-3), True) == CLOSE_SHARE * 1e-3
-        assert stop_tol(CertifiedOptions(tol=tol, bracket_tol=1e-3), False) == tol  # no closing: tol
-        assert stop_tol(CertifiedOptions(tol=tol), True) == tol
+    for tol in (1e-6, 1e-3, 1e-2):
+        assert stop_tol(tol, True) == CLOSE_SHARE * tol
+        assert stop_tol(tol, False) == tol
 
 
 def _coarse_closer(monkeypatch):

@@ -108,8 +108,9 @@ def test_airl_fit_with_the_markov_adversary_says_so_and_a_bad_value_is_one_sente
     done = CliRunner().invoke(app, ["fit", "hydra.run.dir=run", "game.adversary=markov", *small])
     assert done.exit_code == 0, done.output
     summary = (tmp_path / "run" / "summary.txt").read_text()
-    assert "Markov adversary (CADP best responses)" in summary and "against the cadp oracle's best responses" in summary
+    assert "Markov adversary (CADP best responses)" in summary and "eq. 5.9's minimum with a Markov adversary lies in" in summary
     metrics = json.loads((tmp_path / "run" / "metrics.json").read_text())
+    assert "against the cadp oracle's best responses" in metrics["planner_certificate"] and metrics["planner"] == "pbvi"
     assert json.dumps(metrics).count('"markov"') >= 1
     bad = CliRunner().invoke(app, ["fit", "game.adversary=markv", *small])
     assert bad.exit_code == 2 and "'game.adversary' must be one of history, markov" in bad.output

@@ -58,15 +58,23 @@ def test_airl_plot_of_a_real_fit_draws_its_bounds_and_gap(tmp_path):
         assert path.is_file() and f"figure {path}" in result.output.replace("\n", "")
     assert (folder / "figures" / "convergence.png").read_bytes()[:4] == b"\x89PNG"
     assert sorted(p.name for p in (folder / "figures").iterdir()) == ["convergence.pdf", "convergence.png"]
-    # the figure itself: bounds per iteration, and the relative gap on a log axis against the tolerance
+    # the figure itself: L and the bounds per iteration, the final [L, U], and the relative gap and
+    # width on a log axis against optim.tol; a title of a few words naming the bracket
     metrics = json.loads((folder / "metrics.json").read_text())
     fig = plotting.convergence(pd.read_csv(folder / "history.csv"), metrics)
     bounds, gap = fig.axes
-    assert {line.get_label() for line in bounds.get_lines()} >= {"upper bound", "lower bound"}
+    assert {line.get_label() for line in bounds.get_lines()} >= {"upper bound against the fit's planner", "L: lower bound on the minimum"}
+    final = [c for c in bounds.containers if c.get_label() == "the final bracket [L, U]"]
+    lo, up = metrics["minimum_bracket"]
+    assert final and np.allclose(final[0].lines[0].get_ydata(), (lo + up) / 2)
     assert gap.get_yscale() == "log" and gap.get_xlabel() == "iteration"
-    tolerance = [line for line in gap.get_lines() if line.get_label().startswith("tolerance")]
+    tolerance = [line for line in gap.get_lines() if line.get_label().startswith("optim.tol")]
     assert tolerance and np.allclose(tolerance[0].get_ydata(), metrics["tol"])
+    width = [line for line in gap.get_lines() if line.get_label().startswith("relative width of [L, U]")]
+    assert width and np.isclose(width[0].get_ydata()[-1], metrics["bracket_relative_gap"])
     assert fig.legends or all(ax.get_legend() for ax in fig.axes)
+    title = fig._suptitle.get_text()
+    assert title.startswith(f"airl fit: eq. 5.9's minimum in [{lo:.6g}, {up:.6g}]") and len(title) < 100
 
 
 def test_the_exact_figure_marks_the_planner_calls():
