@@ -78,7 +78,9 @@ def main() -> None:
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         root = Path(tmp)
-        run(["fit", "mdp.n_states=5", "mdp.horizon=4", f"hydra.run.dir={root / 'warm'}"])  # numba's kernels compiled outside the measurements
+        # numba's kernels compiled outside the measurements: a dense problem's and a slip grid's planners
+        run(["fit", "mdp.n_states=5", "mdp.horizon=4", f"hydra.run.dir={root / 'warm'}", *args.extra])
+        run(["fit", *OBJECTWORLD, "mdp.size=3", "mdp.horizon=4", f"hydra.run.dir={root / 'warm-grid'}", *args.extra])
         for name in names:
             overrides, zero_one = known[name]
             gen = root / name / "gen"

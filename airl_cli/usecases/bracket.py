@@ -48,7 +48,8 @@ def closes(settings: FitSettings) -> bool:
 
 def bracket_info(res, settings: FitSettings, targets: np.ndarray, close: Closer | None, exact=None) -> dict:
     """The metrics of the bracket [L, U] on min f: ``minimum_bracket``, ``bracket_relative_gap``,
-    the beliefs its last call backed up and the strategies it added; and ``planner_resolution``, how
+    ``answer_upper`` (f at the learned w is at most it, whatever the adversary's policy; U, the
+    smallest such bound found at any w, may be lower), the beliefs its last call backed up and the strategies it added; and ``planner_resolution``, how
     much higher than the certified bound the bracket's policy bounds the answer (relative), with the
     gap against it (``checked_relative_gap``), as the finer PBVI of ``pbvi.check_rounds`` did.
 
@@ -62,19 +63,20 @@ def bracket_info(res, settings: FitSettings, targets: np.ndarray, close: Closer 
     """
     planner = settings.options.planner
     if planner.method == "exact" or (exact is not None and res.upper_rewards is None):
-        upper = res.objective
+        upper = answer = res.objective
     elif exact is not None:
-        upper = min(res.bracket_upper, max(res.objective, exact(res.upper_rewards)[0] + answer_penalty(targets, res, settings.certified)))
+        answer = max(res.objective, exact(res.upper_rewards)[0] + answer_penalty(targets, res, settings.certified))
+        upper = min(res.bracket_upper, answer)
     elif close is None:
         return {}
-    elif np.isfinite(res.bracket_upper):
-        upper = res.bracket_upper
+    elif np.isfinite(res.bracket_upper):  # a closing fit: the smallest U found, and the answer's own
+        upper, answer = res.bracket_upper, res.answer_upper
     elif res.upper_rewards is None:  # the bound through f(0) is exact
-        upper = res.objective
+        upper = answer = res.objective
     else:
         target = TARGET_SHARE * settings.certified.tol * max(1.0, abs(res.objective))
-        upper = close.bracket(res.upper_rewards, target).upper + answer_penalty(targets, res, settings.certified)
-    info = {"minimum_bracket": [float(res.lower), float(upper)], "bracket_relative_gap": relative_width(res.lower, upper)}
+        upper = answer = close.bracket(res.upper_rewards, target).upper + answer_penalty(targets, res, settings.certified)
+    info = {"minimum_bracket": [float(res.lower), float(upper)], "bracket_relative_gap": relative_width(res.lower, upper), "answer_upper": float(answer)}
     if close is None or close.last is None or not closes(settings):
         return info  # the fit's own check (pbvi.check_rounds) measures PBVI's resolution
     checked = max(res.objective, close.last.lower + answer_penalty(targets, res, settings.certified)) if res.upper_rewards is not None else res.objective
@@ -100,9 +102,11 @@ def certificate_line(info: dict, tol: float) -> str:
     width = info["bracket_relative_gap"]
     markov = " with a Markov adversary" if info.get("adversary") == "markov" else ""
     text = f"eq. 5.9's minimum{markov} lies in [{lo:.6g}, {up:.6g}] whatever the adversary's policy (relative width {width:.2g}"
-    if width <= tol:
-        return text + f", within optim.tol = {tol:g})"
-    return text + f", wider than optim.tol = {tol:g}: {narrower(info)})"
+    text += f", within optim.tol = {tol:g})" if width <= tol else f", wider than optim.tol = {tol:g}: {narrower(info)})"
+    answer = info.get("answer_upper", up)
+    if answer > up + 1e-9 * max(1.0, abs(up)):  # U was found at another w than the learned one
+        text += f"; the learned w's objective is at most {answer:.6g} (relative width {relative_width(lo, answer):.2g})"
+    return text
 
 
 def narrower(info: dict) -> str:

@@ -131,6 +131,8 @@ class CertifiedResult:
             (``core.irl.bracket``; inf when ``minimize`` had no ``close``): min f lies in
             [lower, bracket_upper].
         close_steps: how often ``minimize``'s ``close`` raised the bound past the tolerance.
+        answer_upper: an upper bound on f at ``weights`` that holds whatever the planner (inf without
+            ``close``): f(weights) lies in [lower, answer_upper], which ``bracket_upper`` may undercut.
         tol: the relative gap the run drove ``relative_gap`` to (``stop_tol``): ``options.tol``, or
             ``bracket.CLOSE_SHARE`` of it where it closed a bracket (whose width ``options.tol`` then is).
     """
@@ -154,6 +156,7 @@ class CertifiedResult:
     bracket_upper: float = float("inf")
     close_steps: int = 0
     tol: float = 1e-4
+    answer_upper: float = float("inf")
 
     @property
     def bracket_relative_gap(self) -> float:
@@ -268,9 +271,9 @@ def _finish(sets: StrategySets, oracle, close, per_dynamics, targets: np.ndarray
     if stopped in CAPS and rows[-1]["relative_gap"] <= options.tol:
         stopped = "tolerance"
     answer, upper, rewards = _answer(final, (final_upper, final_rewards), run, options.tol)
-    if close is not None:  # the answer's own bracket: min f <= f(answer) <= its upper side
-        _bracket_answer(close, rewards, upper, penalty(answer, C, options.lam), width, run)
-    return replace(_result(per_dynamics(answer), upper, rewards, run, rows, stopped, final, sets), tol=options.tol)
+    # the answer's own bracket: min f <= f(answer) <= its upper side
+    answer_upper = _bracket_answer(close, rewards, upper, penalty(answer, C, options.lam), width, run) if close is not None else np.inf
+    return replace(_result(per_dynamics(answer), upper, rewards, run, rows, stopped, final, sets), tol=options.tol, answer_upper=float(answer_upper))
 
 
 def stop_tol(tol: float, closing: bool) -> float:
@@ -290,14 +293,12 @@ def _goes_on(sets: StrategySets, sharpen, close, run: Run, C: np.ndarray, option
     return close is not None and closed(sets, close, run, C, options.lam, options.tol, width, it)
 
 
-def _bracket_answer(close: Close, rewards: np.ndarray | None, upper: float, reg: float, width: float, run: Run) -> None:
-    """Lower ``run.bracket_upper`` to the answer's own bound whatever the planner: its certified
-    ``upper`` when that is exact (``rewards`` None, through f(0)), else the bracket at ``rewards``."""
-    if rewards is None:
-        run.bracket_upper = min(run.bracket_upper, upper)
-        return
-    _, _, adversary = close(rewards, TARGET_SHARE * width * max(1.0, abs(upper)))
-    run.bracket_upper = min(run.bracket_upper, adversary + reg)
+def _bracket_answer(close: Close, rewards: np.ndarray | None, upper: float, reg: float, width: float, run: Run) -> float:
+    """The answer's own bound whatever the planner (f(answer) <= it), lowering ``run.bracket_upper``
+    to it: its certified ``upper`` when that is exact (``rewards`` None, through f(0)), else the bracket at ``rewards``."""
+    answer = upper if rewards is None else close(rewards, TARGET_SHARE * width * max(1.0, abs(upper)))[2] + reg
+    run.bracket_upper = min(run.bracket_upper, answer)
+    return answer
 
 
 def _answer(final: MasterSolution, final_upper: tuple[float, np.ndarray | None], run: Run, tol: float) -> tuple[np.ndarray, float, np.ndarray | None]:

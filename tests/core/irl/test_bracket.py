@@ -6,7 +6,7 @@ import dataclasses
 
 import numpy as np
 import pytest
-from test_certified import adversary_marginals, brute_minimum, enumerated_game, tiny
+from test_certified import adversary_marginals, brute_minimum, enumerated_game, f_brute, tiny
 from test_markov_adversary import markov_game
 
 from airl_cli.core.irl.bracket import LEVEL_PATIENCE, Closer, closing_oracle
@@ -35,6 +35,11 @@ def test_the_minimum_lies_in_the_bracket_with_the_default_planner(seed, S, share
     assert res.lower <= f_star + 1e-7
     assert f_star <= res.bracket_upper + 1e-7
     assert res.bracket_relative_gap <= 1e-3  # these games are small enough to close
+    # the learned w's own objective, enumerated, lies below the answer's bracket (whatever the adversary)
+    L, Phi, C = enumerated_game(problem, targets, shared)
+    w = res.weights[0] if shared else res.weights.reshape(-1)
+    assert f_star - 1e-7 <= f_brute(w, L, Phi, C, lam) <= res.answer_upper + 1e-7
+    assert res.bracket_upper <= res.answer_upper
 
 
 def _single_belief_oracle(problem):
