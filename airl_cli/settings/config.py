@@ -210,6 +210,8 @@ def problem_settings(cfg: DictConfig | Mapping) -> ProblemSettings:
 
 #: How the thesis's method minimises its objective: exactly with a certificate, or Table I's gradient steps.
 OPTIMIZERS = ("exact", "gradient")
+#: The widest certificate ``optim.tol`` may ask of the exact solve (a relative width of [L, U]).
+MAX_TOL = 0.1
 
 
 @dataclass(frozen=True)
@@ -300,7 +302,8 @@ def fit_settings(cfg: DictConfig | Mapping) -> FitSettings:
         certified = CertifiedOptions(
             weight_sharing=sharing,
             lam=o.float("lam", lo=0.0, open_lo=True),
-            tol=o.float("tol", lo=0.0, open_lo=True),
+            # a relative width beyond MAX_TOL says nothing of the reward (the zero reward passes it): refused
+            tol=o.float("tol", lo=0.0, hi=MAX_TOL, open_lo=True),
             max_iterations=o.int("max_iterations", lo=1),
             normalize_loss=normalize_loss,
             max_seconds=None if o.raw("max_seconds", None) is None else o.float("max_seconds", lo=0.0, open_lo=True),

@@ -94,17 +94,18 @@ def bracket_info(res, settings: FitSettings, targets: np.ndarray, close: Closer 
 def certificate_line(info: dict, tol: float) -> str:
     """The fit's certificate in one line (``info``: its metrics): the bracket [L, U] on eq. 5.9's
     minimum, valid whatever the adversary's policy, and whether it is within ``tol`` (``optim.tol``);
-    where it is wider, the one setting that narrows it. Without a bracket (``pbvi.bracket_beliefs=0``,
+    where it is wider, the one setting that narrows it; where the learned w's own bound
+    (``answer_upper``) is wider than both, that bound. Without a bracket (``pbvi.bracket_beliefs=0``,
     a count fit stopped before its exact part) the gap against the fit's planner, said as such."""
     if "minimum_bracket" not in info:
-        return f"{info['planner_certificate']}; no bracket on eq. 5.9's minimum itself ({narrower(info)})"
+        return f"objective {info['objective']:.6g} (lower bound {info['lower_bound']:.6g}): {info['planner_certificate']}; no bracket on eq. 5.9's minimum itself ({narrower(info)})"
     lo, up = info["minimum_bracket"]
     width = info["bracket_relative_gap"]
     markov = " with a Markov adversary" if info.get("adversary") == "markov" else ""
     text = f"eq. 5.9's minimum{markov} lies in [{lo:.6g}, {up:.6g}] whatever the adversary's policy (relative width {width:.2g}"
     text += f", within optim.tol = {tol:g})" if width <= tol else f", wider than optim.tol = {tol:g}: {narrower(info)})"
     answer = info.get("answer_upper", up)
-    if answer > up + 1e-9 * max(1.0, abs(up)):  # U was found at another w than the learned one
+    if relative_width(lo, answer) > 1.01 * max(tol, width):  # U was found at another w, and the learned w's own bound is wider than asked
         text += f"; the learned w's objective is at most {answer:.6g} (relative width {relative_width(lo, answer):.2g})"
     return text
 

@@ -171,6 +171,8 @@ def test_bad_data_file_one_sentence_and_no_run_folder(tmp_path):
         (["optim.lam=0"], "optim.lam"),  # the exact solve needs lambda > 0
         (["optim.tol=0"], "optim.tol"),
         (["optim.tol=-1e-3"], "optim.tol"),
+        (["optim.tol=2"], "'optim.tol' must be"),  # a bracket 200% wide would say nothing of the reward
+        (["optim.max_seconds=0"], "optim.max_seconds"),
         (["optim.max_iterations=0"], "optim.max_iterations"),
         (["optim.name=fancy"], "optim.name"),
         (["optim=fancy"], "fancy"),

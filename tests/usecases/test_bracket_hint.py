@@ -23,8 +23,11 @@ def test_the_certificate_is_one_line_on_the_bracket_said_against_optim_tol():
     assert certificate_line(closing, 1e-2).endswith("(relative width 0.0028, within optim.tol = 0.01)")
     markov = certificate_line(closing | {"adversary": "markov"}, 1e-2)
     assert markov.startswith("eq. 5.9's minimum with a Markov adversary lies in")
-    none = certificate_line({"planner": "pbvi", "stopped": "tolerance", "planner_certificate": "optimal to 0.001 against PBVI's best responses (relative gap 0.0009)"}, 1e-3)
-    assert none == "optimal to 0.001 against PBVI's best responses (relative gap 0.0009); no bracket on eq. 5.9's minimum itself (pbvi.bracket_beliefs=0 turns the bracket off)"
+    answer = certificate_line(closing | {"answer_upper": 9.40, "bracket_relative_gap": 8e-4, "minimum_bracket": [9.35685, 9.3643]}, 1e-3)
+    assert answer.endswith("within optim.tol = 0.001); the learned w's objective is at most 9.4 (relative width 0.0046)")
+    assert "learned w" not in certificate_line(closing | {"answer_upper": 9.38327}, 1e-3)  # as wide as the bracket: nothing to add
+    none = certificate_line({"planner": "pbvi", "stopped": "tolerance", "objective": 9.47098, "lower_bound": 9.47005, "planner_certificate": "optimal to 0.001 against PBVI's best responses (relative gap 0.0009)"}, 1e-3)
+    assert none == "objective 9.47098 (lower bound 9.47005): optimal to 0.001 against PBVI's best responses (relative gap 0.0009); no bracket on eq. 5.9's minimum itself (pbvi.bracket_beliefs=0 turns the bracket off)"
 
 
 def test_an_exact_planner_stops_at_optim_tol_its_certificate_being_the_bracket():
