@@ -62,6 +62,7 @@ def main(cfg: DictConfig) -> dict:
         "optimum_bracket": [result.objective] * 2 if settings.method == "counts" else None if br is None else [br.lower, br.upper],
         "each_model_known": None if br is None else br.corner,
         "bracket_beliefs": None if br is None else br.beliefs,
+        "bracket_count_layers": None if br is None else br.count_layers,
     }
     save_policy(folder / "policy.npz", result)
     write_json(folder / "plan.json", record)
@@ -75,10 +76,11 @@ def main(cfg: DictConfig) -> dict:
     if settings.method == "counts":
         lines.append("  this is the optimum on the training models: exact, the posterior over the models being a count of kinds of move")
     if br is not None:
-        lines.append(
-            f"  the optimum on the training models lies in [{br.lower:.4f}, {br.upper:.4f}] whatever the planner "
-            f"({br.beliefs:,} beliefs backed up; with each model known: {br.corner:.4f})"
-        )
+        how = [f"{br.beliefs:,} beliefs backed up"] if br.beliefs else []
+        how += [f"the count program exact over {br.count_layers} of {settings.horizon + 1} layers"] if br.count_layers else []
+        how += [f"with each model known: {br.corner:.4f}"] if br.corner is not None else []
+        width = (br.upper - br.lower) / max(1.0, abs(br.upper))
+        lines.append(f"  the optimum on the training models lies in [{br.lower:.4f}, {br.upper:.4f}] whatever the planner (relative width {width:.2g}; {'; '.join(how)})")
     out_console.print("\n".join(lines), soft_wrap=True)
     out_console.print(f"wrote {folder / 'plan.json'} and {folder / 'policy.npz'}", soft_wrap=True)
     return record

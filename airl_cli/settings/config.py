@@ -343,6 +343,10 @@ def fit_settings(cfg: DictConfig | Mapping) -> FitSettings:
 # --------------------------------------------------------------------------- airl plan
 
 
+#: ``plan.bracket_nodes`` by default: the cut count program's nodes (riverswim: 26 of its 51 layers).
+PLAN_BRACKET_NODES = 20_000_000
+
+
 @dataclass(frozen=True)
 class PlanSettings:
     """``airl plan``: the multiple-MDP planner on its own (config group ``plan``)."""
@@ -356,6 +360,7 @@ class PlanSettings:
     seed: int
     bracket_beliefs: int = BRACKET_BELIEFS
     bracket_grid: int = GRID_WORK
+    bracket_nodes: int = PLAN_BRACKET_NODES
 
 
 def plan_settings(cfg: DictConfig | Mapping) -> PlanSettings:
@@ -377,6 +382,7 @@ def plan_settings(cfg: DictConfig | Mapping) -> PlanSettings:
         iterations=p.int("iterations", lo=1, hi=20),
         bracket_beliefs=p.int("bracket_beliefs", lo=0, default=BRACKET_BELIEFS),
         bracket_grid=p.int("bracket_grid", lo=0, default=GRID_WORK),
+        bracket_nodes=p.int("bracket_nodes", lo=0, default=PLAN_BRACKET_NODES),
         expansion=p.choice("expansion", EXPANSIONS),
         discount=None if discount is None else p.float("discount", lo=0.0, hi=1.0, open_lo=True),
         seed=top.int("seed", lo=0),

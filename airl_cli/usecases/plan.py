@@ -5,12 +5,15 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
+from dataclasses import dataclass
 
 import numpy as np
 
 from airl_cli.core.irl.options import BRACKET_MAX_BELIEFS
 from airl_cli.core.mmdp.baselines import Plan, graph_returns, plan
-from airl_cli.core.mmdp.bounds import Bracket, bracket
+from airl_cli.core.mdp.sparse import sparse_dynamics
+from airl_cli.core.mmdp.bounds import bracket
+from airl_cli.core.mmdp.count_bracket import count_bracket
 from airl_cli.core.mmdp.planner import layered_rewards
 from airl_cli.errors import ConfigError
 from airl_cli.io.mmdp_files import MMDPProblem
@@ -41,15 +44,53 @@ def run_plan(
     return result, discount, test, seconds
 
 
-def bracket_optimum(problem: MMDPProblem, settings: PlanSettings, result: Plan, discount: float) -> Bracket | None:
-    """The optimum on the training models bracketed whatever the planner (``core.mmdp.bounds``), in
-    the plan's objective (the prior-weighted, or uniform, mean return); its lower side starts from
-    the plan's own policy when it is PBVI's, else from PBVI's. None when plan.bracket_beliefs is 0,
-    and for plan.method=counts, whose plan is the optimum itself."""
-    if settings.bracket_beliefs == 0 or settings.method == "counts":
+@dataclass(frozen=True)
+class OptimumBracket:
+    """The optimum on the training models lies in [lower, upper], whatever the planner.
+
+    Attributes:
+        lower, upper: the better sides of the two brackets below.
+        beliefs: the beliefs the sawtooth and the grid backed up (``core.mmdp.bounds``; 0 without);
+        corner: the bound with each model known from the start (None without that bracket);
+        count_layers: the layers the count program ran exactly before its bounds took over
+            (``core.mmdp.count_bracket``; None where the moves are of too many kinds, or it is off).
+    """
+
+    lower: float
+    upper: float
+    beliefs: int
+    corner: float | None
+    count_layers: int | None
+
+
+def bracket_optimum(problem: MMDPProblem, settings: PlanSettings, result: Plan, discount: float) -> OptimumBracket | None:
+    """The optimum on the training models bracketed whatever the planner, in the plan's objective
+    (the prior-weighted, or uniform, mean return): by the sawtooth and the grid of beliefs
+    (``core.mmdp.bounds``; its lower side starts from the plan's own policy when it is PBVI's, else
+    from PBVI's; ``plan.bracket_beliefs`` 0: off), and where the moves are of a few kinds by the
+    count program cut where ``plan.bracket_nodes`` allows (``core.mmdp.count_bracket``; 0: off); the
+    tighter side of each. None when both are off, and for plan.method=counts, whose plan is the optimum itself."""
+    if settings.method == "counts":
         return None
     M, S, _ = problem.shape
     prior = problem.prior if problem.prior is not None else np.full(M, 1.0 / M)
-    graph = result.graph if settings.method == "pbvi" else None
-    budget = min(settings.bracket_beliefs * S * max(1, settings.horizon - 1), BRACKET_MAX_BELIEFS)
-    return bracket(problem.transitions, problem.rewards, problem.initial, graph=graph, prior=prior, horizon=settings.horizon, discount=discount, max_beliefs=budget, grid_work=settings.bracket_grid)
+    sides: list[tuple[float, float]] = []
+    br = None
+    if settings.bracket_beliefs > 0:
+        graph = result.graph if settings.method == "pbvi" else None
+        budget = min(settings.bracket_beliefs * S * max(1, settings.horizon - 1), BRACKET_MAX_BELIEFS)
+        br = bracket(problem.transitions, problem.rewards, problem.initial, graph=graph, prior=prior, horizon=settings.horizon, discount=discount, max_beliefs=budget, grid_work=settings.bracket_grid)
+        sides.append((br.lower, br.upper))
+    cut = None
+    if settings.bracket_nodes > 0:
+        dyn = sparse_dynamics(problem.transitions)
+        L = layered_rewards(dyn, problem.rewards, horizon=settings.horizon, discount=discount)
+        cut = count_bracket(dyn, L, problem.initial, prior, max_nodes=settings.bracket_nodes)
+        if cut is not None:
+            sides.append((cut.lower, cut.upper))
+    if not sides:
+        return None
+    return OptimumBracket(
+        max(lo for lo, _ in sides), min(up for _, up in sides), 0 if br is None else br.beliefs,
+        None if br is None else br.corner, None if cut is None else cut.layers,
+    )

@@ -219,3 +219,28 @@ def test_the_plan_states_a_bracket_on_the_optimum_that_the_heuristics_lie_below(
     off = runner.invoke(app, ["plan", "plan.input=benchmark:hiv", "plan.bracket_beliefs=0", f"hydra.run.dir={tmp_path / 'off'}"])
     assert off.exit_code == 0 and "lies in" not in off.output
     assert json.loads((tmp_path / "off" / "plan.json").read_text())["optimum_bracket"] is None
+
+
+def test_plan_brackets_the_optimum_with_the_count_program_cut_where_its_nodes_run_out(tmp_path):
+    """The two-state problem's moves are of a few kinds: with room for 4 of its 11 layers
+    (plan.bracket_nodes) the count program is cut there, bounded after, and its bracket holds the
+    optimum (plan.method=counts over all 11); with room for every layer it is the optimum itself."""
+    from airl_cli.core.mdp.sparse import sparse_dynamics
+    from airl_cli.core.mmdp.counts import move_kinds, n_nodes
+
+    folder = write_folder(tmp_path / "mmdp")
+    problem = read_csv_folder(folder)
+    n = move_kinds(sparse_dynamics(problem.transitions)).n_kinds
+    exact = runner.invoke(app, ["plan", f"plan.input={folder}", "plan.method=counts", "plan.horizon=10", f"hydra.run.dir={tmp_path / 'x'}"])
+    assert exact.exit_code == 0, exact.output
+    optimum = json.loads((tmp_path / "x" / "plan.json").read_text())["objective"]
+    for layers in (4, 11):
+        out = tmp_path / f"cut{layers}"
+        args = [f"plan.bracket_nodes={n_nodes(2, n, layers)}", "plan.bracket_beliefs=0"]
+        result = runner.invoke(app, ["plan", f"plan.input={folder}", "plan.horizon=10", *args, f"hydra.run.dir={out}"])
+        assert result.exit_code == 0, result.output
+        record = json.loads((out / "plan.json").read_text())
+        lo, up = record["optimum_bracket"]
+        assert record["bracket_count_layers"] == layers and lo - 1e-9 <= optimum <= up + 1e-9
+        assert f"the count program exact over {layers} of 11 layers" in result.output
+    assert lo == pytest.approx(optimum, abs=1e-9) and up == pytest.approx(optimum, abs=1e-9)

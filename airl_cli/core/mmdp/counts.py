@@ -91,16 +91,19 @@ def count_tables(n: int, horizon: int) -> tuple[list[np.ndarray], list[np.ndarra
     layer t+1 of c + e_k: (``counts[t]`` (C_t, n), ``successor[t]`` (C_t, n))."""
     counts = [np.zeros((1, n), dtype=np.int64)]
     successor = []
-    for _ in range(horizon - 1):
+    eye = np.eye(n, dtype=np.int64)
+    for t in range(1, horizon):
         prev = counts[-1]
-        nxt: dict[tuple, int] = {}
-        table = np.empty((prev.shape[0], n), dtype=np.int64)
-        for i, c in enumerate(prev):
-            for k in range(n):
-                key = tuple(c + np.eye(n, dtype=np.int64)[k])
-                table[i, k] = nxt.setdefault(key, len(nxt))
-        successor.append(table)
-        counts.append(np.array(list(nxt), dtype=np.int64).reshape(-1, n))
+        keys = (prev[:, None, :] + eye[None, :, :]).reshape(-1, n)  # c_i + e_k in the order (i, k), each summing to t
+        if n * np.log2(t + 1) < 62:  # one integer per vector (its digits in base t + 1): a 1-d unique, far faster
+            _, first, inverse = np.unique(keys @ (t + 1) ** np.arange(n, dtype=np.int64), return_index=True, return_inverse=True)
+        else:
+            _, first, inverse = np.unique(keys, axis=0, return_index=True, return_inverse=True)
+        order = np.argsort(first, kind="stable")  # numbered in order of first appearance, as a loop over (i, k) numbers them
+        rank = np.empty(order.size, dtype=np.int64)
+        rank[order] = np.arange(order.size)
+        successor.append(rank[inverse.reshape(-1)].reshape(prev.shape[0], n))
+        counts.append(keys[first[order]])
     return counts, successor
 
 
@@ -116,7 +119,7 @@ def posteriors(counts: np.ndarray, directions: np.ndarray, prior: np.ndarray) ->
         log_p = np.log(prior)
     finite = np.isfinite(log_v)
     log_b = log_p[None, :] + counts @ np.where(finite, log_v, 0.0)
-    never = (counts > 0).astype(np.int64) @ (~finite).astype(np.int64) > 0  # (C, M): a move this model never makes
+    never = (counts > 0).astype(np.float64) @ (~finite).astype(np.float64) > 0  # (C, M): a move this model never makes (float: BLAS)
     log_b = np.where(never, -np.inf, log_b)
     top = log_b.max(axis=1, keepdims=True)
     b = np.where(np.isfinite(top), np.exp(log_b - np.where(np.isfinite(top), top, 0.0)), 0.0)
@@ -166,23 +169,38 @@ class CountProgram:
         self.kind = np.ascontiguousarray(kinds.kind)
         self.scale = self.probs.sum(axis=0)  # (S, A, R): lambda, P(s'|s, a) = lambda v_k
         self.n_nodes = n_nodes(self.probs.shape[1], kinds.n_kinds, horizon)
-        width = max((int(k.max(initial=-1)) + 1 for k in self.successor), default=1)
-        # ``_forward``'s scratch, zero between calls: a node's flag and its masses (S * max C_t, M)
-        self._seen, self._acc = np.zeros(self.probs.shape[1] * width, np.uint8), np.zeros((self.probs.shape[1] * width, M))
+        self._scratch: tuple[np.ndarray, np.ndarray] | None = None  # ``_forward``'s, made at the first ``solve``
+
+    def _forward_scratch(self) -> tuple[np.ndarray, np.ndarray]:
+        """``_forward``'s scratch, zero between calls: a node's flag and its masses (S * max C_t, M);
+        made once, at the first forward pass (a bracket's backward passes need none: riverswim's cut
+        program would hold 2.7 GB of it)."""
+        if self._scratch is None:
+            S, M = self.probs.shape[1], self.probs.shape[0]
+            width = max((int(k.max(initial=-1)) + 1 for k in self.successor), default=1)
+            self._scratch = np.zeros(S * width, np.uint8), np.zeros((S * width, M))
+        return self._scratch
+
+    def backward(self, step: np.ndarray, W: np.ndarray) -> tuple[np.ndarray, list[np.ndarray]]:
+        """The program's backward pass from the last layer's node values ``W`` (S, C_{T-1}), b(c) .
+        (each model's value from there), with the rewards ``step`` (M, T-1, S, A): (the first layer's
+        node values (S, 1), b_0 . each model's return, and the action of every node, per layer t < T-1 (S, C_t))."""
+        S = self.probs.shape[1]
+        actions: list[np.ndarray] = [np.empty((S, 0), dtype=np.int16)] * (self.horizon - 1)
+        W = np.ascontiguousarray(W, dtype=np.float64)
+        for t in range(self.horizon - 2, -1, -1):
+            Wk = _shifted(self.successor_T[t], self.along_T[t], W)
+            W, actions[t] = _backup(self.reach, self.scale, self.kind, self.beliefs_T[t], np.ascontiguousarray(step[:, t]), Wk)
+        return W, actions
 
     def solve(self, L: LayeredRewards, p0: np.ndarray) -> CountSolution:
         """The optimal policy for the rewards ``L`` (its horizon the program's) from p0 (S,)."""
         T, kind = self.horizon, self.kinds.kind
         if L.horizon != T:
             raise ValueError(f"the rewards have {L.horizon} layers and the program {T}")
-        S = self.probs.shape[1]
-        W = np.ascontiguousarray(self.last_beliefs @ L.last).T  # (S, C): b(c) . r(T-1, s)
-        actions: list[np.ndarray] = [np.empty((S, 0), dtype=np.int16)] * (T - 1)
-        for t in range(T - 2, -1, -1):
-            Wk = _shifted(self.successor_T[t], self.along_T[t], W)
-            W, actions[t] = _backup(self.reach, self.scale, self.kind, self.beliefs_T[t], np.ascontiguousarray(L.step[:, t]), Wk)
+        _, actions = self.backward(L.step, np.ascontiguousarray(self.last_beliefs @ L.last).T)
         p0 = np.asarray(p0, dtype=np.float64)
-        values, marginals = _forward(self.reach, self.probs, kind, self.successor, actions, p0, L, self._seen, self._acc)
+        values, marginals = _forward(self.reach, self.probs, kind, self.successor, actions, p0, L, *self._forward_scratch())
         value = float(values.sum()) if self.prior is None else float(self.prior @ values)
         return CountSolution(value, values, marginals, actions, self.n_nodes)
 

@@ -146,3 +146,24 @@ def test_the_forward_pass_over_the_nodes_reached_equals_one_over_every_node(star
     assert np.array_equal(sol.marginals, marginals)
     assert np.allclose(sol.values, values, rtol=1e-13, atol=1e-13)  # summed per layer there, per model here
     assert np.allclose(np.einsum("mts,mts->m", sol.marginals, R), sol.values, atol=1e-12)
+
+
+@pytest.mark.parametrize("n, horizon", [(1, 5), (2, 7), (4, 12), (6, 9), (40, 4)])  # (40, 4): vectors too long for one integer key
+def test_the_count_tables_number_each_layer_in_order_of_first_appearance(n, horizon):
+    """``count_tables`` (vectorised) against a plain loop over every (vector, kind): the same vectors,
+    numbered where c + e_k first appears, and the same successor indices (the program's sums, and so
+    its answers to the last bit, follow that order)."""
+    want, successor = [np.zeros((1, n), dtype=np.int64)], []
+    for _ in range(horizon - 1):
+        seen: dict[tuple, int] = {}
+        table = np.empty((len(want[-1]), n), dtype=np.int64)
+        for i, c in enumerate(want[-1]):
+            for k in range(n):
+                key = tuple(int(x) + (j == k) for j, x in enumerate(c))
+                table[i, k] = seen.setdefault(key, len(seen))
+        successor.append(table)
+        want.append(np.array(list(seen), dtype=np.int64).reshape(-1, n))
+    got_counts, got_successor = counts.count_tables(n, horizon)
+    assert len(got_counts) == horizon and all(np.array_equal(a, b) for a, b in zip(got_counts, want))
+    assert all(np.array_equal(a, b) for a, b in zip(got_successor, successor))
+    assert [len(c) for c in got_counts] == [comb(t + n - 1, n - 1) for t in range(horizon)]

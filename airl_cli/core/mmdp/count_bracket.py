@@ -1,0 +1,130 @@
+"""The optimum of eq. 6.1 bracketed by the count program cut at a layer t0.
+
+Where the moves are of a few kinds (``core.mmdp.counts``) but the whole program is too large (the
+riverswim benchmark: 6 kinds over T = 51 layers, 6.5e8 nodes), the program is exact up to a layer
+t0 and bounds what follows it. At a node (t0, s, c) with posterior b = b(c) over the models, the
+best value from t0 on satisfies
+
+    max_k  b . v_k(t0, s)   <=   V_t0(s, b)   <=   b . c(t0, s)                     (Theorem 6.2.2)
+
+where c_j(t0, s) is model j's own optimal value from (t0, s) (the model known from t0 on: no
+policy does better in model j) and v_k(t0, s) (M,) is the value in every model of a Markov policy
+k followed from t0 (each model's own optimal policy, the ``CANDIDATES`` most likely under b tried
+at each node: any choice is a policy, so its value is a lower bound). The count program's
+backward pass with these two terminal values gives two numbers, the optima of two truncated
+problems, that bracket the optimum of the whole one exactly (no rounding beyond the arithmetic's),
+whatever t0: up to t0 every posterior reachable is a node. The bracket closes as t0 grows: both
+terminal values are discounted by gamma^t0, and they meet as the posterior concentrates on one
+model (riverswim, gamma = 0.9: relative width 2.3e-3 at t0 = 10, 3.1e-4 at t0 = 18).
+
+Shapes: dynamics ``SparseDynamics`` (M models, S states); rewards ``LayeredRewards`` (step
+(M, T-1, S, A), last (M, S)); p0 (S,); prior (M,).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from airl_cli.core.mdp.sparse import SparseDynamics
+from airl_cli.core.mmdp.counts import MAX_NODES, CountProgram, move_kinds, n_nodes
+from airl_cli.core.mmdp.policy_graph import LayeredRewards
+
+#: At each node of layer t0, the lower terminal value tries the optimal policies of this many of
+#: the models most likely under the node's posterior.
+CANDIDATES = 3
+
+
+@dataclass(frozen=True)
+class CountBracket:
+    """The optimum lies in [lower, upper]; ``layers``: the count program ran exactly over layers
+    0..layers-1 (``layers`` = T: the two are the optimum itself); ``nodes``: its (t, s, c) nodes."""
+
+    lower: float
+    upper: float
+    layers: int
+    nodes: int
+
+
+def cut_layers(dyn: SparseDynamics, horizon: int, max_nodes: int = MAX_NODES, max_kinds: int = 12) -> int | None:
+    """The most layers (at most ``horizon``) whose count program has at most ``max_nodes`` nodes;
+    None where the moves have more than ``max_kinds`` kinds, or not even two layers fit."""
+    kinds = move_kinds(dyn, max_kinds)
+    if kinds is None:
+        return None
+    S, n = dyn.probs.shape[1], kinds.n_kinds
+    layers = 1
+    while layers < horizon and n_nodes(S, n, layers + 1) <= max_nodes:
+        layers += 1
+    return layers if layers >= 2 else None
+
+
+def count_bracket(dyn: SparseDynamics, L: LayeredRewards, p0: np.ndarray, prior: np.ndarray | None = None, *, max_nodes: int = MAX_NODES) -> CountBracket | None:
+    """The optimum of eq. 6.1 (the prior-weighted sum of the models' returns; the plain sum when
+    ``prior`` is None) bracketed by the count program over as many layers as ``max_nodes`` allows
+    (module docstring); None where the moves are of too many kinds or no two layers fit."""
+    T = L.horizon
+    layers = cut_layers(dyn, T, max_nodes)
+    if layers is None:
+        return None
+    M = dyn.probs.shape[0]
+    weights = np.full(M, 1.0 / M) if prior is None else np.asarray(prior, dtype=np.float64)
+    scale = float(M) if prior is None else 1.0  # the program's posteriors are normalised: its root value is the weighted mean
+    program = CountProgram(dyn, move_kinds(dyn), layers, weights)
+    t0 = layers - 1
+    own, policies = _own_optimum(dyn, L, t0)  # (M, S), (M, T-1-t0, S)
+    step = L.step[:, :t0]
+    b = program.last_beliefs  # (C, M)
+    upper = _root(program, step, (b @ own).T, p0) * scale
+    if t0 == T - 1:  # the whole program: its terminal is the last layer's reward, both values are the optimum
+        return CountBracket(upper, upper, layers, program.n_nodes)
+    follow = np.stack([_policy_value(dyn, L, t0, policies[k]) for k in range(M)])  # (K = M, M, S): policy k's value in each model
+    lower = _root(program, step, _best_candidates(b, follow), p0) * scale
+    return CountBracket(min(lower, upper), upper, layers, program.n_nodes)
+
+
+def _root(program: CountProgram, step: np.ndarray, W: np.ndarray, p0: np.ndarray) -> float:
+    """p0 . (the first layer's node values) from the last layer's ``W`` (S, C)."""
+    W0, _ = program.backward(step, W)
+    return float(np.asarray(p0, dtype=np.float64) @ W0[:, 0])
+
+
+def _best_candidates(b: np.ndarray, follow: np.ndarray) -> np.ndarray:
+    """(S, C) at each node of the cut layer, max over the ``CANDIDATES`` most likely models k of
+    b . follow[k, :, s]: the value of following model k's optimal policy from there."""
+    K = min(CANDIDATES, b.shape[1])
+    top = np.argpartition(-b, K - 1, axis=1)[:, :K] if K < b.shape[1] else np.broadcast_to(np.arange(K), b.shape)  # (C, K)
+    best = np.full((follow.shape[2], b.shape[0]), -np.inf)
+    for k in np.unique(top):  # each candidate policy at the nodes that try it: (n, M) @ (M, S)
+        nodes = np.flatnonzero((top == k).any(axis=1))
+        best[:, nodes] = np.maximum(best[:, nodes], (b[nodes] @ follow[k]).T)
+    return best
+
+
+def _own_optimum(dyn: SparseDynamics, L: LayeredRewards, t0: int) -> tuple[np.ndarray, np.ndarray]:
+    """Each model's own optimal value from layer t0, (M, S), and its optimal Markov policy from
+    there, (M, T-1-t0, S) (backward induction in each model alone)."""
+    V = np.asarray(L.last, dtype=np.float64).copy()
+    M, S = V.shape
+    policies = np.zeros((M, L.horizon - 1 - t0, S), dtype=np.int64)
+    for t in range(L.horizon - 2, t0 - 1, -1):
+        Q = L.step[:, t] + _expected(dyn, V)
+        policies[:, t - t0] = Q.argmax(axis=2)
+        V = Q.max(axis=2)
+    return V, policies
+
+
+def _policy_value(dyn: SparseDynamics, L: LayeredRewards, t0: int, policy: np.ndarray) -> np.ndarray:
+    """(M, S) the value from layer t0 of following the Markov ``policy`` (T-1-t0, S) in each model."""
+    V = np.asarray(L.last, dtype=np.float64).copy()
+    S = V.shape[1]
+    for t in range(L.horizon - 2, t0 - 1, -1):
+        a = policy[t - t0]
+        V = (L.step[:, t] + _expected(dyn, V))[:, np.arange(S), a]
+    return V
+
+
+def _expected(dyn: SparseDynamics, V: np.ndarray) -> np.ndarray:
+    """(M, S, A) sum_{s'} P_j(s'|s, a) V_j(s') over the reachable next states."""
+    return np.einsum("jsar,jsr->jsa", dyn.probs, V[:, dyn.next_states])

@@ -1,0 +1,62 @@
+"""The count program cut at a layer (``core.mmdp.count_bracket``): its bracket holds the optimum at
+every cut, meets it where the whole program fits, and narrows as the cut moves on."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from airl_cli.core.mdp.sparse import sparse_dynamics
+from airl_cli.core.mmdp.count_bracket import count_bracket, cut_layers
+from airl_cli.core.mmdp.counts import move_kinds, n_nodes, solve_counts
+from airl_cli.core.mmdp.exact import exact_graph
+from airl_cli.core.mmdp.policy_graph import layered_rewards
+
+
+def slip_ring(S: int = 5, slips=(0.1, 0.3, 0.5)) -> np.ndarray:
+    """(M, S, 2, S) a ring of S cells, actions stay and move on; in model j the move of the other
+    action happens with probability slips[j] / 2 (few kinds of move: the count program applies)."""
+    M = len(slips)
+    intended = np.zeros((2, S, S))
+    intended[0, np.arange(S), np.arange(S)] = 1.0
+    intended[1, np.arange(S), (np.arange(S) + 1) % S] = 1.0
+    mean = intended.mean(axis=0)
+    P = np.empty((M, S, 2, S))
+    for j, p in enumerate(slips):
+        for a in range(2):
+            P[j, :, a] = (1 - p) * intended[a] + p * mean
+    return P
+
+
+def test_the_bracket_holds_the_optimum_at_every_cut_and_meets_it_where_the_program_fits():
+    rng = np.random.default_rng(3)
+    P = slip_ring()
+    M, S = P.shape[:2]
+    T = 6
+    rewards = rng.normal(size=(M, T, S))
+    p0 = np.full(S, 1.0 / S)
+    dyn = sparse_dynamics(P)
+    n = move_kinds(dyn).n_kinds
+    for prior in (None, np.array([0.5, 0.3, 0.2])):
+        for discount in (1.0, 0.8):
+            L = layered_rewards(dyn, rewards, discount=discount)
+            optimum = solve_counts(P, rewards, p0, discount=discount, prior=prior).value
+            values = exact_graph(P, L, prior).values(p0)  # every history enumerated
+            assert optimum == pytest.approx(float(values.sum()) if prior is None else float(prior @ values), abs=1e-9)
+            uppers = []
+            for layers in range(2, T + 1):
+                br = count_bracket(dyn, L, p0, prior, max_nodes=n_nodes(S, n, layers))
+                assert br.layers == layers
+                assert br.lower - 1e-9 <= optimum <= br.upper + 1e-9, (layers, br, optimum)
+                uppers.append(br.upper)
+            assert br.lower == pytest.approx(optimum, abs=1e-9) and br.upper == pytest.approx(optimum, abs=1e-9)
+            assert all(b <= a + 1e-9 for a, b in zip(uppers, uppers[1:]))  # the model-known bound only tightens
+
+
+def test_the_cut_is_the_most_layers_within_the_budget_and_none_for_a_dense_mdp():
+    dyn = sparse_dynamics(slip_ring())
+    n = move_kinds(dyn).n_kinds
+    assert cut_layers(dyn, 30, max_nodes=n_nodes(5, n, 6)) == 6
+    assert cut_layers(dyn, 4, max_nodes=10**9) == 4
+    dense = np.random.default_rng(0).dirichlet(np.ones(5), size=(3, 5, 2))
+    assert cut_layers(sparse_dynamics(dense), 10) is None
