@@ -84,7 +84,7 @@ LAYERS = (
     ("core.irl", "core.irl core.irl.*"),
     ("base", "airl_cli errors heap plain_progress methods multimodel io io.* conf conf.* sweep.spec"
      " settings settings.paths settings.overrides settings.problem_defaults settings.compose_memo settings.hydra_internals settings.reader"
-     " readings readings.alpha_values readings.variants readings.transfer readings.claims"),
+     " readings readings.alpha_values readings.variants readings.transfer readings.claims readings.certificates"),
     ("envs", "envs envs.*"),
     ("settings", "settings.config settings.demos settings.dynamics settings.experiments settings.envs"),
     ("use cases", "usecases usecases.* readings.plotting readings.plotting.* readings.summaries readings.summaries.*"),

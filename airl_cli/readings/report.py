@@ -21,6 +21,7 @@ from airl_cli.errors import AirlError
 from airl_cli.io.files import atomic_write, write_text
 from airl_cli.io.results_table import read_results_table
 from airl_cli.methods import NAMES
+from airl_cli.readings.certificates import certificates
 from airl_cli.readings.claims import claims_table, reading_of
 from airl_cli.readings.summaries import summary_of
 from airl_cli.readings.summaries.base import demonstrated, methods
@@ -185,6 +186,13 @@ def build(sweeps: Path, profile: str = "full") -> Report:
         "",
         overview(experiments),
     ]
+    if table := certificates({**experiments, **variants}):
+        parts += [
+            "", "## The certificates", "",
+            "Every certified fit of the thesis's method: its bracket [L, U] on the minimum of eq. 5.9, valid whatever",
+            "the adversary's policy, and whether it was closed to `optim.tol` (relative width (U − L)/max(1, |U|)).",
+            "", table,
+        ]
     figures: list[tuple[Path, str]] = []
     for name, (meta, table) in sorted(experiments.items()):
         parts += ["", f"## {name}: {meta['title']}", "", f"Thesis: {meta['thesis']}.", "", summary_of(meta).section(meta, table)]
@@ -207,7 +215,7 @@ def sections(results: str) -> list[str]:
     """The experiments (and variants) a results.md reports: its "## NAME: title" and "## NAME with ..." headings."""
     names = []
     for line in results.splitlines():
-        if line.startswith("## ") and not line.startswith("## Every method"):
+        if line.startswith("## ") and not line.startswith(("## Every method", "## The certificates")):
             names.append(line[3:].split(":", 1)[0].strip())
     return names
 
