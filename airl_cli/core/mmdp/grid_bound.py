@@ -133,9 +133,13 @@ def simplex(x, m, table, work_f, work_i, idx, w):  # pragma: no cover - compiled
 def interpolate(U, x, m, table, work_f, work_i):  # pragma: no cover - compiled
     """I(x) = |x| sum_k w_k U[g_k] at unnormalised x (M,) >= 0 (0 when |x| = 0).
 
-    ``U`` (G,) one state's grid values; ``work_f`` (3M,) float and ``work_i`` (3M,) int scratch."""
+    ``U`` (G,) one state's grid values; ``work_f`` (3M,) float and ``work_i`` (3M,) int scratch.
+    A posterior of no mass (a next state that this action reaches under no model, though another
+    action does: sparse rows) has no simplex, and ``simplex`` fills none of the scratch: 0, read from nothing."""
     M = x.size
     mass = simplex(x, m, table, work_f[:M], work_i[: 2 * M], work_i[2 * M :], work_f[M : 2 * M])
+    if mass <= 0.0:
+        return 0.0
     out = 0.0
     for k in range(M):
         if work_i[2 * M + k] >= 0:

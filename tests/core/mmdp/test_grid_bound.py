@@ -130,3 +130,26 @@ def test_the_layer_before_the_last_takes_the_corner_bound_s_best_action_as_the_s
     for a, b in zip(searched[:3], direct[:3]):
         assert np.array_equal(a, b)
     assert np.allclose(searched[3], direct[3], rtol=1e-13, atol=1e-13)
+
+
+def test_a_next_state_that_an_action_reaches_under_no_model_is_bracketed_without_reading_the_scratch():
+    """Sparse rows: each (s, a) reaches a few next states, so a next state that another action of
+    s reaches has, under this action, no mass under any model. Its posterior has no simplex (the
+    grid's ``simplex`` fills nothing), and the interpolation is 0 without reading the scratch
+    (which it once did: a crash of the sweeps' workers on ``mdp.transition=sparse``). The bracket
+    holds the enumerated optimum there, with the grid in play."""
+    work_f, work_i = np.full(12, np.nan), np.full(12, 10**12, dtype=np.int64)  # a read of the scratch would index far away
+    beliefs, table = grid_points(4, 3)
+    assert interpolate(np.ones(len(beliefs)), np.zeros(4), 3, table, work_f, work_i) == 0.0
+    for seed in range(4):
+        rng = np.random.default_rng(seed)
+        S, A, M, T = 4, 2, 3, 5
+        P = np.zeros((M, S, A, S))
+        for s in range(S):
+            for a in range(A):
+                succ = rng.choice(S, size=2, replace=False)  # two next states per (s, a), shared by the models
+                P[:, s, a, succ] = rng.dirichlet(np.ones(2), size=M)
+        R = rng.normal(size=(M, T, S))
+        p0 = np.full(S, 1.0 / S)
+        br = bounds.bracket(P, R, p0)
+        assert br.lower - 1e-9 <= optimum(P, R, p0) <= br.upper + 1e-9
