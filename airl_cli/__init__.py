@@ -88,3 +88,40 @@ def _load_tbb() -> None:
 
 
 _load_tbb()
+
+
+def _numba_cache() -> None:
+    """Keep numba's compiled kernels in a folder named for the compiled code's sources (``cache_folder``),
+    unless the user chose ``NUMBA_CACHE_DIR``; a folder that cannot be written leaves numba's own choice.
+
+    numba caches a compiled function beside its module and checks only that module's stamp, not
+    those of the modules whose functions it compiles in: ``_bound_kernels``' bound kept the grid's
+    old interpolation after ``grid_bound`` changed (it had read unfilled scratch on sparse rows:
+    the fix ran only with a fresh cache). A change to any module of the core now compiles the
+    kernels again, once (about a minute)."""
+    if "NUMBA_CACHE_DIR" in os.environ:
+        return
+    from pathlib import Path
+
+    folder = cache_folder(Path(__file__).parent, os.environ)
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError:
+        return
+    if os.access(folder, os.W_OK):
+        os.environ["NUMBA_CACHE_DIR"] = str(folder)
+
+
+def cache_folder(package, environ):  # noqa: ANN001, ANN201 - kept free of typing imports: it runs at every start
+    """``$XDG_CACHE_HOME/airl/numba/<hash of every module of package/core>`` (``~/.cache`` by
+    default): the folder numba's cache of this package's kernels goes to (``_numba_cache``)."""
+    import hashlib
+    from pathlib import Path
+
+    digest = hashlib.sha256()
+    for path in sorted((package / "core").rglob("*.py")):
+        digest.update(path.relative_to(package).as_posix().encode() + b"\0" + path.read_bytes())
+    return Path(environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "airl" / "numba" / digest.hexdigest()[:16]
+
+
+_numba_cache()
