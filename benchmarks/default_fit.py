@@ -15,7 +15,7 @@ A = 5, T = 10, D = 3, N = 100, zero-one loss), seeds 0-4; Objectworld 8 x 8 and 
 0.1 / 0.2 / 0.3 (D = 3, N = 200, T = 20), with the file's squared feature loss (``sq``) and
 without it (``01``: the zero-one loss a user's file without a loss gets); a two-colour 8 x 8 slip
 grid (seed 2) whose zero-one fit needs many iterations (1,299 when PBVI answered); CliffWalking-v1 and FrozenLake-v1 by id;
-and, with ``--large``, Objectworld 32 x 32 and 64 x 64 (squared features).
+and, with ``--large``, Objectworld 32 x 32 and 64 x 64 (both losses).
 """
 
 from __future__ import annotations
@@ -49,7 +49,9 @@ CASES: dict[str, tuple[tuple[str, ...], bool]] = {
 }
 LARGE = {
     "ow32-sq": ((*OBJECTWORLD, "mdp.size=32"), False),
+    "ow32-01": ((*OBJECTWORLD, "mdp.size=32"), True),
     "ow64-sq": ((*OBJECTWORLD, "mdp.size=64"), False),
+    "ow64-01": ((*OBJECTWORLD, "mdp.size=64"), True),
 }
 
 COLUMNS = (
@@ -61,7 +63,7 @@ COLUMNS = (
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--cases", nargs="+", default=None, help=f"which cases (default: all of {', '.join(CASES)})")
-    parser.add_argument("--large", action="store_true", help="add Objectworld 32 x 32 and 64 x 64")
+    parser.add_argument("--large", action="store_true", help="add Objectworld 32 x 32 and 64 x 64, both losses")
     parser.add_argument("--extra", nargs="*", default=[], help="overrides for the thesis's method's fit (say optim.tol=1e-2)")
     parser.add_argument("--repeat", type=int, default=1, help="runs of each fit, alternating; the table shows the median times")
     parser.add_argument("--timeout", type=float, default=None, help="seconds a fit of the thesis's method may take (its row then says so)")
