@@ -18,6 +18,7 @@ from airl_cli.core.mmdp.planner import layered_rewards
 from airl_cli.errors import ConfigError
 from airl_cli.io.mmdp_files import MMDPProblem
 from airl_cli.settings.config import PlanSettings
+from airl_cli.usecases.memory import available_memory
 
 
 def run_plan(
@@ -85,7 +86,8 @@ def bracket_optimum(problem: MMDPProblem, settings: PlanSettings, result: Plan, 
     if settings.bracket_nodes > 0:
         dyn = sparse_dynamics(problem.transitions)
         L = layered_rewards(dyn, problem.rewards, horizon=settings.horizon, discount=discount)
-        cut = count_bracket(dyn, L, problem.initial, prior, max_nodes=settings.bracket_nodes)
+        # the program in half the memory free now (its beliefs grow with the models: riverswim's M = 100, 0.9 GB)
+        cut = count_bracket(dyn, L, problem.initial, prior, max_nodes=settings.bracket_nodes, max_bytes=available_memory() // 2)
         if cut is not None:
             sides.append((cut.lower, cut.upper))
     if not sides:

@@ -60,3 +60,13 @@ def test_the_cut_is_the_most_layers_within_the_budget_and_none_for_a_dense_mdp()
     assert cut_layers(dyn, 4, max_nodes=10**9) == 4
     dense = np.random.default_rng(0).dirichlet(np.ones(5), size=(3, 5, 2))
     assert cut_layers(sparse_dynamics(dense), 10) is None
+
+
+def test_a_memory_budget_cuts_the_program_earlier():
+    from airl_cli.core.mmdp.count_bracket import program_bytes
+
+    dyn = sparse_dynamics(slip_ring())
+    n = move_kinds(dyn).n_kinds
+    assert cut_layers(dyn, 30, max_nodes=10**9, max_bytes=program_bytes(3, 5, n, 7)) == 7
+    assert cut_layers(dyn, 30, max_nodes=10**9, max_bytes=program_bytes(3, 5, n, 2) - 1) is None
+    assert program_bytes(100, 20, 6, 27) > 8e8  # riverswim's cut: its posteriors alone are 0.7 GB
