@@ -15,7 +15,7 @@ backward pass with these two terminal values gives two numbers, the optima of tw
 problems, that bracket the optimum of the whole one exactly (no rounding beyond the arithmetic's),
 whatever t0: up to t0 every posterior reachable is a node. The bracket closes as t0 grows: both
 terminal values are discounted by gamma^t0, and they meet as the posterior concentrates on one
-model (riverswim, gamma = 0.9: relative width 2.3e-3 at t0 = 10, 3.1e-4 at t0 = 18).
+model (riverswim, gamma = 0.9: relative width 3.1e-3 over 11 layers, 3.7e-4 over 19, 3.8e-5 over 27).
 
 Shapes: dynamics ``SparseDynamics`` (M models, S states); rewards ``LayeredRewards`` (step
 (M, T-1, S, A), last (M, S)); p0 (S,); prior (M,).
