@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import os
 import signal
 import subprocess
@@ -17,6 +18,7 @@ from airl_cli.cli import app
 from airl_cli.errors import ConfigError
 from airl_cli.sweep.job_files import FIT_COLUMNS, damaged_jobs
 from airl_cli.sweep.plan import experiment_names, plan
+from airl_cli.usecases.bracket import narrower
 
 runner = CliRunner()
 EXPERIMENTS = ["cliffworld", "degeneracy", "fig02_03", "fig04", "fig05", "fig06", "fig07", "fig08", "fig09", "fig12", "fig13", "fig14", "fig15", "fig17", "fig18", "frozenlake", "size", "size_random", "size_random_markov", "size_random_scaled", "transfer", "windy_transfer"]
@@ -86,6 +88,9 @@ def test_full_sizes_follow_the_thesis():
 #: the fast suite runs two experiments through the whole sweep (a random MDP's and a grid's); the
 #: others, 1.3-8 s each (transfer and windy_transfer 1-2 min: the windy grid at T = 110), in the slow suite
 FAST_QUICK = {"fig04", "fig12"}
+#: the windy grid's closing fits at T = 110 take 1,200-1,700 iterations (minutes each): here they stop
+#: at a cap, and their certificates must say so
+CAPPED = {"windy_transfer": ["optim.max_iterations=100"]}
 
 
 @pytest.mark.parametrize("name", [n if n in FAST_QUICK else pytest.param(n, marks=pytest.mark.slow) for n in EXPERIMENTS])
@@ -93,7 +98,7 @@ def test_every_experiment_runs_small_in_process(tmp_path, name):
     """Each experiment at the quick size, through the in-process launcher, to a table and figures."""
     if name in ENV_EXPERIMENTS:
         pytest.importorskip(ENV_EXPERIMENTS[name], reason=f"experiment={name} needs the extra: pip install '.[envs]'")
-    result = runner.invoke(app, ["sweep", f"experiment={name}", "profile=quick", "hydra/launcher=basic", "method=airl"])
+    result = runner.invoke(app, ["sweep", f"experiment={name}", "profile=quick", "hydra/launcher=basic", "method=airl", *CAPPED.get(name, [])])
     assert result.exit_code == 0, result.output
     folder = next((tmp_path / "results" / "sweeps").iterdir())
     table = pd.read_csv(folder / "results.csv")
@@ -106,8 +111,14 @@ def test_every_experiment_runs_small_in_process(tmp_path, name):
         assert (table["optimizer"] == "exact").all()
         certified = table["converged"].astype(bool)
         assert (certified == (table["bracket_width"] <= 1e-3)).all()  # the flag says what the bracket says
-        if name not in ("windy_transfer", "transfer"):  # the windy grid's one-hot features are the zero-one tail (README): fits may stop at the cap
-            assert certified.all()
+        # a fit left open says why in its certificate (at N = 1 the bracket's grid of beliefs caps the
+        # closing on the random MDPs; the windy grid's one-hot features stop at the cap; a Markov
+        # adversary's game is bracketed at its answer)
+        infos = [json.loads(f.read_text()) for f in folder.glob("*/metrics.json")]
+        for info in infos:
+            assert info["converged"] or narrower(info) in info["certificate"], info["certificate"]
+        history = [info["converged"] for info in infos if info["adversary"] == "history"]
+        assert name in CAPPED or not history or any(history)  # the history-dependent adversary's game closes at least at the larger N
     assert list((folder / "figures").glob("*.png")) and list((folder / "figures").glob("*.pdf"))
     # every job's files pass the check a resumed sweep makes (none would be run again)
     assert damaged_jobs(folder, [p.parent.name for p in folder.glob("*/rows.csv")]) == {}

@@ -271,7 +271,7 @@ def test_every_method_fits_and_is_scored_on_their_windy_benchmark():
         assert list(table["dynamics"]) == ["tau", "tau_1", "tau_2", "test_1", "test_2", "test_3"], method
         assert table["learner_score"].between(-1e-9, 1 + 1e-9).all(), (method, table)
         if method == "airl":
-            assert learned.info["converged"] and learned.info["relative_gap"] <= 1e-4
+            assert learned.info["converged"] and learned.info["bracket_relative_gap"] <= 1e-3  # closed to optim.tol
 
 
 @pytest.mark.slow  # end to end, seconds: the slow suite (pytest -m slow, run by CI)
