@@ -86,7 +86,7 @@ def test_full_sizes_follow_the_thesis():
 
 
 #: the fast suite runs two experiments through the whole sweep (a random MDP's and a grid's); the
-#: others, 1.3-8 s each (transfer and windy_transfer 1-2 min: the windy grid at T = 110), in the slow suite
+#: others, 2-45 s each (transfer 2 min: the windy grid at T = 110), in the slow suite
 FAST_QUICK = {"fig04", "fig12"}
 #: the windy grid's closing fits at T = 110 take 1,200-1,700 iterations (minutes each): here they stop
 #: at a cap, and their certificates must say so
