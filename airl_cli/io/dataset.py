@@ -376,4 +376,6 @@ def dataset_sizes(path: str | os.PathLike) -> dict | None:
             n = npz["demo_states"].shape[1] if "demo_states" in npz.files else 0
     except Exception:  # noqa: BLE001 (read_dataset names what is wrong)
         return None
+    if R is None or min(M, S, A, T, R) < 1:  # an empty axis: the file fails its own check, which says so
+        return None
     return {"n_states": S, "n_actions": A, "horizon": T, "n_dynamics": M - 1, "n_demos": n, "n_next": R}

@@ -92,6 +92,21 @@ def test_a_sweep_jobs_dataset_path_with_commas_and_equals_is_not_malformed(tmp_p
     assert result.exit_code == 0, result.output
 
 
+@pytest.mark.parametrize("shape", [(3, 0, 3, 0), (3, 6, 0, 6)])
+def test_a_dataset_with_an_empty_axis_is_one_sentence_before_the_memory_estimate(tmp_path, shape):
+    """Issue 72 item 4: transitions of shape (3, 0, 3, 0) ended in a ZeroDivisionError traceback from
+    the memory estimate, which ran before the file's own check."""
+    import numpy as np
+
+    assert runner.invoke(app, ["generate", *SMALL, "hydra.run.dir=gen"]).exit_code == 0
+    arrays = dict(np.load(tmp_path / "gen" / "dataset.npz"))
+    arrays["transitions"] = np.zeros(shape)
+    np.savez(tmp_path / "empty.npz", **arrays)
+    line = one_error(runner.invoke(app, ["fit", f"data={tmp_path / 'empty.npz'}", "hydra.run.dir=fit"]))
+    assert "transitions" in line, line
+    assert not (tmp_path / "fit").exists()
+
+
 # ------------------------------------------------------------------ messages that named the wrong thing (item 8)
 
 
