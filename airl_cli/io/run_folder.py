@@ -104,6 +104,11 @@ def discard(folder: str | os.PathLike) -> bool:
     return not Path(folder).exists()
 
 
+def empty_folder_refusal(key: str) -> str:
+    """The sentence for an empty ``KEY=`` (``hydra.run.dir``, ``hydra.sweep.dir``): Hydra would write into the current folder."""
+    return f"{key}= is empty (the run would write into the current folder); name a new folder, e.g. {key}=results/mine"
+
+
 def entry_refusal(folder: str, overrides: list[str], *, replace: bool, key: str = "hydra.run.dir") -> str | None:
     """Why a run may not go into ``KEY=folder`` (one sentence), or None: ``hydra.run.dir`` of a
     single run, ``hydra.sweep.dir`` of a multirun (``-m``).
@@ -114,7 +119,7 @@ def entry_refusal(folder: str, overrides: list[str], *, replace: bool, key: str 
     lies in it. An empty ``hydra.run.dir=`` (Hydra would write into the current folder) is refused.
     """
     if not folder.strip():
-        return f"{key}= is empty (the run would write into the current folder); name a new folder, e.g. {key}=results/mine"
+        return empty_folder_refusal(key)
     path = Path(folder)
     if not path.is_dir() or not any(path.iterdir()):
         return None

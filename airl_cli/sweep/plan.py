@@ -18,6 +18,7 @@ from hydra.errors import HydraException
 from omegaconf import DictConfig, OmegaConf
 
 from airl_cli.errors import ConfigError
+from airl_cli.io.run_folder import empty_folder_refusal
 from airl_cli.settings import compose_memo
 from airl_cli.settings.config import fit_settings, plain, problem_settings
 from airl_cli.settings.experiments import compose_airl, experiment_names  # noqa: F401 (experiment_names: the sweep's callers use it from here)
@@ -114,7 +115,10 @@ def _folder(cfg: DictConfig, overrides: list[str], parser: OverridesParser) -> P
     A variant of an experiment (say mdp.transition=dirichlet) thus gets a folder of its own and
     never mixes its table with the plain experiment's; hydra.sweep.dir=PATH names it outright.
     """
-    if any(o.split("=", 1)[0] == "hydra.sweep.dir" for o in overrides):
+    named = [o.split("=", 1)[1] for o in overrides if o.split("=", 1)[0] == "hydra.sweep.dir"]
+    if named:
+        if not named[-1].strip("'\" "):
+            raise ConfigError(empty_folder_refusal("hydra.sweep.dir"))
         return Path(cfg.hydra.sweep.dir)
     extra = [o for o in overrides if _is_task_override(o) and override_key(o) not in ("experiment", "profile")]
     suffix = overrides_dirname(parser.parse_overrides(extra), []) if extra else ""

@@ -76,6 +76,8 @@ def test_an_empty_new_folder_is_accepted(tmp_path):
         (["plan", "--foo"], "'--foo' is not an option of airl plan"),
         (["sweep", "experiment=fig05", "--strcit"], "'--strcit' is not an option of airl sweep"),
         (["fit", "mdp.n_states=30", "mdp.n_states=40"], "'mdp.n_states' is set twice ('30' and '40'); give it once"),
+        # issue 72 item 1: the sweep wrote its whole folder into the current one, exit 0
+        (["sweep", "experiment=fig05", "profile=quick", "hydra.sweep.dir="], "hydra.sweep.dir= is empty (the run would write into the current folder)"),
     ],
 )
 def test_a_malformed_command_line_is_one_sentence_and_exit_2(tmp_path, args, needle):
