@@ -59,6 +59,30 @@ def _overrides(ctx: typer.Context) -> list[str]:
     return list(ctx.args)
 
 
+def _usage_error() -> type[Exception]:
+    """The command-line parser's usage error (Typer's own copy of Click's, or Click's in older Typer)."""
+    import importlib
+
+    return importlib.import_module(TyperCommand.__mro__[1].__module__.rsplit(".", 1)[0] + ".exceptions").UsageError
+
+
+class _OneSentenceCommand(TyperCommand):
+    """A command of its own options and arguments (inspect, plot, report): a misspelt option or a
+    missing argument is one sentence and exit 2, as for the commands that take overrides, not the
+    parser's usage block."""
+
+    def parse_args(self, ctx, args):
+        try:
+            return super().parse_args(ctx, args)
+        except _usage_error() as err:
+            options = [o for p in self.params for o in getattr(p, "opts", []) if o.startswith("--")] + ["--help"]
+            name = getattr(err, "option_name", None)
+            if type(err).__name__ == "NoSuchOption":
+                refuse(f"'{name}' is not an option of airl {self.name} (its options: {', '.join(options)}; see airl {self.name} --help)")
+            message = err.format_message()
+            refuse(f"{message[:1].lower()}{message[1:].rstrip('.')} (see airl {self.name} --help)")
+
+
 class _SweepCommand(TyperCommand):
     """``airl sweep``, whose help ends with the experiments: read from their configs only for ``--help``."""
 
@@ -165,7 +189,6 @@ def fit(
     VERBOSE[:] = [True] if verbose else []
     run_hydra("fit", _overrides(ctx), cfg=cfg, resolve=resolve, multirun=multirun, replace=replace)
     if strict and cfg is None:
-
         for sentence in WIDE:
             typer.echo(f"airl fit --strict: {sentence}", err=True)
         if WARNED or WIDE:
@@ -227,7 +250,7 @@ def plan_command(
     run_hydra("plan", _overrides(ctx), cfg=cfg, resolve=resolve, multirun=multirun, replace=replace)
 
 
-@app.command()
+@app.command(cls=_OneSentenceCommand)
 def plot(
     folder: str = typer.Argument(..., help="A sweep folder (results/sweeps/NAME-PROFILE) or a fit's run folder (results/fit/TIME)."),
 ) -> None:
@@ -251,7 +274,7 @@ def plot(
         out_console.print(f"figure {path}", soft_wrap=True)
 
 
-@app.command()
+@app.command(cls=_OneSentenceCommand)
 def report(
     folder: str = typer.Argument("results/sweeps", help="The folder holding the sweep folders (<experiment>-full/ ...)."),
     out: str = typer.Option("results/report", "--out", "-o", help="Where to write results.md, claims.md and figures/."),
@@ -282,7 +305,7 @@ def report(
     out_console.print(f"wrote {paths[-2]}, {paths[-1]} and {n} figure{'' if n == 1 else 's'}", soft_wrap=True)
 
 
-@app.command()
+@app.command(cls=_OneSentenceCommand)
 def inspect(path: str = typer.Argument(..., help="A dataset file (.npz) of the schema in docs/own-problem.md, 'The dataset file'.")) -> None:
     """Check a dataset file against the schema and describe it; exit 2 with the reason if it is bad."""
     from airl_cli.jobs.inspect import main as inspect_main

@@ -76,6 +76,12 @@ def test_an_empty_new_folder_is_accepted(tmp_path):
         (["plan", "--foo"], "'--foo' is not an option of airl plan"),
         (["sweep", "experiment=fig05", "--strcit"], "'--strcit' is not an option of airl sweep"),
         (["fit", "mdp.n_states=30", "mdp.n_states=40"], "'mdp.n_states' is set twice ('30' and '40'); give it once"),
+        # issue 72 item 9: Click's four-line usage block
+        (["inspect", "--foo", "x"], "'--foo' is not an option of airl inspect"),
+        (["plot", "--foo", "x"], "'--foo' is not an option of airl plot"),
+        (["report", "--outt", "x"], "'--outt' is not an option of airl report (its options: --out, --profile, --replace, --help"),
+        (["report", "--profile"], "option '--profile' requires an argument (see airl report --help)"),
+        (["inspect"], "missing argument 'path' (see airl inspect --help)"),
         # issue 72 item 1: the sweep wrote its whole folder into the current one, exit 0
         (["sweep", "experiment=fig05", "profile=quick", "hydra.sweep.dir="], "hydra.sweep.dir= is empty (the run would write into the current folder)"),
     ],
