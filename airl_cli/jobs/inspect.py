@@ -55,6 +55,8 @@ def describe(path: str) -> str:
 
 
 def main(path: str) -> None:
+    if not path.strip():
+        refuse("airl inspect '' names no file: give it a dataset file, airl inspect PATH.npz", err_console)
     try:
         text = describe(path)
     except AirlError as err:

@@ -64,6 +64,8 @@ def syntax_problem(args: list[str], command: str, options: list[str]) -> str | N
         except HydraException as err:
             lines = [line.strip() for line in str(err).splitlines() if line.strip() and not line.strip().startswith(("See ", "^"))]
             detail = lines[-1].split(" expecting ")[0] if lines else ""
+            if not value.isascii():  # Hydra's grammar reads unquoted values in ASCII only
+                return f"cannot read the override '{item}': Hydra reads a value with characters beyond ASCII only in quotes; write {key}='{value}' (in the shell: \"{key}='{value}'\")"
             return f"cannot read the override '{item}' (Hydra's grammar: {detail}); write KEY=VALUE, quoting a value that holds '=', ',' or brackets"
         if key in seen:
             return f"'{key}' is set twice ({seen[key]!r} and {value!r}); give it once"

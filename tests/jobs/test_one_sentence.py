@@ -82,6 +82,8 @@ def test_an_empty_new_folder_is_accepted(tmp_path):
         (["report", "--outt", "x"], "'--outt' is not an option of airl report (its options: --out, --profile, --replace, --help"),
         (["report", "--profile"], "option '--profile' requires an argument (see airl report --help)"),
         (["inspect"], "missing argument 'path' (see airl inspect --help)"),
+        (["inspect", ""], "airl inspect '' names no file"),
+        (["fit", "hydra.run.dir=résultats/a"], "write hydra.run.dir='résultats/a' (in the shell: \"hydra.run.dir='résultats/a'\")"),
         # issue 72 item 1: the sweep wrote its whole folder into the current one, exit 0
         (["sweep", "experiment=fig05", "profile=quick", "hydra.sweep.dir="], "hydra.sweep.dir= is empty (the run would write into the current folder)"),
     ],
