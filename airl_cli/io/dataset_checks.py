@@ -209,6 +209,8 @@ def optional_arrays(raw: dict, D: int, S: int, K: int) -> tuple:
         if np.any(loss < 0):
             idx = tuple(int(i) for i in np.argwhere(loss < 0)[0])
             fail(f"key 'loss' must be non-negative, but has {loss[idx]:.3g} at {idx}")
+        if not np.any(loss):  # eq. 5.9 would then ask nothing of the learner's policy: its reward is arbitrary
+            fail("key 'loss' is zero everywhere, so the game (eq. 5.9) asks nothing of the learner's policy; drop the key for the config's loss, or give loss(ŝ, š) > 0 where the states differ")
     return fexp, w_star, loss
 
 

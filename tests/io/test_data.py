@@ -109,6 +109,7 @@ BAD = [
     ("true_weights NaN", _set("true_weights", np.array([0.0, np.nan, 1.0])), "true_weights"),
     ("loss wrong shape", _set("loss", np.zeros((S, S + 1))), "loss"),
     ("loss negative", _set("loss", lambda a: a["loss"] - 2.0), "loss"),
+    ("loss zero everywhere", _set("loss", np.zeros((S, S))), "loss"),  # issue 72 item 9: accepted, and w meant nothing
     ("text instead of numbers", _set("features", np.array([["a"] * K] * S)), "features"),
 ]
 
