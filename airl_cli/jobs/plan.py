@@ -9,8 +9,10 @@ Markov methods; ``airl_cli.io.policy_file.load_policy`` reads it back) and ``con
 from __future__ import annotations
 
 import hydra
+import numpy as np
 from omegaconf import DictConfig
 
+from airl_cli.errors import ConfigError
 from airl_cli.io.files import write_json
 from airl_cli.io.mmdp_files import input_path, read_problem
 from airl_cli.io.policy_file import save_policy
@@ -18,13 +20,20 @@ from airl_cli.jobs.common import err_console, out_console, output_dir, run_job, 
 from airl_cli.plain_progress import PlainProgress
 from airl_cli.settings.config import plan_settings
 from airl_cli.settings.paths import conf_dir
+from airl_cli.usecases.memory import plan_refusal
 from airl_cli.usecases.plan import bracket_optimum, run_plan
 
 
 def check(cfg: DictConfig, overrides: list[str] = ()) -> list[str]:
     """What ``main`` would refuse before planning, checked before any folder is made
-    (``launch.preflight``): the settings and the input's files."""
-    read_problem(plan_settings(cfg).input)
+    (``launch.preflight``): the settings, the input's files, and a horizon that surely does not fit in memory."""
+    settings = plan_settings(cfg)
+    problem = read_problem(settings.input)
+    M, S, _ = problem.shape
+    n_next = int(np.count_nonzero(problem.transitions, axis=-1).max())
+    sentence = plan_refusal(M, S, n_next, settings.horizon)
+    if sentence is not None:
+        raise ConfigError(sentence)
     return []
 
 

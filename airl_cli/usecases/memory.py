@@ -8,7 +8,7 @@ import os
 from pathlib import Path
 
 from airl_cli.core.irl.options import closes_bracket
-from airl_cli.core.mmdp.budget import GB, GRID_GROWTH, Estimate, estimate_fit, fewer_iterations, graph_bytes, total_with_iterations
+from airl_cli.core.mmdp.budget import GB, GRID_GROWTH, Estimate, estimate_fit, fewer_iterations, graph_bytes, plan_bytes_at_least, total_with_iterations
 from airl_cli.heap import TOP_PAD
 from airl_cli.settings.config import FitSettings, ProblemSettings
 
@@ -63,6 +63,18 @@ def affordable_beliefs(n_states: int, horizon: int, n_models: int, n_next: int, 
     while wanted > 0 and graph_bytes(n_states, horizon, n_models, n_next, iterations, extra_nodes=wanted) > free / 2:
         wanted //= 2
     return wanted
+
+
+def plan_refusal(n_models: int, n_states: int, n_next: int, horizon: int) -> str | None:
+    """The sentence that refuses an ``airl plan`` whose horizon surely does not fit in the free
+    memory (``budget.plan_bytes_at_least``), or None."""
+    needed, free = plan_bytes_at_least(n_states, horizon, n_models, n_next), available_memory()
+    if needed <= free:
+        return None
+    return (
+        f"plan.horizon={horizon} needs at least {_size(needed)} of memory (a policy node per state and step, S = {n_states}, M = {n_models}), "
+        f"more than the {_size(free)} free; lower plan.horizon (a discounted problem's returns past about 1/(1 - discount) steps add little)"
+    )
 
 
 def problem_sizes(problem: ProblemSettings) -> dict:

@@ -175,6 +175,30 @@ def test_exact_on_a_long_horizon_is_refused_in_one_sentence(tmp_path):
     assert not (tmp_path / "r").exists()
 
 
+def test_a_horizon_that_cannot_fit_in_memory_is_refused_before_any_work(tmp_path):
+    """Issue 72 item 7: plan.horizon=100000000 grew to 22.6 GB until the kernel killed it (rc 137),
+    leaving an INCOMPLETE folder."""
+    result = runner.invoke(app, ["plan", "plan.input=benchmark:riverswim", "plan.horizon=100000000", f"hydra.run.dir={tmp_path / 'r'}"])
+    assert result.exit_code == 2 and len(result.output.strip().splitlines()) == 1, result.output
+    assert "plan.horizon=100000000 needs at least" in result.output and "lower plan.horizon" in result.output
+    assert not (tmp_path / "r").exists()
+
+
+@pytest.mark.parametrize("method", ["pbvi", "wsu", "mvp", "cadp", "mean"])
+def test_every_plans_graph_holds_at_least_the_memory_floor(method):
+    """The floor that refuses a horizon (``budget.plan_bytes_at_least``) is below what every method's
+    policy graph holds: a node per (t, s), with its successors and values."""
+    from airl_cli.core.mmdp.budget import BASE_BYTES, plan_bytes_at_least
+
+    problem = read_problem("benchmark:riverswim")
+    M, S, _ = problem.shape
+    R = int(np.count_nonzero(problem.transitions, axis=-1).max())
+    T = 30
+    graph = plan(method, problem.transitions, problem.rewards, problem.initial, horizon=T, discount=problem.discount, prior=problem.prior, iterations=3, rng=np.random.default_rng(0)).graph
+    held = sum(a.nbytes for arrays in (graph.successor, graph.alpha, graph.state, graph.action) for a in arrays)
+    assert held >= plan_bytes_at_least(S, T, M, R) - BASE_BYTES
+
+
 def test_plan_config_is_packaged_and_printable():
     result = runner.invoke(app, ["plan", "--cfg", "job"])
     assert result.exit_code == 0 and "method: pbvi" in result.output and "horizon: 50" in result.output

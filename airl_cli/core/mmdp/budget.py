@@ -155,6 +155,14 @@ def total_with_iterations(estimate: Estimate, iterations: int, fewer: int) -> fl
     return estimate.total - graph + graph * _nodes(fewer) / _nodes(iterations)
 
 
+def plan_bytes_at_least(n_states: int, horizon: int, n_models: int, n_next: int) -> int:
+    """Bytes an ``airl plan`` surely takes, whatever its method: the process's base and a policy
+    graph of at least one node per (t, s) for T decisions, each with R int64 successors and M float64
+    values (``graph_bytes`` at one node). A floor, not an estimate: a request above the free memory
+    cannot run; one below it may still not."""
+    return BASE_BYTES + horizon * n_states * (n_next + n_models) * 8
+
+
 def _nodes(iterations: int) -> int:
     """Nodes per (t, s) that ``estimate_fit`` counts for this many PBVI iterations: at most one per
     belief point; measured, the belief set reaches 2^(iterations-2)+1 points (65 at 8 iterations,
