@@ -232,7 +232,7 @@ def validate(raw: dict[str, np.ndarray]) -> Dataset:
     probabilities("initial", p0)
 
     states, actions = demonstrations(raw, P, p0, T)
-    fexp, w_star, loss = optional_arrays(raw, D, S, K)
+    fexp, w_star, loss = optional_arrays(raw, D, S, K, T)
     discount, allowed = discount_and_actions(raw, S, A)
     test = held_out_dynamics(raw, S, A)
     expert, beta = expert_model(raw)

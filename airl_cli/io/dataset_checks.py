@@ -10,6 +10,7 @@ import numpy as np
 
 from airl_cli.core.mdp.basics import check_probabilities
 from airl_cli.core.mdp.sparse import SparseDynamics
+from airl_cli.core.numerics.magnitude import MAX_SUM, largest_sum
 from airl_cli.errors import DatasetError
 
 #: The two keys of the sparse form of the dynamics.
@@ -96,12 +97,23 @@ def features(raw: dict, S: int, A: int, T: int) -> np.ndarray:
             f"for the step t: (T, S, K), (T-1, S, A, K); here S = {S}, A = {A} (from 'transitions'), T = {T} and K >= 1, "
             f"but it has shape {phi.shape}"
         )
+    too_large("features", phi, T)
     if (lead == (S, A) or phi.ndim == 4) and "demo_actions" not in raw and "feature_expectations" not in raw:
         fail(
             "the features are of a state and an action, and the demonstrations have no actions: give "
             "'demo_actions' (the action at each step), or their feature expectations as 'feature_expectations'"
         )
     return phi
+
+
+def too_large(key: str, x: np.ndarray, T: int) -> None:
+    """Refuse values whose sums over the horizon may overflow the game's squares (``MAX_SUM``)."""
+    total = largest_sum(x, T)
+    if total > MAX_SUM:
+        fail(
+            f"key '{key}' reaches {np.max(np.abs(x)):.3g}: its sums over the T = {T} step{'s' if T != 1 else ''} (up to {total:.3g}) are beyond "
+            f"{MAX_SUM:.0e}, where eq. 5.9's squares overflow; scale it down"
+        )
 
 
 def held_out_dynamics(raw: dict[str, np.ndarray], S: int, A: int) -> np.ndarray | SparseDynamics | None:
@@ -194,12 +206,13 @@ def demonstrations(raw: dict, P, p0: np.ndarray, T: int) -> tuple[np.ndarray | N
     return states, actions
 
 
-def optional_arrays(raw: dict, D: int, S: int, K: int) -> tuple:
-    """(feature_expectations (D, K), true_weights (K,), loss (S, S)), each None when absent."""
+def optional_arrays(raw: dict, D: int, S: int, K: int, T: int) -> tuple:
+    """(feature_expectations (D, K), true_weights (K,), loss (S, S)), each None when absent; T the horizon."""
     fexp = w_star = loss = None
     if "feature_expectations" in raw:
         fexp = numeric("feature_expectations", np.asarray(raw["feature_expectations"]))
         shape("feature_expectations", fexp, (D, K), "(D, K)")
+        too_large("feature_expectations", fexp, 1)  # already sums over the horizon
     if "true_weights" in raw:
         w_star = numeric("true_weights", np.asarray(raw["true_weights"]))
         shape("true_weights", w_star, (K,), "(K,)")
@@ -209,6 +222,7 @@ def optional_arrays(raw: dict, D: int, S: int, K: int) -> tuple:
         if np.any(loss < 0):
             idx = tuple(int(i) for i in np.argwhere(loss < 0)[0])
             fail(f"key 'loss' must be non-negative, but has {loss[idx]:.3g} at {idx}")
+        too_large("loss", loss, T)
         if not np.any(loss):  # eq. 5.9 would then ask nothing of the learner's policy: its reward is arbitrary
             fail("key 'loss' is zero everywhere, so the game (eq. 5.9) asks nothing of the learner's policy; drop the key for the config's loss, or give loss(ŝ, š) > 0 where the states differ")
     return fexp, w_star, loss

@@ -12,6 +12,7 @@ import hydra
 import numpy as np
 from omegaconf import DictConfig
 
+from airl_cli.core.numerics.magnitude import MAX_SUM, largest_sum
 from airl_cli.errors import ConfigError
 from airl_cli.io.files import write_json
 from airl_cli.io.mmdp_files import input_path, read_problem
@@ -34,6 +35,12 @@ def check(cfg: DictConfig, overrides: list[str] = ()) -> list[str]:
     sentence = plan_refusal(M, S, n_next, settings.horizon)
     if sentence is not None:
         raise ConfigError(sentence)
+    for name, rewards in (("rewards", problem.rewards), ("test rewards", problem.test_rewards)):
+        if rewards is not None and largest_sum(rewards, settings.horizon) > MAX_SUM:
+            raise ConfigError(
+                f"the {name} reach {np.max(np.abs(rewards)):.3g}: their sums over plan.horizon = {settings.horizon} decisions "
+                f"(up to {largest_sum(rewards, settings.horizon):.3g}) are beyond {MAX_SUM:.0e}, where the planners' values overflow; scale them down"
+            )
     return []
 
 

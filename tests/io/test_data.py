@@ -109,7 +109,11 @@ BAD = [
     ("true_weights NaN", _set("true_weights", np.array([0.0, np.nan, 1.0])), "true_weights"),
     ("loss wrong shape", _set("loss", np.zeros((S, S + 1))), "loss"),
     ("loss negative", _set("loss", lambda a: a["loss"] - 2.0), "loss"),
-    ("loss zero everywhere", _set("loss", np.zeros((S, S))), "loss"),  # issue 72 item 9: accepted, and w meant nothing
+    ("loss zero everywhere", _set("loss", np.zeros((S, S))), "loss"),
+    # issue 72 item 6: the certified fit looped on "gap inf", MCE IRL exited 0 with w = 0
+    ("features whose sums overflow", _set("features", lambda a: a["features"] * 1e300), "features"),
+    ("feature expectations that overflow", _set("feature_expectations", lambda a: a["feature_expectations"] + 1e200), "feature_expectations"),
+    ("loss whose sums overflow", _set("loss", lambda a: a["loss"] * 1e300), "loss"),  # issue 72 item 9: accepted, and w meant nothing
     ("text instead of numbers", _set("features", np.array([["a"] * K] * S)), "features"),
 ]
 

@@ -184,6 +184,17 @@ def test_a_horizon_that_cannot_fit_in_memory_is_refused_before_any_work(tmp_path
     assert not (tmp_path / "r").exists()
 
 
+def test_rewards_whose_sums_overflow_are_refused_before_any_work(tmp_path):
+    """Issue 72 item 6: rewards near 1e308 ended in a segmentation fault in the planner's kernel."""
+    problem = read_problem("benchmark:riverswim")
+    path = tmp_path / "huge.npz"
+    np.savez(path, transitions=problem.transitions, rewards=problem.rewards * 1e306 / np.abs(problem.rewards).max(), initial=problem.initial)
+    result = runner.invoke(app, ["plan", f"plan.input={path}", f"hydra.run.dir={tmp_path / 'r'}"])
+    assert result.exit_code == 2 and len(result.output.strip().splitlines()) == 1, result.output
+    assert "the rewards reach 1e+306" in result.output and "scale them down" in result.output
+    assert not (tmp_path / "r").exists()
+
+
 @pytest.mark.parametrize("method", ["pbvi", "wsu", "mvp", "cadp", "mean"])
 def test_every_plans_graph_holds_at_least_the_memory_floor(method):
     """The floor that refuses a horizon (``budget.plan_bytes_at_least``) is below what every method's
