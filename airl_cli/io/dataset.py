@@ -70,6 +70,7 @@ from airl_cli.io.dataset_checks import (
     shape,
 )
 from airl_cli.io.files import atomic_write
+from airl_cli.io.npz_members import check_declared_sizes
 
 KEYS = (
     "transitions",
@@ -292,6 +293,7 @@ def _read(path: Path) -> Dataset:
         raise DatasetError(f"'{path}' is a folder, not a dataset file{inside}")
     if not path.is_file():
         raise DatasetError(f"dataset file '{path}' does not exist")
+    check_declared_sizes(path)
     try:
         loaded = np.load(path, allow_pickle=False)
         if not isinstance(loaded, np.lib.npyio.NpzFile):
@@ -365,6 +367,7 @@ def dataset_sizes(path: str | os.PathLike) -> dict | None:
     """S, A, T, D, N and R (the most next states a state reaches) of a dataset file, read from its
     arrays' shapes without checking it; None if they cannot be read (``read_dataset`` says why)."""
     try:
+        check_declared_sizes(Path(path))
         with np.load(str(path), allow_pickle=False) as npz:
             if "transition_probs" in npz.files:  # the sparse form: (M, S, A, R)
                 M, S, A, R = npz["transition_probs"].shape

@@ -45,6 +45,7 @@ import pandas as pd
 
 from airl_cli.core.mdp.basics import check_probabilities
 from airl_cli.errors import DatasetError
+from airl_cli.io.npz_members import check_declared_sizes
 
 TRANSITION_COLUMNS = ("idstatefrom", "idaction", "idstateto", "idoutcome", "probability", "reward")
 INITIAL_COLUMNS = ("idstate", "probability")
@@ -194,6 +195,8 @@ def read_npz(path: str | os.PathLike) -> MMDPProblem:
         DatasetError: one sentence naming the key.
     """
     path = Path(path)
+    if path.is_file():
+        check_declared_sizes(path)
     try:
         with np.load(path, allow_pickle=False) as npz:
             raw = {k: npz[k] for k in npz.files}

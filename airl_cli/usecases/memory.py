@@ -4,38 +4,11 @@ not fit (naming the settings to lower) or warns of a long one."""
 
 from __future__ import annotations
 
-import os
-from pathlib import Path
-
 from airl_cli.core.irl.options import closes_bracket
 from airl_cli.core.mmdp.budget import GB, GRID_GROWTH, Estimate, estimate_fit, fewer_iterations, graph_bytes, plan_bytes_at_least, total_with_iterations
 from airl_cli.heap import TOP_PAD
+from airl_cli.io.machine import available_memory  # noqa: F401 (the use cases' callers and tests reach it here)
 from airl_cli.settings.config import FitSettings, ProblemSettings
-
-
-def available_memory() -> int:
-    """Bytes this process can still get: free memory, or the container's limit if lower."""
-    free = None
-    try:
-        with open("/proc/meminfo") as f:
-            for line in f:
-                if line.startswith("MemAvailable:"):
-                    free = int(line.split()[1]) * 1024
-    except OSError:
-        pass
-    try:
-        limit = Path("/sys/fs/cgroup/memory.max").read_text().strip()
-        used = int(Path("/sys/fs/cgroup/memory.current").read_text())
-        if limit != "max":
-            free = min(free if free is not None else 1 << 62, int(limit) - used)
-    except (OSError, ValueError):
-        pass
-    if free is None:  # not Linux: physical memory
-        try:
-            free = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
-        except (OSError, ValueError):
-            free = 1 << 62
-    return free
 
 
 def affordable_check(n_states: int, horizon: int, n_models: int, n_next: int, iterations: int, wanted: int, rounds: int, per_round: int) -> tuple[int, int]:

@@ -221,3 +221,50 @@ def test_an_impossible_move_in_a_sparse_file_names_the_keys_the_file_has(tmp_pat
     with pytest.raises(DatasetError) as err:
         read_dataset(tmp_path / "sparse.npz")
     assert "'transition_next'/'transition_probs' (dynamics 2)" in str(err.value) and "'transitions'" not in str(err.value)
+
+
+def _with_a_huge_header(path, arrays, key, shape):
+    """An .npz of ``arrays`` whose member ``key`` only declares ``shape`` (its header, no data)."""
+    import io
+    import zipfile
+
+    np.savez(path, **{k: v for k, v in arrays.items() if k != key})
+    header = io.BytesIO()
+    np.lib.format.write_array_header_1_0(header, {"descr": "<f8", "fortran_order": False, "shape": shape})
+    with zipfile.ZipFile(path, "a") as archive:
+        archive.writestr(f"{key}.npy", header.getvalue())
+
+
+@pytest.mark.parametrize("command", ["fit", "inspect"])
+def test_a_header_that_declares_more_than_the_file_holds_is_one_sentence(tmp_path, command):
+    """Issue 72 item 5: features declared 100000 x 100000 x 3 x 4 ended in numpy's MemoryError traceback."""
+    path = tmp_path / "huge.npz"
+    _with_a_huge_header(path, good_arrays(), "features", (100000, 100000, 3, 4))
+    args = ["fit", f"data={path}", f"hydra.run.dir={tmp_path / 'run'}"] if command == "fit" else ["inspect", str(path)]
+    result = CliRunner().invoke(app, args)
+    assert result.exit_code == 2 and "Traceback" not in result.output, result.output
+    assert len(result.output.strip().splitlines()) == 1, result.output
+    assert "key 'features'" in result.output and "declares a 100000 x 100000 x 3 x 4 float64 array (894.1 GB) but the file holds 128 bytes of it" in result.output
+    assert not (tmp_path / "run").exists()
+
+
+def test_arrays_larger_than_the_memory_free_are_refused_before_reading(tmp_path, monkeypatch):
+    import airl_cli.io.npz_members as members
+
+    path = tmp_path / "d.npz"
+    np.savez(path, **good_arrays())
+    monkeypatch.setattr(members, "available_memory", lambda: 100)
+    with pytest.raises(DatasetError, match=r"take .* more than the 100 bytes of memory free"):
+        read_dataset(path)
+
+
+def test_a_plan_input_with_a_huge_header_is_one_sentence(tmp_path):
+    from airl_cli.io.mmdp_files import read_problem
+
+    problem = read_problem("benchmark:riverswim")
+    path = tmp_path / "huge.npz"
+    _with_a_huge_header(path, {"transitions": problem.transitions, "initial": problem.initial}, "rewards", (100000, 100000, 3))
+    result = CliRunner().invoke(app, ["plan", f"plan.input={path}", f"hydra.run.dir={tmp_path / 'run'}"])
+    assert result.exit_code == 2 and len(result.output.strip().splitlines()) == 1, result.output
+    assert "key 'rewards'" in result.output and "the file is damaged" in result.output
+    assert not (tmp_path / "run").exists()
