@@ -223,7 +223,7 @@ def optional_arrays(raw: dict, D: int, S: int, K: int, T: int) -> tuple:
             idx = tuple(int(i) for i in np.argwhere(loss < 0)[0])
             fail(f"key 'loss' must be non-negative, but has {loss[idx]:.3g} at {idx}")
         too_large("loss", loss, T)
-        if not np.any(loss):  # eq. 5.9 would then ask nothing of the learner's policy: its reward is arbitrary
+        if S > 1 and not np.any(loss):  # eq. 5.9 would then ask nothing of the learner's policy (one state has no other to differ from)
             fail("key 'loss' is zero everywhere, so the game (eq. 5.9) asks nothing of the learner's policy; drop the key for the config's loss, or give loss(ŝ, š) > 0 where the states differ")
     return fexp, w_star, loss
 
