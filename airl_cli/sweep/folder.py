@@ -20,6 +20,8 @@ from omegaconf import OmegaConf
 
 from airl_cli.errors import ConfigError
 from airl_cli.io.files import writable_problem, write_json
+from airl_cli.io.results_table import TABLE
+from airl_cli.io.run_folder import EXPERIMENT_FILE, INCOMPLETE
 from airl_cli.sweep.spec import ROWS, SweepPlan  # noqa: F401 (ROWS: part of the interface)
 
 SETTINGS = "sweep.json"
@@ -148,6 +150,7 @@ def check_folder(sweep: SweepPlan) -> None:
     """
     stored = _stored_settings(sweep)
     if stored is None:
+        check_keeps_the_table(sweep)
         return
     before, source = stored
     before = {k: v for k, v in before.items() if k not in NOT_COMPARED and k not in sweep.swept}
@@ -156,6 +159,7 @@ def check_folder(sweep: SweepPlan) -> None:
     if before.get("experiment.study") == sweep.settings.get("experiment.study"):
         differ = [k for k in differ if k != "experiment.name"]  # one study, two figures (fig14 and fig15)
     if not differ:
+        check_keeps_the_table(sweep)
         return
     # the experiment's name first, then the settings of the problem and the learner
     key = min(differ, key=lambda k: (k != "experiment.name", k.startswith("experiment."), k))
@@ -165,6 +169,46 @@ def check_folder(sweep: SweepPlan) -> None:
         f"{sweep.folder} holds a sweep run with {key}={_show(was)}{more} (see {source}), but this one has {key}={_show(now)}; "
         "choose another folder with hydra.sweep.dir=PATH, or remove that one to start over"
     )
+
+
+#: The files a sweep writes at the top of its folder (beside its job folders).
+SWEEP_FILES = frozenset([SETTINGS, LOCK, INCOMPLETE, TABLE, EXPERIMENT_FILE, "multirun.yaml", "figures", "partial"])
+
+
+def check_not_foreign(sweep: SweepPlan) -> None:
+    """Refuse a folder that holds another kind of run's files (an ``airl generate`` or ``airl fit``
+    folder: a dataset, a summary, Hydra's ``.hydra``): a sweep never mixes its files with theirs.
+
+    Raises:
+        ConfigError: naming what is there.
+    """
+    if not sweep.folder.is_dir():
+        return
+    foreign = sorted(p.name for p in sweep.folder.iterdir() if p.name not in SWEEP_FILES and (not p.is_dir() or p.name == ".hydra"))
+    if foreign:
+        shown = ", ".join(foreign[:4]) + (f" and {len(foreign) - 4} more" if len(foreign) > 4 else "")
+        raise ConfigError(
+            f"{sweep.folder} holds {shown}, which no airl sweep writes; a sweep never mixes its files with another run's: "
+            "choose another folder with hydra.sweep.dir=PATH"
+        )
+
+
+def check_keeps_the_table(sweep: SweepPlan) -> None:
+    """Refuse a sweep whose jobs do not include every job already finished in its folder: its table
+    (written from its own jobs) would replace a larger one without a word. The same jobs, or more,
+    resume into it; fewer need a folder of their own.
+
+    Raises:
+        ConfigError: naming how many finished jobs it would drop, and one of them.
+    """
+    ours = set(sweep.jobs)
+    dropped = sorted(p.parent.name for p in sweep.folder.glob(f"*/{ROWS}") if p.parent.name not in ours)
+    if dropped:
+        raise ConfigError(
+            f"{sweep.folder} holds {len(dropped)} finished job{'s' if len(dropped) != 1 else ''} this sweep does not run "
+            f"(such as {dropped[0]}), and its table would drop them: a sweep resumes into a folder only with the same jobs or more; "
+            "choose another folder with hydra.sweep.dir=PATH"
+        )
 
 
 def _show(value: Any) -> str:

@@ -19,7 +19,7 @@ from airl_cli.errors import ConfigError, ResultsUnwritable, interrupt_status, in
 from airl_cli.io.files import describe_os_error, is_unwritable
 from airl_cli.io.run_folder import mark_complete, mark_incomplete
 from airl_cli.plain_progress import PlainProgress
-from airl_cli.sweep.folder import check_folder, check_writable, claim, record_settings, unwritable
+from airl_cli.sweep.folder import check_folder, check_not_foreign, check_writable, claim, record_settings, unwritable
 from airl_cli.sweep.job_files import damaged_jobs, discard
 from airl_cli.sweep.plan import plan
 from airl_cli.sweep.pool import WorkerDied, environment, kept, prestart, shutdown, workers
@@ -150,6 +150,7 @@ def _expected_workers(overrides: list[str]) -> int:
 def _claim_and_run(sweep: SweepPlan, overrides: list[str], *, draw: bool, console: Console, out: Console) -> int:
     """Hold the folder, mark it ``INCOMPLETE`` until every job, the table and the figures are
     written, and run; a stop (Ctrl-C, a dead worker, a full disk) is one sentence and a status."""
+    check_not_foreign(sweep)  # before the claim's lock file, which a refused sweep must not leave in another run's folder
     with claim(sweep.folder) as own:
         check_folder(sweep)
         check_writable(sweep.folder)

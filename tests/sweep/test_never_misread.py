@@ -40,10 +40,24 @@ def test_the_same_sweep_again_is_accepted(copy):
     assert result.exit_code == 0 and "4 finished earlier" in result.output, result.output
 
 
-def test_a_swept_setting_is_still_a_resume_of_the_same_jobs(copy):
-    """seed is swept by the experiment: a run of fewer seeds reuses its jobs, as before."""
-    result = sweep_into(copy, "seed=0")
-    assert result.exit_code == 0, result.output
+def test_a_sweep_of_fewer_jobs_into_a_finished_sweep_is_refused_and_changes_nothing(copy):
+    """Issue 72 item 3: seed=0 into a sweep of seeds 0-1 (or seed=5) ran, and its table of its own
+    jobs replaced the folder's larger one, experiment.json and the figures, with exit 0."""
+    before = sha256_listing(copy)
+    for setting in ("seed=0", "seed=5"):
+        line = one_error(sweep_into(copy, setting))
+        assert "finished jobs this sweep does not run" in line and "its table would drop them" in line, line
+    assert sha256_listing(copy) == before
+
+
+def test_a_sweep_into_another_kind_of_run_folder_is_refused(tmp_path):
+    """Issue 72 item 2: a sweep into a finished airl generate folder mixed both runs' files."""
+    gen = tmp_path / "gen"
+    assert runner.invoke(app, ["generate", "mdp.n_states=6", "mdp.horizon=4", "demos.n=10", f"hydra.run.dir={gen}"]).exit_code == 0
+    before = sha256_listing(gen)
+    line = one_error(runner.invoke(app, [*SWEEP, f"hydra.sweep.dir={gen}"]))
+    assert "which no airl sweep writes" in line and "dataset.npz" in line, line
+    assert sha256_listing(gen) == before
 
 
 def test_a_refused_partial_leaves_a_finished_sweep_as_it_was(copy, monkeypatch):
