@@ -12,10 +12,23 @@ from typing import Any, NoReturn
 
 def error_line(sentence: object) -> str:
     """The one line every command prints for bad input or a stopped run, as rich markup:
-    "error: SENTENCE", the sentence escaped (a value such as ``[0.1, 0.2]`` printed as it is)."""
+    "error: SENTENCE", the sentence escaped (a value such as ``[0.1, 0.2]`` printed as it is) and
+    in one style (``one_style``)."""
     from rich.markup import escape
 
-    return f"[bold red]error:[/] {escape(str(sentence))}"
+    return f"[bold red]error:[/] {escape(one_style(str(sentence)))}"
+
+
+def one_style(sentence: str) -> str:
+    """A sentence after "error:" as every command words it: a plain first word in lower case ("The
+    sweep folder ..." -> "the sweep folder ...", a name such as "OpenBLAS" kept) and no full stop."""
+    text = sentence.strip()
+    first = text.split(" ", 1)[0]
+    if first[:1].isupper() and first[1:].isalpha() and first[1:].islower():
+        text = text[0].lower() + text[1:]
+    if text.endswith(".") and not text.endswith(".."):
+        text = text[:-1]
+    return text
 
 
 def say_error(sentence: object, console: Any = None) -> None:

@@ -179,3 +179,25 @@ def test_a_multirun_into_a_folder_that_holds_files_is_refused_and_two_at_once_ne
         assert runner.invoke(app, ["generate", "-m", "seed=0", *tiny]).exit_code == 0
     folders = sorted(p.name for p in (tmp_path / "results" / "sweeps" / "generate").iterdir())
     assert folders == ["2026-01-01_00-00-00", "2026-01-01_00-00-00-2"]
+
+
+@pytest.mark.parametrize(
+    "sentence, said",
+    [
+        ("The sweep folder x does not exist.", "the sweep folder x does not exist"),
+        ("Cannot read history.csv in f: bad.", "cannot read history.csv in f: bad"),
+        ("OpenBLAS chose its kernels.", "OpenBLAS chose its kernels"),
+        ("data= names no file", "data= names no file"),
+        ("wait...", "wait..."),
+    ],
+)
+def test_every_error_is_said_in_one_style(sentence, said):
+    """Issue 72 item 9: errors sometimes started with a capital and ended with a full stop, mostly not."""
+    from airl_cli.errors import one_style
+
+    assert one_style(sentence) == said
+
+
+def test_plot_of_a_missing_folder_is_said_in_that_style(tmp_path):
+    line = one_error(runner.invoke(app, ["plot", str(tmp_path / "nowhere")]))
+    assert line.startswith("error: the ") and not line.endswith("."), line
