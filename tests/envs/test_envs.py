@@ -346,7 +346,7 @@ def test_an_environment_without_a_table_or_id_is_one_sentence(tmp_path, monkeypa
         api.dataset_from_env(object())
     monkeypatch.chdir(tmp_path)
     result = runner.invoke(app, ["fit", "mdp=gymnasium", "mdp.env=NoSuchEnv-v0"])
-    assert result.exit_code == 2 and result.output.strip().splitlines() == ["error: 'mdp.env=NoSuchEnv-v0' cannot be made by gymnasium: Environment `NoSuchEnv` doesn't exist."], result.output
+    assert result.exit_code == 2 and result.output.strip().splitlines() == ["error: 'mdp.env=NoSuchEnv-v0' cannot be made by gymnasium: Environment `NoSuchEnv` doesn't exist"], result.output
 
 
 def test_seals_ids_are_read_from_their_table_and_an_environment_without_one_is_refused(tmp_path, monkeypatch):
