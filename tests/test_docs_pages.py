@@ -122,3 +122,28 @@ def test_the_hash_check_catches_history(text):
 )
 def test_the_hash_check_lets_measurements_and_other_numbers_pass(text):
     assert not unmeasured_hashes(text), text
+
+
+# A formula written as plain text where the pages typeset mathematics with KaTeX: phi with its
+# arguments, a subscripted model name, a probability of a model (issue 72 item 12).
+PLAIN_FORMULA = re.compile(r"φ(_t)?\(|τ_[0-9jD]|P_j\(|\bA_j =")
+
+
+def prose(text: str) -> str:
+    """The page without its fenced code blocks, inline code (where names are written as typed) and
+    TeX."""
+    kept: list[str] = []
+    fenced = False
+    for line in text.split("\n"):
+        if line.lstrip().startswith(("```", "~~~")):
+            fenced = not fenced
+            continue
+        if not fenced:
+            kept.append(re.sub(r"`[^`]*`|\$[^$]*\$", "", line))
+    return "\n".join(kept)
+
+
+@pytest.mark.parametrize("name", ["own-problem.md", "method.md"])
+def test_formulas_are_typeset(name):
+    found = PLAIN_FORMULA.findall(prose((DOCS / name).read_text()))
+    assert not found, f"{name} writes {len(found)} formulas as plain text; write them in TeX ($...$)"

@@ -110,7 +110,9 @@ def soft_max_rows(Q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 def optimal_expert(P, r: np.ndarray, horizon: int, *, discount: float = 1.0, beta: float | None = None) -> np.ndarray:
     """An expert optimal for the state reward r in the dynamics P: hard (``beta`` None: backward
     induction on gamma^t r, a (T-1, S) int policy) or soft-optimal with entropy weight beta > 0
-    (soft backward induction on r / beta, Q_t = r / beta + gamma E[V_{t+1}]: a (T-1, S, A) policy).
+    (a (T-1, S, A) policy pi_t(a|s) = exp((Q_t(s, a) - V_t(s)) / beta) with Q_t = r + gamma E[V_{t+1}]
+    and V_t(s) = beta log sum_a exp(Q_t(s, a) / beta); computed as soft backward induction on
+    r / beta, whose values are Q_t / beta and V_t / beta).
 
     Args:
         P (np.ndarray | SparseModel): (S, A, S), dense or sparse; r: (S,), or (T, S) per time;

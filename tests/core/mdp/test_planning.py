@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import itertools
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -128,3 +129,33 @@ def test_openmp_threads_wait_passively_unless_the_user_chose():
     assert subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True).stdout.strip() == "PASSIVE"
     env["OMP_WAIT_POLICY"] = "ACTIVE"
     assert subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True).stdout.strip() == "ACTIVE"
+
+
+def test_soft_expert_is_the_pages_formula():
+    """docs/own-problem.md's soft expert, written out independently: Q_t = r + gamma E[V_{t+1}],
+    V_t = beta log sum_a exp(Q_t / beta), pi_t = exp((Q_t - V_t) / beta). The formula the page
+    once gave (Q_t = r / beta + gamma E[V_{t+1}] inside exp(Q_t / beta)) divides by beta twice
+    and gives another policy."""
+    from scipy.special import logsumexp
+
+    from airl_cli.core.mdp.planning import optimal_expert
+
+    rng = np.random.default_rng(3)
+    S, A, T, beta, gamma = 5, 3, 6, 0.3, 0.9
+    P = random_dynamics(rng, S, A)
+    r = rng.normal(size=S)
+
+    def expert(inner_scale):
+        V = r.copy()  # V_{T-1} = r: the last step's value is its reward
+        pi = np.empty((T - 1, S, A))
+        for t in range(T - 2, -1, -1):
+            Q = r[:, None] * inner_scale + gamma * np.einsum("sak,k->sa", P, V)
+            V = beta * logsumexp(Q / beta, axis=1)
+            pi[t] = np.exp((Q - V[:, None]) / beta)
+        return pi
+
+    got = optimal_expert(P, r, T, discount=gamma, beta=beta)
+    assert np.allclose(got, expert(1.0), atol=1e-12)
+    assert not np.allclose(got, expert(1.0 / beta), atol=1e-3)
+    text = (Path(__file__).parents[3] / "docs" / "own-problem.md").read_text()
+    assert r"$Q_t = r + \gamma\, \mathbb{E}[V_{t+1}]$ and $V_t(s) = \beta \log \sum_a \exp(Q_t(s, a)/\beta)$" in text
