@@ -32,11 +32,14 @@ print(threading_layer(), digest.hexdigest())
 """
 
 
-def _plan(layer: str | None) -> tuple[str, str]:
+def _plan(layer: str | None, cwd) -> tuple[str, str]:
+    """The layer and the digest, in a fresh process started in ``cwd`` (not the checkout: ``-c``
+    imports from the current folder first, and the checkout's copy of the package would compile
+    every kernel a second time into a cache of its own where the suite uses the installed one)."""
     env = {k: v for k, v in os.environ.items() if k != "NUMBA_THREADING_LAYER"}
     if layer is not None:
         env["NUMBA_THREADING_LAYER"] = layer
-    out = subprocess.run([sys.executable, "-c", PLAN], capture_output=True, text=True, env=env, check=True).stdout.split()
+    out = subprocess.run([sys.executable, "-c", PLAN], capture_output=True, text=True, env=env, check=True, cwd=cwd).stdout.split()
     return out[0], out[1]
 
 
@@ -49,9 +52,9 @@ def _has_tbb() -> bool:
 
 
 @pytest.mark.skipif(not _has_tbb(), reason="the tbb package is a dependency on Linux x86-64 only")
-def test_numba_runs_on_tbb_and_the_planner_gives_the_same_bits_on_openmp():
-    tbb_layer, tbb_digest = _plan(None)
-    omp_layer, omp_digest = _plan("omp")
+def test_numba_runs_on_tbb_and_the_planner_gives_the_same_bits_on_openmp(tmp_path):
+    tbb_layer, tbb_digest = _plan(None, tmp_path)
+    omp_layer, omp_digest = _plan("omp", tmp_path)
     assert tbb_layer == "tbb"
     assert omp_layer == "omp"  # the user's choice is kept
     assert tbb_digest == omp_digest

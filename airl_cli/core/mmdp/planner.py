@@ -199,7 +199,7 @@ def _backup_nodes(dyn: SparseDynamics, classes: tuple | None, R_t, Bt, alpha_nex
         return _kernels.unique_nodes(*_kernels.backup_step(PR, nxt, cnt, R_t, Bt, alpha_next, offsets_next))
     cls, dirs, cls_state, scale = classes
     kc, vc = _column_kernels.class_successors(dirs, cls_state, Bt, alpha_next, offsets_next)
-    return _column_kernels.backup_nodes_classes(PR, nxt, cnt, cls, scale, kc, vc, R_t, Bt, alpha_next, offsets_next)
+    return _column_kernels.backup_nodes_classes(PR, nxt, cnt, cls, scale, kc, vc, R_t, Bt, alpha_next, offsets_next, True)  # pack given: the signature the tests compile
 
 
 def _best_start_nodes(alpha0: np.ndarray, offsets0: np.ndarray, prior: np.ndarray | None = None) -> np.ndarray:
