@@ -112,6 +112,11 @@ def test_the_terminal_table_and_the_figure_of_a_transfer_table(tmp_path):
     assert "mce 16/0 of 16" in text
     fig = transfer(table, meta)
     assert len(fig.axes) == 2 and [a.get_title() for a in fig.axes][1].startswith("each tau_j's own expert")
+    # the legend says what the whiskers are, with an entry drawn as a marker and its whiskers are
+    whiskers = "median; whiskers: quartiles over runs and held-out dynamics"
+    assert whiskers in [t.get_text() for t in fig.legends[0].get_texts()]
+    handles, labels = fig.axes[0].get_legend_handles_labels()
+    assert type(handles[labels.index(whiskers)]).__name__ == "ErrorbarContainer"
     with pytest.raises(ValueError, match="held-out"):
         transfer(table[~table["dynamics"].str.startswith("test_")], meta)
 

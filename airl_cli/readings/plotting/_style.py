@@ -184,15 +184,24 @@ def _quartiles(values: Any) -> pd.DataFrame:
     ).sort_index()
 
 
+#: the opacity of an interquartile band (and of its legend swatch)
+BAND_ALPHA = 0.18
+
+
 def _band(ax, stats: pd.DataFrame, colour: str, label: str, linestyle: str = "-", marker: str = "o", zorder: float = 2,
           band: bool = True):
     """The median line; with ``band``, the interquartile range shaded behind it."""
     x = stats.index.to_numpy(dtype=float)
     if band:
-        ax.fill_between(x, stats["q25"], stats["q75"], color=colour, alpha=0.18, linewidth=0)
+        ax.fill_between(x, stats["q25"], stats["q75"], color=colour, alpha=BAND_ALPHA, linewidth=0)
     (line,) = ax.plot(x, stats["median"], color=colour, linestyle=linestyle, marker=marker, markersize=4,
                       linewidth=2 if linestyle == "-" else 1.6, label=label, zorder=zorder)
     return line
+
+
+def _band_handle(colour: str, label: str) -> Patch:
+    """A legend swatch of an interquartile band as ``_band`` shades it (its colour, its alpha)."""
+    return Patch(facecolor=colour, alpha=BAND_ALPHA, linewidth=0, label=label)
 
 
 def _demonstrator_handle() -> Line2D:

@@ -11,7 +11,6 @@ import numpy as np
 import pandas as pd
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
-from matplotlib.patches import Patch
 
 from airl_cli.readings.plotting._style import (
     DEMONSTRATOR_COLOUR,
@@ -19,6 +18,7 @@ from airl_cli.readings.plotting._style import (
     SCORE_LIMITS,
     THRESHOLD_COLOUR,
     _band,
+    _band_handle,
     _bar_width,
     _colour,
     _demonstrator_handle,
@@ -164,8 +164,9 @@ def curves(df: pd.DataFrame, meta: Mapping[str, Any]) -> Figure:
     handles = _method_handles(methods, methods) + [_demonstrator_handle()]
     if threshold is not None:
         handles.append(Line2D([], [], color=THRESHOLD_COLOUR, linestyle=":", label=f"threshold {float(threshold):g}"))
-    spread = f"{_label(banded)} and demonstrator" if banded and len(methods) > 1 else ""
-    handles.append(Patch(facecolor="0.6", alpha=0.35, label=f"interquartile range over runs{' (' + spread + ')' if spread else ''}"))
+    if banded is not None:
+        handles.append(_band_handle(_colour(banded, methods), f"interquartile range over runs ({_label(banded)})"))
+    handles.append(_band_handle(DEMONSTRATOR_COLOUR, "interquartile range over runs (demonstrator)"))
     _legend(fig, handles)
     return fig
 
@@ -246,7 +247,7 @@ def cosine(df: pd.DataFrame, meta: Mapping[str, Any]) -> Figure:
             _band(ax, _quartiles(per_job.groupby(level="x")), _colour(method, methods), _label(method))
         _x_axis(ax, rows["x"].to_numpy(dtype=float), bool(meta.get("x_log", False)), _x_label(meta, df))
         handles = _method_handles(methods, methods) + [
-            Patch(facecolor="0.6", alpha=0.35, label="interquartile range over runs")]
+            _band_handle("0.5", "interquartile range over runs (each method's band in its colour)")]
     ax.axhline(0.0, color="0.2", linewidth=1.0)
     ax.set_ylim(low, 1.05)
     ax.set_ylabel("cosine similarity of learned and true weights")
@@ -285,6 +286,6 @@ def times(df: pd.DataFrame, meta: Mapping[str, Any]) -> Figure:
     _title(fig, meta, "Fit time against the swept variable")
     handles = _method_handles(methods, methods)
     if "airl" in methods:
-        handles.append(Patch(facecolor="0.6", alpha=0.35, label=f"interquartile range over runs ({_label('airl')})"))
+        handles.append(_band_handle(_colour("airl", methods), f"interquartile range over runs ({_label('airl')})"))
     _legend(fig, handles)
     return fig

@@ -60,8 +60,11 @@ def transfer(df: pd.DataFrame, meta: Mapping[str, Any]) -> Figure:
         ax.grid(axis="y", alpha=0.3)
         ax.set_title(_TITLES.get(expert, f"demos.expert={expert}"), fontsize=9)
     axes[0].set_ylabel(f"1 - normalised performance in held-out dynamics\n(median over runs and test_e; log; {FLOOR:g} = optimal)", fontsize=8)
+    # what a marker and its whiskers are: an entry drawn as they are (at no data point), in grey
+    axes[0].errorbar([np.nan], [np.nan], yerr=[[np.nan], [np.nan]], fmt="o", color="0.45", markersize=5, capsize=2, linewidth=1,
+                     label="median; whiskers: quartiles over runs and held-out dynamics")
     handles, labels = axes[0].get_legend_handles_labels()
-    fig.legend(handles, labels, loc="lower center", ncol=len(labels), fontsize=8, frameon=False)
+    fig.legend(handles, labels, loc="lower center", ncol=min(len(labels), 4), fontsize=8, frameon=False)
     fig.suptitle(str(meta.get("title") or ""), fontsize=9)
     fig.tight_layout(rect=(0, 0.06, 1, 1))
     return fig

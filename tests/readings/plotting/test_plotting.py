@@ -138,6 +138,10 @@ def test_curves_one_panel_per_dynamics_with_median_and_band():
     label = "normalised performance" if expected_low == 0 else f"normalised performance (axis from {expected_low:g})"
     assert fig.axes[0].get_ylabel() == label
     assert fig.legends, "no legend"
+    # each band's legend swatch is the band's own colour and opacity (it was one grey swatch for a pink band)
+    swatches = {t.get_text(): h for t, h in zip(fig.legends[0].get_texts(), fig.legends[0].legend_handles) if "interquartile" in t.get_text()}
+    band_colours = {to_hex(b.get_facecolor()[0]): b.get_alpha() for b in bands}
+    assert {to_hex(h.get_facecolor()): h.get_alpha() for h in swatches.values()} == band_colours
     assert fig.get_suptitle() == "A test figure"
 
 
