@@ -117,3 +117,42 @@ def test_the_method_page_shows(site, tmp_path):
         colours = len(image.convert("RGB").getcolors(maxcolors=1 << 20) or [])
     assert 0.01 < dark < 0.5, f"a page of text, not a blank or black screen ({dark:.3f} dark)"
     assert colours > 100, "text, the header and the equations, not a flat image"
+
+
+# Run in the page after it loaded: every code block and table of the text that is wider than its
+# column (a code line or a table column cut off behind a scrollbar), written into the body.
+OVERFLOW_SCRIPT = """<script>
+window.addEventListener("load", function () {
+  setTimeout(function () {
+    var cut = [];
+    document.querySelectorAll(".md-content pre > code, .md-content .md-typeset__scrollwrap").forEach(function (el) {
+      if (el.scrollWidth > el.clientWidth + 1) {
+        cut.push(el.tagName + ": " + (el.textContent || "").trim().slice(0, 60));
+      }
+    });
+    document.body.setAttribute("data-cut", JSON.stringify(cut));
+  }, 500);
+});
+</script>"""
+
+# issue 72 item 12: the pages a new user reads first, at a desktop's width
+READ_FIRST = {"home": "", "getting-started": "getting-started/", "own-problem": "own-problem/", "performance": "performance/"}
+
+
+@pytest.mark.parametrize("name", READ_FIRST)
+def test_no_code_line_or_table_column_is_cut_off_at_1280_px(site, name, tmp_path):
+    import json
+
+    folder, url = site
+    page = folder / READ_FIRST[name] / "index.html"
+    html = page.read_text()
+    if OVERFLOW_SCRIPT not in html:
+        page.write_text(html.replace("</body>", OVERFLOW_SCRIPT + "</body>"))
+    result = _chromium("--dump-dom", "--window-size=1280,1000", f"{url}/{READ_FIRST[name]}")
+    found = re.search(r'data-cut="([^"]*)"', result.stdout)
+    assert found, "the check ran in the page: " + result.stderr[-2000:]
+    cut = json.loads(found.group(1).replace("&quot;", '"').replace("&amp;", "&"))
+    assert not cut, f"{name}: {len(cut)} code blocks or tables wider than the column at 1280 px: {cut}"
+    shot = tmp_path / f"{name}.png"
+    _chromium(f"--screenshot={shot}", "--window-size=1280,2400", f"{url}/{READ_FIRST[name]}")
+    assert shot.is_file() and shot.stat().st_size > 20_000, "a screenshot of the page"
