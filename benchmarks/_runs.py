@@ -11,6 +11,28 @@ import time
 from pathlib import Path
 
 
+def provenance(command: list[str]) -> dict:
+    """Where a measurement comes from, for the pages that quote it (docs/hooks/page_numbers.py): the
+    commit (with ``+changes`` if the package differs from it), the machine (its cores, processor and
+    memory) and the command that made it."""
+    root = Path(__file__).resolve().parents[1]
+
+    def git(*args: str) -> str:
+        return subprocess.run(["git", *args], cwd=root, capture_output=True, text=True, check=False).stdout.strip()
+
+    commit = git("rev-parse", "--short", "HEAD") or "unknown"
+    if git("status", "--porcelain", "--", "airl_cli", "conf", "pyproject.toml"):
+        commit += "+changes"
+    model = "unknown processor"
+    try:
+        model = next(line.split(":", 1)[1].strip() for line in Path("/proc/cpuinfo").read_text().splitlines() if line.startswith("model name"))
+    except (OSError, StopIteration):
+        pass
+    memory = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES") / 2**30
+    machine = f"a {os.cpu_count()}-core {model.replace('(R)', '')} with {memory:.0f} GB"
+    return {"commit": commit, "machine": machine, "command": "python " + " ".join(command)}
+
+
 class TimedOut(Exception):
     """A command ran past its time limit (it was stopped)."""
 

@@ -8,7 +8,8 @@ minimum that the fit ends with (``bracket_relative_gap``), whether it met its to
 iterations and planner calls, the adversary's best responses it used, the median wall time of
 the fit and of the whole process, MCE IRL's process, their ratio and the peak resident memory.
 The fits must come out the same in every repeat (the script stops if not). ``--json FILE`` also
-writes the rows as JSON.
+writes the rows as JSON, with the commit, the machine and the command (the performance pages'
+tables are rendered from docs/numbers/default_fit.json: ``python benchmarks/pages.py``).
 
 The cases: the default problem (`airl generate seed=N`: the random MDP of thesis §7.2, S = 20,
 A = 5, T = 10, D = 3, N = 100, zero-one loss), seeds 0-4; Objectworld 8 x 8 and 16 x 16 with slips
@@ -23,6 +24,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import sys
 import tempfile
 from pathlib import Path
 from statistics import median
@@ -30,7 +32,7 @@ from statistics import median
 from rich.console import Console
 from rich.table import Table
 
-from _runs import TimedOut, fit_row, run, without_loss
+from _runs import TimedOut, fit_row, provenance, run, without_loss
 
 console = Console(width=200)
 
@@ -77,6 +79,7 @@ def main() -> None:
     if unknown:
         raise SystemExit(f"unknown case {unknown[0]!r}; the cases are {', '.join(known)}")
     os.environ.pop("NUMBA_NUM_THREADS", None)
+    made_by = provenance(sys.argv)  # the code as the measurements begin
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         root = Path(tmp)
@@ -96,7 +99,8 @@ def main() -> None:
         table.add_row(*(_cell(row[c], c) for c in COLUMNS))
     console.print(table)
     if args.json is not None:
-        args.json.write_text(json.dumps({"extra": args.extra, "repeat": args.repeat, "rows": rows}, indent=1) + "\n")
+        record = {**made_by, "extra": args.extra, "repeat": args.repeat, "rows": rows}
+        args.json.write_text(json.dumps(record, indent=1) + "\n")
 
 
 def measure(name: str, file: Path, folder: Path, extra: list[str], repeat: int, timeout: float | None = None) -> dict:
@@ -122,6 +126,8 @@ def measure(name: str, file: Path, folder: Path, extra: list[str], repeat: int, 
     row = {
         "case": name, **_size(file), "bracket width": m.get("bracket_relative_gap"), "converged": m.get("converged"),
         "iterations": m.get("iterations"), "planner calls": m.get("planner_calls"), "best responses": m.get("best_responses", "-"),
+        # who answered the adversary: the bracket's grid of beliefs, else the planner the fit chose
+        "planner": "grid" if m.get("best_responses") == "grid" else m.get("planner"),
         "fit s": median(f["fit_seconds"] for f in fits), "process s": wall, "MCE process s": mce_wall,
         "process / MCE": wall / mce_wall, "peak MB": max(peaks) / 2**20,
     }

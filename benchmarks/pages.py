@@ -1,0 +1,46 @@
+"""Regenerate every measured number on the users' pages: `python benchmarks/pages.py [--only NAME ...] [--render-only]`.
+
+Runs each source's script (docs/hooks/page_numbers.py: SOURCES), each writing docs/numbers/NAME.json
+at this commit on this machine, then renders every marked passage of the pages again from those
+files. ``--render-only`` skips the measurements and renders from the files as they are (after a
+page's template was edited); ``--only`` measures the named sources alone. The whole run measures
+on every core for about half an hour (the 64 × 64 Objectworld fits dominate): run it on a quiet
+machine, then commit the files and the pages together.
+"""
+
+from __future__ import annotations
+
+import argparse
+import subprocess
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "docs" / "hooks"))
+
+from page_numbers import SOURCES, pages, render_page  # noqa: E402
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--only", nargs="+", choices=sorted(SOURCES), default=None, help="measure these sources alone")
+    parser.add_argument("--render-only", action="store_true", help="render the pages from the files as they are")
+    args = parser.parse_args()
+    for name in [] if args.render_only else args.only or SOURCES:
+        print(f"measuring {name}: python {' '.join(SOURCES[name])}", flush=True)
+        subprocess.run([sys.executable, *SOURCES[name]], cwd=ROOT, check=True)
+        render_all()  # the pages agree with every source measured so far (the test suite's source checks them)
+    render_all()
+
+
+def render_all() -> None:
+    for page in pages():
+        text = page.read_text()
+        rendered = render_page(text)
+        if rendered != text:
+            page.write_text(rendered)
+            print(f"rendered {page.relative_to(ROOT)}", flush=True)
+
+
+if __name__ == "__main__":
+    main()

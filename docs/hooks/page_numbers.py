@@ -1,0 +1,216 @@
+"""Numbers on the users' pages come from files that scripts write: a library and an MkDocs hook.
+
+A page marks each passage whose numbers were measured:
+
+    <!-- numbers SOURCE
+    A template: Python's str.format over SOURCE's values, {rows[default-s0][iterations]:,} ...
+    -->
+    The passage as rendered from the template (what the repository shows).
+    <!-- /numbers -->
+
+``SOURCE`` is ``docs/numbers/SOURCE.json``, written by one script at one commit on one machine
+(``SOURCES``: the command that writes it; ``python benchmarks/pages.py`` runs them all and renders
+every page again). Besides the str.format specifications, ``{x:e1}`` writes 6.7e-4 (one decimal,
+a short exponent), ``{x:x1}`` writes 3.3× and a missing value (``None``) is written as —. The
+values of a source are its JSON object, with the tables that ``TABLES`` renders from it under
+``table``. ``check`` lists the passages whose text is not their template's rendering (a test runs
+it on every page: a number typed in by hand fails it), ``render_page`` renders them again (the
+script), and the hook shows every passage as rendered from its source when the site is built (the
+template comment itself never reaches the site).
+"""
+
+from __future__ import annotations
+
+import json
+import re
+import string
+from dataclasses import dataclass
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[2]
+NUMBERS = ROOT / "docs" / "numbers"
+
+#: source name -> the command (from the repository's root) that writes docs/numbers/NAME.json
+SOURCES: dict[str, list[str]] = {
+    "default_fit": ["benchmarks/default_fit.py", "--cases", "default-s0", "default-s1", "default-s2", "default-s3", "default-s4",
+                    "ow8-sq", "ow8-01", "ow8-2col-01", "ow16-sq", "ow16-01", "ow32-sq", "ow32-01", "ow64-sq", "ow64-01",
+                    "--timeout", "400", "--json", "docs/numbers/default_fit.json"],
+    "first_fit": ["benchmarks/first_fit.py", "--json", "docs/numbers/first_fit.json"],
+    "test_suite": ["benchmarks/test_suite.py", "--json", "docs/numbers/test_suite.json"],
+}
+
+BLOCK = re.compile(r"<!-- numbers (?P<source>[\w-]+)\n(?P<template>.*?)\n-->\n(?P<text>.*?)<!-- /numbers -->", re.DOTALL)
+
+
+class NumbersError(Exception):
+    """A page's passage cannot be rendered: its source is missing, or a key or a format is wrong."""
+
+
+class _Formatter(string.Formatter):
+    def format_field(self, value, spec: str) -> str:
+        if value is None:
+            return "—"
+        if spec.startswith("e") and spec[1:].isdigit():
+            mantissa, exponent = f"{value:.{int(spec[1:])}e}".split("e")
+            return f"{mantissa}e{int(exponent)}"
+        if spec.startswith("x") and spec[1:].isdigit():
+            return f"{value:.{int(spec[1:])}f}×"
+        return super().format_field(value, spec)
+
+
+FORMATTER = _Formatter()
+
+
+@dataclass(frozen=True)
+class Passage:
+    """One marked passage of a page: its source, its template and the text the page shows."""
+
+    source: str
+    template: str
+    text: str
+    start: int
+    end: int
+
+
+def pages() -> list[Path]:
+    """Every Markdown page the site shows: the README, docs/ and the experiments' pages."""
+    return [ROOT / "README.md", *sorted((ROOT / "docs").rglob("*.md")), *sorted((ROOT / "experiments").glob("*.md"))]
+
+
+def passages(markdown: str) -> list[Passage]:
+    return [Passage(m["source"], m["template"], m["text"], m.start(), m.end()) for m in BLOCK.finditer(markdown)]
+
+
+def load(source: str, folder: Path = NUMBERS) -> dict:
+    """A source's values: its JSON object, with ``table`` holding the tables rendered from it."""
+    path = folder / f"{source}.json"
+    if not path.is_file():
+        raise NumbersError(f"no {path.relative_to(ROOT) if path.is_relative_to(ROOT) else path}: run python benchmarks/pages.py --only {source}")
+    values = json.loads(path.read_text())
+    if isinstance(values.get("rows"), list):  # a benchmark's rows, also by their case's name
+        values["by_case"] = {row["case"]: row for row in values["rows"]}
+    if source in TABLES:
+        values["table"] = TABLES[source](values)
+    return values
+
+
+def render(passage: Passage, values: dict) -> str:
+    """The passage's text as its template renders it from the source's values (ends with a newline)."""
+    try:
+        return FORMATTER.vformat(passage.template, (), values).rstrip("\n") + "\n"
+    except (KeyError, IndexError, ValueError, TypeError) as exc:
+        raise NumbersError(f"the passage from {passage.source} cannot be rendered: {type(exc).__name__} {exc}") from None
+
+
+def render_page(markdown: str, folder: Path = NUMBERS, *, keep_templates: bool = True) -> str:
+    """The page with every passage rendered again from its source (``keep_templates=False``: the
+    templates' comments and the end markers dropped, as the site shows the page)."""
+    out, at = [], 0
+    cache: dict[str, dict] = {}
+    for p in passages(markdown):
+        values = cache.setdefault(p.source, load(p.source, folder))
+        text = render(p, values)
+        out.append(markdown[at : p.start])
+        out.append(f"<!-- numbers {p.source}\n{p.template}\n-->\n{text}<!-- /numbers -->" if keep_templates else text.rstrip("\n"))
+        at = p.end
+    out.append(markdown[at:])
+    return "".join(out)
+
+
+def check(markdown: str, folder: Path = NUMBERS) -> list[str]:
+    """One line for each passage whose text is not its source's rendering (none: the page is current)."""
+    wrong = []
+    for p in passages(markdown):
+        expected = render(p, load(p.source, folder))
+        if p.text != expected:
+            first = next((a, b) for a, b in zip(p.text.splitlines() + [""], expected.splitlines() + [""]) if a != b)
+            wrong.append(f"a passage from {p.source} says {first[0]!r} where its source says {first[1]!r}")
+    return wrong
+
+
+def machines(markdown: str, folder: Path = NUMBERS) -> set[str]:
+    """The machines the page's sources were measured on (a page names one)."""
+    return {load(p.source, folder)["machine"] for p in passages(markdown)}
+
+
+# --------------------------------------------------------------------------- tables
+
+
+def _cell(value, spec: str = "") -> str:
+    return FORMATTER.format_field(value, spec)
+
+
+def _fit_table(rows: list[dict], *, with_t: bool) -> str:
+    """The default fit against MCE IRL, one row per case (benchmarks/default_fit.py's rows)."""
+    head = ["case", "S", *(["T"] if with_t else []), "bracket width", "iterations", "planner calls", "planner",
+            "process s", "MCE IRL's s", "ratio", "peak MB"]
+    lines = ["| " + " | ".join(head) + " |", "| --- | ---: |" + (" ---: |" if with_t else "") + " ---: | ---: | ---: | --- | ---: | ---: | ---: | ---: |"]
+    for r in rows:
+        cells = [CASE_NAMES.get(r["case"], r["case"]), _cell(r["S"], ","), *([_cell(r["T"])] if with_t else [])]
+        if isinstance(r["process s"], str):  # stopped at the script's time limit
+            cells += ["—", "—", "—", r.get("planner") or "—", r["process s"].replace(">", "&gt;"), "—", "—", "—"]
+        else:
+            cells += [_cell(r["bracket width"], "e1"), _cell(r["iterations"], ","), _cell(r["planner calls"], ","),
+                      r.get("planner") or "—", _cell(r["process s"], ".1f"), _cell(r["MCE process s"], ".1f"),
+                      _cell(r["process / MCE"], "x1"), _cell(r["peak MB"], ",.0f")]
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+CASE_NAMES = {
+    **{f"default-s{n}": f"default, seed {n}" for n in range(5)},
+    "ow8-sq": "OW 8×8, sq", "ow8-01": "OW 8×8, 01", "ow8-2col-01": "OW 8×8, 2 colours, 01",
+    "ow16-sq": "OW 16×16, sq", "ow16-01": "OW 16×16, 01", "ow32-sq": "OW 32×32, sq",
+    "ow32-01": "OW 32×32, 01", "ow64-sq": "OW 64×64, sq", "ow64-01": "OW 64×64, 01",
+    "cliffwalking": "CliffWalking-v1 by id", "frozenlake": "FrozenLake-v1 by id",
+}
+
+
+def _default_fit_tables(values: dict) -> dict:
+    """The performance page's two tables and what its sentences say of them."""
+    rows = values["rows"]
+    first = [r for r in rows if r["case"].startswith(("default-", "ow8", "ow16"))]
+    growth = [r for r in rows if r["case"] in ("ow8-sq", "ow8-01", "ow16-sq", "ow16-01") or r["case"].startswith(("ow32", "ow64"))]
+
+    def closed(rs: list[dict]) -> int:
+        return sum(bool(r["converged"]) and r["bracket width"] is not None and r["bracket width"] <= 1e-3 for r in rs)
+
+    def ratios(prefix: str) -> tuple[str, str]:
+        found = [r["process / MCE"] for r in first if r["case"].startswith(prefix) and r["process / MCE"] is not None]
+        return (_cell(min(found), "x1"), _cell(max(found), "x1")) if found else ("—", "—")
+
+    timeouts = [r for r in growth if isinstance(r["process s"], str)]
+    words = {1: "one", 2: "two", 3: "three"}
+    return {
+        "first": _fit_table(first, with_t=True), "first_closed": closed(first), "first_n": len(first),
+        "default_ratio_low": ratios("default-")[0], "default_ratio_high": ratios("default-")[1],
+        "ow_ratio_low": ratios("ow")[0], "ow_ratio_high": ratios("ow")[1],
+        "growth": _fit_table(growth, with_t=False), "growth_closed": closed(growth), "growth_n": len(growth),
+        "growth_timeouts": f"; {words.get(len(timeouts), len(timeouts))} ran past {timeouts[0]['process s'][2:]} s"
+        f" ({', '.join(CASE_NAMES[r['case']] for r in timeouts)})" if timeouts else "",
+        "growth_peak_gb": max(r["peak MB"] for r in growth if r["peak MB"] is not None) / 1024,
+    }
+
+
+def _first_fit_excerpts(values: dict) -> dict:
+    """Getting started's excerpt of the degenerate fit's summary: its certificate to its weights."""
+    lines = values["degenerate"]["summary"].splitlines()
+    start = next(i for i, line in enumerate(lines) if line.startswith("certified"))
+    end = next(i for i, line in enumerate(lines) if line.startswith("  w:"))
+    return {"degenerate_excerpt": "\n".join(lines[start : end + 1])}
+
+
+def _suite_minutes(values: dict) -> dict:
+    """The test suites' times in minutes (one decimal), as the README says them."""
+    return {f"{name}_minutes": values[name]["seconds"] / 60 for name in ("fast_cold", "fast_warm", "slow")}
+
+
+TABLES = {"default_fit": _default_fit_tables, "first_fit": _first_fit_excerpts, "test_suite": _suite_minutes}
+
+
+# --------------------------------------------------------------------------- the MkDocs hook
+
+
+def on_page_markdown(markdown: str, page, config, files) -> str:
+    """The site's page: every passage rendered from its source, without the templates."""
+    return render_page(markdown, keep_templates=False)

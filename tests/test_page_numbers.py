@@ -1,0 +1,97 @@
+"""The measured numbers on the users' pages are their sources' (issue 72 item 10).
+
+A page's measured passages are rendered from ``docs/numbers/*.json``, which one script writes at
+one commit on one machine (``python benchmarks/pages.py``; ``docs/hooks/page_numbers.py``). These
+tests read the Markdown as the repository holds it (well under a second): every passage is its
+template's rendering of its source, so a number typed in by hand fails; a page's passages come
+from one machine; and the site's pages (the hook's rendering) keep no template.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT / "docs" / "hooks"))
+
+import page_numbers  # noqa: E402
+
+PAGES = page_numbers.pages()
+WITH_PASSAGES = [p for p in PAGES if page_numbers.passages(p.read_text())]
+
+
+def _name(page: Path) -> str:
+    return str(page.relative_to(ROOT))
+
+
+def test_the_pages_that_quote_measurements_have_passages():
+    names = {_name(p) for p in WITH_PASSAGES}
+    assert {"docs/performance.md", "docs/getting-started.md"} <= names, names
+
+
+@pytest.mark.parametrize("page", WITH_PASSAGES, ids=_name)
+def test_every_passage_is_its_sources_rendering(page):
+    wrong = page_numbers.check(page.read_text())
+    assert not wrong, f"{_name(page)}: " + "; ".join(wrong) + " (python benchmarks/pages.py --render-only)"
+
+
+@pytest.mark.parametrize("page", WITH_PASSAGES, ids=_name)
+def test_a_page_names_one_machine(page):
+    assert len(page_numbers.machines(page.read_text())) == 1
+
+
+def test_a_number_typed_in_by_hand_is_found():
+    text = (ROOT / "docs" / "performance.md").read_text()
+    p = page_numbers.passages(text)[0]
+    digit = re.search(r"\d", p.text)  # the passage's first digit, changed as a hand would
+    body = text[p.start : p.end]
+    at = body.index(p.text) + digit.start()
+    changed = str((int(body[at]) + 1) % 10)
+    edited = text[: p.start] + body[:at] + changed + body[at + 1 :] + text[p.end :]
+    wrong = page_numbers.check(edited)
+    assert len(wrong) == 1 and "default_fit" in wrong[0]
+
+
+def test_the_site_shows_the_rendering_without_templates():
+    for page in WITH_PASSAGES:
+        text = page.read_text()
+        shown = page_numbers.on_page_markdown(text, None, None, None)
+        assert not page_numbers.passages(shown)
+        # every template and end marker gone (a page may still name the format in its prose)
+        n = len(page_numbers.passages(text))
+        assert shown.count("<!-- /numbers -->") == text.count("<!-- /numbers -->") - n
+        assert "{" + "default[" not in shown and "{table[" not in shown
+
+
+def test_a_passage_without_its_source_stops_the_build(tmp_path):
+    text = "<!-- numbers nowhere\n{x}\n-->\n1\n<!-- /numbers -->\n"
+    with pytest.raises(page_numbers.NumbersError, match="python benchmarks/pages.py --only nowhere"):
+        page_numbers.render_page(text, tmp_path)
+
+
+def test_a_template_naming_a_missing_value_stops_the_build(tmp_path):
+    (tmp_path / "src.json").write_text(json.dumps({"machine": "m", "a": 1}))
+    with pytest.raises(page_numbers.NumbersError, match="KeyError"):
+        page_numbers.render_page("<!-- numbers src\n{b}\n-->\n\n<!-- /numbers -->\n", tmp_path)
+
+
+def test_the_formats():
+    f = page_numbers.FORMATTER
+    assert f.format("{:e1}", 6.722e-4) == "6.7e-4"
+    assert f.format("{:e1}", 1.2e-10) == "1.2e-10"
+    assert f.format("{:x1}", 3.349) == "3.3×"
+    assert f.format("{:,}", 1119) == "1,119"
+    assert f.format("{}", None) == "—"
+
+
+def test_every_source_names_its_commit_machine_and_command():
+    for path in sorted(page_numbers.NUMBERS.glob("*.json")):
+        values = json.loads(path.read_text())
+        assert path.stem in page_numbers.SOURCES
+        assert re.fullmatch(r"[0-9a-f]{7,}", values["commit"]), f"{path.name} was measured on uncommitted code"
+        assert values["machine"] and values["command"].startswith("python benchmarks/")
