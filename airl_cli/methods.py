@@ -37,6 +37,8 @@ class Method:
         learner: the name of its learner function in ``airl_cli.usecases.fit`` (which calls it).
         options: its keyword options, passed to the learner as ``settings.method_options``.
         learns_reward: False for a method that learns a policy only (no weights, no cos(w, w*)).
+        action_features: True for a method that takes features of a state and an action as they
+            are; the others learn on the post-decision expansion (``core.mdp.state_action``).
     """
 
     name: str
@@ -45,6 +47,7 @@ class Method:
     learner: str
     options: tuple[Option, ...] = ()
     learns_reward: bool = True
+    action_features: bool = False
 
 
 REGISTRY: dict[str, Method] = {
@@ -54,6 +57,7 @@ REGISTRY: dict[str, Method] = {
         Method(
             "mce", "MCE IRL", "#1f77b4", "_learn_mce",
             (Option("lam", "float", lo=0.0), Option("max_iterations", "int", lo=1)),
+            action_features=True,
         ),
         Method(
             "projection", "projection", "#2ca02c", "_learn_projection",

@@ -8,7 +8,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from airl_cli.core.irl import baselines, mmp, robust_mce
+from airl_cli.core.irl import baselines, mce, mmp, robust_mce
 from airl_cli.core.irl.bracket import closing_oracle
 from airl_cli.core.irl.certified import minimize, upper_at
 from airl_cli.core.irl.degeneracy import is_degenerate, reward_effect
@@ -89,7 +89,7 @@ def learn(
     """
     check_supported(dataset, settings)
     learner = globals()[REGISTRY[settings.method].learner]
-    if dataset.action_features:  # phi(s, a): learned on the post-decision expansion, read back
+    if dataset.action_features and not REGISTRY[settings.method].action_features:  # phi(s, a): learned on the post-decision expansion, read back
         return _on_original(learner(expanded(dataset), settings, rng, callback, planner_progress), dataset.n_states)
     return learner(dataset, settings, rng, callback, planner_progress)
 
@@ -163,7 +163,10 @@ def _weights_learned(name: str, res) -> Learned:
 
 def _learn_mce(dataset: Dataset, settings: FitSettings, *_) -> Learned:
     d = dataset
-    res = baselines.mce_irl(d.transitions, d.features, d.initial, d.horizon, d.feature_targets(), discount=d.discount, **settings.method_options)
+    res = mce.mce_irl(
+        d.transitions, d.features, d.initial, d.horizon, d.feature_targets(), discount=d.discount, action_features=d.action_features,
+        **settings.method_options,
+    )
     return _weights_learned("mce", res)
 
 

@@ -1,11 +1,10 @@
-"""Baseline learners for comparison: MCE IRL, projection, maximum margin planning, cloning.
+"""Baseline learners for comparison and what they share: projection, maximum margin planning,
+cloning; the problem's checks and feature sums (MCE IRL is ``core.irl.mce``).
 
-The three reward learners learn one reward vector w shared by all demonstration dynamics,
+The reward learners learn one reward vector w shared by all demonstration dynamics,
 R(s) = w . phi(s), from the targets c~_j (D, K), the demonstrations' mean feature sums
 sum_t phi(s_t) under tau_j (row j-1 for j = 1..D):
 
-* ``mce_irl``: maximum causal entropy IRL (Ziebart et al.), finite horizon, its dual summed
-  over the dynamics and maximised by L-BFGS-B.
 * ``projection``: Abbeel & Ng's projection method, feature expectations summed over dynamics.
 * ``max_margin_planning`` (in ``core.mmp``, on the helpers here): Ratliff et al.'s maximum
   margin planning by subgradient descent, one loss-augmented planning problem per dynamics.
@@ -23,10 +22,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import minimize
 
-from airl_cli.core.mdp.basics import check_probabilities, check_transitions, discounted, marginal_feature_sum, per_time
-from airl_cli.core.mdp.planning import backward_induction, soft_backward_induction, state_marginals
+from airl_cli.core.mdp.basics import check_probabilities, check_transitions, discounted, marginal_feature_sum
+from airl_cli.core.mdp.planning import backward_induction, state_marginals
 from airl_cli.core.mdp.sparse import SparseDynamics
 
 
@@ -48,9 +46,11 @@ class BaselineResult:
 
 
 def check_problem(
-    transitions: np.ndarray, features: np.ndarray, initial: np.ndarray, horizon: int, targets: np.ndarray | None
+    transitions: np.ndarray, features: np.ndarray, initial: np.ndarray, horizon: int, targets: np.ndarray | None,
+    *, action_features: bool = False,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray | None]:
-    """Validate the common inputs and return float64 copies (P, phi, p0, targets).
+    """Validate the common inputs and return float64 copies (P, phi, p0, targets); with
+    ``action_features`` the features are of a state and an action, (S, A, K) or (T-1, S, A, K).
 
     Raises:
         ValueError: quoting the shape of the offending array.
@@ -58,10 +58,13 @@ def check_problem(
     P = transitions if isinstance(transitions, SparseDynamics) else np.array(transitions, dtype=np.float64)
     if P.ndim != 4 or P.shape[0] < 2:
         raise ValueError(f"transitions must have shape (M, S, A, S) with M = D+1 >= 2, got {P.shape}")
-    S, _ = check_transitions(P)
+    S, A = check_transitions(P)
     D = P.shape[0] - 1
     phi = np.array(features, dtype=np.float64)
-    if not (phi.ndim == 2 and phi.shape[0] == S or phi.ndim == 3 and phi.shape[:2] == (horizon, S)):
+    if action_features:
+        if not (phi.ndim == 3 and phi.shape[:2] == (S, A) or phi.ndim == 4 and phi.shape[:3] == (horizon - 1, S, A)):
+            raise ValueError(f"features of a state and an action must have shape (S, A, K), or (T-1, S, A, K) when they depend on t, with S = {S}, A = {A} and T = {horizon}, got {phi.shape}")
+    elif not (phi.ndim == 2 and phi.shape[0] == S or phi.ndim == 3 and phi.shape[:2] == (horizon, S)):
         raise ValueError(f"features must have shape (S, K), or (T, S, K) when they depend on t, with S = {S} and T = {horizon}, got {phi.shape}")
     p0 = np.array(initial, dtype=np.float64)
     if p0.shape != (S,):
@@ -136,137 +139,6 @@ def expected_features_per_dynamics(
     if not integer:
         check_probabilities(stack, name="policies")
     return np.stack([feature_sum(P[j + 1], stack[j], p0, phi) for j in range(D)])
-
-
-def _mce_value_and_grad(
-    w: np.ndarray, P: np.ndarray, phi: np.ndarray, p0: np.ndarray, horizon: int, targets: np.ndarray, lam: float,
-    discount: float = 1.0,
-) -> tuple[float, np.ndarray]:
-    """g(w) and its gradient on validated inputs (see ``mce_objective``)."""
-    R = per_time(phi @ w, horizon)
-    value = float(w @ targets.sum(axis=0)) - 0.5 * lam * float(w @ w)
-    grad = targets.sum(axis=0) - lam * w
-    for Pj in P[1:]:
-        policy, V = soft_backward_induction(Pj, R, discount=discount)
-        value -= float(p0 @ V[0])
-        grad = grad - feature_sum(Pj, policy, p0, phi, discount)
-    return value, grad
-
-
-def mce_objective(
-    w: np.ndarray,
-    transitions: np.ndarray,
-    features: np.ndarray,
-    initial: np.ndarray,
-    horizon: int,
-    targets: np.ndarray,
-    *,
-    lam: float = 1e-3,
-    discount: float = 1.0,
-) -> tuple[float, np.ndarray]:
-    """The MCE IRL dual with several dynamics and its gradient (to be maximised).
-
-        g(w) = sum_j [ w . c~_j - p0 . V_j(w)[0] ] - lam/2 |w|^2
-        grad g(w) = sum_j (c~_j - F_j(w)) - lam w
-
-    V_j (T, S) is the soft value of ``soft_backward_induction`` under tau_j with reward w . phi
-    at every time, and F_j (K,) the expected feature sum of its soft policy under tau_j; with a
-    discount gamma < 1 the soft backup is Q = r + gamma E[V'] and F_j = E[sum_t gamma^t phi(s_t)].
-
-    Args:
-        w: (K,) shared reward weights.
-        transitions: (M, S, A, S), index 0 = tau (not used), 1..D = tau_1..tau_D.
-        features: (S, K) phi, or (T, S, K) time-dependent phi_t(s).
-        initial: (S,) p0.
-        horizon: T, the number of states per trajectory.
-        targets: (D, K), row j-1 the demonstrations' mean feature sum c~_j under tau_j.
-        lam: L2 regularisation strength >= 0.
-
-    Returns:
-        (value, gradient): g(w) as a float and its gradient (K,).
-    """
-    P, phi, p0, c = check_problem(transitions, features, initial, horizon, targets)
-    if lam < 0:
-        raise ValueError(f"lam must be >= 0, got {lam}")
-    return _mce_value_and_grad(_check_weights(w, phi.shape[-1]), P, phi, p0, horizon, c, lam, discount)
-
-
-def mce_irl(
-    transitions: np.ndarray,
-    features: np.ndarray,
-    initial: np.ndarray,
-    horizon: int,
-    targets: np.ndarray,
-    *,
-    lam: float = 1e-3,
-    max_iterations: int = 200,
-    tol: float = 1e-8,
-    discount: float = 1.0,
-) -> BaselineResult:
-    """Maximum causal entropy IRL (Ziebart et al.) with one w shared by all dynamics.
-
-    Maximises ``mce_objective`` by L-BFGS-B on its negative, starting from w = 0.
-
-    Args:
-        transitions: (M, S, A, S), index 0 = tau (not used), 1..D = tau_1..tau_D.
-        features: (S, K) phi, or (T, S, K) time-dependent phi_t(s).
-        initial: (S,) p0.
-        horizon: T.
-        targets: (D, K) c~_j.
-        lam: L2 regularisation strength >= 0.
-        max_iterations: L-BFGS-B iterations, >= 1.
-        tol: scipy's ``tol`` for L-BFGS-B (its gradient and relative-decrease tolerances).
-        discount: gamma in (0, 1] (see ``mce_objective``); the targets are discounted alike.
-
-    Returns:
-        ``BaselineResult`` with weights (D, K) (identical rows) and history columns "step",
-        "objective" (g(w), maximised) and "grad_norm" (Euclidean norm of grad g); row 0 is the
-        starting point w = 0, then one row per L-BFGS-B iteration.
-    """
-    P, phi, p0, c = check_problem(transitions, features, initial, horizon, targets)
-    if lam < 0 or max_iterations < 1 or tol < 0:
-        raise ValueError(f"need lam >= 0, max_iterations >= 1 and tol >= 0, got {lam}, {max_iterations}, {tol}")
-    w, objective, grad_norm = lbfgs_ascent(lambda w: _mce_value_and_grad(w, P, phi, p0, horizon, c, lam, discount), phi.shape[-1], max_iterations, tol=tol)
-    history = {
-        "step": np.arange(len(objective)),
-        "objective": np.array(objective),
-        "grad_norm": np.array(grad_norm),
-    }
-    D = P.shape[0] - 1
-    return BaselineResult(np.tile(w, (D, 1)), None, history)
-
-
-def lbfgs_ascent(evaluate, K: int, max_iterations: int, *, tol: float) -> tuple[np.ndarray, list[float], list[float]]:
-    """Maximise a concave g by L-BFGS-B from w = 0 (MCE IRL and robust MCE IRL).
-
-    Args:
-        evaluate: w (K,) -> (g(w), its gradient (K,)).
-        K: the number of weights; max_iterations: L-BFGS-B iterations; tol: scipy's ``tol``.
-
-    Returns:
-        (w (K,), g at w = 0 and after each iteration, |gradient| at the same points).
-    """
-    last: dict[str, object] = {}
-
-    def negative(w: np.ndarray) -> tuple[float, np.ndarray]:
-        value, grad = evaluate(w)
-        last.update(w=w.copy(), value=value, grad=grad)
-        return -value, -grad
-
-    objective, grad_norm = [], []
-
-    def record(intermediate_result) -> None:
-        x = intermediate_result.x
-        value, grad = (last["value"], last["grad"]) if "w" in last and np.array_equal(last["w"], x) else evaluate(x)
-        objective.append(value)
-        grad_norm.append(float(np.linalg.norm(grad)))
-
-    w0 = np.zeros(K)
-    value0, grad0 = evaluate(w0)
-    objective.append(value0)
-    grad_norm.append(float(np.linalg.norm(grad0)))
-    result = minimize(negative, w0, jac=True, method="L-BFGS-B", tol=tol, callback=record, options={"maxiter": max_iterations})
-    return result.x, objective, grad_norm
 
 
 def _optimal_features(P: np.ndarray, phi: np.ndarray, p0: np.ndarray, horizon: int, w: np.ndarray, discount: float = 1.0) -> np.ndarray:

@@ -29,7 +29,7 @@ Two forms, as the paper's code has them:
 Optional action sets: ``allowed`` (S, A) bool; a disallowed action is never taken by the player
 (Q = -inf, as the paper's grid gives a move off the grid reward -inf) nor by the opponent.
 
-Optimisers: "lbfgs" maximises g by L-BFGS-B (as ``baselines.mce_irl``, so alpha = 1 gives its
+Optimisers: "lbfgs" maximises g by L-BFGS-B (as ``mce.mce_irl``, so alpha = 1 gives its
 weights); "adam" takes the paper's steps w += Adam(grad) (lr 0.5, betas (0.9, 0.99), eps 1e-7,
 200 iterations in the paper), from w = 0.
 
@@ -42,7 +42,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from airl_cli.core.irl.baselines import BaselineResult, check_problem, feature_sum, lbfgs_ascent
+from airl_cli.core.irl.baselines import BaselineResult, check_problem, feature_sum
+from airl_cli.core.irl.mce import lbfgs_ascent
 from airl_cli.core.mdp.basics import per_time
 from airl_cli.core.mdp.planning import expect_next
 from airl_cli.core.mdp.sparse import SparseModel

@@ -94,6 +94,36 @@ def soft_backward_induction(P: np.ndarray, R: np.ndarray, *, discount: float = 1
     return policy, V
 
 
+def soft_backward_induction_sa(P, R: np.ndarray, *, discount: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
+    """Soft value iteration with rewards of a state and an action, finite horizon (no reward at the
+    last state, where no action is taken).
+
+        Q_t(s, a) = R_t(s, a) + gamma E_{s' ~ P(s, a)}[V_{t+1}(s')],  V_t(s) = log sum_a exp Q_t(s, a),
+        V_{T-1} = 0,  pi_t(a | s) = exp(Q_t(s, a) - V_t(s)),  t = 0..T-2.
+
+    The same policy as ``soft_backward_induction`` on the post-decision expansion of
+    ``core.mdp.state_action`` (whose soft values differ from these by a constant per step), at
+    S A fewer states and half the steps.
+
+    Args:
+        P: dynamics (S, A, S), dense or sparse.
+        R: rewards (T-1, S, A), step t's R_t.
+        discount: gamma in (0, 1].
+
+    Returns:
+        policy: (T-1, S, A) float; V: (T, S) soft values, V[T-1] = 0.
+    """
+    P = _dynamics(P)
+    R = np.asarray(R, dtype=np.float64)
+    T1, S, A = R.shape
+    V = np.zeros((T1 + 1, S))
+    policy = np.empty((T1, S, A))
+    for t in range(T1 - 1, -1, -1):
+        Q = R[t] + discount * expect_next(P, V[t + 1])
+        V[t], policy[t] = soft_max_rows(Q)
+    return policy, V
+
+
 def soft_max_rows(Q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """V (S,) = log sum_a exp Q[s, a] and the softmax policy pi (S, A) = exp(Q - V) of Q (S, A),
     shifted by each row's maximum (no overflow). scipy.special.logsumexp gives the same to 1 ulp,

@@ -9,10 +9,9 @@ from tiny import random_dynamics
 from airl_cli.core.irl.baselines import (
     behavioral_cloning,
     expected_features_per_dynamics,
-    mce_irl,
-    mce_objective,
     projection,
 )
+from airl_cli.core.irl.mce import mce_irl, mce_objective
 from airl_cli.core.irl.mmp import max_margin_planning
 from airl_cli.core.mdp.demos import expected_feature_sums, feature_sums, sample_trajectories
 from airl_cli.core.mdp.planning import backward_induction, state_marginals
@@ -186,3 +185,45 @@ def test_shapes_are_checked():
         mce_objective(np.zeros(2), P, phi, p0, T, targets)
     with pytest.raises(ValueError, match=r"demo_actions must have shape \(D, N, T-1\)"):
         behavioral_cloning(np.zeros((1, 2, 3), dtype=int), np.zeros((1, 2, 3), dtype=int), n_states=3, n_actions=2)
+
+
+@pytest.mark.parametrize("time_features,discount,sparse", [(False, 1.0, False), (True, 1.0, False), (False, 0.9, True), (True, 0.8, True)])
+def test_mce_with_features_of_a_state_and_an_action_is_mce_on_the_expansion(time_features, discount, sparse):
+    """MCE IRL on phi(s, a) as it is (soft backup with rewards of (s, a)) against MCE IRL on the
+    post-decision expansion, where every method used to learn: the same gradient at any w (to
+    1e-10), the same weights; and the feature sums against enumeration of every path."""
+    import itertools
+
+    from airl_cli.core.irl.mce import _mce_value_and_grad, action_feature_sum
+    from airl_cli.core.mdp.planning import soft_backward_induction_sa
+    from airl_cli.core.mdp.sparse import sparse_dynamics
+    from airl_cli.core.mdp.state_action import expand
+
+    rng = np.random.default_rng(7)
+    S, A, T, D, K = 4, 3, 5, 2, 3
+    P = np.stack([random_dynamics(rng, S, A, concentration=0.5) for _ in range(D + 1)])
+    phi = rng.normal(size=(T - 1, S, A, K) if time_features else (S, A, K))
+    p0 = rng.dirichlet(np.ones(S))
+    targets = rng.normal(size=(D, K))
+    dyn = sparse_dynamics(P) if sparse else P
+    x = expand(dyn, phi, None, p0, T, discount)
+    for w in (np.zeros(K), rng.normal(size=K)):
+        _, native = _mce_value_and_grad(w, dyn, phi, p0, T, targets, 0.1, discount, True)
+        _, expanded = _mce_value_and_grad(w, x.transitions, x.features, x.initial, x.horizon, targets, 0.1, x.discount)
+        assert np.allclose(native, expanded, atol=1e-10, rtol=0)
+    ours = mce_irl(dyn, phi, p0, T, targets, lam=0.1, discount=discount, action_features=True)
+    theirs = mce_irl(x.transitions, x.features, x.initial, x.horizon, targets, lam=0.1, discount=x.discount)
+    assert np.allclose(ours.weights, theirs.weights, atol=1e-6)
+    # the feature sum of the soft policy, by enumerating every path of states and actions under tau_1
+    w = rng.normal(size=K)
+    R = np.broadcast_to(phi @ w, (T - 1, S, A))
+    policy, _ = soft_backward_induction_sa(P[1], R, discount=discount)
+    exact = np.zeros(K)  # actions a_0..a_{T-2} and the states s_0..s_{T-2} they are taken in
+    for states in itertools.product(range(S), repeat=T - 1):
+        for actions in itertools.product(range(A), repeat=T - 1):
+            pr = p0[states[0]]
+            for t in range(T - 1):
+                pr *= policy[t, states[t], actions[t]] * (P[1, states[t], actions[t], states[t + 1]] if t < T - 2 else 1.0)
+            for t in range(T - 1):
+                exact += pr * discount**t * (phi[t, states[t], actions[t]] if time_features else phi[states[t], actions[t]])
+    assert np.allclose(action_feature_sum(P[1], policy, p0, phi, discount), exact, atol=1e-12)

@@ -8,7 +8,8 @@ import pytest
 from typer.testing import CliRunner
 
 from airl_cli.cli import app
-from airl_cli.core.irl.baselines import feature_sum, mce_objective
+from airl_cli.core.irl.baselines import feature_sum
+from airl_cli.core.irl.mce import mce_objective
 from airl_cli.core.mdp.basics import discounted
 from airl_cli.core.mdp.demos import expected_feature_sums, feature_sums
 from airl_cli.core.mdp.planning import backward_induction, expected_return, soft_backward_induction

@@ -14,7 +14,7 @@ from typer.testing import CliRunner
 
 from airl_cli.cli import app
 from airl_cli.core.irl import robust_mce as rm
-from airl_cli.core.irl.baselines import mce_irl
+from airl_cli.core.irl.mce import mce_irl
 from airl_cli.core.mdp.demos import expected_feature_sums
 from airl_cli.core.mdp.planning import backward_induction
 from airl_cli.core.mdp.sparse import sparse_dynamics

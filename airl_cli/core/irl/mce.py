@@ -1,0 +1,183 @@
+"""Maximum causal entropy IRL (Ziebart et al., thesis §3.2) with several dynamics: one w shared by all.
+
+    g(w) = sum_j [ w . c~_j - p0 . V_j(w)[0] ] - lam/2 |w|^2          (maximised)
+    grad g(w) = sum_j (c~_j - F_j(w)) - lam w
+
+V_j is the finite-horizon soft value under tau_j with reward w . phi (thesis eq. 3.6-3.9), F_j the
+expected feature sum of its soft policy there; L-BFGS-B on -g from w = 0 (``lbfgs_ascent``, which
+robust MCE IRL shares). Features of a state, phi (S, K) or (T, S, K), give the soft backup
+Q_t = w . phi(s) + gamma E[V_{t+1}]; features of a state and an action, phi (S, A, K) or
+(T-1, S, A, K), the backup Q_t(s, a) = w . phi(s, a) + gamma E[V_{t+1}] with V_{T-1} = 0
+(``soft_backward_induction_sa``) and the feature sums counted at the T - 1 steps where an action is
+taken: the same policies, gradients and weights as on the post-decision expansion
+(``core.mdp.state_action``), without its S A extra states.
+
+Shapes: transitions (M, S, A, S) dense or sparse, index 0 = tau (unused), 1..D = tau_1..tau_D;
+initial p0 (S,); horizon T counts states; targets (D, K).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.optimize import minimize
+
+from airl_cli.core.irl.baselines import BaselineResult, _check_weights, check_problem, feature_sum
+from airl_cli.core.mdp.basics import per_time
+from airl_cli.core.mdp.planning import soft_backward_induction, soft_backward_induction_sa, state_marginals
+
+
+def action_feature_sum(P, policy: np.ndarray, p0: np.ndarray, phi: np.ndarray, discount: float = 1.0) -> np.ndarray:
+    """Expected feature sum E[sum_t gamma^t phi_t(s_t, a_t)] (K,), t = 0..T-2, of a (T-1, S, A)
+    policy under P (S, A, S), dense or sparse; phi (S, A, K), or (T-1, S, A, K) time-dependent."""
+    d = state_marginals(P, policy, p0)  # (T, S)
+    x = d[:-1, :, None] * policy  # (T-1, S, A): Pr(s_t = s, a_t = a)
+    weights = discount ** np.arange(x.shape[0], dtype=np.float64)
+    if phi.ndim == 4:
+        return np.einsum("t,tsa,tsak->k", weights, x, phi)
+    S, A, K = phi.shape
+    return (weights @ x.reshape(x.shape[0], S * A)) @ phi.reshape(S * A, K)
+
+
+def _mce_value_and_grad(
+    w: np.ndarray, P: np.ndarray, phi: np.ndarray, p0: np.ndarray, horizon: int, targets: np.ndarray, lam: float,
+    discount: float = 1.0, action_features: bool = False,
+) -> tuple[float, np.ndarray]:
+    """g(w) and its gradient on validated inputs (see ``mce_objective``)."""
+    if action_features:  # rewards of (s, a), at the T - 1 steps where an action is taken
+        R = np.broadcast_to(phi @ w, (horizon - 1, *phi.shape[-3:-1]))
+    else:
+        R = per_time(phi @ w, horizon)
+    value = float(w @ targets.sum(axis=0)) - 0.5 * lam * float(w @ w)
+    grad = targets.sum(axis=0) - lam * w
+    for Pj in P[1:]:
+        if action_features:
+            policy, V = soft_backward_induction_sa(Pj, R, discount=discount)
+            grad = grad - action_feature_sum(Pj, policy, p0, phi, discount)
+        else:
+            policy, V = soft_backward_induction(Pj, R, discount=discount)
+            grad = grad - feature_sum(Pj, policy, p0, phi, discount)
+        value -= float(p0 @ V[0])
+    return value, grad
+
+
+def mce_objective(
+    w: np.ndarray,
+    transitions: np.ndarray,
+    features: np.ndarray,
+    initial: np.ndarray,
+    horizon: int,
+    targets: np.ndarray,
+    *,
+    lam: float = 1e-3,
+    discount: float = 1.0,
+) -> tuple[float, np.ndarray]:
+    """The MCE IRL dual with several dynamics and its gradient (to be maximised).
+
+        g(w) = sum_j [ w . c~_j - p0 . V_j(w)[0] ] - lam/2 |w|^2
+        grad g(w) = sum_j (c~_j - F_j(w)) - lam w
+
+    V_j (T, S) is the soft value of ``soft_backward_induction`` under tau_j with reward w . phi
+    at every time, and F_j (K,) the expected feature sum of its soft policy under tau_j; with a
+    discount gamma < 1 the soft backup is Q = r + gamma E[V'] and F_j = E[sum_t gamma^t phi(s_t)].
+
+    Args:
+        w: (K,) shared reward weights.
+        transitions: (M, S, A, S), index 0 = tau (not used), 1..D = tau_1..tau_D.
+        features: (S, K) phi, or (T, S, K) time-dependent phi_t(s).
+        initial: (S,) p0.
+        horizon: T, the number of states per trajectory.
+        targets: (D, K), row j-1 the demonstrations' mean feature sum c~_j under tau_j.
+        lam: L2 regularisation strength >= 0.
+
+    Returns:
+        (value, gradient): g(w) as a float and its gradient (K,).
+    """
+    P, phi, p0, c = check_problem(transitions, features, initial, horizon, targets)
+    if lam < 0:
+        raise ValueError(f"lam must be >= 0, got {lam}")
+    return _mce_value_and_grad(_check_weights(w, phi.shape[-1]), P, phi, p0, horizon, c, lam, discount)
+
+
+def mce_irl(
+    transitions: np.ndarray,
+    features: np.ndarray,
+    initial: np.ndarray,
+    horizon: int,
+    targets: np.ndarray,
+    *,
+    lam: float = 1e-3,
+    max_iterations: int = 200,
+    tol: float = 1e-8,
+    discount: float = 1.0,
+    action_features: bool = False,
+) -> BaselineResult:
+    """Maximum causal entropy IRL (Ziebart et al.) with one w shared by all dynamics.
+
+    Maximises ``mce_objective`` by L-BFGS-B on its negative, starting from w = 0. With
+    ``action_features`` the features are of a state and an action, phi (S, A, K) or (T-1, S, A, K),
+    counted at the T - 1 steps where an action is taken, and the soft backup takes the reward of
+    (s, a) (``soft_backward_induction_sa``): the same policies, gradients and weights as MCE IRL on
+    the post-decision expansion (``core.mdp.state_action``), without its S A extra states.
+
+    Args:
+        transitions: (M, S, A, S), index 0 = tau (not used), 1..D = tau_1..tau_D.
+        features: (S, K) phi, or (T, S, K) time-dependent phi_t(s).
+        initial: (S,) p0.
+        horizon: T.
+        targets: (D, K) c~_j.
+        lam: L2 regularisation strength >= 0.
+        max_iterations: L-BFGS-B iterations, >= 1.
+        tol: scipy's ``tol`` for L-BFGS-B (its gradient and relative-decrease tolerances).
+        discount: gamma in (0, 1] (see ``mce_objective``); the targets are discounted alike.
+
+    Returns:
+        ``BaselineResult`` with weights (D, K) (identical rows) and history columns "step",
+        "objective" (g(w), maximised) and "grad_norm" (Euclidean norm of grad g); row 0 is the
+        starting point w = 0, then one row per L-BFGS-B iteration.
+    """
+    P, phi, p0, c = check_problem(transitions, features, initial, horizon, targets, action_features=action_features)
+    if lam < 0 or max_iterations < 1 or tol < 0:
+        raise ValueError(f"need lam >= 0, max_iterations >= 1 and tol >= 0, got {lam}, {max_iterations}, {tol}")
+    w, objective, grad_norm = lbfgs_ascent(
+        lambda w: _mce_value_and_grad(w, P, phi, p0, horizon, c, lam, discount, action_features), phi.shape[-1], max_iterations, tol=tol
+    )
+    history = {
+        "step": np.arange(len(objective)),
+        "objective": np.array(objective),
+        "grad_norm": np.array(grad_norm),
+    }
+    D = P.shape[0] - 1
+    return BaselineResult(np.tile(w, (D, 1)), None, history)
+
+
+def lbfgs_ascent(evaluate, K: int, max_iterations: int, *, tol: float) -> tuple[np.ndarray, list[float], list[float]]:
+    """Maximise a concave g by L-BFGS-B from w = 0 (MCE IRL and robust MCE IRL).
+
+    Args:
+        evaluate: w (K,) -> (g(w), its gradient (K,)).
+        K: the number of weights; max_iterations: L-BFGS-B iterations; tol: scipy's ``tol``.
+
+    Returns:
+        (w (K,), g at w = 0 and after each iteration, |gradient| at the same points).
+    """
+    last: dict[str, object] = {}
+
+    def negative(w: np.ndarray) -> tuple[float, np.ndarray]:
+        value, grad = evaluate(w)
+        last.update(w=w.copy(), value=value, grad=grad)
+        return -value, -grad
+
+    objective, grad_norm = [], []
+
+    def record(intermediate_result) -> None:
+        x = intermediate_result.x
+        value, grad = (last["value"], last["grad"]) if "w" in last and np.array_equal(last["w"], x) else evaluate(x)
+        objective.append(value)
+        grad_norm.append(float(np.linalg.norm(grad)))
+
+    w0 = np.zeros(K)
+    value0, grad0 = evaluate(w0)
+    objective.append(value0)
+    grad_norm.append(float(np.linalg.norm(grad0)))
+    result = minimize(negative, w0, jac=True, method="L-BFGS-B", tol=tol, callback=record, options={"maxiter": max_iterations})
+    return result.x, objective, grad_norm
