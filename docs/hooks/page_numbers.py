@@ -102,14 +102,18 @@ def render(passage: Passage, values: dict) -> str:
         raise NumbersError(f"the passage from {passage.source} cannot be rendered: {type(exc).__name__} {exc}") from None
 
 
+def _sources(markdown: str, folder: Path) -> dict[str, dict]:
+    """The values of every source the page's passages name, each file read once."""
+    return {name: load(name, folder) for name in dict.fromkeys(p.source for p in passages(markdown))}
+
+
 def render_page(markdown: str, folder: Path = NUMBERS, *, keep_templates: bool = True) -> str:
     """The page with every passage rendered again from its source (``keep_templates=False``: the
     templates' comments and the end markers dropped, as the site shows the page)."""
     out, at = [], 0
-    cache: dict[str, dict] = {}
+    values = _sources(markdown, folder)
     for p in passages(markdown):
-        values = cache.setdefault(p.source, load(p.source, folder))
-        text = render(p, values)
+        text = render(p, values[p.source])
         out.append(markdown[at : p.start])
         out.append(f"<!-- numbers {p.source}\n{p.template}\n-->\n{text}<!-- /numbers -->" if keep_templates else text.rstrip("\n"))
         at = p.end
@@ -120,8 +124,9 @@ def render_page(markdown: str, folder: Path = NUMBERS, *, keep_templates: bool =
 def check(markdown: str, folder: Path = NUMBERS) -> list[str]:
     """One line for each passage whose text is not its source's rendering (none: the page is current)."""
     wrong = []
+    values = _sources(markdown, folder)
     for p in passages(markdown):
-        expected = render(p, load(p.source, folder))
+        expected = render(p, values[p.source])
         if p.text != expected:
             first = next((a, b) for a, b in zip(p.text.splitlines() + [""], expected.splitlines() + [""]) if a != b)
             wrong.append(f"a passage from {p.source} says {first[0]!r} where its source says {first[1]!r}")
@@ -130,7 +135,7 @@ def check(markdown: str, folder: Path = NUMBERS) -> list[str]:
 
 def machines(markdown: str, folder: Path = NUMBERS) -> set[str]:
     """The machines the page's sources were measured on (a page names one)."""
-    return {load(p.source, folder)["machine"] for p in passages(markdown)}
+    return {values["machine"] for values in _sources(markdown, folder).values()}
 
 
 # --------------------------------------------------------------------------- tables
@@ -179,12 +184,14 @@ def _default_fit_tables(values: dict) -> dict:
         found = [r["process / MCE"] for r in first if r["case"].startswith(prefix) and r["process / MCE"] is not None]
         return (_cell(min(found), "x1"), _cell(max(found), "x1")) if found else ("—", "—")
 
+    default_low, default_high = ratios("default-")
+    ow_low, ow_high = ratios("ow")
+
     timeouts = [r for r in growth if isinstance(r["process s"], str)]
     words = {1: "one", 2: "two", 3: "three"}
     return {
         "first": _fit_table(first, with_t=True), "first_closed": closed(first), "first_n": len(first),
-        "default_ratio_low": ratios("default-")[0], "default_ratio_high": ratios("default-")[1],
-        "ow_ratio_low": ratios("ow")[0], "ow_ratio_high": ratios("ow")[1],
+        "default_ratio_low": default_low, "default_ratio_high": default_high, "ow_ratio_low": ow_low, "ow_ratio_high": ow_high,
         "growth": _fit_table(growth, with_t=False), "growth_closed": closed(growth), "growth_n": len(growth),
         "growth_timeouts": f"; {words.get(len(timeouts), len(timeouts))} ran past {timeouts[0]['process s'][2:]} s"
         f" ({', '.join(CASE_NAMES[r['case']] for r in timeouts)})" if timeouts else "",

@@ -70,6 +70,7 @@ def mce_objective(
     *,
     lam: float = 1e-3,
     discount: float = 1.0,
+    action_features: bool = False,
 ) -> tuple[float, np.ndarray]:
     """The MCE IRL dual with several dynamics and its gradient (to be maximised).
 
@@ -83,19 +84,21 @@ def mce_objective(
     Args:
         w: (K,) shared reward weights.
         transitions: (M, S, A, S), index 0 = tau (not used), 1..D = tau_1..tau_D.
-        features: (S, K) phi, or (T, S, K) time-dependent phi_t(s).
+        features: (S, K) phi, or (T, S, K) time-dependent phi_t(s); with ``action_features``
+            (S, A, K) phi(s, a), or (T-1, S, A, K).
         initial: (S,) p0.
         horizon: T, the number of states per trajectory.
         targets: (D, K), row j-1 the demonstrations' mean feature sum c~_j under tau_j.
         lam: L2 regularisation strength >= 0.
+        action_features: the features are of a state and an action (the module's docstring).
 
     Returns:
         (value, gradient): g(w) as a float and its gradient (K,).
     """
-    P, phi, p0, c = check_problem(transitions, features, initial, horizon, targets)
+    P, phi, p0, c = check_problem(transitions, features, initial, horizon, targets, action_features=action_features)
     if lam < 0:
         raise ValueError(f"lam must be >= 0, got {lam}")
-    return _mce_value_and_grad(_check_weights(w, phi.shape[-1]), P, phi, p0, horizon, c, lam, discount)
+    return _mce_value_and_grad(_check_weights(w, phi.shape[-1]), P, phi, p0, horizon, c, lam, discount, action_features)
 
 
 def mce_irl(
@@ -121,7 +124,8 @@ def mce_irl(
 
     Args:
         transitions: (M, S, A, S), index 0 = tau (not used), 1..D = tau_1..tau_D.
-        features: (S, K) phi, or (T, S, K) time-dependent phi_t(s).
+        features: (S, K) phi, or (T, S, K) time-dependent phi_t(s); with ``action_features``
+            (S, A, K) phi(s, a), or (T-1, S, A, K).
         initial: (S,) p0.
         horizon: T.
         targets: (D, K) c~_j.
@@ -129,6 +133,7 @@ def mce_irl(
         max_iterations: L-BFGS-B iterations, >= 1.
         tol: scipy's ``tol`` for L-BFGS-B (its gradient and relative-decrease tolerances).
         discount: gamma in (0, 1] (see ``mce_objective``); the targets are discounted alike.
+        action_features: the features are of a state and an action (above).
 
     Returns:
         ``BaselineResult`` with weights (D, K) (identical rows) and history columns "step",
