@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import importlib
 import warnings
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -52,10 +53,9 @@ def horizon_of(limit: int | None) -> int:
     return DEFAULT_HORIZON if limit is None else int(limit) + 1
 
 
-def own_horizon(env_id: str) -> int:
-    """T for an environment by id: its registered episode limit (``max_episode_steps``, the actions its
-    TimeLimit allows) plus one, as T counts states; ``DEFAULT_HORIZON`` if it registers none.
-    One sentence (ConfigError) if the id is unknown."""
+def _spec(env_id: str) -> Any:
+    """gymnasium's registration of ``env_id`` (its package imported first, which registers it);
+    one sentence (ConfigError) if the id is unknown."""
     gymnasium = require("gymnasium")
     if "/" in env_id:  # a package registers its ids when it is imported (seals/..., your own)
         try:
@@ -63,10 +63,29 @@ def own_horizon(env_id: str) -> int:
         except ImportError:
             pass
     try:
-        limit = gymnasium.spec(env_id).max_episode_steps
+        return gymnasium.spec(env_id)
     except Exception as err:  # gymnasium raises several kinds (NameNotFound, VersionNotFound)  # noqa: BLE001
         raise ConfigError(f"'mdp.env={env_id}' cannot be made by gymnasium: {err}") from None
-    return horizon_of(limit)
+
+
+def own_horizon(env_id: str) -> int:
+    """T for an environment by id: its registered episode limit (``max_episode_steps``, the actions its
+    TimeLimit allows) plus one, as T counts states; ``DEFAULT_HORIZON`` if it registers none.
+    One sentence (ConfigError) if the id is unknown."""
+    return horizon_of(_spec(env_id).max_episode_steps)
+
+
+#: The environment classes whose dynamics parameter airl knows (``named.PARAMETERS``), by class name.
+PARAMETER_OF_CLASS = {"FrozenLakeEnv": "FrozenLake", "CliffWalkingEnv": "CliffWalking", "TaxiEnv": "Taxi", "CliffWorldEnv": "CliffWorld"}
+
+
+def parameter_env(env_id: str) -> str | None:
+    """The environment of ``named.PARAMETERS`` that an id makes (FrozenLake8x8-v1 -> "FrozenLake",
+    seals/CliffWorld7x4-v0 -> "CliffWorld"), read from its registered entry point without making
+    it; None for any other (its dynamics have no parameter airl knows). ConfigError for an unknown id."""
+    entry = _spec(env_id).entry_point
+    name = entry.rsplit(":", 1)[-1] if isinstance(entry, str) else getattr(entry, "__name__", "")
+    return PARAMETER_OF_CLASS.get(name)
 
 
 def env_sizes(env_id: str) -> tuple[int, int]:
@@ -83,12 +102,36 @@ def env_sizes(env_id: str) -> tuple[int, int]:
     )
 
 
-def table(env: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray | None]:
-    """tau (S, A, S) with the terminal states absorbing, p0 (S,), the terminal mask (S,) and the
-    reward of entering each state (S,); for a toy-text table whose reward is not a function of the
-    state entered (CliffWalking's cliff, Taxi's wrong pick-up), the expected reward of each state
-    and action r(s, a) = sum_s' P(s'|s, a) reward(s, a, s') (S, A), 0 once the episode has ended;
-    None for a seals table without a state reward.
+@dataclass(frozen=True)
+class Table:
+    """An environment's own table, read as a problem (``table``).
+
+    Attributes:
+        transitions: (S, A, S) tau, the terminal states absorbing.
+        initial: (S,) p0.
+        terminal: (S,) bool, the states an episode ends in (made absorbing).
+        reward: (S,) the reward of entering (toy-text) or of being in (seals) each state; or (S, A)
+            r(s, a) where the toy-text reward is not a function of the state entered; None for a
+            seals table without a state reward.
+        goal: (S,) bool, the goal states (``goal_states``), or None where the environment has none.
+    """
+
+    transitions: np.ndarray
+    initial: np.ndarray
+    terminal: np.ndarray
+    reward: np.ndarray | None
+    goal: np.ndarray | None
+
+
+def table(env: Any) -> Table:
+    """The environment's table as a problem (``Table``).
+
+    A toy-text table's reward is read for every move out of a state that does not end the episode,
+    also from states its own episodes never reach (Taxi's passenger waiting at its destination,
+    CliffWalking's cliff cells): they keep the environment's reward, never a zero of airl's making,
+    should other dynamics reach them. The reward is the reward of entering a state when it is one
+    (FrozenLake), else r(s, a) = sum_s' P(s'|s, a) reward(s, a, s') (CliffWalking's cliff, Taxi's
+    wrong pick-up), 0 once the episode has ended.
 
     Raises:
         ConfigError: the environment exposes no transition table, or its table is not one.
@@ -98,12 +141,8 @@ def table(env: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray | No
     try:
         if hasattr(env, "P") and hasattr(env, "initial_state_distrib"):
             P, terminal, live, out = gymnasium_dynamics(env)
-            try:
-                R = tabular.entering_reward(out["next_state"], out["reward"], live[out["state"]], n_states=P.shape[0], default=0.0)
-            except ValueError:  # the reward depends on the action or on where the move came from: r(s, a), its expectation
-                R = np.zeros(P.shape[:2])
-                np.add.at(R, (out["state"], out["action"]), np.where(live[out["state"]], out["prob"] * out["reward"], 0.0))
-            return P, np.asarray(env.initial_state_distrib, dtype=np.float64), terminal, R
+            p0 = np.asarray(env.initial_state_distrib, dtype=np.float64)
+            return Table(P, p0, terminal, toy_text_reward(out, terminal, p0), toy_text_goal(out, terminal, live))
         if hasattr(env, "transition_matrix"):
             P = np.asarray(env.transition_matrix, dtype=np.float64)
             total = P.sum(axis=-1, keepdims=True)
@@ -112,13 +151,50 @@ def table(env: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray | No
             S = P.shape[0]
             p0 = np.asarray(getattr(env, "initial_state_dist", np.full(S, 1.0 / S)), dtype=np.float64)
             R = np.asarray(env.reward_matrix, dtype=np.float64) if getattr(env, "reward_matrix", None) is not None else None
-            return P, p0, np.zeros(S, dtype=bool), (R if R is not None and R.shape == (S,) else None)
+            R = R if R is not None and R.shape == (S,) else None
+            return Table(P, p0, np.zeros(S, dtype=bool), R, None if R is None else best_states(R))
     except ValueError as e:
         raise ConfigError(f"{name}'s transition table cannot be read as a problem: {e}") from None
     raise ConfigError(
         f"{name} exposes no transition table: airl reads gymnasium's toy-text env.P with env.initial_state_distrib, "
         "or seals' env.transition_matrix"
     )
+
+
+def toy_text_reward(out: dict[str, np.ndarray], terminal: np.ndarray, p0: np.ndarray) -> np.ndarray:
+    """The reward of a toy-text table (``outcomes``) read from every move out of a non-terminal
+    state: (S,) the reward of entering each state where it is a function of the state entered and
+    known for every state a move can enter, else (S, A) r(s, a), its expectation over the outcomes."""
+    S, A = terminal.size, int(out["action"].max()) + 1
+    moves = ~terminal[out["state"]]
+    try:
+        R = tabular.entering_reward(out["next_state"], out["reward"], moves, n_states=S)
+    except ValueError:  # the reward depends on the action or on where the move came from
+        R = None
+    if R is not None:
+        unknown = np.isnan(R)
+        if not np.any(unknown & (p0 == 0)):  # a state only reset puts the agent in pays nothing on arrival
+            return np.where(unknown, 0.0, R)
+    r = np.zeros((S, A))
+    np.add.at(r, (out["state"], out["action"]), np.where(moves, out["prob"] * out["reward"], 0.0))
+    return r
+
+
+def toy_text_goal(out: dict[str, np.ndarray], terminal: np.ndarray, live: np.ndarray) -> np.ndarray | None:
+    """The goal of a toy-text table: the terminal states its episodes end in with the largest
+    reward (FrozenLake's G, not its holes; CliffWalking's goal; Taxi's delivered states), None
+    without terminal states."""
+    ending = live[out["state"]] & out["terminated"]
+    if not np.any(ending):
+        return None
+    R = tabular.entering_reward(out["next_state"], out["reward"], ending, n_states=terminal.size, default=-np.inf)
+    return terminal & (R == R.max())
+
+
+def best_states(R: np.ndarray) -> np.ndarray | None:
+    """The goal of a table with a reward of the state (seals): the states of the largest reward,
+    when some state's is smaller (CliffWorld's goal cell, Branching's and RiskyPath's paying state)."""
+    return (R == R.max()) if R.min() < R.max() else None
 
 
 def problem_of(envs: list[Any]) -> EnvProblem:
@@ -130,13 +206,14 @@ def problem_of(envs: list[Any]) -> EnvProblem:
             environment's reward is not a function of the state (w* is then unknown).
     """
     tables = [table(e) for e in envs]
-    P0, p0, terminal, R = tables[0]
-    if any(t[0].shape != P0.shape for t in tables):
-        raise ConfigError(f"the environments' tables differ in size: {[t[0].shape for t in tables]} (states, actions, states)")
+    first = tables[0]
+    P0, p0, terminal, R = first.transitions, first.initial, first.terminal, first.reward
+    if any(t.transitions.shape != P0.shape for t in tables):
+        raise ConfigError(f"the environments' tables differ in size: {[t.transitions.shape for t in tables]} (states, actions, states)")
     if R is None:
         raise ConfigError(f"{type(envs[0]).__name__}'s reward is not a function of the state, nor read per action from a toy-text table")
-    P = np.stack([tabular.absorbing(t[0], terminal) for t in tables])
+    P = np.stack([tabular.absorbing(t.transitions, terminal) for t in tables])
     S, A = P0.shape[:2]
     if R.ndim == 2:  # a reward of (s, a): one-hot features of the pair, K = S A
-        return EnvProblem(P, np.eye(S * A).reshape(S, A, S * A), p0, R.reshape(-1), terminal, np.arange(S))
-    return EnvProblem(P, np.eye(S), p0, R, terminal, np.arange(S))
+        return EnvProblem(P, np.eye(S * A).reshape(S, A, S * A), p0, R.reshape(-1), terminal, np.arange(S), first.goal)
+    return EnvProblem(P, np.eye(S), p0, R, terminal, np.arange(S), first.goal)

@@ -65,6 +65,9 @@ TILES = {
     "CliffWorld": ("ground", "cliff", "goal"),
 }
 
+#: The tile that is each environment's goal (the scores report the probability of reaching it).
+GOAL_TILE = {"FrozenLake": "goal", "CliffWalking": "goal", "Taxi": "passenger delivered", "CliffWorld": "goal"}
+
 #: CliffWalking's state reward per tile: its -1 per step, 0 once at the goal (the episode is
 #: over), -100 on the cliff cells, which no trajectory occupies (a fall puts the agent on start).
 CLIFF_WALKING_WEIGHTS = (-1.0, -1.0, -100.0, 0.0)
@@ -84,6 +87,8 @@ class EnvProblem:
         true_weights: (K,) w*, the environment's reward as a function of the state.
         terminal: (S,) bool, the states made absorbing.
         tiles: (S,) int, each state's tile type (an index into ``TILES[env]``).
+        goal: (S,) bool, the states that are the environment's goal (``GOAL_TILE``), or None where
+            it has none: the scores report the probability of reaching one.
     """
 
     transitions: np.ndarray
@@ -92,6 +97,7 @@ class EnvProblem:
     true_weights: np.ndarray
     terminal: np.ndarray
     tiles: np.ndarray
+    goal: np.ndarray | None = None
 
 
 def require(package: str) -> Any:
@@ -232,9 +238,10 @@ def env_problem(package: str, env: str, values: tuple[bool | float, ...], *, fea
         tiles = gymnasium_tiles(env, envs[0], terminal)
         w_tile = gymnasium_tile_weights(env, tiles, built[0][3], built[0][2])
     phi_tile = tabular.one_hot(tiles, len(TILES[env]))
+    goal = tiles == TILES[env].index(GOAL_TILE[env])
     if features == "tile":
-        return EnvProblem(P, phi_tile, p0, w_tile, terminal, tiles)
-    return EnvProblem(P, np.eye(P.shape[1]), p0, phi_tile @ w_tile, terminal, tiles)
+        return EnvProblem(P, phi_tile, p0, w_tile, terminal, tiles, goal)
+    return EnvProblem(P, np.eye(P.shape[1]), p0, phi_tile @ w_tile, terminal, tiles, goal)
 
 
 def env_sizes(package: str, env: str, *, map_name: str = "4x4", width: int = 15, height: int = 6) -> tuple[int, int]:

@@ -35,6 +35,11 @@ expert                   () str                 optional; "tau" (absent: the the
                                                 demonstrations from an expert optimal in tau_j)
 expert_beta              () float               optional, with "own": a soft-optimal expert's
                                                 entropy weight (absent: hard-optimal)
+goal_states              (S,) bool              optional; an environment's goal: the scores
+                                                add the probability of reaching one
+environment              () str                 optional; where the problem comes from
+                                                (e.g. "Taxi-v4"): the scores add returns
+perturbation             () str                 optional; how tau_1..tau_D were made, in words
 =======================  =====================  ==============================================
 
 Reading validates everything and raises ``DatasetError`` with one sentence naming the key.
@@ -60,6 +65,7 @@ from airl_cli.io.dataset_checks import (
     demonstrations,
     discount_and_actions,
     dynamics,
+    environment_keys,
     expert_model,
     fail,
     features,
@@ -91,6 +97,9 @@ KEYS = (
     "test_transition_probs",
     "expert",
     "expert_beta",
+    "goal_states",
+    "environment",
+    "perturbation",
 )
 REQUIRED = ("features", "initial", "horizon")  # and the dynamics, in one of their two forms
 #: Dynamics larger than this as a dense (M, S, A, S) float64 array are written sparse.
@@ -115,6 +124,9 @@ class Dataset:
     test_transitions: np.ndarray | SparseDynamics | None = None  # (E, S, A, S): held out, never demonstrated
     expert: str = "tau"  # how the demonstrations' expert is modelled: "tau" (thesis §4.1) or "own"
     expert_beta: float | None = None  # expert "own": a soft-optimal expert's entropy weight; None: hard
+    goal_states: np.ndarray | None = None  # (S,) bool: an environment's goal
+    environment: str | None = None  # where the problem comes from, e.g. "Taxi-v4"
+    perturbation: str | None = None  # how tau_1..tau_D were made from tau, in words
 
     @property
     def n_states(self) -> int:
@@ -237,6 +249,7 @@ def validate(raw: dict[str, np.ndarray]) -> Dataset:
     discount, allowed = discount_and_actions(raw, S, A)
     test = held_out_dynamics(raw, S, A)
     expert, beta = expert_model(raw)
+    goal, environment, perturbation = environment_keys(raw, S)
     if test is not None and w_star is None:
         fail("held-out test dynamics ('test_transitions') are scored under the true reward: the key 'true_weights' is missing")
     return Dataset(
@@ -254,6 +267,9 @@ def validate(raw: dict[str, np.ndarray]) -> Dataset:
         test_transitions=test,
         expert=expert,
         expert_beta=beta,
+        goal_states=goal,
+        environment=environment,
+        perturbation=perturbation,
     )
 
 

@@ -265,3 +265,28 @@ def expert_model(raw: dict) -> tuple[str, float | None]:
             fail("key 'expert_beta' (a soft-optimal expert of each dynamics' own) needs 'expert' = 'own'")
         beta = float(b)
     return expert, beta
+
+
+def environment_keys(raw: dict, S: int) -> tuple[np.ndarray | None, str | None, str | None]:
+    """What a problem read from an environment says of itself: 'goal_states' (S,) bool (the states
+    that reach its goal; 0/1 numbers are read as bool), 'environment' and 'perturbation' (one string
+    each: where it comes from, how tau_1..tau_D were made); None for an absent key."""
+    goal = None
+    if "goal_states" in raw:
+        g = np.asarray(raw["goal_states"])
+        if g.dtype != bool:
+            g = numeric("goal_states", g)
+            if not np.all((g == 0) | (g == 1)):
+                fail("key 'goal_states' must be true/false (or 0/1) per state")
+        shape("goal_states", g, (S,), "(S,)")
+        goal = g.astype(bool)
+    texts = []
+    for key in ("environment", "perturbation"):
+        text = None
+        if key in raw:
+            e = np.asarray(raw[key])
+            if e.shape != () or e.dtype.kind != "U":
+                fail(f"key '{key}' must be one string, but is {e.dtype} with shape {e.shape}")
+            text = str(e)
+        texts.append(text)
+    return goal, texts[0], texts[1]

@@ -123,6 +123,8 @@ def summary_text(dataset: Dataset, settings: FitSettings, learned: Learned, rows
         f"problem   S={dataset.n_states}, A={dataset.n_actions}, K={dataset.n_features}{f' (features{dataset.features_text()})' if dataset.features_text() else ''}, T={dataset.horizon}, D={dataset.n_dynamics}{given}",
         f"fit       {how}",  # the time is in timing.json: the summary is the same bytes for the same config
     ]
+    if dataset.environment is not None:  # an environment's problem says where it and its dynamics come from
+        lines.insert(2, f"env       {dataset.environment}" + (f"; tau_j: {dataset.perturbation}" if dataset.perturbation else ""))
     if dataset.expert == "own":  # the field's expert model: can these dynamics identify its reward?
         lines += [f"identify  {line}" for line in identifiability_lines(dataset)]
     if learned.method == "airl":
@@ -142,7 +144,7 @@ def summary_text(dataset: Dataset, settings: FitSettings, learned: Learned, rows
             lines.append(f"  (all K = {learned.weights.shape[1]} in weights.json)")
     if rows and rows[0]["learner_score"] is not None:
         lines += ["", "normalised performance under the true reward (thesis §7.2):", ""]
-        lines += _score_table(rows, held_out=dataset.n_test > 0)
+        lines += _score_table(rows, held_out=dataset.n_test > 0, returns=dataset.n_test > 0 or dataset.environment is not None)
     else:
         lines += ["", "the dataset has no true weights: nothing to score against"]
     return "\n".join(lines) + "\n"
@@ -173,19 +175,24 @@ def degenerate_sentence(info: dict) -> str:
     )
 
 
-def _score_table(rows: list[dict], *, held_out: bool) -> list[str]:
-    """The summary's score table, one line per dynamics; with held-out test dynamics the expected
-    returns too (a return compares across dynamics, a normalised score does not)."""
+def _score_table(rows: list[dict], *, held_out: bool, returns: bool) -> list[str]:
+    """The summary's score table, one line per dynamics; with ``returns`` (held-out test dynamics, or
+    an environment: a return compares across dynamics, and is what the field reports) the expected
+    returns too, and where the dataset has a goal the probabilities of reaching it."""
     mixed = rows[0]["equilibrium_score"] is not None
-    returns = f"{'return':>10}{'demo return':>13}" if held_out else ""
-    lines = [f"  {'dynamics':<10}{'learner':>9}{'demonstrator':>14}{'cos(w, w*)':>12}" + (f"{'game p':>9}" if mixed else "") + returns]
+    goal = rows[0]["learner_goal"] is not None
+    extra = (f"{'return':>10}{'demo return':>13}" if returns else "") + (f"{'goal':>8}{'demo goal':>11}" if goal else "")
+    lines = [f"  {'dynamics':<10}{'learner':>9}{'demonstrator':>14}{'cos(w, w*)':>12}" + (f"{'game p':>9}" if mixed else "") + extra]
     for r in rows:
         cos = "-" if r["cosine_similarity"] is None else f"{r['cosine_similarity']:.3f}"
         p = f"{r['equilibrium_score']:>9.4f}" if mixed else ""
-        ret = f"{r['learner_return']:>10.4g}{r['demonstrator_return']:>13.4g}" if held_out else ""
+        ret = f"{r['learner_return']:>10.4g}{r['demonstrator_return']:>13.4g}" if returns else ""
+        ret += f"{r['learner_goal']:>8.3f}{r['demonstrator_goal']:>11.3f}" if goal else ""
         lines.append(f"  {r['dynamics']:<10}{r['learner_score']:>9.4f}{r['demonstrator_score']:>14.4f}{cos:>12}{p}{ret}")
     notes = ["learner: the optimal policy of the learned reward; game p: the equilibrium's own mixture of policies"] if mixed else []
-    notes += ["test_e: held-out dynamics no demonstration came from; return: expected return under the true reward"] if held_out else []
+    notes += ["test_e: held-out dynamics no demonstration came from"] if held_out else []
+    notes += ["return: expected return under the true reward"] if returns else []
+    notes += ["goal: the probability of reaching the environment's goal within the horizon"] if goal else []
     return lines + [f"  ({'; '.join(notes)})"] if notes else lines
 
 

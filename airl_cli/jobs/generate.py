@@ -46,10 +46,9 @@ def describe(settings: ProblemSettings, dataset: Dataset) -> list[tuple[str, str
     if dyn.kind == "gaussian":
         sigma = noise(dyn.sigma, dyn.sigma_states, dataset.n_states)
         dynamics += f", sigma={sigma:g}" + ("" if dyn.sigma_states is None else f" ({dyn.sigma:g} at {dyn.sigma_states} states, scaled as 1/S)")
-    if dyn.kind == "env_values":
-        assert isinstance(mdp, EnvMDPSettings)
-        dynamics += "; " + ", ".join(f"tau_{j + 1}: {env_parameter(mdp.env, v)}" for j, v in enumerate(dyn.values))
-    if dyn.kind == "slip":
+    if isinstance(mdp, EnvMDPSettings):  # the problem's own words (usecases.problem.perturbation_text)
+        dynamics += f"; {dataset.perturbation}"
+    elif dyn.kind == "slip":
         dynamics += "; slips " + ", ".join(f"tau_{j + 1}: {slip:g}" for j, slip in enumerate(dyn.slips))
     if dyn.kind == "wind":
         dynamics += "; winds " + ", ".join(f"tau_{j + 1}: {d} {v:g}" for j, (d, v) in enumerate(zip(dyn.directions, dyn.values)))

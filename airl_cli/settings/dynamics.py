@@ -1,7 +1,8 @@
 """``dynamics=...``: how tau_1..tau_D (and any held-out test dynamics) are made from tau, read and
 checked against the problem (``dynamics=gaussian`` needs the random MDP or an environment by id,
-``dynamics=slip`` Objectworld, ``dynamics=env_values`` a named gymnasium or seals environment,
-``grid_layouts`` the grid): one sentence, ConfigError, naming the key.
+``dynamics=slip`` Objectworld or an environment, ``dynamics=env_values`` an environment whose parameter
+airl knows, ``dynamics=env_default`` an environment (read as one of those two), ``grid_layouts`` the
+grid): one sentence, ConfigError, naming the key.
 """
 
 from __future__ import annotations
@@ -12,7 +13,6 @@ from typing import Any
 from airl_cli.envs.named import DEFAULT_VALUES
 from airl_cli.errors import ConfigError
 from airl_cli.settings.envs import EnvMDPSettings, check_env_dynamics, env_value
-from airl_cli.settings.problem_defaults import is_env_id
 from airl_cli.settings.reader import Cell, Reader
 
 
@@ -21,7 +21,7 @@ class DynamicsSettings:
     """``dynamics=...``: how tau_1..tau_D are made from tau."""
 
     name: str
-    kind: str  # gaussian | same | grid_layouts | slip
+    kind: str  # gaussian | same | grid_layouts | slip | env_values | wind (env_default is read as env_values or slip)
     n_dynamics: int
     sigma: float = 0.0
     sigma_states: int | None = None  # kind=gaussian: sigma is the noise at this many states (``noise``)
@@ -37,20 +37,27 @@ class DynamicsSettings:
 def read_dynamics(node: Any, mdp: Any) -> DynamicsSettings:
     """The ``dynamics`` group for the problem ``mdp`` (an ``MDPSettings``), read and checked."""
     r = Reader(node, "dynamics")
-    kind = r.choice("kind", ("gaussian", "same", "grid_layouts", "slip", "env_values", "wind"))
+    kind = r.choice("kind", ("gaussian", "same", "grid_layouts", "slip", "env_values", "env_default", "wind"))
     name = str(r.raw("name", kind))
     if kind == "wind" or mdp.name == "windy":
         return _wind(r, kind, name, mdp)
+    if kind == "env_default":  # an environment's own perturbation: its parameter where airl knows it, else slips
+        if not isinstance(mdp, EnvMDPSettings):
+            raise ConfigError(f"'dynamics={name}' perturbs a gymnasium or seals environment as it perturbs itself; use it with mdp=gymnasium or mdp=seals")
+        kind = "env_values" if mdp.parameter_of else "slip"
+    if isinstance(mdp, EnvMDPSettings):
+        check_env_dynamics(mdp, kind, name)
     if kind == "env_values":
-        if not isinstance(mdp, EnvMDPSettings) or is_env_id(mdp.env):  # an environment by id: no parameter known
-            raise ConfigError(f"'dynamics={name}' sets a parameter of a gymnasium or seals environment airl names; use it with mdp=gymnasium or mdp=seals")
-        values = r.raw("values", DEFAULT_VALUES[mdp.env])
+        if not isinstance(mdp, EnvMDPSettings):
+            raise ConfigError(f"'dynamics={name}' sets a parameter of a gymnasium or seals environment; use it with mdp=gymnasium or mdp=seals")
+        env = mdp.parameter_of
+        values = r.raw("values", None)
+        values = DEFAULT_VALUES[env] if values is None else values
         if not isinstance(values, (list, tuple)) or not values:
-            raise ConfigError(f"'dynamics.values' must be a non-empty list of {mdp.env}'s parameter values, got {values!r}")
-        test = tuple(env_value(r, "test_values", mdp.env, v) for v in r.raw("test_values", None) or ())
-        return DynamicsSettings(name, kind, len(values), values=tuple(env_value(r, "values", mdp.env, v) for v in values), n_test=len(test), test_values=test)
-    by_id = isinstance(mdp, EnvMDPSettings) and check_env_dynamics(mdp, kind, name)
-    if kind == "gaussian" and mdp.name != "random" and not by_id:
+            raise ConfigError(f"'dynamics.values' must be a non-empty list of {env}'s parameter values, got {values!r}")
+        test = tuple(env_value(r, "test_values", env, v) for v in r.raw("test_values", None) or ())
+        return DynamicsSettings(name, kind, len(values), values=tuple(env_value(r, "values", env, v) for v in values), n_test=len(test), test_values=test)
+    if kind == "gaussian" and mdp.name != "random" and not isinstance(mdp, EnvMDPSettings):
         instead = "dynamics=same or dynamics=slip" if mdp.name == "objectworld" else "dynamics=same"
         raise ConfigError(f"'dynamics={name}' perturbs a random MDP; use it with mdp=random (or use {instead})")
     if kind == "gaussian":
@@ -59,8 +66,8 @@ def read_dynamics(node: Any, mdp: Any) -> DynamicsSettings:
     if kind == "same":
         return DynamicsSettings(name, kind, r.int("n_dynamics", lo=1))
     if kind == "slip":
-        if mdp.name != "objectworld":
-            raise ConfigError(f"'dynamics={name}' changes the objectworld's slip; use it with mdp=objectworld")
+        if mdp.name != "objectworld" and not isinstance(mdp, EnvMDPSettings):
+            raise ConfigError(f"'dynamics={name}' makes action slips; use it with mdp=objectworld, mdp=gymnasium or mdp=seals")
         slips, test = r.floats("slips"), r.floats("test_slips") if r.raw("test_slips", None) is not None else ()
         if not slips or not all(0.0 <= v <= 1.0 for v in slips + test):
             raise ConfigError(f"'dynamics.slips' must be a non-empty list and 'dynamics.test_slips' a list of numbers between 0 and 1, got {list(slips)} and {list(test)}")

@@ -9,7 +9,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
-from airl_cli.envs.generic import DEFAULT_HORIZON, own_horizon
+from airl_cli.envs.generic import DEFAULT_HORIZON, own_horizon, parameter_env
 from airl_cli.envs.named import DEFAULT_VALUE, ENVS, PARAMETERS
 from airl_cli.errors import ConfigError
 from airl_cli.settings.problem_defaults import is_env_id
@@ -29,6 +29,7 @@ class EnvMDPSettings:
     map_name: str = "4x4"  # FrozenLake
     width: int = 15  # seals' CliffWorld
     height: int = 6
+    parameter_of: str | None = None  # whose dynamics parameter it takes (a key of named.PARAMETERS); None: none airl knows
 
 
 def env_value(r: Reader, key: str, env: str, value: Any) -> bool | float:
@@ -43,15 +44,17 @@ def env_value(r: Reader, key: str, env: str, value: Any) -> bool | float:
     return value if isinstance(value, bool) else float(value)
 
 
-def check_env_dynamics(mdp: EnvMDPSettings, kind: str, name: str) -> bool:
-    """Refuse (ConfigError) a dynamics an environment cannot take: a named one takes
-    ``dynamics=env_values`` (its parameter) or ``same``; one by id ``gaussian`` (perturbations of
-    its table) or ``same``. Returns whether the environment is one by id."""
+def check_env_dynamics(mdp: EnvMDPSettings, kind: str, name: str) -> None:
+    """Refuse (ConfigError) a dynamics an environment cannot take. Every one takes ``same`` and
+    ``slip`` (action slips, keeping its successors); ``env_values`` (its own parameter) one whose
+    parameter airl knows (``parameter_of``); ``gaussian`` (noise on every entry of its table) one
+    by id."""
     by_id = is_env_id(mdp.env)
-    if kind not in (("same", "gaussian") if by_id else ("same", "env_values")):
-        use = "dynamics=gaussian (perturbations of its table)" if by_id else f"dynamics=env_values (one dynamics per value of {mdp.env}'s parameter)"
-        raise ConfigError(f"'dynamics={name}' does not apply to mdp={mdp.name} mdp.env={mdp.env}; use {use} or dynamics=same")
-    return by_id
+    allowed = ("same", "slip") + (("env_values",) if mdp.parameter_of else ()) + (("gaussian",) if by_id else ())
+    if kind not in allowed:
+        own = f"dynamics=env_values (one dynamics per value of {mdp.parameter_of}'s parameter), " if mdp.parameter_of else ""
+        noise = ", dynamics=gaussian (noise on every entry of its table)" if by_id else ""
+        raise ConfigError(f"'dynamics={name}' does not apply to mdp={mdp.name} mdp.env={mdp.env}; use {own}dynamics=slip (action slips){noise} or dynamics=same")
 
 
 def env_settings(r: Reader, package: str) -> EnvMDPSettings:
@@ -61,7 +64,8 @@ def env_settings(r: Reader, package: str) -> EnvMDPSettings:
             raise ConfigError(f"'mdp.value' sets a parameter of {', '.join(ENVS['gymnasium'])}; an environment by id is made with its own defaults (mdp.value=null)")
         r.choice("features", ("tile", "state"))  # checked; an environment by id has one feature per state whatever it says
         horizon = own_horizon(str(r.raw("env"))) if r.raw("horizon", None) is None else r.int("horizon", lo=2)
-        return EnvMDPSettings(name=package, env=str(r.raw("env")), value=False, features="state", horizon=horizon)
+        env_id = str(r.raw("env"))
+        return EnvMDPSettings(name=package, env=env_id, value=False, features="state", horizon=horizon, parameter_of=parameter_env(env_id))
     if r.raw("env") not in ENVS[package]:
         by_id = " or any registered environment's id with a table (e.g. FrozenLake-v1, or your own MyGrid-v0)" if package == "gymnasium" else ""
         raise ConfigError(f"'mdp.env' must be one of {', '.join(ENVS[package])}{by_id}; got {r.raw('env')!r}")
@@ -77,5 +81,6 @@ def env_settings(r: Reader, package: str) -> EnvMDPSettings:
         value=env_value(r, "value", env, r.raw("value", DEFAULT_VALUE[env])),
         features=r.choice("features", ("tile", "state")),
         horizon=DEFAULT_HORIZON if r.raw("horizon", None) is None else r.int("horizon", lo=2),
+        parameter_of=env,
         **kwargs,
     )

@@ -19,7 +19,7 @@ from airl_cli.settings.paths import conf_dir
 def is_env_id(name: object) -> bool:
     """Whether ``mdp.env`` names an environment by its registered id (``FrozenLake-v1``,
     ``seals/CliffWorld7x4-v0``, your own ``MyGrid-v0``; ``airl_cli.envs.generic``) rather than one of
-    ``airl_cli.envs.named.ENVS``: such an environment takes ``dynamics=gaussian`` by default."""
+    ``airl_cli.envs.named.ENVS``: such an environment takes ``dynamics=env_default`` by default."""
     return isinstance(name, str) and ("-v" in name or "/" in name)
 
 
@@ -38,5 +38,5 @@ def with_problem_defaults(overrides: list[str]) -> list[str]:
         return list(overrides)
     dynamics = default_dynamics().get(mdp)
     if mdp == "gymnasium" and is_env_id(chosen.get("mdp.env")):
-        dynamics = "gaussian"  # an environment by id has no parameter airl knows (airl_cli.envs.generic)
+        dynamics = "env_default"  # its own parameter where airl knows it, else action slips (settings.dynamics)
     return list(overrides) if dynamics is None else [*overrides, f"dynamics={dynamics}"]

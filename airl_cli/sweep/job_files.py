@@ -36,7 +36,7 @@ FIT_COLUMNS = (
     "experiment", "method", "seed", "run", "x", "x_name", "mdp", "dynamics_kind", "n_dynamics", "n_features",
     "n_demos", "demos", "sigma", "weight_sharing", "loss", "dynamics", "learner_score", "demonstrator_score",
     "cosine_similarity", "seconds", "optimizer", "objective", "relative_gap", "bracket_width", "converged", "degenerate",
-    "equilibrium_score", "weight_scale", "n_test", "learner_return", "demonstrator_return",
+    "equilibrium_score", "weight_scale", "n_test", "learner_return", "demonstrator_return", "learner_goal", "demonstrator_goal",
 )  # fmt: skip
 #: The columns of the alpha-vector experiment's one row (thesis Figs. 2-3).
 ALPHA_COLUMNS = ("experiment", "seed", "n_exact", "n_envelope", "n_pbvi", "n_beliefs", "max_value_gap", "seconds")
@@ -56,11 +56,14 @@ SETTING_GROUPS = ("mdp", "dynamics", "demos", "loss", "method", "pbvi", "game", 
 _INTEGERS = {"seed", "run", "n_dynamics", "n_test", "n_features", "n_demos", "n_exact", "n_envelope", "n_pbvi", "n_beliefs"}
 _FLOATS = {
     "x", "sigma", "learner_score", "demonstrator_score", "cosine_similarity", "seconds", "objective", "relative_gap", "bracket_width", "max_value_gap",
-    "equilibrium_score", "weight_scale", "learner_return", "demonstrator_return",
+    "equilibrium_score", "weight_scale", "learner_return", "demonstrator_return", "learner_goal", "demonstrator_goal",
 }  # fmt: skip
 _BOOLS = {"weight_sharing", "converged", "degenerate"}
 #: Cells that differ from one dynamics' row to the next (all others are the job's, the same in each row).
-_PER_DYNAMICS = ("dynamics", "learner_score", "demonstrator_score", "cosine_similarity", "equilibrium_score", "learner_return", "demonstrator_return")
+_PER_DYNAMICS = (
+    "dynamics", "learner_score", "demonstrator_score", "cosine_similarity", "equilibrium_score", "learner_return", "demonstrator_return",
+    "learner_goal", "demonstrator_goal",
+)  # fmt: skip
 
 
 class Damaged(Exception):
@@ -221,6 +224,8 @@ def _check_fit(folder: Path, config: dict, header: list[str], rows: list[list[st
     empty |= set() if exact and "bracket_relative_gap" in metrics else {"bracket_width"}  # a bracket on eq. 5.9's minimum (pbvi.bracket_beliefs=0: none)
     empty |= set() if metrics["scored"] else {"learner_score", "demonstrator_score", "cosine_similarity", "equilibrium_score", "learner_return", "demonstrator_return"}
     empty |= set() if _learns_reward(method) else {"cosine_similarity", "weight_scale"}  # a policy, no weights
+    goal = isinstance(metrics["dynamics"], list) and metrics["dynamics"] and isinstance(metrics["dynamics"][0], dict) and metrics["dynamics"][0].get("learner_goal") is not None
+    empty |= set() if goal and metrics["scored"] else {"learner_goal", "demonstrator_goal"}  # an environment's goal only
     _check_types(ROWS, header, rows, empty | {k for k, v in settings.items() if v == ""})
     x_key = str(config["experiment"].get("x_key") or "seed")
     x = config

@@ -84,6 +84,8 @@ def fit_rows(cfg: DictConfig, folder) -> list[dict]:
                 "n_test": ds.n_test,
                 "learner_return": np.nan if row["learner_return"] is None else row["learner_return"],
                 "demonstrator_return": np.nan if row["demonstrator_return"] is None else row["demonstrator_return"],
+                "learner_goal": np.nan if row["learner_goal"] is None else row["learner_goal"],
+                "demonstrator_goal": np.nan if row["demonstrator_goal"] is None else row["demonstrator_goal"],
                 **settings,
             }
         )

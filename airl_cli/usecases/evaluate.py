@@ -7,7 +7,7 @@ import numpy as np
 from airl_cli.core.mdp import identifiability
 from airl_cli.core.mdp.basics import discounted
 from airl_cli.core.mdp.planning import backward_induction, expected_return, optimal_expert
-from airl_cli.core.mdp.scores import cosine_similarity, mixture_performance, normalised, return_bounds
+from airl_cli.core.mdp.scores import cosine_similarity, goal_probability, mixture_performance, normalised, return_bounds
 from airl_cli.core.mdp.state_action import decision_policy, expand_transitions, policy_on_expansion
 from airl_cli.io.dataset import Dataset
 from airl_cli.usecases.state_action import expanded, expanded_policies
@@ -59,7 +59,9 @@ def score_rows(
     equilibrium: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> list[dict]:
     """Per dynamics (``scored_dynamics``: tau, tau_1..tau_D, test_1..test_E): the learner's and the
-    demonstrator's normalised performance and expected return, and cos(w, w*).
+    demonstrator's normalised performance and expected return, cos(w, w*), and, for a dataset with
+    an environment's goal (``Dataset.goal_states``), their probabilities of reaching it
+    (``learner_goal``, ``demonstrator_goal``; None without one).
 
     The demonstrator is the optimal policy of w* . phi under tau, run in each dynamics (thesis
     §4.1), or, for a dataset whose expert is each dynamics' own (``Dataset.expert`` "own"), the
@@ -90,6 +92,10 @@ def score_rows(
         row = {"dynamics": name, "learner_score": None, "demonstrator_score": None, "cosine_similarity": None}
         row["equilibrium_score"] = None
         row["learner_return"] = row["demonstrator_return"] = None
+        row["learner_goal"] = row["demonstrator_goal"] = None
+        if w_star is not None and dataset.goal_states is not None:  # an environment's goal: the chance of reaching it within the horizon
+            row["learner_goal"] = goal_probability(P, policy, dataset.initial, dataset.goal_states)
+            row["demonstrator_goal"] = goal_probability(P, expert, dataset.initial, dataset.goal_states)
         if w_star is not None:
             bounds = return_bounds(P, R, dataset.initial)  # r-bar and R-bar of this dynamics, once
             row["learner_return"] = expected_return(P, R, policy, dataset.initial)

@@ -53,6 +53,9 @@ class Problem:
     coordinates: np.ndarray | None = None  # (S, 2) grid cells (row, col), or None
     discount: float = 1.0  # gamma: step t weighted by gamma^t
     test_transitions: np.ndarray | SparseDynamics | None = None  # (E, S, A, S) held out: scored, never demonstrated
+    goal_states: np.ndarray | None = None  # (S,) bool: an environment's goal (its probability is scored)
+    environment: str | None = None  # the environment it is read from, e.g. "Taxi-v4"
+    perturbation: str | None = None  # how tau_1..tau_D (and test_e) were made from tau, in words
 
 
 def resolved_loss(settings: ProblemSettings) -> str:
@@ -190,44 +193,84 @@ def gaussian_dynamics(rng: dict[str, np.random.Generator], tau: np.ndarray, dyn)
 
 
 def env_problem(settings: ProblemSettings) -> Problem:
-    """A gymnasium or seals environment (``airl_cli.envs.named``): tau from ``mdp.value``, tau_j from
-    ``dynamics.values`` (or D copies of tau under ``dynamics=same``); no randomness."""
+    """A gymnasium or seals environment (``airl_cli.envs``): tau its own table (``mdp.value``'s
+    parameter for a named one, as registered for one by id), tau_j and the held-out dynamics by
+    ``settings.dynamics``: its parameter's values (``env_values``), action slips (``slip``), D
+    copies of tau (``same``) or, by id, Gaussian noise on every entry (``gaussian``, eq. 7.3, the
+    "dynamics" and "test" streams)."""
     mdp, dyn = settings.mdp, settings.dynamics
     assert isinstance(mdp, EnvMDPSettings)
-    if is_env_id(mdp.env):
-        return _env_by_id(settings)
-    values = dyn.values if dyn.kind == "env_values" else (mdp.value,) * dyn.n_dynamics
+    by_id = is_env_id(mdp.env)
+    try:
+        env, test = _env_by_id(settings) if by_id else _named_env(settings)
+    except ValueError as e:  # the table breaks an assumption of airl_cli.core.mdp.tabular
+        raise ConfigError(f"{mdp.env}'s transition table cannot be read as a problem: {e}") from None
+    P = env.transitions
+    if dyn.kind == "slip":
+        P = np.concatenate([P[:1], problems.action_slips(P[0], dyn.slips)])
+        test = problems.action_slips(P[0], dyn.test_values) if dyn.n_test else None
+    elif dyn.kind == "same":
+        P = np.concatenate([P[:1], np.broadcast_to(P[0], (dyn.n_dynamics,) + P.shape[1:])])
+    loss = loss_matrix(loss_kind(settings, env.features) if by_id else resolved_loss(settings), env.features)
+    environment = mdp.env if by_id else f"{mdp.name} {mdp.env}" + (f" {mdp.map_name}" if mdp.env == "FrozenLake" else "")
+    return Problem(P, env.features, env.initial, mdp.horizon, env.true_weights, loss, discount=settings.discount, test_transitions=test,
+                   goal_states=env.goal, environment=environment, perturbation=perturbation_text(mdp, dyn))
+
+
+def perturbation_text(mdp: EnvMDPSettings, dyn) -> str:
+    """How an environment's tau_1..tau_D (and test_1..test_E) are made from tau, in words."""
+    def values(vs) -> str:  # "rainy_probability = 0.6, 0.8, 1 (is_rainy=True)": the argument that varies, then the fixed ones
+        kwargs = [envs.parameter_kwargs(mdp.parameter_of, v) for v in vs]
+        varies = [k for k in kwargs[0] if len({str(kw[k]) for kw in kwargs}) > 1] or list(kwargs[0])[-1:]
+        fixed = [f"{k}={v}" for k, v in kwargs[0].items() if k not in varies]
+        shown = "; ".join(f"{k} = " + ", ".join(f"{kw[k]:g}" if isinstance(kw[k], float) else str(kw[k]) for kw in kwargs) for k in varies)
+        return shown + (f" ({', '.join(fixed)})" if fixed else "")
+
+    if dyn.kind == "env_values":
+        text = f"its own parameter, {values(dyn.values)} in tau_1..tau_{dyn.n_dynamics}" if dyn.n_dynamics > 1 else f"its own parameter, {values(dyn.values)} in tau_1"
+        return text + (f"; held out: {values(dyn.test_values)}" if dyn.n_test else "")
+    if dyn.kind == "slip":
+        text = "action slips (with probability p a uniformly drawn action's move happens), p = " + ", ".join(f"{v:g}" for v in dyn.slips)
+        return text + ("; held out: " + ", ".join(f"{v:g}" for v in dyn.test_values) if dyn.n_test else "")
+    if dyn.kind == "gaussian":
+        return f"Gaussian noise on every entry of its table (eq. 7.3), sigma = {dyn.sigma:g}: every state then reaches every other"
+    return f"{dyn.n_dynamics} copies of tau (dynamics=same)"
+
+
+def _named_env(settings: ProblemSettings) -> tuple[envs.EnvProblem, np.ndarray | None]:
+    """A named environment (``airl_cli.envs.named``): tau from ``mdp.value``, one dynamics per value
+    of ``dynamics.values`` (``env_values``; tau alone otherwise), and its held-out ones; no randomness."""
+    mdp, dyn = settings.mdp, settings.dynamics
+    values = dyn.values if dyn.kind == "env_values" else ()
     sizes = dict(map_name=mdp.map_name) if mdp.env == "FrozenLake" else {}
     if mdp.name == "seals":
         sizes = dict(width=mdp.width, height=mdp.height, horizon=mdp.horizon - 1)
-    try:
-        env = envs.env_problem(mdp.name, mdp.env, (mdp.value, *values), features=mdp.features, **sizes)
-        test = envs.env_problem(mdp.name, mdp.env, (mdp.value, *dyn.test_values), features=mdp.features, **sizes).transitions[1:] if dyn.n_test else None
-    except ValueError as e:  # the table breaks an assumption of airl_cli.core.mdp.tabular
-        raise ConfigError(f"{mdp.env}'s transition table cannot be read as a problem: {e}") from None
-    loss = loss_matrix(resolved_loss(settings), env.features)
-    return Problem(env.transitions, env.features, env.initial, mdp.horizon, env.true_weights, loss, discount=settings.discount, test_transitions=test)
+    env = envs.env_problem(mdp.name, mdp.env, (mdp.value, *values), features=mdp.features, **sizes)
+    held = dyn.kind == "env_values" and dyn.n_test
+    test = envs.env_problem(mdp.name, mdp.env, (mdp.value, *dyn.test_values), features=mdp.features, **sizes).transitions[1:] if held else None
+    return env, test
 
 
-def _env_by_id(settings: ProblemSettings) -> Problem:
-    """An environment by its gymnasium id (``airl_cli.envs.generic``): tau its own table, tau_j copies
-    of it (``dynamics=same``) or Gaussian perturbations of its rows (``dynamics=gaussian``, eq. 7.3,
-    from the "dynamics" stream), terminal states kept absorbing."""
+def _env_by_id(settings: ProblemSettings) -> tuple[envs.EnvProblem, np.ndarray | None]:
+    """An environment by its gymnasium id (``airl_cli.envs.generic``): tau its own table as registered,
+    one dynamics per parameter value made by ``gymnasium.make(id, **value)`` (``env_values``) or
+    Gaussian perturbations of tau's rows (``gaussian``; tau alone otherwise), terminal states absorbing."""
     from airl_cli.core.mdp import tabular
     from airl_cli.envs import generic as own_envs
 
     mdp, dyn = settings.mdp, settings.dynamics
-    env = own_envs.problem_of([own_envs.make_by_id(mdp.env)])
-    tau = env.transitions[0]
-    test = None
-    if dyn.kind == "gaussian":
-        drawn, held = gaussian_dynamics(streams(settings.seed), tau, dyn)
-        others = np.stack([tabular.absorbing(P, env.terminal) for P in drawn])
-        test = None if held is None else np.stack([tabular.absorbing(P, env.terminal) for P in held])
-    else:
-        others = np.broadcast_to(tau, (dyn.n_dynamics,) + tau.shape)
-    loss = loss_matrix(loss_kind(settings, env.features), env.features)
-    return Problem(np.concatenate([tau[None], others]), env.features, env.initial, mdp.horizon, env.true_weights, loss, discount=settings.discount, test_transitions=test)
+    made = [own_envs.make_by_id(mdp.env)]
+    if dyn.kind == "env_values":
+        made += [own_envs.make_by_id(mdp.env, **envs.parameter_kwargs(mdp.parameter_of, v)) for v in dyn.values + dyn.test_values]
+    env = own_envs.problem_of(made)
+    P, test = env.transitions, None
+    if dyn.kind == "env_values" and dyn.n_test:
+        P, test = P[: 1 + dyn.n_dynamics], P[1 + dyn.n_dynamics:]
+    elif dyn.kind == "gaussian":
+        drawn, held = gaussian_dynamics(streams(settings.seed), P[0], dyn)
+        P = np.concatenate([P[:1], np.stack([tabular.absorbing(Pj, env.terminal) for Pj in drawn])])
+        test = None if held is None else np.stack([tabular.absorbing(Pj, env.terminal) for Pj in held])
+    return envs.EnvProblem(P, env.features, env.initial, env.true_weights, env.terminal, env.tiles, env.goal), test
 
 
 def expert_policy(problem: Problem) -> np.ndarray:
@@ -290,9 +333,15 @@ def demonstrated(problem: Problem, demos: DemoSettings, seed: int) -> tuple[Data
         loss=problem.loss,
         discount=problem.discount,
         test_transitions=problem.test_transitions,
+        **_described(problem),
         **fields,
     )
     return dataset, policy
+
+
+def _described(problem: Problem) -> dict:
+    """The dataset keys that say what an environment's problem is (goal, environment, perturbation)."""
+    return dict(goal_states=problem.goal_states, environment=problem.environment, perturbation=problem.perturbation)
 
 
 def _demonstrated_per_action(problem: Problem, demos: DemoSettings, seed: int) -> tuple[Dataset, np.ndarray]:
@@ -308,7 +357,8 @@ def _demonstrated_per_action(problem: Problem, demos: DemoSettings, seed: int) -
         keep.update(demo_states=made.demo_states[..., 0::2].copy(), demo_actions=made.demo_actions[..., 0::2].copy())
     dataset = Dataset(
         transitions=problem.transitions, features=problem.features, initial=problem.initial, horizon=problem.horizon,
-        true_weights=problem.true_weights, loss=problem.loss, discount=problem.discount, test_transitions=problem.test_transitions, **keep,
+        true_weights=problem.true_weights, loss=problem.loss, discount=problem.discount, test_transitions=problem.test_transitions,
+        **_described(problem), **keep,
     )
     return dataset, decision_policy(policy, S)
 

@@ -45,6 +45,7 @@ def expanded(dataset: Dataset) -> Dataset:
         feature_expectations=d.feature_targets(),
         allowed_actions=allowed,
         test_transitions=None if d.test_transitions is None else expand_transitions(d.test_transitions),
+        goal_states=None if d.goal_states is None else np.concatenate([d.goal_states, np.zeros(S * A, dtype=bool)]),
     )
     _memo[:] = [(dataset, view)]
     return view

@@ -265,7 +265,8 @@ def test_generate_and_fit_on_frozenlake_and_cliffworld(tmp_path, monkeypatch):
     result = runner.invoke(app, ["generate", "mdp=gymnasium", "dynamics=env_values", "demos.n=20", "mdp.horizon=8", f"hydra.run.dir={gen}"])
     assert result.exit_code == 0, result.output
     summary = (gen / "summary.txt").read_text()
-    assert "gymnasium FrozenLake 4x4, is_slippery=True, success_rate=0.333333" in summary and "tau_3: is_slippery=True, success_rate=1" in summary
+    assert "gymnasium FrozenLake 4x4, is_slippery=True, success_rate=0.333333" in summary
+    assert "its own parameter, success_rate = 0.5, 0.75, 1 (is_slippery=True) in tau_1..tau_3" in summary
     for method in ("airl", "mce"):
         out = tmp_path / f"fit_{method}"
         result = runner.invoke(app, ["fit", f"data={gen / 'dataset.npz'}", f"method={method}", f"hydra.run.dir={out}"])
@@ -453,3 +454,121 @@ def test_taxi_by_id_reads_its_wrong_pick_up_as_a_reward_of_s_a():
     assert env.features.shape == (500, 6, 3000)
     assert set(np.unique(r)) == {-10.0, -1.0, 0.0, 20.0}  # moves, wrong pick-up/drop-off, delivery, after the end
     assert np.all(r[env.terminal] == 0.0)
+
+
+def _gymnasium_table(env_id, **kwargs):
+    """tau (S, A, S) summed from gymnasium.make(id, **kwargs).unwrapped.P, written independently of airl."""
+    gymnasium = pytest.importorskip("gymnasium")
+    env = gymnasium.make(env_id, **kwargs).unwrapped
+    S, A = env.observation_space.n, env.action_space.n
+    P = np.zeros((S, A, S))
+    for s in range(S):
+        for a in range(A):
+            for prob, nxt, _, _ in env.P[s][a]:
+                P[s, a, nxt] += prob
+    return P
+
+
+@pytest.mark.parametrize(
+    ("env_id", "kwargs"),
+    [
+        ("Taxi-v4", [dict(is_rainy=True, rainy_probability=v) for v in (0.6, 0.8, 1.0)]),
+        ("FrozenLake8x8-v1", [dict(is_slippery=True, success_rate=v) for v in (0.5, 0.75, 1.0)]),
+        ("CliffWalking-v1", [dict(is_slippery=True)]),
+    ],
+)
+def test_an_environment_by_id_is_perturbed_by_its_own_parameter(env_id, kwargs):
+    """Issue 71 item 0: by default tau_j is gymnasium.make(id, **its parameter value), so its moves
+    keep the environment's successors (equal to gymnasium's own table on every live, non-terminal
+    state); the dataset says where it comes from and how tau_j were made; the moves are of a few
+    kinds, so the exact count planner applies."""
+    from airl_cli import api
+    from airl_cli.core.mdp.sparse import sparse_dynamics
+    from airl_cli.core.mmdp.counts import move_kinds
+
+    ds = api.make_dataset("mdp=gymnasium", f"mdp.env={env_id}", "mdp.horizon=6", "demos.n=2")
+    P = np.asarray(ds.transitions)
+    assert P.shape[0] == 1 + len(kwargs) and ds.environment == env_id
+    assert "its own parameter" in ds.perturbation and list(kwargs[0])[-1] in ds.perturbation
+    tables = [_gymnasium_table(env_id)] + [_gymnasium_table(env_id, **kw) for kw in kwargs]
+    moving = ~np.all(P[0, :, :, :] == np.eye(P.shape[1])[:, None, :], axis=(1, 2))  # not made absorbing
+    for j, table in enumerate(tables):
+        assert np.allclose(P[j][moving], table[moving])
+    assert move_kinds(sparse_dynamics(P[1:])) is not None
+
+
+def test_an_environment_by_id_without_a_known_parameter_gets_action_slips():
+    pytest.importorskip("seals")
+    from airl_cli import api
+    from airl_cli.core.mdp.problems import action_slips
+
+    ds = api.make_dataset("mdp=gymnasium", "mdp.env=seals/Branching-v0", "demos.n=2")
+    P = np.asarray(ds.transitions)
+    assert np.allclose(P[1:], action_slips(P[0], [0.1, 0.2, 0.3]))
+    assert ds.perturbation.startswith("action slips") and "0.1, 0.2, 0.3" in ds.perturbation
+    slipped = api.make_dataset("mdp=gymnasium", "mdp.env=Taxi-v4", "mdp.horizon=4", "dynamics=slip", "dynamics.slips=[0.5]", "demos.n=2")
+    assert np.allclose(np.asarray(slipped.transitions)[1], action_slips(np.asarray(slipped.transitions)[0], [0.5]))
+    named = api.make_dataset("mdp=gymnasium", "mdp.env=Taxi", "dynamics=slip", "dynamics.test_slips=[0.4]", "demos.n=2", "mdp.horizon=4")
+    assert named.n_dynamics == 3 and named.n_test == 1
+
+
+def test_dynamics_an_environment_cannot_take_are_one_sentence(tmp_path, monkeypatch):
+    pytest.importorskip("seals")
+    monkeypatch.chdir(tmp_path)
+    cases = [
+        (["mdp.env=seals/Branching-v0", "dynamics=env_values"], "use dynamics=slip (action slips), dynamics=gaussian"),
+        (["mdp.env=Taxi", "dynamics=gaussian"], "use dynamics=env_values (one dynamics per value of Taxi's parameter), dynamics=slip"),
+        (["mdp.env=Taxi-v4", "dynamics=env_values", "dynamics.values=[2.0]"], "must be true or false (is_rainy) or a number between 0 and 1"),
+    ]
+    for overrides, words in cases:
+        result = runner.invoke(app, ["fit", "mdp=gymnasium", *overrides])
+        assert result.exit_code == 2 and words in result.output and len(result.output.strip().splitlines()) == 1, result.output
+    result = runner.invoke(app, ["fit", "dynamics=env_default"])
+    assert result.exit_code == 2 and "use it with mdp=gymnasium or mdp=seals" in result.output
+    assert not (tmp_path / "results").exists()
+
+
+def test_states_no_episode_reaches_keep_the_environments_reward():
+    """Issue 71 item 0: CliffWalking's cliff cells are never stood on in its own episodes; their
+    moves keep gymnasium's rewards (-1 a step, -100 into the cliff), not a zero, so Gaussian tau_j
+    that reach them do not find free cells better than the ground."""
+    gymnasium = pytest.importorskip("gymnasium")
+    from airl_cli.envs.generic import make_by_id, problem_of
+
+    env = gymnasium.make("CliffWalking-v1").unwrapped
+    r = problem_of([make_by_id("CliffWalking-v1")]).true_weights.reshape(48, 4)
+    cliff = np.flatnonzero(np.asarray(env._cliff).ravel())
+    assert cliff.size == 10
+    for s in cliff:
+        for a in range(4):
+            assert r[s, a] == sum(p * rew for p, _, rew, _ in env.P[int(s)][a]) != 0.0
+    assert np.all(r[47] == 0.0)  # the goal ends the episode
+
+
+def test_the_goal_and_the_returns_are_reported_for_an_environment(tmp_path, monkeypatch):
+    """The summary says where the problem comes from and reports returns and the probability of
+    reaching the goal; metrics.json has them per dynamics; the dataset file carries the goal."""
+    pytest.importorskip("gymnasium")
+    from airl_cli.core.mdp.planning import optimal_expert, state_marginals
+    from airl_cli.io.dataset import read_dataset
+
+    monkeypatch.chdir(tmp_path)
+    made = runner.invoke(app, ["generate", "mdp=gymnasium", "mdp.env=FrozenLake-v1", "mdp.horizon=12", "demos.n=50", "hydra.run.dir=g"])
+    assert made.exit_code == 0, made.output
+    ds = read_dataset(tmp_path / "g" / "dataset.npz")
+    assert ds.goal_states.tolist() == [False] * 15 + [True] and ds.environment == "FrozenLake-v1"
+    result = runner.invoke(app, ["fit", "data=g/dataset.npz", "method=mce", "hydra.run.dir=f"])
+    assert result.exit_code == 0, result.output
+    summary = (tmp_path / "f" / "summary.txt").read_text()
+    assert "env       FrozenLake-v1; tau_j: its own parameter, success_rate = 0.5, 0.75, 1 (is_slippery=True)" in summary
+    assert "demo goal" in summary and "return" in summary
+    rows = json.loads((tmp_path / "f" / "metrics.json").read_text())["dynamics"]
+    # the goal is absorbing here: reaching it by T-1 is being there at T-1, under the expert planned for tau
+    P, R = np.asarray(ds.transitions), ds.features @ ds.true_weights
+    expert = optimal_expert(P[0], R, ds.horizon)
+    for j, row in enumerate(rows):
+        assert row["demonstrator_goal"] == pytest.approx(state_marginals(P[j], expert, ds.initial)[-1, 15], abs=1e-12)
+        assert 0.0 <= row["learner_goal"] <= 1.0
+    assert max(r["demonstrator_goal"] for r in rows) > 0.01  # not all zero: the check above compares numbers
+    line = next(line for line in summary.splitlines() if line.strip().startswith("tau_3"))
+    assert float(line.split()[-1]) == pytest.approx(rows[-1]["demonstrator_goal"], abs=5e-4)

@@ -115,6 +115,10 @@ BAD = [
     ("feature expectations that overflow", _set("feature_expectations", lambda a: a["feature_expectations"] + 1e200), "feature_expectations"),
     ("loss whose sums overflow", _set("loss", lambda a: a["loss"] * 1e300), "loss"),  # issue 72 item 9: accepted, and w meant nothing
     ("text instead of numbers", _set("features", np.array([["a"] * K] * S)), "features"),
+    ("goal_states wrong S", _set("goal_states", np.zeros(S + 1, dtype=bool)), "goal_states"),
+    ("goal_states not 0 or 1", _set("goal_states", np.full(S, 0.5)), "goal_states"),
+    ("environment not a string", _set("environment", np.zeros(2)), "environment"),
+    ("perturbation a list of strings", _set("perturbation", np.array(["a", "b"])), "perturbation"),
 ]
 
 
@@ -126,6 +130,16 @@ def test_good_dataset_validates_and_round_trips(tmp_path):
         assert np.array_equal(back.arrays()[key], value), key
     assert back.horizon == T and back.n_dynamics == D and back.n_demos == N
     assert np.array_equal(back.feature_targets(), ds.feature_expectations)
+
+
+def test_an_environments_goal_and_words_round_trip(tmp_path):
+    a = good_arrays()
+    a.update(goal_states=np.arange(S) == S - 1, environment=np.asarray("MyGrid-v0"), perturbation=np.asarray("action slips, p = 0.1"))
+    back = read_dataset(write_dataset(tmp_path / "d.npz", validate(a)))
+    assert back.goal_states.tolist() == [False] * (S - 1) + [True]
+    assert back.environment == "MyGrid-v0" and back.perturbation == "action slips, p = 0.1"
+    a["goal_states"] = a["goal_states"].astype(np.int64)  # 0/1 numbers are read as bool
+    assert validate(a).goal_states.dtype == bool
 
 
 def test_feature_targets_are_demo_means_without_expectations():

@@ -128,7 +128,7 @@ def test_help_lists_config_groups():
 
 @pytest.mark.parametrize(
     "overrides",
-    [["mdp=windy"], ["mdp=seals"], ["mdp=gymnasium", "mdp.env=FrozenLake-v1"], ["mdp=gymnasium", "mdp.env=seals/CliffWorld7x4-v0", "dynamics.n_test=2"]],
+    [["mdp=windy"], ["mdp=seals"], ["mdp=gymnasium", "mdp.env=FrozenLake-v1"], ["mdp=gymnasium", "mdp.env=seals/CliffWorld7x4-v0", "dynamics.test_values=[0.5]"]],
 )
 def test_every_kind_of_problem_is_generated_and_described(tmp_path, overrides):
     """airl generate stopped on a traceback for the windy grid and for an environment by id: its

@@ -100,6 +100,25 @@ def gaussian_perturbations(
     return out
 
 
+def action_slips(tau: np.ndarray, slips) -> np.ndarray:
+    """Slipped dynamics: with probability p_j the move of a uniformly drawn action happens instead of
+    the one chosen, tau_j(s'|s, a) = (1 - p_j) tau(s'|s, a) + p_j (1/A) sum_b tau(s'|s, b)
+    (``dynamics=slip``; Objectworld's slip, ``objectworld.slip_dynamics``, for any table). Every
+    tau_j keeps tau's successors of each state, and an absorbing state stays absorbing.
+
+    Args:
+        tau: (S, A, S) base dynamics.
+        slips: (D,) p_j in [0, 1].
+
+    Returns:
+        (D, S, A, S) dynamics tau_1..tau_D.
+    """
+    p = np.asarray(slips, dtype=np.float64).reshape(-1, 1, 1, 1)
+    if np.any((p < 0.0) | (p > 1.0)):
+        raise ValueError(f"a slip must be between 0 and 1, got {np.ravel(p).tolist()}")
+    return (1.0 - p) * tau[None] + p * tau.mean(axis=1, keepdims=True)[None]
+
+
 # --------------------------------------------------------------------------- grid world
 
 #: Actions of the grid world, in index order.

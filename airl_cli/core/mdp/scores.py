@@ -1,11 +1,12 @@
-"""Scores of thesis §7.2: normalised performance and cosine similarity."""
+"""Scores of thesis §7.2: normalised performance and cosine similarity; and what the field reports
+for an environment with a goal, the probability of reaching it."""
 
 from __future__ import annotations
 
 import numpy as np
 
 from airl_cli.core.mdp.basics import discounted
-from airl_cli.core.mdp.planning import backward_induction, expected_return
+from airl_cli.core.mdp.planning import backward_induction, expect_next, expected_return
 from airl_cli.core.mdp.sparse import planning_form
 
 
@@ -102,3 +103,27 @@ def cosine_similarity(w: np.ndarray, w_star: np.ndarray) -> float:
     w_star = np.asarray(w_star, dtype=np.float64).ravel()
     norm = np.linalg.norm(w) * np.linalg.norm(w_star)
     return float(w @ w_star / norm) if norm > 0 else 0.0
+
+
+def goal_probability(P, policy: np.ndarray, p0: np.ndarray, goal: np.ndarray) -> float:
+    """Pr(s_t in G for some t <= T-1) under a policy: the chance of reaching the goal within the horizon.
+
+    Computed backwards as a hitting probability, h_{T-1} = 1_G and
+    h_t(s) = 1 if s in G else sum_a pi_t(a|s) sum_s' P(s'|s, a) h_{t+1}(s'), the answer p0 . h_0.
+
+    Args:
+        P: (S, A, S) dense or ``SparseModel``, the dynamics the policy is run in.
+        policy: (T-1, S) int or (T-1, S, A) float.
+        p0: (S,).
+        goal: (S,) bool, the goal states G.
+    """
+    P = planning_form(P)
+    policy = np.asarray(policy)
+    goal = np.asarray(goal, dtype=bool)
+    S = goal.size
+    h = goal.astype(np.float64)
+    for t in range(policy.shape[0] - 1, -1, -1):
+        E = expect_next(P, h)  # (S, A)
+        on = E[np.arange(S), policy[t]] if policy.ndim == 2 else np.sum(policy[t] * E, axis=1)
+        h = np.where(goal, 1.0, on)
+    return float(p0 @ h)

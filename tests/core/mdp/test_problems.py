@@ -229,3 +229,55 @@ def test_sigma_states_scales_the_perturbation_as_one_over_s():
     for bad in ("0", "1.5", "x"):
         with pytest.raises(ConfigError, match="dynamics.sigma_states"):
             problem_settings(api.config(f"dynamics.sigma_states={bad}"))
+
+
+def test_action_slips_by_hand_keep_successors_and_absorbing_states():
+    """tau_j(s'|s, a) = (1 - p) tau(s'|s, a) + p / A sum_b tau(s'|s, b), written out for a 3-state,
+    2-action table: state 2 absorbing stays so, and no tau_j reaches a state tau does not."""
+    from airl_cli.core.mdp.problems import action_slips
+
+    tau = np.zeros((3, 2, 3))
+    tau[0, 0] = [0.0, 1.0, 0.0]
+    tau[0, 1] = [0.0, 0.5, 0.5]
+    tau[1, 0] = [1.0, 0.0, 0.0]
+    tau[1, 1] = [0.0, 0.0, 1.0]
+    tau[2, :, 2] = 1.0
+    slipped = action_slips(tau, [0.0, 0.2, 1.0])
+    assert slipped.shape == (3, 3, 2, 3)
+    assert np.array_equal(slipped[0], tau)  # p = 0: tau itself
+    # p = 0.2, state 0, action 0: 0.8 * (0, 1, 0) + 0.1 * ((0, 1, 0) + (0, 0.5, 0.5))
+    assert np.allclose(slipped[1, 0, 0], [0.0, 0.95, 0.05])
+    assert np.allclose(slipped[1, 1, 1], [0.1, 0.0, 0.9])
+    assert np.allclose(slipped[2, 0, 0], slipped[2, 0, 1])  # p = 1: the action no longer matters
+    assert np.all(slipped[:, 2, :, 2] == 1.0)
+    support = tau.sum(axis=1, keepdims=True) > 0  # the successors of each state under some action
+    assert not np.any((slipped > 0) & ~support[None])
+    assert np.allclose(slipped.sum(axis=-1), 1.0)
+    with pytest.raises(ValueError, match="between 0 and 1"):
+        action_slips(tau, [1.5])
+
+
+def test_goal_probability_equals_enumeration_of_every_path():
+    """Pr(some s_t in G, t <= T-1) against the sum over every state path of its probability, for a
+    deterministic and a stochastic time-dependent policy, dense and sparse dynamics."""
+    from itertools import product
+
+    from airl_cli.core.mdp.scores import goal_probability
+    from airl_cli.core.mdp.sparse import sparse_dynamics
+
+    rng = np.random.default_rng(4)
+    S, A, T = 4, 2, 4
+    P = rng.dirichlet(np.full(S, 0.5), size=(S, A))
+    p0 = rng.dirichlet(np.ones(S))
+    goal = np.array([False, False, True, True])
+    for policy in (rng.integers(0, A, size=(T - 1, S)), rng.dirichlet(np.ones(A), size=(T - 1, S))):
+        rule = policy if policy.ndim == 3 else np.eye(A)[policy]
+        exact = 0.0
+        for path in product(range(S), repeat=T):
+            prob = p0[path[0]]
+            for t in range(T - 1):
+                prob *= rule[t, path[t]] @ P[path[t], :, path[t + 1]]
+            exact += prob * any(goal[s] for s in path)
+        assert goal_probability(P, policy, p0, goal) == pytest.approx(exact, abs=1e-12)
+        assert goal_probability(sparse_dynamics(P[None])[0], policy, p0, goal) == pytest.approx(exact, abs=1e-12)
+    assert goal_probability(P, np.zeros((T - 1, S), dtype=int), p0, np.zeros(S, dtype=bool)) == 0.0
