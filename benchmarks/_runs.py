@@ -37,6 +37,10 @@ class TimedOut(Exception):
     """A command ran past its time limit (it was stopped)."""
 
 
+class Refused(SystemExit):
+    """airl refused the command (exit status 2): its one sentence is the message."""
+
+
 def run(args: list[str], timeout: float | None = None) -> tuple[float, int]:
     """Run ``airl ARGS`` in a fresh process: (wall seconds, its peak resident memory in bytes).
 
@@ -59,7 +63,10 @@ def run(args: list[str], timeout: float | None = None) -> tuple[float, int]:
         proc.returncode = os.waitstatus_to_exitcode(status)
         if proc.returncode != 0:
             err.seek(0)
-            raise SystemExit(f"airl {' '.join(args)} failed:\n{err.read()}")
+            text = err.read()
+            if proc.returncode == 2 and text.strip():
+                raise Refused(text.strip().splitlines()[-1].removeprefix("error: "))
+            raise SystemExit(f"airl {' '.join(args)} failed:\n{text}")
     return wall, usage.ru_maxrss * 1024
 
 

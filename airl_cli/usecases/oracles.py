@@ -49,7 +49,7 @@ def choose_planner(problem: GameProblem, planner: PlannerOptions, *, optimizer: 
             f"the moves are of {kinds.n_kinds} kinds, so the posterior over the models is a count of them: "
             f"the count program plans the adversary exactly ({nodes:,} nodes)",
         )
-    why = "every move its own kind" if kinds is None else f"{counts.n_nodes(dyn.probs.shape[1], kinds.n_kinds, problem.horizon):,} count nodes, above {counts.MAX_NODES:,}"
+    why = "every move its own kind" if kinds is None else f"more than {counts.MAX_NODES:,} count nodes"
     return PlannerChoice(pbvi, f"the moves are of too many kinds for the exact count program ({why}): PBVI, closed by the bracket (on its grid of beliefs where that fits)")
 
 

@@ -23,7 +23,7 @@ with). The answer is the optimum of eq. 6.1, not a bound: every posterior reacha
 Where the moves point in more directions (a dense random MDP: every (s, a, s') its own), the
 count space grows as t^(n-1) and ``program`` returns None; PBVI is the planner there.
 
-Kinds are found by normalising every likelihood vector to sum 1 and grouping vectors equal to
+Kinds are found (``count_layers``) by normalising every likelihood vector to sum 1 and grouping vectors equal to
 ``KIND_TOL``; the backup uses each move's own probabilities, so the values are those of the policy
 found, exactly, and only its optimality rests on the grouping.
 
@@ -34,96 +34,26 @@ Shapes: dynamics as ``SparseDynamics`` (next states (S, R), probabilities (M, S,
 from __future__ import annotations
 
 from dataclasses import dataclass
-from math import comb
 
 import numba
 import numpy as np
 
 from airl_cli.core.mdp.sparse import SparseDynamics, sparse_dynamics
+from airl_cli.core.mmdp.count_layers import (  # noqa: F401  (count_tables, n_nodes, posteriors: the program's layers, used by its callers)
+    KIND_TOL,
+    POSTERIOR_TOL,
+    Kinds,
+    count_tables,
+    move_kinds,
+    n_nodes,
+    posterior_tables,
+    posteriors,
+)
 from airl_cli.core.mmdp.policy_graph import LayeredRewards, layered_rewards
 
-#: Two normalised likelihood vectors closer than this (max entry difference) are one kind of move.
-KIND_TOL = 1e-9
 #: ``program`` declines above this many (t, s, c) nodes (its memory: two action bytes per node, two
 #: layers of values and, while a layer is backed up, the next one's seen through each kind of move).
 MAX_NODES = 30_000_000
-
-
-@dataclass(frozen=True)
-class Kinds:
-    """The kinds of move of a dynamics.
-
-    Attributes:
-        kind: (S, A, R) int, the kind of the move to ``next_states[s, r]`` (-1 where no model moves there).
-        directions: (n, M) each kind's likelihood vector, normalised to sum 1.
-    """
-
-    kind: np.ndarray
-    directions: np.ndarray
-
-    @property
-    def n_kinds(self) -> int:
-        return int(self.directions.shape[0])
-
-
-def move_kinds(dyn: SparseDynamics, max_kinds: int = 12) -> Kinds | None:
-    """The kinds of move of ``dyn`` (module docstring), or None when there are more than ``max_kinds``."""
-    probs = np.asarray(dyn.probs, dtype=np.float64)  # (M, S, A, R)
-    M = probs.shape[0]
-    L = np.moveaxis(probs, 0, -1).reshape(-1, M)
-    total = L.sum(axis=1)
-    moves = total > 0
-    directions = L[moves] / total[moves, None]
-    keys = np.round(directions / KIND_TOL).astype(np.int64)
-    _, first, inverse = np.unique(keys, axis=0, return_index=True, return_inverse=True)
-    if first.size > max_kinds:
-        return None
-    reps = directions[first]
-    if np.abs(directions - reps[inverse.reshape(-1)]).max(initial=0.0) > KIND_TOL:
-        return None  # rounding split or merged two directions unevenly: do not trust the grouping
-    kind = np.full(L.shape[0], -1, dtype=np.int64)
-    kind[moves] = inverse.reshape(-1)
-    return Kinds(kind.reshape(probs.shape[1:]), reps)
-
-
-def count_tables(n: int, horizon: int) -> tuple[list[np.ndarray], list[np.ndarray]]:
-    """The count vectors c (|c| = t) of each layer t = 0..T-1 and, for t < T-1, the index in
-    layer t+1 of c + e_k: (``counts[t]`` (C_t, n), ``successor[t]`` (C_t, n))."""
-    counts = [np.zeros((1, n), dtype=np.int64)]
-    successor = []
-    eye = np.eye(n, dtype=np.int64)
-    for t in range(1, horizon):
-        prev = counts[-1]
-        keys = (prev[:, None, :] + eye[None, :, :]).reshape(-1, n)  # c_i + e_k in the order (i, k), each summing to t
-        if n * np.log2(t + 1) < 62:  # one integer per vector (its digits in base t + 1): a 1-d unique, far faster
-            _, first, inverse = np.unique(keys @ (t + 1) ** np.arange(n, dtype=np.int64), return_index=True, return_inverse=True)
-        else:
-            _, first, inverse = np.unique(keys, axis=0, return_index=True, return_inverse=True)
-        order = np.argsort(first, kind="stable")  # numbered in order of first appearance, as a loop over (i, k) numbers them
-        rank = np.empty(order.size, dtype=np.int64)
-        rank[order] = np.arange(order.size)
-        successor.append(rank[inverse.reshape(-1)].reshape(prev.shape[0], n))
-        counts.append(keys[first[order]])
-    return counts, successor
-
-
-def n_nodes(S: int, n: int, horizon: int) -> int:
-    """sum_t S C(t + n - 1, n - 1): the (t, s, c) nodes of the dynamic program."""
-    return S * comb(horizon - 1 + n, n)
-
-
-def posteriors(counts: np.ndarray, directions: np.ndarray, prior: np.ndarray) -> np.ndarray:
-    """(C, M) b(c) ~ prior (.) prod_k v_k^c_k, normalised (zero rows where no model reaches c)."""
-    with np.errstate(divide="ignore"):
-        log_v = np.log(directions)  # (n, M), -inf where a model never makes that move
-        log_p = np.log(prior)
-    finite = np.isfinite(log_v)
-    log_b = log_p[None, :] + counts @ np.where(finite, log_v, 0.0)
-    never = (counts > 0).astype(np.float64) @ (~finite).astype(np.float64) > 0  # (C, M): a move this model never makes (float: BLAS)
-    log_b = np.where(never, -np.inf, log_b)
-    top = log_b.max(axis=1, keepdims=True)
-    b = np.where(np.isfinite(top), np.exp(log_b - np.where(np.isfinite(top), top, 0.0)), 0.0)
-    return b / np.maximum(b.sum(axis=1, keepdims=True), 1e-300)
 
 
 @dataclass(frozen=True)
@@ -153,14 +83,17 @@ class CountProgram:
         prior: (M,) or None (uniform: the objective is the sum over the models).
     """
 
-    def __init__(self, dyn: SparseDynamics, kinds: Kinds, horizon: int, prior: np.ndarray | None = None):
+    def __init__(self, dyn: SparseDynamics, kinds: Kinds, horizon: int, prior: np.ndarray | None = None,
+                 tables: tuple[list[np.ndarray], list[np.ndarray], list[np.ndarray]] | None = None):
         M = dyn.probs.shape[0]
         self.reach = np.ascontiguousarray(dyn.next_states, dtype=np.int64)
         self.probs = np.ascontiguousarray(dyn.probs, dtype=np.float64)
         self.kinds, self.horizon, self.prior = kinds, horizon, prior
-        self.counts, self.successor = count_tables(kinds.n_kinds, horizon)
         w = np.full(M, 1.0 / M) if prior is None else np.asarray(prior, dtype=np.float64)
-        beliefs = [posteriors(c, kinds.directions, w) for c in self.counts]
+        if tables is None:
+            tables = posterior_tables(kinds, horizon, w)
+        assert tables is not None
+        self.counts, beliefs, self.successor = tables
         self.last_beliefs = beliefs[-1]
         # the backup's layouts, counts last (``_backup`` runs along them): (M, C) b(c), (n, C) b(c) . v_k and c + e_k
         self.beliefs_T = [np.ascontiguousarray(b.T) for b in beliefs[:-1]]
@@ -168,7 +101,7 @@ class CountProgram:
         self.successor_T = [np.ascontiguousarray(k.T) for k in self.successor]
         self.kind = np.ascontiguousarray(kinds.kind)
         self.scale = self.probs.sum(axis=0)  # (S, A, R): lambda, P(s'|s, a) = lambda v_k
-        self.n_nodes = n_nodes(self.probs.shape[1], kinds.n_kinds, horizon)
+        self.n_nodes = self.probs.shape[1] * sum(c.shape[0] for c in self.counts)  # (t, s, b) nodes
         self._scratch: tuple[np.ndarray, np.ndarray] | None = None  # ``_forward``'s, made at the first ``solve``
 
     def _forward_scratch(self) -> tuple[np.ndarray, np.ndarray]:
@@ -210,18 +143,22 @@ def program(dyn: SparseDynamics, horizon: int, prior: np.ndarray | None = None, 
     """The count program of ``dyn`` over ``horizon`` layers, or None when its moves have more than
     ``max_kinds`` kinds or the program more than ``max_nodes`` nodes (PBVI is the planner there)."""
     kinds = move_kinds(dyn, max_kinds)
-    if kinds is None or n_nodes(dyn.probs.shape[1], kinds.n_kinds, horizon) > max_nodes:
-        return None
-    return CountProgram(dyn, kinds, horizon, prior)
+    tables = None if kinds is None else _tables(dyn, kinds, horizon, prior, max_nodes)
+    return None if tables is None else CountProgram(dyn, kinds, horizon, prior, tables)
+
+
+def _tables(dyn: SparseDynamics, kinds: Kinds, horizon: int, prior: np.ndarray | None, max_nodes: int):
+    """``posterior_tables`` for ``dyn``'s program, None above ``max_nodes`` (t, s, b) nodes."""
+    M, S = dyn.probs.shape[0], dyn.probs.shape[1]
+    w = np.full(M, 1.0 / M) if prior is None else np.asarray(prior, dtype=np.float64)
+    return posterior_tables(kinds, horizon, w, max_vectors=max_nodes // S)
 
 
 def program_size(dyn: SparseDynamics, horizon: int, *, max_kinds: int = 12, max_nodes: int = MAX_NODES) -> int | None:
     """The nodes of the count program of ``dyn`` over ``horizon`` layers, or None where ``program`` declines."""
     kinds = move_kinds(dyn, max_kinds)
-    if kinds is None:
-        return None
-    size = n_nodes(dyn.probs.shape[1], kinds.n_kinds, horizon)
-    return size if size <= max_nodes else None
+    tables = None if kinds is None else _tables(dyn, kinds, horizon, None, max_nodes)
+    return None if tables is None else dyn.probs.shape[1] * sum(c.shape[0] for c in tables[0])
 
 
 def declined_sentence(dyn: SparseDynamics, horizon: int, max_kinds: int = 12, max_nodes: int = MAX_NODES) -> str:
@@ -230,9 +167,8 @@ def declined_sentence(dyn: SparseDynamics, horizon: int, max_kinds: int = 12, ma
     if kinds is None:
         return (f"the exact count planner needs the posterior over the models to be a count of a few kinds of move (at most "
                 f"{max_kinds}), and these dynamics' moves point in more directions (a dense random MDP: every move its own); use PBVI")
-    need = n_nodes(dyn.probs.shape[1], kinds.n_kinds, horizon)
-    return (f"the exact count planner would need {need:,} nodes ({kinds.n_kinds} kinds of move over T = {horizon}), above its "
-            f"{max_nodes:,}; use PBVI")
+    return (f"the exact count planner would need more than {max_nodes:,} nodes (the posteriors that {kinds.n_kinds} kinds of move "
+            f"reach over T = {horizon}, at each of {dyn.probs.shape[1]:,} states); use PBVI")
 
 
 def solve_counts(transitions, rewards: np.ndarray, initial: np.ndarray, *, horizon: int | None = None, discount: float = 1.0,

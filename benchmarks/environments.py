@@ -1,0 +1,118 @@
+"""The field's tabular environments by id, every method: `python benchmarks/environments.py [--envs ID ...] [--methods NAME ...]`.
+
+For each environment (gymnasium's toy-text ids with a transition table and seals' tabular ones) the
+script writes one dataset file with `airl generate mdp=gymnasium mdp.env=ID` (its own episode limit
+as the horizon, its default dynamics: the environment's own parameter, or action slips), then fits
+it with each method in a fresh process on every core, as a user runs it, and prints one row per
+(environment, method): the process time, the peak resident memory, the learner's and the
+demonstrator's normalised score, expected return and probability of reaching the goal under tau
+and averaged over tau_1..tau_D, and, for the thesis's method, the bracket's relative width on eq. 5.9's
+minimum and its iterations. A fit past ``--timeout`` seconds, or one that airl refuses (a problem
+too large for memory), is a row that says so. ``--json FILE`` writes the rows with the commit, the
+machine and the command (docs/numbers/environments.json: the environments' pages render from it).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import tempfile
+from pathlib import Path
+
+from rich.console import Console
+from rich.table import Table
+
+from _runs import Refused, TimedOut, fit_row, provenance, run
+
+console = Console(width=220)
+
+ENVS = ("FrozenLake-v1", "FrozenLake8x8-v1", "CliffWalking-v1", "Taxi-v4", "seals/CliffWorld7x4-v0", "seals/Branching-v0", "seals/RiskyPath-v0")
+METHODS = ("airl", "mce", "robust_mce", "projection", "mmp", "bc")
+
+COLUMNS = (
+    "env", "S", "A", "T", "D", "method", "process s", "peak MB", "bracket width", "iterations",
+    "score tau", "score tau_j", "demo score tau_j", "return tau_j", "demo return tau_j", "goal tau_j", "demo goal tau_j",
+)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--envs", nargs="+", default=list(ENVS), help=f"environment ids (default: {', '.join(ENVS)})")
+    parser.add_argument("--methods", nargs="+", default=list(METHODS), help=f"methods (default: {', '.join(METHODS)})")
+    parser.add_argument("--timeout", type=float, default=600.0, help="seconds a fit may take (its row then says so)")
+    parser.add_argument("--json", type=Path, default=None, help="also write the rows to this file")
+    args = parser.parse_args()
+    os.environ.pop("NUMBA_NUM_THREADS", None)
+    made_by = provenance(sys.argv)
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        root = Path(tmp)
+        run(["fit", "mdp.n_states=5", "mdp.horizon=4", f"hydra.run.dir={root / 'warm'}"])  # numba's kernels compiled outside the measurements
+        for env in args.envs:
+            folder = root / env.replace("/", "_")
+            run(["generate", "mdp=gymnasium", f"mdp.env={env}", f"hydra.run.dir={folder / 'gen'}"])
+            for method in args.methods:
+                rows.append(measure(env, method, folder / "gen" / "dataset.npz", folder / method, args.timeout))
+    table = Table(title="the environments by id at their own horizon, every method (whole processes, all cores)")
+    for col in COLUMNS:
+        table.add_column(col, justify="right")
+    for row in rows:
+        table.add_row(*(_cell(row.get(c)) for c in COLUMNS))
+    console.print(table)
+    if args.json is not None:
+        args.json.write_text(json.dumps({**made_by, "rows": rows}, indent=1) + "\n")
+
+
+def measure(env: str, method: str, file: Path, folder: Path, timeout: float) -> dict:
+    """One fit of ``file`` by ``method`` in a fresh process: its row (``COLUMNS``)."""
+    row: dict = {"env": env, "method": method, **_sizes(file)}
+    try:
+        wall, peak = run(["fit", f"data={file}", f"method={method}", f"hydra.run.dir={folder}"], timeout)
+    except TimedOut:
+        row["process s"] = f"> {timeout:g}"
+        console.print(f"done {env} {method}: past {timeout:g} s")
+        return row
+    except Refused as refused:
+        row["process s"] = "refused"
+        row["refusal"] = str(refused)
+        console.print(f"done {env} {method}: refused: {refused}")
+        return row
+    m = fit_row(folder)["metrics"]
+    by = {r["dynamics"]: r for r in m["dynamics"]}
+    demo = [r for name, r in by.items() if name.startswith("tau_")]
+
+    def mean(key: str, rs: list[dict]):
+        vals = [r[key] for r in rs if r.get(key) is not None]
+        return sum(vals) / len(vals) if vals else None
+
+    row.update({
+        "process s": wall, "peak MB": peak / 2**20, "bracket width": m.get("bracket_relative_gap"), "iterations": m.get("iterations"),
+        "score tau": by["tau"]["learner_score"], "score tau_j": mean("learner_score", demo), "demo score tau_j": mean("demonstrator_score", demo),
+        "return tau_j": mean("learner_return", demo), "demo return tau_j": mean("demonstrator_return", demo),
+        "goal tau_j": mean("learner_goal", demo), "demo goal tau_j": mean("demonstrator_goal", demo),
+    })
+    console.print(f"done {env} {method}: " + ", ".join(f"{c} {_cell(row.get(c))}" for c in COLUMNS[6:]))
+    return row
+
+
+def _sizes(file: Path) -> dict:
+    """S, A, T and D of the dataset file."""
+    import numpy as np
+
+    with np.load(file) as z:
+        shape = z["transitions"].shape if "transitions" in z.files else z["transition_probs"].shape
+        return {"S": int(shape[1]), "A": int(shape[2]), "T": int(z["horizon"]), "D": int(shape[0]) - 1}
+
+
+def _cell(x) -> str:
+    if x is None:
+        return "-"
+    if isinstance(x, float):
+        return f"{x:.1e}" if 0 < abs(x) < 1e-2 else f"{x:.3g}" if abs(x) < 10 else f"{x:.1f}"
+    return str(x)
+
+
+if __name__ == "__main__":
+    main()
