@@ -112,3 +112,16 @@ def test_every_method_on_an_environment_that_pays_per_action(env, T, extra, meth
         rows = api.score(dataset, api.fit(dataset, f"method={method}"))
         assert rows.learner_score.between(0.0, 1.0).all() and rows.demonstrator_score.iloc[0] == pytest.approx(1.0)
         assert rows.learner_score.iloc[0] > 0.75, (method, rows.learner_score.tolist())
+
+
+def test_discounted_feature_targets_of_s_a_are_weighted_visits(data):
+    """With a discount, step t's phi(s_t, a_t) counts gamma^t (summed by visits of (s, a), not per step)."""
+    from dataclasses import replace
+
+    dataset = replace(data[0], discount=0.9)
+    by_hand = np.zeros((D, K))
+    for j in range(D):
+        for n in range(dataset.n_demos):
+            for t in range(T - 1):
+                by_hand[j] += 0.9**t * dataset.features[dataset.demo_states[j, n, t], dataset.demo_actions[j, n, t]]
+    assert np.allclose(dataset.feature_targets(), by_hand / dataset.n_demos, atol=1e-12)

@@ -89,3 +89,64 @@ def state_marginals(nxt, probs, policy, p0):  # pragma: no cover - compiled
             for r in range(Rm):
                 d[t + 1, nxt[s, r]] += mass * probs[s, a, r]
     return d
+
+
+@njit(cache=True)
+def soft_backward_sa(nxt, probs, R, discount):  # pragma: no cover - compiled
+    """Soft value iteration with rewards of (s, a) (``planning.soft_backward_induction_sa``):
+    Q_t(s, a) = R[t, s, a] + gamma sum_r probs[s, a, r] V[t+1, nxt[s, r]], V_t(s) = log sum_a exp Q_t(s, a)
+    (shifted by its largest term), pi_t(a | s) = exp(Q_t(s, a) - V_t(s)), V[T-1] = 0.
+
+    Args: nxt (S, R) int64; probs (S, A, R); R (T-1, S, A); discount gamma.
+
+    Returns: policy (T-1, S, A) and V (T, S).
+    """
+    S, A, Rm = probs.shape
+    T1 = R.shape[0]
+    V = np.zeros((T1 + 1, S))
+    policy = np.empty((T1, S, A))
+    Q = np.empty(A)
+    for t in range(T1 - 1, -1, -1):
+        Vn = V[t + 1]
+        for s in range(S):
+            top = -np.inf
+            for a in range(A):
+                acc = 0.0
+                for r in range(Rm):
+                    acc += probs[s, a, r] * Vn[nxt[s, r]]
+                Q[a] = R[t, s, a] + discount * acc
+                top = max(top, Q[a])
+            if not np.isfinite(top):  # as soft_max_rows: no shift by an infinite maximum
+                top = 0.0
+            total = 0.0
+            for a in range(A):
+                total += np.exp(Q[a] - top)
+            v = top + np.log(total)
+            V[t, s] = v
+            for a in range(A):
+                policy[t, s, a] = np.exp(Q[a] - v)
+    return policy, V
+
+
+@njit(cache=True)
+def stochastic_marginals(nxt, probs, policy, p0):  # pragma: no cover - compiled
+    """d[t+1, s'] = sum_{s, a} d[t, s] policy[t, s, a] P(s' | s, a) from d[0] = p0.
+
+    Args: nxt (S, R) int64; probs (S, A, R); policy (T-1, S, A); p0 (S,).
+
+    Returns: d (T, S).
+    """
+    S, A, Rm = probs.shape
+    T = policy.shape[0] + 1
+    d = np.zeros((T, S))
+    d[0] = p0
+    for t in range(T - 1):
+        for s in range(S):
+            mass = d[t, s]
+            if mass == 0.0:
+                continue
+            for a in range(A):
+                m = mass * policy[t, s, a]
+                for r in range(Rm):
+                    d[t + 1, nxt[s, r]] += m * probs[s, a, r]
+    return d

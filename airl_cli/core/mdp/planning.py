@@ -115,6 +115,10 @@ def soft_backward_induction_sa(P, R: np.ndarray, *, discount: float = 1.0) -> tu
     """
     P = _dynamics(P)
     R = np.asarray(R, dtype=np.float64)
+    if isinstance(P, SparseModel):  # compiled: a numpy step per t cost more than its arithmetic (Taxi-v4 at T = 201)
+        from airl_cli.core.mdp import _sparse_kernels
+
+        return _sparse_kernels.soft_backward_sa(P.safe_next, np.ascontiguousarray(P.probs), np.ascontiguousarray(R), float(discount))
     T1, S, A = R.shape
     V = np.zeros((T1 + 1, S))
     policy = np.empty((T1, S, A))
@@ -200,10 +204,12 @@ def state_marginals(P: np.ndarray, policy: np.ndarray, p0: np.ndarray) -> np.nda
     """
     P = _dynamics(P)
     policy = np.asarray(policy)
-    if isinstance(P, SparseModel) and policy.ndim == 2:  # a deterministic policy: compiled
+    if isinstance(P, SparseModel):  # compiled
         from airl_cli.core.mdp import _sparse_kernels
 
-        return _sparse_kernels.state_marginals(P.safe_next, np.ascontiguousarray(P.probs), np.ascontiguousarray(policy, dtype=np.int64), np.ascontiguousarray(p0, dtype=np.float64))
+        if policy.ndim == 2:  # a deterministic policy
+            return _sparse_kernels.state_marginals(P.safe_next, np.ascontiguousarray(P.probs), np.ascontiguousarray(policy, dtype=np.int64), np.ascontiguousarray(p0, dtype=np.float64))
+        return _sparse_kernels.stochastic_marginals(P.safe_next, np.ascontiguousarray(P.probs), np.ascontiguousarray(policy, dtype=np.float64), np.ascontiguousarray(p0, dtype=np.float64))
     T = policy.shape[0] + 1
     S, A = P.shape[0], P.shape[1]
     d = np.empty((T, S))
