@@ -37,6 +37,7 @@ SOURCES: dict[str, list[str]] = {
                     "--timeout", "400", "--json", "docs/numbers/default_fit.json"],
     "first_fit": ["benchmarks/first_fit.py", "--json", "docs/numbers/first_fit.json"],
     "test_suite": ["benchmarks/test_suite.py", "--json", "docs/numbers/test_suite.json"],
+    "environments": ["benchmarks/environments.py", "--timeout", "300", "--json", "docs/numbers/environments.json"],
 }
 
 BLOCK = re.compile(r"<!-- numbers (?P<source>[\w-]+)\n(?P<template>.*?)\n-->\n(?P<text>.*?)<!-- /numbers -->", re.DOTALL)
@@ -87,7 +88,7 @@ def load(source: str, folder: Path = NUMBERS) -> dict:
     if not path.is_file():
         raise NumbersError(f"no {path.relative_to(ROOT) if path.is_relative_to(ROOT) else path}: run python benchmarks/pages.py --only {source}")
     values = json.loads(path.read_text())
-    if isinstance(values.get("rows"), list):  # a benchmark's rows, also by their case's name
+    if isinstance(values.get("rows"), list) and all("case" in row for row in values["rows"]):  # a benchmark's rows, also by their case's name
         values["by_case"] = {row["case"]: row for row in values["rows"]}
     if source in TABLES:
         values["table"] = TABLES[source](values)
@@ -212,7 +213,31 @@ def _suite_minutes(values: dict) -> dict:
     return {f"{name}_minutes": values[name]["seconds"] / 60 for name in ("fast_cold", "fast_warm", "slow")}
 
 
-TABLES = {"default_fit": _default_fit_tables, "first_fit": _first_fit_excerpts, "test_suite": _suite_minutes}
+def _environment_tables(values: dict) -> dict:
+    """The environments' table (benchmarks/environments.py's rows): one row per environment and method."""
+    head = ["environment", "S, A, T, D", "method", "process s", "peak MB", "bracket width", "score τ", "score $\\tau_j$",
+            "return $\\tau_j$ (demo)", "goal $\\tau_j$ (demo)"]
+    lines = ["| " + " | ".join(head) + " |", "| --- | --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: |"]
+    for r in values["rows"]:
+        size = f"{r['S']:,}, {r['A']}, {r['T']}, {r['D']}"
+        if isinstance(r["process s"], str):  # past the time limit, or refused
+            shown = r["process s"].replace(">", "&gt;")
+            cells = [shown, "—", "—", "—", "—", "—", "—"]
+        else:
+            demo_return = "" if r["demo return tau_j"] is None else f" ({_cell(r['demo return tau_j'], '.3g')})"
+            demo_goal = "" if r["demo goal tau_j"] is None else f" ({_cell(r['demo goal tau_j'], '.3f')})"
+            cells = [_cell(r["process s"], ".1f"), _cell(r["peak MB"], ",.0f"), _cell(r["bracket width"], "e1"),
+                     _cell(r["score tau"], ".3f"), _cell(r["score tau_j"], ".3f"),
+                     _cell(r["return tau_j"], ".3g") + demo_return, _cell(r["goal tau_j"], ".3f") + demo_goal]
+        lines.append("| " + " | ".join([r["env"], size, r["method"], *cells]) + " |")
+    airl = {r["env"]: r for r in values["rows"] if r["method"] == "airl"}
+    mce = {r["env"]: r for r in values["rows"] if r["method"] == "mce"}
+    ratio = {env: airl[env]["process s"] / mce[env]["process s"] for env in airl
+             if env in mce and not isinstance(airl[env]["process s"], str) and not isinstance(mce[env]["process s"], str)}
+    return {"table": "\n".join(lines), "ratio": {env: _cell(x, "x1") for env, x in ratio.items()}}
+
+
+TABLES = {"default_fit": _default_fit_tables, "first_fit": _first_fit_excerpts, "test_suite": _suite_minutes, "environments": _environment_tables}
 
 
 # --------------------------------------------------------------------------- the MkDocs hook
