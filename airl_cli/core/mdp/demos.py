@@ -137,6 +137,31 @@ def feature_sums(states: np.ndarray, phi: np.ndarray, *, discount: float = 1.0) 
     return np.einsum("...tk,t->...k", phi[states], weights)
 
 
+def action_feature_means(states: np.ndarray, actions: np.ndarray, phi: np.ndarray, *, discount: float = 1.0) -> np.ndarray:
+    """The demonstrations' mean feature sum with features of a state and an action,
+    (1/N) sum_n sum_t gamma^t phi(s_t, a_t) over the T-1 steps where an action is taken.
+
+    Args:
+        states: (D, N, T) int; actions: (D, N, T-1) int.
+        phi: (S, A, K), or (T-1, S, A, K) time-dependent phi_t(s, a).
+        discount: gamma in (0, 1].
+
+    Returns:
+        (D, K).
+    """
+    D, N, T = states.shape
+    weights = discount ** np.arange(T - 1, dtype=np.float64)
+    if phi.ndim == 4:  # phi_t(s_t, a_t): step t's own features
+        return np.einsum("t,dntk->dk", weights, phi[np.arange(T - 1), states[..., :-1], actions]) / N
+    S, A, K = phi.shape
+    pairs = states[..., :-1] * A + actions  # (D, N, T-1): (s, a) as s A + a
+    visits = np.zeros((D, S * A))  # weighted visits of (s, a), then times phi: gathering phi per step held D N (T-1) K floats
+    step = np.broadcast_to(weights, pairs.shape[1:]).ravel()
+    for j in range(D):
+        np.add.at(visits[j], pairs[j].ravel(), step)
+    return visits @ phi.reshape(S * A, K) / N
+
+
 def expected_feature_sums(P: np.ndarray, policy: np.ndarray, p0: np.ndarray, phi: np.ndarray, *, discount: float = 1.0) -> np.ndarray:
     """Exact expected feature sum E[sum_t gamma^t phi(s_t)] of a policy under each dynamics.
 
