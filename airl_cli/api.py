@@ -25,6 +25,7 @@ from omegaconf import DictConfig
 
 from airl_cli.io.dataset import Dataset, read_dataset, write_dataset
 from airl_cli.io.results_table import read_results_table
+from airl_cli.methods import REGISTRY
 from airl_cli.settings.config import fit_settings, loss_and_seed, problem_settings
 from airl_cli.settings.hydra_internals import launcher_discoverable
 from airl_cli.settings.paths import conf_dir
@@ -108,7 +109,8 @@ def fit(dataset: Dataset, *overrides: str, callback=None, planner_progress=None)
     cfg = config(*overrides)
     settings = fit_settings(cfg)
     loss, seed = loss_and_seed(cfg)
-    dataset = with_loss(dataset, loss)
+    if REGISTRY[settings.method].uses_loss:  # the others never read L (S, S)
+        dataset = with_loss(dataset, loss)
     rng = learner_rng(seed, settings.method)
     return learn(dataset, settings, rng, callback=callback, planner_progress=planner_progress)
 

@@ -17,6 +17,7 @@ from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from airl_cli.io.dataset import Dataset, read_dataset, write_dataset
 from airl_cli.io.files import atomic_write, write_json, write_text
 from airl_cli.jobs.common import check_memory, err_console, out_console, output_dir, run_job, save_config, size_note, vector_text, warm_up
+from airl_cli.methods import REGISTRY
 from airl_cli.plain_progress import PlainProgress
 from airl_cli.settings.config import FitSettings, fit_settings, loss_and_seed, problem_settings
 from airl_cli.settings.paths import conf_dir
@@ -35,7 +36,7 @@ def load_dataset(cfg: DictConfig, settings: FitSettings) -> tuple[Dataset, int, 
     loss, seed = loss_and_seed(cfg)
     dataset = read_dataset(settings.data)
     name = "file" if loss == "auto" and dataset.loss is not None else ("zero_one" if loss == "auto" else loss)
-    return with_loss(dataset, loss), seed, False, name
+    return (with_loss(dataset, loss) if REGISTRY[settings.method].uses_loss else dataset), seed, False, name
 
 
 def check(cfg: DictConfig, overrides: list[str] = ()) -> list[str]:
