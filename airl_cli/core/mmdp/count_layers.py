@@ -130,7 +130,7 @@ def posterior_tables(kinds: Kinds, horizon: int, prior: np.ndarray, max_vectors:
         b = posteriors(cand, kinds.directions, prior)
         live = b.sum(axis=1) > 0  # a zero row: no model with mass makes the move
         keys = np.round(b[live] / POSTERIOR_TOL).astype(np.int64)
-        _, first, inverse = np.unique(keys, axis=0, return_index=True, return_inverse=True)
+        first, inverse = _unique_rows(keys)
         order = np.argsort(first, kind="stable")
         rank = np.empty(order.size, dtype=np.int64)
         rank[order] = np.arange(order.size)
@@ -144,3 +144,21 @@ def posterior_tables(kinds: Kinds, horizon: int, prior: np.ndarray, max_vectors:
         if max_vectors is not None and total > max_vectors:
             return None
     return vectors, beliefs, successor
+
+
+#: Odd multipliers mixing a posterior's integer key into one int64 (``_unique_rows``).
+_MIX = np.random.default_rng(20261204).integers(1, 2**62, size=64, dtype=np.int64) | 1
+
+
+def _unique_rows(keys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``np.unique(keys, axis=0)``'s first indices and inverse, by a 1-d unique of one mixed int64 per
+    row (several times faster), checked: a row whose key differs from its group's first row's (a
+    collision of the mixing) sends the whole call to the row-wise unique."""
+    with np.errstate(over="ignore"):
+        mixed = keys @ _MIX[: keys.shape[1]]  # wraps modulo 2^64
+    _, first, inverse = np.unique(mixed, return_index=True, return_inverse=True)
+    inverse = inverse.reshape(-1)
+    if np.array_equal(keys[first[inverse]], keys):
+        return first, inverse
+    _, first, inverse = np.unique(keys, axis=0, return_index=True, return_inverse=True)
+    return first, inverse.reshape(-1)

@@ -195,3 +195,17 @@ def test_count_vectors_of_one_posterior_are_one_node():
         a, b = merged.solve(layered_rewards(dyn, R), p0), every.solve(layered_rewards(dyn, R), p0)
         assert a.value == pytest.approx(b.value, abs=1e-12) and np.allclose(a.values, b.values, atol=1e-12)
         assert np.allclose(a.marginals, b.marginals, atol=1e-12)
+
+
+def test_the_posteriors_unique_rows_fall_back_when_their_mixed_keys_collide(monkeypatch):
+    """One mixed int64 per posterior key, checked: where two different rows share it (here every row,
+    the multipliers zeroed) the row-wise unique answers, the same as np.unique(axis=0)."""
+    from airl_cli.core.mmdp import count_layers
+
+    keys = np.array([[3, 1], [1, 2], [3, 1], [0, 5], [1, 2]], dtype=np.int64)
+    _, want_first, want_inverse = np.unique(keys, axis=0, return_index=True, return_inverse=True)
+    for mix in (count_layers._MIX, np.zeros_like(count_layers._MIX)):
+        monkeypatch.setattr(count_layers, "_MIX", mix)
+        first, inverse = count_layers._unique_rows(keys)
+        assert np.array_equal(keys[first[inverse]], keys) and len(first) == len(want_first) == 3
+        assert np.array_equal(inverse == inverse[0], want_inverse.reshape(-1) == want_inverse.reshape(-1)[0])
