@@ -146,8 +146,13 @@ def posterior_tables(kinds: Kinds, horizon: int, prior: np.ndarray, max_vectors:
     return vectors, beliefs, successor
 
 
-#: Odd multipliers mixing a posterior's integer key into one int64 (``_unique_rows``).
-_MIX = np.random.default_rng(20261204).integers(1, 2**62, size=64, dtype=np.int64) | 1
+#: The seed of the odd multipliers that mix a posterior's integer key into one int64 (``_unique_rows``).
+_MIX_SEED = 20261204
+
+
+def _mix(width: int) -> np.ndarray:
+    """(width,) odd int64 multipliers, the same for every call of one width."""
+    return np.random.default_rng(_MIX_SEED).integers(1, 2**62, size=width, dtype=np.int64) | 1
 
 
 def _unique_rows(keys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -155,7 +160,7 @@ def _unique_rows(keys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     row (several times faster), checked: a row whose key differs from its group's first row's (a
     collision of the mixing) sends the whole call to the row-wise unique."""
     with np.errstate(over="ignore"):
-        mixed = keys @ _MIX[: keys.shape[1]]  # wraps modulo 2^64
+        mixed = keys @ _mix(keys.shape[1])  # wraps modulo 2^64
     _, first, inverse = np.unique(mixed, return_index=True, return_inverse=True)
     inverse = inverse.reshape(-1)
     if np.array_equal(keys[first[inverse]], keys):

@@ -203,9 +203,10 @@ def test_the_posteriors_unique_rows_fall_back_when_their_mixed_keys_collide(monk
     from airl_cli.core.mmdp import count_layers
 
     keys = np.array([[3, 1], [1, 2], [3, 1], [0, 5], [1, 2]], dtype=np.int64)
+    assert count_layers._unique_rows(np.tile(keys, (1, 50)))[0].size == 3  # any number of models (riverswim's 100)
     _, want_first, want_inverse = np.unique(keys, axis=0, return_index=True, return_inverse=True)
-    for mix in (count_layers._MIX, np.zeros_like(count_layers._MIX)):
-        monkeypatch.setattr(count_layers, "_MIX", mix)
+    for mix in (count_layers._mix, lambda width: np.zeros(width, dtype=np.int64)):
+        monkeypatch.setattr(count_layers, "_mix", mix)
         first, inverse = count_layers._unique_rows(keys)
         assert np.array_equal(keys[first[inverse]], keys) and len(first) == len(want_first) == 3
         assert np.array_equal(inverse == inverse[0], want_inverse.reshape(-1) == want_inverse.reshape(-1)[0])
