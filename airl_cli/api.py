@@ -4,14 +4,18 @@
 
     ds = api.load_dataset("results/generate/2026-01-01_12-00-00/dataset.npz")   # or api.make_dataset("mdp=grid")
     ds = api.dataset_from_env(my_env, my_env_windy)           # or from environment objects with a table
-    learned = api.fit(ds, "method=mce")                      # any method; overrides as on the command line
+    learned = api.fit(ds, method=api.Mce(lam=0.01))          # a typed learner (api.Airl, api.Mce, ... below)
+    learned = api.fit(ds, "method=mce")                      # or overrides as on the command line
     api.score(ds, learned)                                    # a DataFrame, one row per dynamics
     api.score(api.with_test_dynamics(ds, P_new), api.load_learned("results/fit/X"))  # a finished run, new dynamics
     table = api.read_sweep("results/sweeps/fig05-quick")      # results.csv, with experiment.json as .attrs
 
 Configs are composed from the same packaged ``conf/`` as the CLI (Hydra's Compose API), so
 ``api.fit(ds, "optim.lam=0.1")`` learns exactly what ``airl fit data=... optim.lam=0.1`` learns,
-with the same seed streams; nothing is written to disk.
+with the same seed streams; nothing is written to disk. The learners are typed objects, one per
+method (``Airl``, ``Mce``, ``RobustMce``, ``Projection``, ``Mmp``, ``Bc``: frozen dataclasses of the
+method's options, whose defaults are the packaged config's); ``api.learner(*overrides)`` gives the
+one the overrides describe, ``api.fit(ds, method=...)`` fits with one.
 """
 
 from __future__ import annotations
@@ -23,18 +27,23 @@ import pandas as pd
 from hydra import compose, initialize_config_dir
 from omegaconf import DictConfig
 
+from airl_cli.core.irl.options import CertifiedOptions, FitOptions, PlannerOptions
 from airl_cli.io.dataset import Dataset, read_dataset, write_dataset
+from airl_cli.io.fit_folder import read_fit
 from airl_cli.io.results_table import read_results_table
-from airl_cli.methods import REGISTRY
 from airl_cli.settings.config import fit_settings, loss_and_seed, problem_settings
 from airl_cli.settings.hydra_internals import launcher_discoverable
 from airl_cli.settings.paths import conf_dir
 from airl_cli.settings.problem_defaults import with_problem_defaults
+from airl_cli.usecases import fit as _fit
 from airl_cli.usecases.evaluate import score_learned
-from airl_cli.usecases.fit import Learned, learn
-from airl_cli.usecases.problem import build_dataset, learner_rng, with_loss
+from airl_cli.usecases.fit import fit_dataset
+from airl_cli.usecases.learned import Learned
+from airl_cli.usecases.learners.comparison import Bc, Mce, Mmp, Projection, RobustMce
+from airl_cli.usecases.learners.thesis import Airl
+from airl_cli.usecases.problem import build_dataset
 
-__all__ = ["config", "load_dataset", "save_dataset", "make_dataset", "dataset_from_env", "fit", "score", "load_learned", "with_test_dynamics", "read_sweep", "Dataset", "Learned"]
+__all__ = ["Airl", "Mce", "RobustMce", "Projection", "Mmp", "Bc", "CertifiedOptions", "FitOptions", "PlannerOptions", "learner", "config", "load_dataset", "save_dataset", "make_dataset", "dataset_from_env", "fit", "score", "load_learned", "with_test_dynamics", "read_sweep", "Dataset", "Learned"]
 
 
 def config(*overrides: str) -> DictConfig:
@@ -91,14 +100,26 @@ def dataset_from_env(env, *demo_envs, horizon: int | None = None, n_demos: int =
     return demonstrated(problem, DemoSettings("sampled", int(n_demos)), int(seed))[0]
 
 
-def fit(dataset: Dataset, *overrides: str, callback=None, planner_progress=None) -> Learned:
-    """Learn from ``dataset`` with the method and settings of the overrides (default: this thesis's method).
+def learner(*overrides: str):
+    """The typed learner the overrides describe, e.g. ``api.learner("method=mce", "method.lam=0.1")``
+    is ``Mce(lam=0.1, max_iterations=200)`` and ``api.learner("optim.tol=1e-2")`` the thesis's
+    ``Airl`` with that tolerance: checked as ``airl fit`` checks them (one sentence, ``ConfigError``).
+    Change one with ``dataclasses.replace``."""
+    return _fit.learner(fit_settings(config(*overrides)))
+
+
+def fit(dataset: Dataset, *overrides: str, method=None, callback=None, planner_progress=None) -> Learned:
+    """Learn from ``dataset`` with the learner ``method``, or with the method and settings of the
+    overrides (default: this thesis's method).
 
     Args:
         dataset: from ``load_dataset`` or ``make_dataset``.
         overrides: as on the command line, e.g. ``"method=mce"``, ``"optim.weight_sharing=false"``,
-            ``"seed=3"``; the problem groups (mdp, dynamics, demos) are ignored, as with
-            ``airl fit data=PATH``.
+            ``"seed=3"``, ``"loss=squared_features"``; the problem groups (mdp, dynamics, demos) are
+            ignored, as with ``airl fit data=PATH``. With ``method``, only ``seed`` and ``loss`` are read.
+        method (Airl | Mce | RobustMce | Projection | Mmp | Bc | None): a typed learner, e.g.
+            ``api.Mce(lam=0.01)``, ``api.Airl(certified=api.CertifiedOptions(tol=1e-2))``, or
+            ``api.learner(...)``'s; None: the one the overrides describe.
         callback (Callable[[dict], None] | None): called with each history row of the learner (method=airl), as the progress bar is.
         planner_progress (Callable[[int, int], None] | None): called as ``planner_progress(done, total)`` after each time step inside
             every planner call (method=airl): a long call's progress.
@@ -107,12 +128,9 @@ def fit(dataset: Dataset, *overrides: str, callback=None, planner_progress=None)
         The learner's ``Learned``: ``weights`` (D, K) or ``policy``, ``info`` and ``history``.
     """
     cfg = config(*overrides)
-    settings = fit_settings(cfg)
     loss, seed = loss_and_seed(cfg)
-    if REGISTRY[settings.method].uses_loss:  # the others never read L (S, S)
-        dataset = with_loss(dataset, loss)
-    rng = learner_rng(seed, settings.method)
-    return learn(dataset, settings, rng, callback=callback, planner_progress=planner_progress)
+    fitter = _fit.learner(fit_settings(cfg)) if method is None else method
+    return fit_dataset(dataset, fitter, seed, loss, callback=callback, planner_progress=planner_progress)
 
 
 def score(dataset: Dataset, learned: Learned) -> pd.DataFrame:
@@ -144,26 +162,8 @@ def load_learned(folder: str | os.PathLike) -> Learned:
     Raises:
         FileNotFoundError, ValueError: one sentence, naming the folder and what is missing or wrong.
     """
-    import json
-
-    import numpy as np
-
-    folder = Path(folder)
-    try:
-        metrics = json.loads((folder / "metrics.json").read_text())
-        method = str(metrics["method"])
-        if (folder / "policy.npy").is_file():
-            return Learned(method, None, np.load(folder / "policy.npy", allow_pickle=False), {})
-        saved = json.loads((folder / "weights.json").read_text())
-        weights = np.asarray(saved["weights"], dtype=np.float64)
-        steps = np.asarray(saved["step_weights"], dtype=np.float64) if "step_weights" in saved else None
-    except FileNotFoundError as err:
-        raise FileNotFoundError(f"{folder} is not a finished airl fit's run folder: it has no {Path(err.filename).name}") from None
-    except (ValueError, KeyError, TypeError) as err:
-        raise ValueError(f"{folder} holds a damaged fit ({type(err).__name__}: {err}); run the fit again") from None
-    if weights.ndim != 2 or not np.isfinite(weights).all():
-        raise ValueError(f"{folder}/weights.json must hold 'weights' as finite rows (D, K), got shape {weights.shape}")
-    return Learned(method, weights, None, {}, step_weights=steps)
+    files = read_fit(folder)
+    return Learned(files.method, files.weights, files.policy, {}, step_weights=files.step_weights)
 
 
 def with_test_dynamics(dataset: Dataset, transitions) -> Dataset:

@@ -375,3 +375,17 @@ def test_the_finished_run_example_scores_the_new_dynamics(tmp_path, monkeypatch)
     exec(compile("\n".join(lines), "python-api.md", "exec"), scope)
     table = eval(last.split("#")[0], scope)
     assert list(table["dynamics"])[-2:] == ["test_1", "test_2"] and table["learner_score"].notna().all()
+
+
+def test_the_typed_learners_example_fits_as_the_command_line_does(tmp_path, monkeypatch):
+    """python-api.md's 'typed learners': its bash line, then its block (which asserts the weights
+    of the command's fit and the typed learner's are equal, bit for bit), run as the page has them."""
+    from typer.testing import CliRunner
+
+    monkeypatch.chdir(tmp_path)
+    assert CliRunner().invoke(app, ["fit", "method=mce", "hydra.run.dir=run-mce"]).exit_code == 0
+    block = next(b for b in _python_blocks("python-api.md") if "api.Mce()" in b)
+    scope: dict = {}
+    exec(compile(block, "python-api.md", "exec"), scope)
+    assert scope["airl"].info["converged"] and scope["airl"].method == "airl"
+    assert scope["mmp"].info["iterations"] == 50

@@ -254,12 +254,12 @@ def test_a_refused_sweep_starts_no_worker(tmp_path, monkeypatch, bad):
 
 
 def test_the_writer_failing_mid_run_is_one_sentence(tmp_path, monkeypatch):
-    import airl_cli.jobs.fit as fit_job
+    import airl_cli.io.fit_folder as fit_files
 
     def refuse(*_args, **_kwargs):
         raise PermissionError(13, "Permission denied", str(tmp_path / "out" / "weights.json"))
 
-    monkeypatch.setattr(fit_job, "write_json", refuse)
+    monkeypatch.setattr(fit_files, "write_json", refuse)
     result = runner.invoke(app, ["fit", f"hydra.run.dir={tmp_path / 'out'}", *SMALL])
     assert result.exit_code == 2 and "error: cannot write the results (permission denied" in result.output
     assert "Traceback" not in result.output
@@ -381,7 +381,7 @@ def test_the_estimate_grows_with_the_problem_and_the_refusal_says_what_to_lower(
     more_states = estimate_fit(n_states=200, n_actions=5, horizon=10, n_dynamics=3, n_demos=100, iterations=8)
     more_iterations = estimate_fit(n_states=20, n_actions=5, horizon=10, n_dynamics=3, n_demos=100, iterations=12)
     assert more_states.total > small.total and more_iterations.total > small.total
-    baseline = estimate_fit(n_states=200, n_actions=5, horizon=10, n_dynamics=3, n_demos=100, method="mce", iterations=20)
+    baseline = estimate_fit(n_states=200, n_actions=5, horizon=10, n_dynamics=3, n_demos=100, game=False, iterations=20)
     assert "policy graph" not in baseline.parts and baseline.total < more_states.total
     big = estimate_fit(n_states=300, n_actions=5, horizon=30, n_dynamics=3, n_demos=1000, iterations=12)
     sentence = refusal(big, 4 * 2**30, iterations=12)
@@ -415,7 +415,7 @@ def test_the_command_line_s_estimates_count_the_heap_it_keeps():
     estimate, iterations = fit_memory(sizes, fit_settings(config()))
     core = estimate_fit(**sizes, iterations=iterations)
     assert estimate.parts["heap slack"] == TOP_PAD and estimate.total == core.total + estimate.parts[REFINED] + TOP_PAD
-    assert build_memory(sizes).total == estimate_fit(**sizes, method="mce").total + TOP_PAD + 8 * 200**2
+    assert build_memory(sizes).total == estimate_fit(**sizes, game=False).total + TOP_PAD + 8 * 200**2
 
 
 def test_the_refusal_never_advises_iterations_that_do_not_fit():

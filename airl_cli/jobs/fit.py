@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import io
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -10,25 +9,26 @@ from pathlib import Path
 
 import hydra
 import numpy as np
-import pandas as pd
 from omegaconf import DictConfig
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
 from airl_cli.io.dataset import Dataset, read_dataset, write_dataset
-from airl_cli.io.files import atomic_write, write_json, write_text
+from airl_cli.io.fit_folder import write_fit
 from airl_cli.jobs.common import check_memory, err_console, out_console, output_dir, run_job, save_config, size_note, vector_text, warm_up
-from airl_cli.methods import REGISTRY
+from airl_cli.methods import THESIS, learns_reward, plays_game
 from airl_cli.plain_progress import PlainProgress
 from airl_cli.settings.config import FitSettings, fit_settings, loss_and_seed, problem_settings
 from airl_cli.settings.paths import conf_dir
 from airl_cli.usecases.evaluate import identifiability_lines, score_learned
-from airl_cli.usecases.fit import Learned, check_supported, learn
-from airl_cli.usecases.problem import build_dataset, learner_rng, loss_kind, with_loss
+from airl_cli.usecases.fit import check_supported, fit_dataset, learner, with_method_loss
+from airl_cli.usecases.learned import Learned
+from airl_cli.usecases.problem import build_dataset, loss_kind
 
 
 def load_dataset(cfg: DictConfig, settings: FitSettings) -> tuple[Dataset, int, bool, str]:
-    """The dataset to learn from, the seed, whether it was built in-process, and the loss the game
-    uses (eq. 5.9's L: what ``loss=auto`` chose, or ``file`` for the file's own ``loss`` array)."""
+    """The dataset to learn from (with the loss its method uses: ``usecases.fit.with_method_loss``),
+    the seed, whether it was built in-process, and the loss the game uses (eq. 5.9's L: what
+    ``loss=auto`` chose, or ``file`` for the file's own ``loss`` array)."""
     if settings.data is None:
         problem = problem_settings(cfg)
         dataset, _ = build_dataset(problem)
@@ -36,7 +36,7 @@ def load_dataset(cfg: DictConfig, settings: FitSettings) -> tuple[Dataset, int, 
     loss, seed = loss_and_seed(cfg)
     dataset = read_dataset(settings.data)
     name = "file" if loss == "auto" and dataset.loss is not None else ("zero_one" if loss == "auto" else loss)
-    return (with_loss(dataset, loss) if REGISTRY[settings.method].uses_loss else dataset), seed, False, name
+    return with_method_loss(dataset, learner(settings), loss), seed, False, name
 
 
 def check(cfg: DictConfig, overrides: list[str] = ()) -> list[str]:
@@ -49,7 +49,7 @@ def check(cfg: DictConfig, overrides: list[str] = ()) -> list[str]:
     if settings.data is None:
         problem_settings(cfg)
     else:
-        check_supported(load_dataset(cfg, settings)[0], settings)
+        check_supported(load_dataset(cfg, settings)[0], learner(settings))
     return ignored_settings(cfg, list(overrides), settings.method)
 
 
@@ -71,10 +71,10 @@ def ignored_settings(cfg: DictConfig, overrides: list[str], method: str) -> list
         given = [item for item, group, _ in set_here if group in PROBLEM_GROUPS]
         if given:
             notes.append(f"{', '.join(given)} {'does' if len(given) == 1 else 'do'} nothing with data=FILE: the problem and its demonstrations come from the file")
-    if method != "airl":
+    if not plays_game(method):
         given = [item for item, group, _ in set_here if group in LEARNER_GROUPS]
         if given:
-            notes.append(f"{', '.join(given)} {'does' if len(given) == 1 else 'do'} nothing with method={method}: they configure the thesis's learner (method=airl)")
+            notes.append(f"{', '.join(given)} {'does' if len(given) == 1 else 'do'} nothing with method={method}: they configure the thesis's learner (method={THESIS})")
     mdp = cfg.get("mdp") or {}
     if cfg.get("data") is None and mdp.get("name") == "gymnasium" and mdp.get("env") != "FrozenLake":
         given = [item for item, _, key in set_here if key == "mdp.map_name"]
@@ -95,7 +95,7 @@ LOSS_WORDS = {"zero_one": "zero-one loss", "squared_features": "squared feature 
 
 def summary_text(dataset: Dataset, settings: FitSettings, learned: Learned, rows: list[dict], seconds: float, loss: str = "") -> str:
     info = learned.info
-    if learned.method == "airl":
+    if plays_game(learned.method):
         o = settings.options
         how = f"{'one shared w' if o.weight_sharing else 'one w_j per dynamics'}, lambda={o.lam:g}, {LOSS_WORDS.get(loss, loss)}, "
         if info["optimizer"] == "exact":
@@ -113,7 +113,7 @@ def summary_text(dataset: Dataset, settings: FitSettings, learned: Learned, rows
             how += " in the bracket; best responses on its grid of beliefs" if info.get("best_responses") == "grid" else ""
         if settings.matching == "per_step":
             how += ", features matched at every step (game.matching=per_step)"
-    elif learned.method == "bc":
+    elif not learns_reward(learned.method):
         how = "action frequencies of the demonstrations"
     else:
         how = f"one shared w, {info['iterations']} iterations"
@@ -128,7 +128,7 @@ def summary_text(dataset: Dataset, settings: FitSettings, learned: Learned, rows
         lines.insert(2, f"env       {dataset.environment}" + (f"; tau_j: {dataset.perturbation}" if dataset.perturbation else ""))
     if dataset.expert == "own":  # the field's expert model: can these dynamics identify its reward?
         lines += [f"identify  {line}" for line in identifiability_lines(dataset)]
-    if learned.method == "airl":
+    if plays_game(learned.method):
         lines += _objective_lines(info)
         if info.get("degenerate"):
             lines.append(f"warning   {degenerate_sentence(info)}")
@@ -214,12 +214,6 @@ def _objective_lines(info: dict) -> list[str]:
     return lines
 
 
-def npy_bytes(array: np.ndarray) -> bytes:
-    buf = io.BytesIO()
-    np.lib.format.write_array(buf, np.asarray(array), allow_pickle=False)
-    return buf.getvalue()
-
-
 @dataclass(frozen=True)
 class FitRun:
     """One finished fit: its data, what was learned, the score rows, the wall time and the summary."""
@@ -246,30 +240,20 @@ def fit_and_write(
     settings = fit_settings(cfg)
     check_memory(cfg)  # before any work: refuse, in one sentence, what will not fit in memory
     dataset, seed, generated, loss = load_dataset(cfg, settings)
-    rng = learner_rng(seed, settings.method)
     start = time.perf_counter()
-    learned = learn(dataset, settings, rng, callback=on_step, planner_progress=on_planner)
+    learned = fit_dataset(dataset, learner(settings), seed, callback=on_step, planner_progress=on_planner)
     seconds = time.perf_counter() - start
     rows = score_learned(dataset, learned)
     text = summary_text(dataset, settings, learned, rows, seconds, loss)
     if generated:
         write_dataset(folder / "dataset.npz", dataset)
-    if learned.weights is not None:
-        steps = {} if learned.step_weights is None else {"step_weights": learned.step_weights.tolist()}
-        write_json(folder / "weights.json", {"shared": learned.shared, "weights": learned.weights.tolist(), **steps})
-    else:
-        atomic_write(folder / "policy.npy", lambda h: h.write(npy_bytes(learned.policy)))
     metrics = {"method": learned.method, "shared": learned.shared, **learned.info, "scored": dataset.true_weights is not None, "dynamics": rows}
-    if learned.method == "airl":
+    if plays_game(learned.method):
         metrics["loss"] = loss  # what loss=auto chose (file: the dataset file's own array)
-    write_json(folder / "metrics.json", metrics)
     timing = {"fit_seconds": round(seconds, 6)}
     if "qp_seconds" in learned.history:
         timing["qp_seconds"] = round(float(np.sum(learned.history["qp_seconds"])), 6)
-    write_json(folder / "timing.json", timing)
-    if learned.history:
-        write_text(folder / "history.csv", pd.DataFrame(learned.history).to_csv(index=False))
-    write_text(folder / "summary.txt", text)
+    write_fit(folder, metrics=metrics, timing=timing, summary=text, weights=learned.weights, step_weights=learned.step_weights, policy=learned.policy, history=learned.history)
     save_config(cfg, folder)
     return FitRun(dataset, settings, learned, rows, seconds, text)
 
@@ -313,7 +297,7 @@ def fit_with_progress(cfg: DictConfig, folder: Path, settings: FitSettings) -> F
 def main(cfg: DictConfig) -> None:
     folder = output_dir()
     settings = fit_settings(cfg)
-    if settings.method != "airl":
+    if not plays_game(settings.method):
         with err_console.status(f"fitting method={settings.method}"):
             run = fit_and_write(cfg, folder)
     else:
@@ -323,13 +307,13 @@ def main(cfg: DictConfig) -> None:
             warm_up()
         run = fit_with_progress(cfg, folder, settings)
     out_console.print(run.text, end="", soft_wrap=True)
-    if VERBOSE and run.learned.method == "airl":
+    if VERBOSE and plays_game(run.learned.method):
         out_console.print("\n" + "\n".join(verbose_lines(run.learned.info)), soft_wrap=True)
     out_console.print(f"\nwrote {folder} (fit in {run.seconds:.2f} s)", soft_wrap=True)
     for sentence in fit_warnings(run.learned.info):
         err_console.print(f"warning: {sentence}", soft_wrap=True)
         WARNED.append(sentence)
-    if run.learned.method == "airl" and (wide := wide_sentence(run.learned.info)):
+    if plays_game(run.learned.method) and (wide := wide_sentence(run.learned.info)):
         WIDE.append(wide)
 
 

@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import pandas as pd
 
+from airl_cli.methods import THESIS
+
 Tables = dict[str, tuple[dict, pd.DataFrame]]
 
 
@@ -16,7 +18,7 @@ def fits_of_the_method(table: pd.DataFrame) -> pd.DataFrame:
     """One row per certified fit of the thesis's method (``optimizer`` exact), its row under τ."""
     if not {"method", "optimizer", "dynamics"} <= set(table.columns):
         return table.iloc[0:0]
-    return table[(table["method"] == "airl") & (table["optimizer"] == "exact") & (table["dynamics"] == "tau")]
+    return table[(table["method"] == THESIS) & (table["optimizer"] == "exact") & (table["dynamics"] == "tau")]
 
 
 def certificates(tables: Tables) -> str:

@@ -16,6 +16,8 @@ from dataclasses import dataclass
 
 import pandas as pd
 
+from airl_cli.methods import THESIS
+
 HOLDS, PARTLY, NO = "holds", "partly", "does not hold"
 
 # reading name -> the override that selects it in a variant sweep's folder name
@@ -44,7 +46,7 @@ def reading_of(overrides: str) -> str | None:
 
 def _airl(table: pd.DataFrame) -> pd.DataFrame:
     t = table[table["dynamics"].astype(str).str.startswith("tau_")]  # the demonstration dynamics
-    return t[t["method"] == "airl"] if "method" in t else t
+    return t[t["method"] == THESIS] if "method" in t else t
 
 
 def _beats(t: pd.DataFrame) -> pd.Series:

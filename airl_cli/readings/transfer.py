@@ -13,6 +13,8 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
+from airl_cli.methods import THESIS
+
 if TYPE_CHECKING:
     import pandas as pd
 
@@ -54,7 +56,7 @@ def transfer_summary(experiment: dict, table: pd.DataFrame) -> pd.DataFrame:
         _demonstrated=dynamics.str.fullmatch(r"tau_\d+"),
     )
     held = rows[rows["_held"]]
-    airl = held[held["method"] == "airl"].set_index(["problem", "expert", "seed", "dynamics"])["learner_score"]
+    airl = held[held["method"] == THESIS].set_index(["problem", "expert", "seed", "dynamics"])["learner_score"]
     out = []
     for (order, problem, expert, method), g in rows.groupby(["_order", "problem", "expert", "method"], sort=False):
         h, demonstrated = g[g["_held"]], g[g["_demonstrated"]]

@@ -10,6 +10,8 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
+from airl_cli.methods import THESIS
+
 if TYPE_CHECKING:
     import pandas as pd
 
@@ -19,7 +21,7 @@ def variant_names(table: pd.DataFrame) -> pd.Series:
     "thesis", or the names of what differs joined by "_" ("markov_per_step"); another method's name otherwise."""
 
     def name(row) -> str:
-        if row["method"] != "airl":
+        if row["method"] != THESIS:
             return str(row["method"])
         parts = [
             "markov" if row.get("game.adversary") == "markov" else "",

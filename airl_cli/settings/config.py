@@ -234,7 +234,7 @@ class FitSettings:
     matching: str = "total"  # game.matching, one of MATCHINGS
 
 
-def _method_options(r: Reader, name: str) -> dict:
+def method_options(r: Reader, name: str) -> dict:
     """The keyword options the registry lists for method ``name``, read and checked."""
     out = {}
     for o in REGISTRY[name].options:
@@ -283,12 +283,12 @@ def fit_settings(cfg: DictConfig | Mapping) -> FitSettings:
     o = Reader(top.raw("optim"), "optim")
     optimizer = o.choice("name", OPTIMIZERS)
     planner = replace(_planner(top.raw("pbvi")), adversary=g.choice("adversary", ADVERSARIES))
-    if method == "airl" and planner.sharpen_rounds > 0 and not (planner.method == "pbvi" and planner.reuse_beliefs and planner.adversary == "history"):
+    if REGISTRY[method].plays_game and planner.sharpen_rounds > 0 and not (planner.method == "pbvi" and planner.reuse_beliefs and planner.adversary == "history"):
         raise ConfigError(
             "pbvi.sharpen_rounds grows the fit's reused PBVI belief set, so it needs pbvi.method=pbvi, "
             "pbvi.reuse_beliefs=true and game.adversary=history (or pbvi.sharpen_rounds=0)"
         )
-    if method == "airl" and planner.method == "counts" and planner.adversary != "history":
+    if REGISTRY[method].plays_game and planner.method == "counts" and planner.adversary != "history":
         raise ConfigError("pbvi.method=counts plans for the history-dependent adversary (game.adversary=history); the Markov adversary's oracle is CADP, or pbvi.method=exact")
     sharing, normalize_loss = _bool(o, "weight_sharing"), _bool(g, "normalize_loss")
     # double oracle's settings (used by optim=gradient) are checked whatever the optimiser
@@ -332,7 +332,7 @@ def fit_settings(cfg: DictConfig | Mapping) -> FitSettings:
         method=method,
         options=options,
         data=data,
-        method_options=_method_options(m, method),
+        method_options=method_options(m, method),
         optimizer=optimizer,
         certified=certified,
         certify=certify,

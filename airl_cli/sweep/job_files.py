@@ -25,7 +25,8 @@ from typing import Any
 
 import yaml
 
-from airl_cli.methods import REGISTRY
+from airl_cli.io.fit_folder import HISTORY, METRICS, POLICY, TIMING, WEIGHTS
+from airl_cli.methods import learns_reward, plays_game, takes_alpha
 from airl_cli.sweep.code import made_here
 from airl_cli.sweep.folder import shared_settings
 from airl_cli.sweep.spec import ROWS
@@ -215,15 +216,15 @@ def _check_fit(folder: Path, config: dict, header: list[str], rows: list[list[st
         raise Damaged(f"{ROWS}'s header is not the job's ({len(header)} columns, the job writes {len(expected)})")
     first = dict(zip(header, rows[0], strict=True))
     method = config["method"].get("name")
-    metrics = _json(folder / "metrics.json", ("method", "shared", "scored", "dynamics"))
+    metrics = _json(folder / METRICS, ("method", "shared", "scored", "dynamics"))
     if metrics["method"] != method:
         raise Damaged(f"metrics.json is of method={metrics['method']}, the job's config method={method}")
-    exact = method == "airl" and first["optimizer"] == "exact"
-    empty = set() if method == "airl" else {"optimizer", "objective"}
+    exact = plays_game(method) and first["optimizer"] == "exact"
+    empty = set() if plays_game(method) else {"optimizer", "objective"}
     empty |= set() if exact else {"relative_gap", "converged", "degenerate", "equilibrium_score"}
     empty |= set() if exact and "bracket_relative_gap" in metrics else {"bracket_width"}  # a bracket on eq. 5.9's minimum (pbvi.bracket_beliefs=0: none)
     empty |= set() if metrics["scored"] else {"learner_score", "demonstrator_score", "cosine_similarity", "equilibrium_score", "learner_return", "demonstrator_return"}
-    empty |= set() if _learns_reward(method) else {"cosine_similarity", "weight_scale"}  # a policy, no weights
+    empty |= set() if learns_reward(method) else {"cosine_similarity", "weight_scale"}  # a policy, no weights
     goal = isinstance(metrics["dynamics"], list) and metrics["dynamics"] and isinstance(metrics["dynamics"][0], dict) and metrics["dynamics"][0].get("learner_goal") is not None
     empty |= set() if goal and metrics["scored"] else {"learner_goal", "demonstrator_goal"}  # an environment's goal only
     _check_types(ROWS, header, rows, empty | {k for k, v in settings.items() if v == ""})
@@ -259,19 +260,19 @@ def _check_outputs(folder: Path, header: list[str], rows: list[list[str]], metri
         for column in _PER_DYNAMICS:
             if not isinstance(score, dict) or _cell(score.get(column)) != row[header.index(column)]:
                 raise Damaged(f"metrics.json's {column} differs from rows.csv's")
-    if not _learns_reward(rows[0][header.index("method")]):
-        _npy_shape(_bytes(folder / "policy.npy"), "policy.npy")
+    if not learns_reward(rows[0][header.index("method")]):
+        _npy_shape(_bytes(folder / POLICY), "policy.npy")
     else:
-        w = _json(folder / "weights.json", ("shared", "weights"))["weights"]
+        w = _json(folder / WEIGHTS, ("shared", "weights"))["weights"]
         if not (isinstance(w, list) and len(w) == D and all(isinstance(r, list) and len(r) == n_features for r in w)):
             raise Damaged(f"weights.json does not hold {D} x {n_features} weights")
         if not all(isinstance(v, (int, float)) and not isinstance(v, bool) for r in w for v in r):
             raise Damaged("weights.json holds weights that are not numbers")
-    seconds = _json(folder / "timing.json", ("fit_seconds",))["fit_seconds"]
+    seconds = _json(folder / TIMING, ("fit_seconds",))["fit_seconds"]
     if not isinstance(seconds, (int, float)) or abs(seconds - float(rows[0][header.index("seconds")])) > 1e-6:
         raise Damaged("timing.json's fit time differs from rows.csv's")
-    if (folder / "history.csv").exists():  # numbers (NaN and infinity included) or empty
-        for row in _csv(folder / "history.csv", what="iterations")[1]:
+    if (folder / HISTORY).exists():  # numbers (NaN and infinity included) or empty
+        for row in _csv(folder / HISTORY, what="iterations")[1]:
             try:
                 [float(cell) for cell in row if cell != ""]
             except ValueError:
@@ -311,7 +312,7 @@ def _check_viano(config: dict, header: list[str], rows: list[list[str]]) -> None
         raise Damaged(f"{ROWS} has a cell that is not a finite number")
     exp, method = config["experiment"], config["method"]
     x = exp["horizon"] if exp.get("horizon") is not None else exp["epsilon"]
-    alpha_ok = method.get("name") != "robust_mce" or float(row["alpha"]) == float(method["alpha"])
+    alpha_ok = not takes_alpha(str(method.get("name"))) or float(row["alpha"]) == float(method["alpha"])
     if row["method"] != method.get("name") or not alpha_ok or numbers["x"] != float(x):
         raise Damaged(f"{ROWS} is of method={row['method']}, alpha={row['alpha']}, x={row['x']}, not the job's")
 
@@ -357,8 +358,3 @@ def _npy_shape(data: bytes, name: str) -> tuple[int, ...]:
     if len(data) != start + int.from_bytes(data[8:start], "little") + count * itemsize:
         raise Damaged(f"{name} is cut short")
     return shape
-
-
-def _learns_reward(method: str) -> bool:
-    """Whether a method's job writes weights (most) or only a policy (behavioural cloning)."""
-    return REGISTRY[method].learns_reward if method in REGISTRY else True

@@ -18,6 +18,7 @@ from airl_cli.core.mmdp.planner import exact_alpha_vectors, expand_beliefs, pbvi
 from airl_cli.io.files import atomic_write
 from airl_cli.jobs.common import save_config
 from airl_cli.jobs.fit import fit_and_write
+from airl_cli.methods import plays_game
 from airl_cli.readings.alpha_values import largest_gap, upper_envelope_1d
 from airl_cli.settings.config import plain, problem_settings
 from airl_cli.sweep.job_files import setting_columns
@@ -55,10 +56,10 @@ def fit_rows(cfg: DictConfig, folder) -> list[dict]:
         "loss": loss_kind(problem_settings(cfg), ds.features),
     }
     info = run.learned.info
-    certified = run.settings.method == "airl" and info.get("optimizer") == "exact"
+    certified = plays_game(run.settings.method) and info.get("optimizer") == "exact"
     fit_facts = {
-        "optimizer": info.get("optimizer", "") if run.settings.method == "airl" else "",
-        "objective": info.get("objective", np.nan) if run.settings.method == "airl" else np.nan,
+        "optimizer": info.get("optimizer", "") if plays_game(run.settings.method) else "",
+        "objective": info.get("objective", np.nan) if plays_game(run.settings.method) else np.nan,
         "relative_gap": info["relative_gap"] if certified else np.nan,
         "bracket_width": info.get("bracket_relative_gap", np.nan) if certified else np.nan,  # eq. 5.9's minimum's [L, U], relative
         "converged": info["converged"] if certified else np.nan,

@@ -33,6 +33,8 @@ JOB_CODE = ("airl_cli.sweep.rows",)
 #: sweep names it ``sweep`` itself: the jobs' ids (``sweep_0``...) and Hydra's records say ``sweep``.
 JOB_APP = "airl_cli.sweep.job"
 JOB_NAME = "hydra.job.name=sweep"
+#: airl's own launcher (``hydra/launcher=airl``, the sweep's default): warm workers.
+AIRL_LAUNCHER = "airl"
 
 # --------------------------------------------------------------------------- progress
 
@@ -137,7 +139,7 @@ def _expected_workers(overrides: list[str]) -> int:
     n_jobs = -1
     for item in overrides:
         key, _, value = item.partition("=")
-        if key.lstrip("+") == "hydra/launcher" and value != "airl":
+        if key.lstrip("+") == "hydra/launcher" and value != AIRL_LAUNCHER:
             return 1
         if key.lstrip("+") == "hydra.launcher.n_jobs":
             try:

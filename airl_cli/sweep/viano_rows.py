@@ -20,10 +20,11 @@ from airl_cli.core.mdp.viano_grid import evaluation_dynamics, expert_return, fin
 from airl_cli.errors import ConfigError
 from airl_cli.io.dataset import Dataset
 from airl_cli.jobs.common import save_config
+from airl_cli.methods import NAMES, alpha_of, takes_alpha
 from airl_cli.settings.config import fit_settings, plain
 from airl_cli.usecases.evaluate import learner_policy
-from airl_cli.usecases.fit import learn
-from airl_cli.usecases.problem import learner_rng, loss_matrix
+from airl_cli.usecases.fit import fit_dataset, learner
+from airl_cli.usecases.problem import loss_matrix
 
 
 def published(exp: dict, alpha: float, epsilon: float, learner_epsilon: float) -> float:
@@ -47,9 +48,11 @@ def viano_rows(cfg: DictConfig, folder) -> list[dict]:
     exp = plain(cfg)["experiment"]
     if exp.get("horizon") is not None:
         return finite_rows(cfg, folder)
-    options = fit_settings(cfg).method_options
-    if fit_settings(cfg).method != "robust_mce":
-        raise ConfigError(f"experiment={exp['name']} runs method=robust_mce (method.alpha=1 is MCE IRL)")
+    settings = fit_settings(cfg)
+    options = settings.method_options
+    if not takes_alpha(settings.method):
+        robust = next(name for name in NAMES if takes_alpha(name))
+        raise ConfigError(f"experiment={exp['name']} runs method={robust} (method.alpha=1 is MCE IRL)")
     eps_E, eps_L, gamma = float(exp["epsilon"]), float(exp["learner_epsilon"]), float(exp["discount"])
     start = time.perf_counter()
     P_E, allowed, phi, w_star, p0 = viano_grid(size=int(exp["size"]), epsilon=eps_E, corner=exp["corner"])
@@ -68,7 +71,7 @@ def viano_rows(cfg: DictConfig, folder) -> list[dict]:
     return [
         {
             "experiment": exp["name"],
-            "method": "robust_mce",
+            "method": settings.method,
             "alpha": alpha,
             "x": eps_E,
             "x_name": exp["x"],
@@ -103,7 +106,7 @@ def finite_rows(cfg: DictConfig, folder) -> list[dict]:
     settings = fit_settings(cfg)
     dataset = finite_dataset(exp)
     start = time.perf_counter()
-    learned = learn(dataset, settings, learner_rng(int(c["seed"]), settings.method))
+    learned = fit_dataset(dataset, learner(settings), int(c["seed"]))
     seconds = time.perf_counter() - start
     r = dataset.features @ dataset.true_weights  # (S,): corner "stay" has no extra state
     policy = learned.policy if learned.weights is None else learner_policy(dataset, learned.weights, 0)
@@ -113,7 +116,7 @@ def finite_rows(cfg: DictConfig, folder) -> list[dict]:
         {
             "experiment": exp["name"],
             "method": settings.method,
-            "alpha": float(settings.method_options.get("alpha", 1.0 if settings.method == "mce" else float("nan"))),
+            "alpha": alpha_of(settings.method, settings.method_options),
             "x": float(exp["horizon"]),
             "x_name": exp["x"],
             "learner_epsilon": float(exp["learner_epsilon"]),

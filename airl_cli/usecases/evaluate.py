@@ -111,7 +111,7 @@ def score_rows(
 
 
 def score_learned(dataset: Dataset, learned) -> list[dict]:
-    """``score_rows`` for a ``usecases.fit.Learned``: its weights, or its one policy for every dynamics, and its equilibrium."""
+    """``score_rows`` for a ``usecases.learned.Learned``: its weights, or its one policy for every dynamics, and its equilibrium."""
     scored = scored_dynamics(dataset)
     policies = None if learned.policy is None else [learned.policy] * len(scored)
     if learned.step_weights is not None:  # a time-dependent reward: its own policies

@@ -1,97 +1,113 @@
-"""Run any learning method on a dataset: the thesis's method or a comparison method, one result type."""
+"""Run any learning method on a dataset: the thesis's method or a comparison method, one result type.
+
+The one use case "fit a dataset as these settings say" (``fit_dataset``), which the command line's
+fit job, the Python API and the sweeps' rows all call: the learner the registry names
+(``airl_cli.methods``, a typed object of ``usecases.learners``), the dataset with the loss it
+uses, the seed's stream it draws from, and the post-decision expansion for a method that does
+not take features of actions.
+"""
 
 from __future__ import annotations
 
-import math
+import importlib
 from collections.abc import Callable
-from dataclasses import dataclass, field, replace
+from dataclasses import replace
 
 import numpy as np
 
-from airl_cli.core.irl import baselines, mce, mmp, robust_mce
-from airl_cli.core.irl.bracket import closing_oracle
-from airl_cli.core.irl.certified import minimize, upper_at
-from airl_cli.core.irl.degeneracy import is_degenerate, reward_effect
-from airl_cli.core.irl.game import objective_at
-from airl_cli.core.irl.game_problem import GameProblem, scaled
-from airl_cli.core.irl.learn import SWITCH_WITHIN, PBVIThenExact, belief_set, fit, make_oracles, sharpener
-from airl_cli.core.irl.options import PBVI_MAX_ITERATIONS
-from airl_cli.core.irl.per_step import step_blocks, step_features, step_targets
 from airl_cli.core.mdp.state_action import decision_policy
-from airl_cli.core.mmdp.refine import PER_ROUND, refine
 from airl_cli.errors import ConfigError
 from airl_cli.io.dataset import Dataset
-from airl_cli.methods import REGISTRY
+from airl_cli.methods import REGISTRY, Method
 from airl_cli.settings.config import FitSettings
-from airl_cli.usecases.bracket import bracket_info, certificate_line, closer, closes
-from airl_cli.usecases.oracles import certificate, choose_planner, oracle_name, planner_refusal
-from airl_cli.usecases.memory import affordable_beliefs, affordable_check
+from airl_cli.usecases import learners
+from airl_cli.usecases.learned import Learned
+from airl_cli.usecases.learners import Learner
+from airl_cli.usecases.problem import learner_rng, with_loss
 from airl_cli.usecases.state_action import expanded, original_policies
 
-
-@dataclass(frozen=True)
-class Learned:
-    """What a method learned, in one shape for every method.
-
-    Attributes:
-        method: its name (one of ``airl_cli.methods.NAMES``).
-        weights: (D, K) one row per demonstration dynamics, or None (behavioural cloning).
-        policy: (T-1, S, A) the learned policy for behavioural cloning, else None.
-        history: column -> (iterations,) array, one row per iteration (columns per method).
-        info: a few method-specific facts for the metrics file (all JSON-able).
-        equilibrium: for method=airl with optim=exact, the game's own learner: (policies (n, T-1, S)
-            int, deterministic Markov policies under any dynamics; mix (n,) their probabilities p,
-            eq. 5.9), else None.
-        step_weights: with game.matching=per_step, (D, T, K) the time-dependent reward's weights
-            w_{j,t}, block 0 zero (``airl_cli.core.irl.per_step``); ``weights`` is then the mean of blocks
-            1..T-1. Else None.
-    """
-
-    method: str
-    weights: np.ndarray | None
-    policy: np.ndarray | None
-    history: dict[str, np.ndarray]
-    info: dict = field(default_factory=dict)
-    equilibrium: tuple[np.ndarray, np.ndarray] | None = None
-    step_weights: np.ndarray | None = None
-
-    @property
-    def shared(self) -> bool:
-        return self.weights is not None and bool(np.allclose(self.weights, self.weights[0]))
+__all__ = ["learner_class", "learner", "method_of", "check_supported", "learn", "with_method_loss", "fit_dataset"]
 
 
-def demo_marginals(dataset: Dataset) -> np.ndarray | None:
-    """(D, T, S) the demonstrations' empirical state distribution at each step, or None."""
-    if dataset.demo_states is None:
-        return None
-    D, N, T = dataset.demo_states.shape
-    out = np.zeros((D, T, dataset.n_states))
-    for j in range(D):
-        for t in range(T):
-            out[j, t] = np.bincount(dataset.demo_states[j, :, t], minlength=dataset.n_states) / N
-    return out
+def learner_class(method: str) -> type:
+    """The learner class the registry names for ``method`` (``Method.learner``, a ``module:Class``
+    in ``usecases.learners``), imported here: loading it loads the solvers."""
+    module, name = REGISTRY[method].learner.split(":")
+    return getattr(importlib.import_module(f"{learners.__name__}.{module}"), name)
+
+
+def learner(settings: FitSettings) -> Learner:
+    """The typed learner of ``settings.method`` with its options (``usecases.learners``)."""
+    return learner_class(settings.method).from_settings(settings)
+
+
+def method_of(fitter: Learner) -> Method:
+    """The registry's entry of a learner object (the entry that names its class)."""
+    cls = type(fitter)
+    for method in REGISTRY.values():
+        module, name = method.learner.split(":")
+        if cls.__name__ == name and cls.__module__ == f"{learners.__name__}.{module}":
+            return method
+    raise TypeError(f"{cls.__name__} is not a learner of airl_cli.methods' registry; use one of {', '.join(REGISTRY[n].learner.split(':')[1] for n in REGISTRY)}")
+
+
+def check_supported(dataset: Dataset, fitter: Learner) -> None:
+    """One sentence (``ConfigError``) for what the learner ``fitter`` cannot take from this dataset:
+    action sets for a method without them, then the learner's own refusals (``check``), before any work."""
+    method = method_of(fitter)
+    if not method.allowed_actions and dataset.allowed_actions is not None:
+        allowed = next(m.name for m in REGISTRY.values() if m.allowed_actions)
+        raise ConfigError(
+            f"method={method.name} assumes every action exists in every state, and this dataset restricts them "
+            f"('allowed_actions'); use method={allowed} (method.alpha=1 is MCE IRL)"
+        )
+    fitter.check(dataset)
 
 
 def learn(
     dataset: Dataset,
-    settings: FitSettings,
+    fitter: Learner,
     rng: np.random.Generator,
     callback: Callable[[dict], None] | None = None,
     planner_progress: Callable[[int, int], None] | None = None,
 ) -> Learned:
-    """Learn from ``dataset`` with ``settings.method``; ``callback`` gets each step of method=airl
-    (optim=gradient with optim.certify: each step, then each iteration of the certifying exact solve).
-
-    ``planner_progress(done, total)`` follows the time steps inside each planner call (method=airl).
+    """Learn from ``dataset`` (with the loss it should carry) with the learner ``fitter`` (an object
+    of ``usecases.learners``); ``callback`` gets each step of the thesis's method (optim=gradient
+    with optim.certify: each step, then each iteration of the certifying exact solve),
+    ``planner_progress(done, total)`` the time steps inside each of its planner calls.
 
     Raises:
-        ConfigError: if the method cannot use this dataset (behavioural cloning without actions).
+        ConfigError: if the method cannot use this dataset (``check_supported``).
     """
-    check_supported(dataset, settings)
-    learner = globals()[REGISTRY[settings.method].learner]
-    if dataset.action_features and not REGISTRY[settings.method].action_features:  # phi(s, a): learned on the post-decision expansion, read back
-        return _on_original(learner(expanded(dataset), settings, rng, callback, planner_progress), dataset.n_states)
-    return learner(dataset, settings, rng, callback, planner_progress)
+    check_supported(dataset, fitter)
+    if dataset.action_features and not method_of(fitter).action_features:  # phi(s, a): learned on the post-decision expansion, read back
+        return _on_original(fitter.fit(expanded(dataset), rng, callback, planner_progress), dataset.n_states)
+    return fitter.fit(dataset, rng, callback, planner_progress)
+
+
+def with_method_loss(dataset: Dataset, fitter: Learner, loss: str | None) -> Dataset:
+    """``dataset`` with the loss ``loss`` (``loss.kind``; "auto" keeps a file's own) where the
+    learner's method uses one (``Method.uses_loss``); ``loss`` None: the dataset carries its loss
+    already (a problem airl built)."""
+    if loss is None or not method_of(fitter).uses_loss:  # the others never read L (S, S)
+        return dataset
+    return with_loss(dataset, loss)
+
+
+def fit_dataset(
+    dataset: Dataset,
+    fitter: Learner,
+    seed: int,
+    loss: str | None = None,
+    callback: Callable[[dict], None] | None = None,
+    planner_progress: Callable[[int, int], None] | None = None,
+) -> Learned:
+    """Fit ``dataset`` with the learner ``fitter`` (``learner(settings)``, or one built in Python):
+    with the loss ``loss`` (``with_method_loss``), the generator of ``seed``'s stream for its method
+    (``problem.learner_rng``), then ``learn``. The command line's fit job, the Python API and the
+    sweeps' rows all fit through it."""
+    dataset = with_method_loss(dataset, fitter, loss)
+    return learn(dataset, fitter, learner_rng(seed, method_of(fitter).name), callback, planner_progress)
 
 
 def _on_original(learned: Learned, S: int) -> Learned:
@@ -100,282 +116,3 @@ def _on_original(learned: Learned, S: int) -> Learned:
     policy = None if learned.policy is None else decision_policy(learned.policy, S)
     eq = None if learned.equilibrium is None else (original_policies(learned.equilibrium[0], S), learned.equilibrium[1])
     return replace(learned, policy=policy, equilibrium=eq)
-
-
-def check_supported(dataset: Dataset, settings: FitSettings) -> None:
-    """One sentence for what a method cannot take: a discount (the thesis's gradient steps) or action sets."""
-    method = settings.method
-    if method == "airl" and settings.matching == "per_step" and settings.optimizer != "exact":
-        raise ConfigError("game.matching=per_step is a variant of the certified learner: use optim=exact")
-    if method == "airl" and settings.matching == "per_step" and (dataset.action_features or dataset.time_features):
-        raise ConfigError(
-            "game.matching=per_step makes features of a state depend on the step, and this dataset's features are "
-            f"already{dataset.features_text()} {tuple(dataset.features.shape)}; use the default game.matching"
-        )
-    if method == "robust_mce" and settings.method_options.get("form") == "infinite" and dataset.time_features:
-        raise ConfigError(f"method.form=infinite learns a stationary policy, and this dataset's features depend on the step t {tuple(dataset.features.shape)}; use method.form=finite")
-    if method == "airl" and settings.matching == "per_step" and dataset.demo_states is None:
-        raise ConfigError(
-            "game.matching=per_step matches the demonstrations' features at every step, and this dataset "
-            "gives only their sums ('feature_expectations'); use demonstrated trajectories (demos=sampled)"
-        )
-    if method == "airl" and dataset.discount < 1.0 and settings.optimizer != "exact":
-        raise ConfigError(
-            f"optim=gradient plays the thesis's undiscounted game and does not take a discount (mdp.discount = "
-            f"{dataset.discount:g}); use optim=exact (the certified learner takes it), or mdp.discount=1"
-        )
-    if method != "robust_mce" and dataset.allowed_actions is not None:
-        raise ConfigError(
-            f"method={method} assumes every action exists in every state, and this dataset restricts them "
-            "('allowed_actions'); use method=robust_mce (method.alpha=1 is MCE IRL)"
-        )
-
-
-# Each method's learner (named in airl_cli.methods), called as learn(dataset, settings, rng,
-# callback, planner_progress); only method=airl uses the last three.
-
-
-def _learn_airl_method(dataset: Dataset, settings: FitSettings, rng: np.random.Generator, callback, planner_progress) -> Learned:
-    d = dataset
-    if settings.matching == "per_step":  # the same game with features e_t (x) phi (core.per_step)
-        problem = GameProblem(d.transitions, step_features(d.features, d.horizon), d.initial, d.loss, d.horizon, d.discount)
-        learned = _learn_airl(problem, step_targets(d.demo_states, d.features, discount=d.discount), settings, rng, callback, planner_progress)
-        blocks = step_blocks(learned.weights, d.horizon)
-        info = learned.info | {"matching": "per_step"}
-        return Learned("airl", blocks[:, 1:].mean(axis=1), None, learned.history, info, learned.equilibrium, blocks)
-    problem = GameProblem(d.transitions, d.features, d.initial, d.loss, d.horizon, d.discount)
-    return _learn_airl(problem, d.feature_targets(), settings, rng, callback, planner_progress)
-
-
-def _learn_bc(dataset: Dataset, settings: FitSettings, *_) -> Learned:
-    if dataset.demo_actions is None:
-        raise ConfigError(
-            "method=bc clones demonstrated actions, and this dataset has none ('demo_actions' is missing); "
-            "use demos=sampled or demos=optimal_path"
-        )
-    res = baselines.behavioral_cloning(dataset.demo_states, dataset.demo_actions, n_states=dataset.n_states, n_actions=dataset.n_actions)
-    return Learned("bc", None, res.policy, res.history, {})
-
-
-def _weights_learned(name: str, res) -> Learned:
-    return Learned(name, res.weights, None, res.history, {"iterations": int(len(next(iter(res.history.values()), [])))})
-
-
-def _learn_mce(dataset: Dataset, settings: FitSettings, *_) -> Learned:
-    d = dataset
-    res = mce.mce_irl(
-        d.transitions, d.features, d.initial, d.horizon, d.feature_targets(), discount=d.discount, action_features=d.action_features,
-        **settings.method_options,
-    )
-    return _weights_learned("mce", res)
-
-
-def _learn_robust_mce(dataset: Dataset, settings: FitSettings, *_) -> Learned:
-    d, o = dataset, settings.method_options
-    if o.get("form") == "infinite" and 0.0 < d.discount < 1.0 and d.discount**d.horizon > 1e-6:
-        need = math.ceil(math.log(1e-6) / math.log(d.discount))
-        raise ConfigError(
-            f"method.form=infinite matches infinite discounted feature sums, but the demonstrations stop after "
-            f"T = {d.horizon} states, which leaves out gamma^T = {d.discount**d.horizon:.2g} of the weight; "
-            f"use mdp.horizon={need} or more, or method.form=finite"
-        )
-    try:
-        res = robust_mce.robust_mce_irl(
-            d.transitions, d.features, d.initial, d.horizon, d.feature_targets(), discount=d.discount, allowed=d.allowed_actions, **o
-        )
-    except ValueError as e:  # a combination the config check cannot see (form=infinite without a discount)
-        raise ConfigError(f"method=robust_mce cannot run: {e} (set mdp.discount below 1, or method.form=finite)") from None
-    return _weights_learned("robust_mce", res)
-
-
-def _learn_projection(dataset: Dataset, settings: FitSettings, *_) -> Learned:
-    d = dataset
-    res = baselines.projection(d.transitions, d.features, d.initial, d.horizon, d.feature_targets(), discount=d.discount, **settings.method_options)
-    return _weights_learned("projection", res)
-
-
-def _learn_mmp(dataset: Dataset, settings: FitSettings, *_) -> Learned:
-    # the margin is the loss: scaled like the thesis's method's (game.normalize_loss), or a grid's
-    # squared distances (up to 32 a step) swamp any w that 100 subgradient steps can reach
-    d, loss = dataset, dataset.loss
-    if settings.options.normalize_loss and loss is not None:
-        loss = scaled(loss)
-    res = mmp.max_margin_planning(
-        d.transitions, d.features, d.initial, d.horizon, d.feature_targets(),
-        demo_marginals=demo_marginals(d), loss=loss, discount=d.discount, **settings.method_options,
-    )
-    return _weights_learned("mmp", res)
-
-
-def _learn_airl(
-    problem: GameProblem,
-    targets: np.ndarray,
-    settings: FitSettings,
-    rng: np.random.Generator,
-    callback: Callable[[dict], None] | None,
-    planner_progress: Callable[[int, int], None] | None = None,
-) -> Learned:
-    """The thesis's method: the certified minimiser of eq. 5.9, or Table I's gradient steps."""
-    chosen = choose_planner(problem, settings.options.planner, optimizer=settings.optimizer)
-    settings = replace(settings, options=replace(settings.options, planner=chosen.planner))
-    planner_refusal(problem, chosen.planner)
-    oracle, screen, n_beliefs = make_oracles(problem, chosen.planner, rng, planner_progress)
-    if settings.optimizer == "exact":
-        return _certified(problem, targets, settings, rng, callback, oracle, screen, n_beliefs, chosen.reason)
-    result = fit(problem, targets, rng=rng, options=settings.options, oracle=oracle, callback=callback)
-    history = dict(result.history)
-    info = {
-        "optimizer": "gradient",
-        "stopped": result.stopped,
-        "steps": int(len(history["step"])),
-        "objective": float(history["objective"][-1]),
-        "grad_norm": float(history["grad_norm"][-1]),
-        "n_beliefs": int(n_beliefs or result.n_beliefs),
-        "oracle_capped_steps": int(history["oracle_capped"].sum()),
-    }
-    if settings.certify:
-        # the same objective minimised exactly, with the same oracle: how far did the steps stop?
-        # f at the steps' w by double oracle to the certificate's tolerance: to 1e-6 instead it took
-        # 445 s against 2 s on the default problem, for a value 5e-5 (relative) away
-        best = minimize(problem, targets, oracle, screen=screen, options=settings.certified, callback=callback)
-        f_last = objective_at(
-            problem, targets, result.weights, oracle, lam=settings.options.lam, shared=result.shared,
-            normalize_loss=settings.options.normalize_loss, game=result.game, threshold=settings.certified.tol,
-        )
-        info |= {
-            "objective_at_weights": f_last,
-            "objective_at_weights_tol": settings.certified.tol,
-            "certified_optimum": best.objective,
-            "certified_lower_bound": best.lower,
-            "above_optimum": f_last - best.objective,
-            "relative_above_optimum": (f_last - best.objective) / max(1.0, abs(best.objective)),
-        }
-        history["above_optimum"] = history["objective"] - best.objective
-    return Learned("airl", result.weights, None, history, info)
-
-
-def _certified(problem: GameProblem, targets: np.ndarray, settings: FitSettings, rng: np.random.Generator, callback, oracle, screen, n_beliefs: int, reason: str) -> Learned:
-    """The certified minimiser of eq. 5.9 (``core.irl.certified``) with the planner ``settings``
-    name (``pbvi.method`` resolved, ``reason`` why), its bracket and what the metrics say of it:
-    ``converged`` is the bracket within ``optim.tol`` (the fit's gap where it has none)."""
-    sharpen, sharpen_within = _sharpener(problem, oracle, settings)
-    bracketer = closer(problem, oracle, settings)
-    close = bracketer if closes(settings) else None
-    fit_oracle = oracle if close is None else closing_oracle(oracle, close)
-    res = minimize(problem, targets, fit_oracle, screen=screen, options=settings.certified, callback=callback, sharpen=sharpen, sharpen_within=sharpen_within, close=close)
-    h = res.history
-    planner = settings.options.planner
-    zero = bool(res.converged and not np.any(res.weights))  # certified by the exact bound on f(0)
-    name = "exact" if zero else "grid" if close is not None and close.answered_on_grid else oracle_name(planner)
-    bracketed = bracket_info(res, settings, targets, bracketer, oracle.exact if isinstance(oracle, PBVIThenExact) and oracle.switched else None)
-    check = {} if "planner_resolution" in bracketed else _planner_check(problem, targets, res, settings, rng, oracle, grown=sharpen is not None)
-    tol = settings.certified.tol
-    info = {
-        "optimizer": "exact",
-        "stopped": res.stopped,
-        # the certificate asked for: the bracket on eq. 5.9's minimum within optim.tol (the gap where there is no bracket)
-        "converged": bool(res.converged and bracketed.get("bracket_relative_gap", 0.0) <= tol),
-        "objective": res.objective,
-        "lower_bound": res.lower,
-        "gap": res.gap,
-        "relative_gap": res.relative_gap,
-        "tol": tol,
-        "gap_tol": res.tol,
-        "max_iterations": settings.certified.max_iterations,
-        **({"max_seconds": settings.certified.max_seconds} if settings.certified.max_seconds is not None else {}),
-        "planner": planner.method,
-        "planner_reason": reason,
-        "oracle": oracle_name(planner),
-        "adversary": planner.adversary, "best_responses": name,
-        "planner_certificate": certificate(res.relative_gap, res.tol, res.converged, name, check, sharpened=sharpen is not None),
-        "zero_answer": zero,
-        "iterations": int(h["iteration"][-1]),
-        "planner_calls": int(h["planner_calls"][-1]),
-        "screen_calls": int(h["screen_calls"][-1]),
-        "qp_fallbacks": res.qp_fallbacks,
-        "n_beliefs": int(n_beliefs),
-        **({"sharpen_steps": res.sharpen_steps, "sharpened_beliefs": int(len(oracle.beliefs))} if sharpen and not isinstance(oracle, PBVIThenExact) else {}),
-        **check,
-        **bracketed,
-        # how many strategies each player's equilibrium mixture uses (weight above 1e-8)
-        "learner_support": int(np.sum(res.learner_mix > 1e-8)),
-        "adversary_support": int(np.sum(res.adversary_mix > 1e-8)),
-        **_degeneracy(problem, targets, res, tol),
-    }
-    info["certificate"] = certificate_line(info, tol)
-    return Learned("airl", res.weights, None, res.history, info, (res.learner_policies, res.learner_mix))
-
-
-#: ``pbvi.sharpen_rounds`` grows the fit's belief set to at most this many times its size.
-SHARPEN_GROWTH = 4
-
-
-def _sharpener(problem: GameProblem, oracle, settings: FitSettings) -> tuple:
-    """``minimize``'s ``sharpen`` and ``sharpen_within``: ``pbvi=counts``' switch to the exact planner,
-    asked within ``learn.SWITCH_WITHIN`` tolerances; when ``pbvi.sharpen_rounds`` > 0 and the fit reuses one
-    PBVI belief set for a history-dependent adversary (``learn.sharpener``), the set grown where the
-    fit would stop, up to ``SHARPEN_GROWTH`` times its size, less if half the free memory holds fewer
-    nodes; else None."""
-    planner = settings.options.planner
-    if isinstance(oracle, PBVIThenExact):  # pbvi=counts: exact from where the fit nears its stop
-        return oracle.switch, SWITCH_WITHIN
-    if planner.sharpen_rounds == 0 or getattr(oracle, "beliefs", None) is None:  # config: only PBVI's reused set
-        return None, 1.0
-    T, S = problem.horizon, problem.transitions.shape[1]
-    nb = len(oracle.beliefs)
-    extra = affordable_beliefs(S, T, problem.n_models, oracle.P.next_states.shape[1], planner.iterations, (SHARPEN_GROWTH - 1) * nb)
-    return sharpener(oracle, planner.sharpen_rounds, nb + extra), 1.0
-
-
-def _planner_check(problem: GameProblem, targets: np.ndarray, res, settings: FitSettings, rng: np.random.Generator, oracle, grown: bool = False) -> dict:
-    """The answer bounded once more by a finer PBVI (``certified.upper_at``): the fit's belief set
-    with ``pbvi.check_iterations`` more iterations, then ``pbvi.check_rounds`` rounds of beliefs
-    grown where the planner's own policy goes (``mmdp.refine``): how much higher its bound lies
-    (relative, ``planner_resolution``) and the gap against it. ``oracle``: the fit's (its sparse
-    dynamics; with ``grown``, its belief set as ``pbvi.sharpen_rounds`` left it replaces the fit's
-    first set). Empty when the planner is not PBVI's
-    history-dependent adversary, the check is off, or the answer's bound is exact (through f(0))
-    and needs no planner."""
-    planner = settings.options.planner
-    if planner.method != "pbvi" or planner.adversary != "history" or res.upper_rewards is None:
-        return {}
-    M, T, S = res.upper_rewards.shape
-    P = oracle.P  # PBVI's: the sparse dynamics
-    wanted = min(planner.iterations + planner.check_iterations, PBVI_MAX_ITERATIONS)
-    iterations, rounds = affordable_check(S, T, M, P.next_states.shape[1], planner.iterations, wanted, planner.check_rounds, PER_ROUND)
-    if iterations == planner.iterations and rounds == 0:
-        return {}
-    beliefs = oracle.beliefs if grown else belief_set(P, replace(planner, iterations=iterations), rng)
-    checked = {}
-
-    def finer(R: np.ndarray) -> tuple[float, np.ndarray]:  # the check's planner, not the fit's ``oracle``
-        sol, checked["beliefs"] = refine(P, R, problem.initial, beliefs, rounds=rounds)
-        return sol.value, sol.marginals
-
-    upper = upper_at(targets, res, finer, settings.certified)
-    scale = max(1.0, abs(res.objective))
-    return {
-        "check_beliefs": int(len(checked["beliefs"])),
-        "checked_objective": upper,
-        "checked_relative_gap": (upper - res.lower) / max(1.0, abs(upper)),
-        "planner_resolution": (upper - res.objective) / scale,
-    }
-
-
-def _degeneracy(problem: GameProblem, targets: np.ndarray, res, tol: float) -> dict:
-    """Whether the certified w is the zero reward in all but name (``airl_cli.core.irl.degeneracy``;
-    a fit stopped by a budget is never flagged): the weights cannot move the payoff by more than
-    the certificate's width ``tol`` (``optim.tol``), or the zero reward passes the certificate itself
-    (the exact upper bound at w = 0 within ``tol`` of the lower bound, ``res.zero_upper``: [L, f(0)]
-    is then as narrow a bracket as the fit's). Values in the certificate's units (the loss scaled as
-    the solve scaled it)."""
-    effect = reward_effect(problem.transitions[1:], problem.features, problem.initial, problem.horizon, res.weights, targets, discount=problem.discount)
-    scale = max(1.0, abs(res.objective))
-    zero_gap = (res.zero_upper - res.lower) / scale
-    return {
-        "reward_effect": effect,
-        "zero_relative_gap": zero_gap,
-        # only a certificate supports the sentence: a fit stopped by the iteration cap has a small w
-        # because it stopped early, and its loose lower bound says nothing of f(0)
-        "degenerate": bool(res.converged) and (is_degenerate(effect, res.objective, tol) or zero_gap <= tol),
-    }

@@ -8,6 +8,7 @@ from airl_cli.core.irl.options import closes_bracket
 from airl_cli.core.mmdp.budget import GB, GRID_GROWTH, Estimate, estimate_fit, fewer_iterations, graph_bytes, plan_bytes_at_least, total_with_iterations
 from airl_cli.heap import TOP_PAD
 from airl_cli.io.machine import available_memory  # noqa: F401 (the use cases' callers and tests reach it here)
+from airl_cli.methods import plays_game
 from airl_cli.settings.config import FitSettings, ProblemSettings
 
 
@@ -83,12 +84,12 @@ def fit_memory(sizes: dict, settings: FitSettings) -> tuple[Estimate, int | None
     (None if it does not run PBVI)."""
     planner = settings.options.planner
     runs_pbvi = planner.method in ("auto", "pbvi")  # auto: PBVI answers first, on every problem (``oracles.choose_planner``)
-    estimate = estimate_fit(**sizes, method=settings.method, planner="pbvi" if runs_pbvi else planner.method, iterations=planner.iterations, grid_work=planner.bracket_grid)
+    estimate = estimate_fit(**sizes, game=plays_game(settings.method), planner="pbvi" if runs_pbvi else planner.method, iterations=planner.iterations, grid_work=planner.bracket_grid)
     if closes_bracket(planner) and "bracket grid" in estimate.parts:  # a closing fit may refine the grid up to GRID_GROWTH times
-        refined = estimate_fit(**sizes, method=settings.method, planner="pbvi", iterations=planner.iterations, grid_work=planner.bracket_grid * GRID_GROWTH)
+        refined = estimate_fit(**sizes, game=plays_game(settings.method), planner="pbvi", iterations=planner.iterations, grid_work=planner.bracket_grid * GRID_GROWTH)
         extra = refined.parts["bracket grid"] - estimate.parts["bracket grid"]
         estimate = Estimate(total=estimate.total + extra, parts={**estimate.parts, REFINED: extra}, n_beliefs=estimate.n_beliefs)
-    pbvi = settings.method == "airl" and runs_pbvi
+    pbvi = plays_game(settings.method) and runs_pbvi
     return with_heap_slack(estimate), (planner.iterations if pbvi else None)
 
 
@@ -108,7 +109,7 @@ def build_memory(sizes: dict) -> Estimate:
     and writing them, as ``airl generate`` does: the fit's estimate without a planner, plus one more
     (S, S) array (writing checks a copy of the loss; measured peak 1.54 GB on a 96 x 96 grid, where
     this says 2.2 GB)."""
-    fit = with_heap_slack(estimate_fit(**sizes, method="mce"))
+    fit = with_heap_slack(estimate_fit(**sizes, game=False))
     parts = {**fit.parts, "writing": 8 * sizes["n_states"] ** 2}
     return Estimate(total=sum(parts.values()), parts=parts, n_beliefs=0)
 

@@ -20,6 +20,7 @@ from airl_cli.core.mdp.state_action import decision_policy, expand, expand_trans
 from airl_cli.envs import named as envs
 from airl_cli.errors import ConfigError
 from airl_cli.io.dataset import Dataset
+from airl_cli.methods import plays_game
 from airl_cli.settings.config import DemoSettings, EnvMDPSettings, GridMDPSettings, MDPSettings, ObjectworldSettings, ProblemSettings, WindyMDPSettings
 from airl_cli.settings.problem_defaults import is_env_id
 from airl_cli.usecases.state_action import expanded
@@ -37,7 +38,7 @@ def streams(seed: int) -> dict[str, np.random.Generator]:
 def learner_rng(seed: int, method: str) -> np.random.Generator:
     """The generator a fit with ``method`` draws from: the thesis's method its own stream, the
     comparison methods another, so that adding one never changes the other's numbers."""
-    return streams(seed)["fit" if method == "airl" else "method"]
+    return streams(seed)["fit" if plays_game(method) else "method"]
 
 
 @dataclass(frozen=True)

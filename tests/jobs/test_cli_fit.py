@@ -10,7 +10,7 @@ import pytest
 from typer.testing import CliRunner
 
 from airl_cli.cli import app
-from airl_cli.usecases.fit import SHARPEN_GROWTH
+from airl_cli.usecases.learners.thesis import SHARPEN_GROWTH
 
 runner = CliRunner()
 # a small random problem and a short fit keep each run to a second or two

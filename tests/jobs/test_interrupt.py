@@ -123,7 +123,7 @@ def test_an_interrupt_inside_a_kernel_is_one_line_and_exit_130_for_every_command
     import airl_cli.jobs.generate
     import airl_cli.jobs.plan
 
-    module, name = {"fit": (airl_cli.jobs.fit, "learn"), "generate": (airl_cli.jobs.generate, "expert_scores"), "plan": (airl_cli.jobs.plan, "run_plan")}[command]
+    module, name = {"fit": (airl_cli.jobs.fit, "fit_dataset"), "generate": (airl_cli.jobs.generate, "expert_scores"), "plan": (airl_cli.jobs.plan, "run_plan")}[command]
     monkeypatch.setattr(module, name, kernel_interrupt)
     args = [f"plan.input={plan_input(tmp_path)}"] if command == "plan" else SMALL
     result = runner.invoke(app, [command, *args])
@@ -135,12 +135,12 @@ def test_an_interrupt_inside_a_kernel_is_one_line_and_exit_130_for_every_command
 def test_an_interrupted_run_that_replaces_an_earlier_run_leaves_nothing(tmp_path, monkeypatch):
     """--replace empties the earlier run's folder first: a run that then stops keeps no mixture of the
     two runs' files (before --replace existed it marked the mixture INCOMPLETE)."""
-    import airl_cli.jobs.fit
+    import airl_cli.io.fit_folder
 
     out = tmp_path / "run"
     assert runner.invoke(app, ["fit", f"hydra.run.dir={out}", *SMALL]).exit_code == 0
     assert not (out / INCOMPLETE).exists()  # a finished run is not marked
-    monkeypatch.setattr(airl_cli.jobs.fit, "write_text", kernel_interrupt)  # after weights.json, before summary.txt
+    monkeypatch.setattr(airl_cli.io.fit_folder, "write_text", kernel_interrupt)  # after weights.json, before summary.txt
     result = runner.invoke(app, ["fit", "--replace", f"hydra.run.dir={out}", "seed=1", *SMALL])
     assert result.exit_code == 130
     assert one_line(result.output, "interrupted: nothing was kept"), result.output
@@ -245,17 +245,17 @@ def test_hydras_own_records_on_a_full_disk_are_one_sentence_and_no_folder(tmp_pa
 
 
 def test_a_fit_whose_summary_does_not_fit_on_the_disk_leaves_no_run_folder(tmp_path, monkeypatch):
-    import airl_cli.jobs.fit
+    import airl_cli.io.fit_folder
 
-    monkeypatch.setattr(airl_cli.jobs.fit, "write_text", no_space("summary.txt"))  # weights.json is written before
+    monkeypatch.setattr(airl_cli.io.fit_folder, "write_text", no_space("summary.txt"))  # weights.json is written before
     result = runner.invoke(app, ["fit", "hydra.run.dir=out", *SMALL])
     assert result.exit_code == 2
     assert one_line(result.output, "error: cannot write the results (no space left on device: "), result.output
     assert not (tmp_path / "out").exists()
     # replacing an earlier run (--replace empties its folder first): nothing is left either
-    monkeypatch.setattr(airl_cli.jobs.fit, "write_text", no_space("nothing"))
+    monkeypatch.setattr(airl_cli.io.fit_folder, "write_text", no_space("nothing"))
     assert runner.invoke(app, ["fit", "hydra.run.dir=earlier", *SMALL]).exit_code == 0
-    monkeypatch.setattr(airl_cli.jobs.fit, "write_text", no_space("summary.txt"))
+    monkeypatch.setattr(airl_cli.io.fit_folder, "write_text", no_space("summary.txt"))
     result = runner.invoke(app, ["fit", "--replace", "hydra.run.dir=earlier", "seed=1", *SMALL])
     assert result.exit_code == 2 and one_line(result.output, "error: cannot write the results"), result.output
     assert not (tmp_path / "earlier").exists()

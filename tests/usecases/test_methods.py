@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 import pytest
@@ -13,7 +14,7 @@ from airl_cli.methods import NAMES, REGISTRY
 from airl_cli.readings import plotting, report
 from airl_cli.settings.config import fit_settings
 from airl_cli.settings.paths import conf_dir
-from airl_cli.usecases import fit as learners
+from airl_cli.usecases.fit import learner, learner_class
 
 
 def test_every_method_has_its_config_file_and_its_learner_and_nothing_else_does():
@@ -23,7 +24,12 @@ def test_every_method_has_its_config_file_and_its_learner_and_nothing_else_does(
         yaml = OmegaConf.to_container(OmegaConf.load(Path(conf_dir()) / "method" / f"{name}.yaml"))
         assert yaml.pop("name") == name
         assert set(yaml) == {o.key for o in m.options}, name  # the YAML's keys are the options the registry checks
-        assert callable(getattr(learners, m.learner)), m.learner
+        cls = learner_class(name)  # found by its import path, a typed object whose fields are the options
+        built = learner(fit_settings(api.config(f"method={name}")))
+        assert type(built) is cls and callable(built.fit) and callable(built.check), m.learner
+        assert built == cls(), name  # the class's defaults are the packaged config's
+        fields = {f.name for f in dataclasses.fields(cls)}
+        assert {o.key for o in m.options} <= fields, name
     assert report.ORDER == list(NAMES)
     assert [plotting.METHOD_LABELS[n] for n in NAMES] == [REGISTRY[n].label for n in NAMES]
     assert len({m.colour for m in REGISTRY.values()}) == len(REGISTRY)
@@ -43,3 +49,21 @@ def test_every_method_learns_through_the_registry(name):
     learned = api.fit(dataset, f"method={name}", "mdp.n_states=6", "mdp.horizon=4", "demos.n=20", "dynamics.n_dynamics=2")
     assert learned.method == name
     assert (learned.weights is not None) == REGISTRY[name].learns_reward
+
+
+def test_no_method_name_is_compared_outside_the_registry():
+    """Capabilities are the registry's attributes (``Method.plays_game``, ``learns_reward``,
+    ``allowed_actions``...): no module outside ``airl_cli/methods.py`` and the learners compares a
+    value with a method's name."""
+    import re
+
+    package = Path(api.__file__).parent
+    names = "|".join(NAMES)
+    compared = re.compile(rf"""(==|!=|\bin)\s*\(?\s*["']({names})["']|["']({names})["']\s*(==|!=)""")
+    found = []
+    for path in sorted(package.rglob("*.py")):
+        rel = path.relative_to(package).as_posix()
+        if rel == "methods.py" or rel.startswith("usecases/learners/"):
+            continue
+        found += [f"{rel}:{i}: {line.strip()}" for i, line in enumerate(path.read_text().split("\n"), 1) if compared.search(line)]
+    assert not found, "\n".join(found)

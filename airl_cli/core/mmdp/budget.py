@@ -74,7 +74,7 @@ def estimate_fit(
     horizon: int,
     n_dynamics: int,
     n_demos: int,
-    method: str = "airl",
+    game: bool = True,
     planner: str = "pbvi",
     iterations: int = 8,
     n_next: int | None = None,
@@ -86,9 +86,9 @@ def estimate_fit(
         n_states, n_actions, horizon: S, A and T (states per trajectory).
         n_dynamics: D, the demonstration dynamics (M = D+1 models with tau).
         n_demos: N demonstrations per dynamics (0 for exact feature expectations).
-        method: "airl" or a comparison method ("mce", "projection", "mmp", "bc"), which never
-            run the multiple-model planner.
-        planner: the adversary's planner for method="airl": "pbvi", "exact" or "mean".
+        game: whether the fit plays eq. 5.9's game (the thesis's method) and runs the
+            multiple-model planner; the comparison methods never do.
+        planner: the adversary's planner in the game: "pbvi", "exact" or "mean".
         iterations: PBVI iterations.
         n_next: R, the most next states any state reaches (``core.sparse.reachable``); None
             means S (a dense MDP).
@@ -109,7 +109,7 @@ def estimate_fit(
         "planning": 4 * M * T * S * A * 8,
     }
     nb = 0
-    if method == "airl":
+    if game:
         if planner == "pbvi":
             nb = max_beliefs(iterations)
             parts["policy graph"] = graph_bytes(S, T, M, R, iterations)

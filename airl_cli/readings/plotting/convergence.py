@@ -9,7 +9,6 @@ tolerance and, for the gradient steps, the certified optimum they are compared w
 
 from __future__ import annotations
 
-import json
 import os
 from collections.abc import Mapping
 from pathlib import Path
@@ -21,6 +20,8 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.ticker import MaxNLocator
 
+from airl_cli.io.fit_folder import HISTORY, METRICS, read_metrics
+from airl_cli.methods import learns_reward, plays_game
 from airl_cli.readings.plotting._style import METHOD_COLOURS, THRESHOLD_COLOUR, _label, _suptitle
 
 LOWER_COLOUR = "#1f77b4"
@@ -49,22 +50,18 @@ _NOT_DRAWN = {"step", "iteration", "seconds", "qp_seconds", "eta"}
 
 def is_fit_folder(folder: Path) -> bool:
     """Whether ``folder`` looks like a run folder of ``airl fit`` (a sweep's job folder is one too)."""
-    return (folder / "metrics.json").is_file() or (folder / "history.csv").is_file()
+    return (folder / METRICS).is_file() or (folder / HISTORY).is_file()
 
 
 def read_fit(folder: Path) -> tuple[dict[str, Any], pd.DataFrame]:
     """``metrics.json`` and ``history.csv`` of a fit's run folder; ValueError naming what is wrong."""
     try:
-        metrics = json.loads((folder / "metrics.json").read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise ValueError(f"The fit folder {folder} has no metrics.json.") from None
-    except (json.JSONDecodeError, UnicodeDecodeError) as error:
-        raise ValueError(f"metrics.json in {folder} is not valid JSON ({error}).") from None
-    if not isinstance(metrics, dict) or not isinstance(metrics.get("method"), str):
-        raise ValueError(f"metrics.json in {folder} is not a fit's metrics (a JSON object with a 'method').")
-    if metrics["method"] == "bc":
+        metrics = read_metrics(folder)
+    except FileNotFoundError as error:
+        raise ValueError(str(error)) from None
+    if not learns_reward(metrics["method"]):
         raise ValueError(f"{folder} is a fit of method=bc, which counts action frequencies in one pass: it has no iterations to plot.")
-    path = folder / "history.csv"
+    path = folder / HISTORY
     if not path.is_file():
         raise ValueError(f"The fit folder {folder} has no history.csv.")
     try:
@@ -96,7 +93,7 @@ def _check_columns(history: pd.DataFrame, metrics: Mapping[str, Any], folder: Pa
 
 def _kind(metrics: Mapping[str, Any]) -> str:
     """"exact", "gradient" (the thesis's method) or the comparison method's name."""
-    if metrics.get("method") == "airl":
+    if plays_game(str(metrics.get("method"))):
         return "gradient" if metrics.get("optimizer") == "gradient" else "exact"
     return str(metrics.get("method"))
 

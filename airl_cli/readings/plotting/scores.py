@@ -12,6 +12,7 @@ import pandas as pd
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 
+from airl_cli.methods import THESIS
 from airl_cli.readings.plotting._style import (
     DEMONSTRATOR_COLOUR,
     SCORE_LABEL,
@@ -278,7 +279,7 @@ def times(df: pd.DataFrame, meta: Mapping[str, Any]) -> Figure:
         if rows.empty:
             continue
         stats = _quartiles(rows.groupby("x")["seconds"])
-        _band(ax, stats, _colour(method, methods), _label(method), band=method == "airl")
+        _band(ax, stats, _colour(method, methods), _label(method), band=method == THESIS)
     _x_axis(ax, per_job["x"].to_numpy(dtype=float), bool(meta.get("x_log", False)), _x_label(meta, df))
     ax.set_yscale("log")
     ax.set_ylabel("fit time, seconds (median over runs)")

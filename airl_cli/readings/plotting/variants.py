@@ -10,7 +10,7 @@ from typing import Any
 import pandas as pd
 from matplotlib.figure import Figure
 
-from airl_cli.readings.plotting._style import METHOD_COLOURS, _require
+from airl_cli.readings.plotting._style import METHOD_COLOURS, METHOD_LABELS, _require
 from airl_cli.readings.variants import variants_summary
 
 VARIANTS_COLUMNS = ("method", "x", "seed", "dynamics", "learner_score", "demonstrator_score", "cosine_similarity", "degenerate", "weight_scale", "weight_sharing")
@@ -38,13 +38,13 @@ def variants(df: pd.DataFrame, meta: Mapping[str, Any]) -> Figure:
         rows = summary[summary["variant"] == name].sort_values("x")
         if rows.empty:
             continue
-        mce = name == "mce"
-        colour = METHOD_COLOURS["mce"] if mce else _COLOURS[i % len(_COLOURS)]
-        style = dict(color=colour, linestyle="--" if mce else "-", marker=_MARKERS[i % len(_MARKERS)], markersize=4)
+        baseline = name in METHOD_COLOURS  # a comparison method's row beside the variants, in its own colour
+        colour = METHOD_COLOURS[name] if baseline else _COLOURS[i % len(_COLOURS)]
+        style = dict(color=colour, linestyle="--" if baseline else "-", marker=_MARKERS[i % len(_MARKERS)], markersize=4)
         x = rows["x"] * 1.04 ** (i - (len(names) - 1) / 2)  # a small offset apart, so equal values stay visible
         for ax, (column, _) in zip(axes, _PANELS):
             if not rows[column].isna().all():
-                ax.plot(x, rows[column], label="MCE IRL" if mce else name, **style)
+                ax.plot(x, rows[column], label=METHOD_LABELS[name] if baseline else name, **style)
     for ax, (_, label) in zip(axes, _PANELS):
         ax.set_xscale("log")
         ax.set_xticks(sorted(summary["x"].unique()), [f"{x:g}" for x in sorted(summary["x"].unique())])

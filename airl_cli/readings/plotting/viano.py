@@ -10,6 +10,7 @@ import numpy as np
 import pandas as pd
 from matplotlib.figure import Figure
 
+from airl_cli.methods import takes_alpha
 from airl_cli.readings.plotting._style import _require
 
 RETURNS_COLUMNS = ("method", "alpha", "x", "total_return", "published", "expert_return")
@@ -24,7 +25,7 @@ def returns(df: pd.DataFrame, meta: Mapping[str, Any]) -> Figure:
         df[column] = pd.to_numeric(df[column], errors="coerce")
     # robust MCE by its alpha (alpha = 1 is MCE IRL), any other method by its name
     df["label"] = [
-        m if m != "robust_mce" else ("MCE IRL (alpha = 1)" if a == 1.0 else f"alpha = {a:g}") for m, a in zip(df["method"].astype(str), df["alpha"])
+        m if not takes_alpha(m) else ("MCE IRL (alpha = 1)" if a == 1.0 else f"alpha = {a:g}") for m, a in zip(df["method"].astype(str), df["alpha"])
     ]
     fig = Figure(figsize=(6.4, 4.6))
     ax = fig.add_subplot()

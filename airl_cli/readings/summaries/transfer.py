@@ -6,6 +6,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
+from airl_cli.methods import THESIS
 from airl_cli.readings.summaries.base import Summary, fmt, with_claim
 from airl_cli.readings.transfer import held_out_grid, transfer_summary
 
@@ -25,7 +26,7 @@ def terminal(experiment: dict, table: pd.DataFrame) -> str:
     for problem, expert, cells, demonstrator in grid:
         text = ["" if c is None else f"{c[0]:.3f} ({c[1]:.3f})" for c in cells]
         lines.append(f"{problem:<12}{expert:<7}" + "".join(f"{c:>15}" for c in text) + f"{demonstrator:>14.3f}")
-    others = summary[summary["method"] != "airl"]
+    others = summary[summary["method"] != THESIS]
     if others["pairs"].sum():
         tally = ", ".join(f"{m} {g['above_airl'].sum()}/{g['below_airl'].sum()} of {g['pairs'].sum()}" for m, g in others.groupby("method", sort=False))
         lines.append(f"pairs (run, held-out dynamics) more than 0.01 above/below airl on the same data: {tally}")

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
+from airl_cli.methods import takes_alpha
 from airl_cli.readings.summaries.base import Summary, with_claim
 
 if TYPE_CHECKING:
@@ -19,7 +20,7 @@ def terminal(experiment: dict, table: pd.DataFrame) -> str:
     lines = ["", f"total return (eps_L = {eps_L}) from every start state, ours (published, difference):"]
     xs = sorted(table["x"].unique())
     lines.append(f"{'':>12}" + "".join(f"{experiment.get('x', 'x') + '=' + format(x, 'g'):>26}" for x in xs))
-    labels = [m if m != "robust_mce" else f"alpha={a:g}" for m, a in zip(table["method"], table["alpha"])]
+    labels = [m if not takes_alpha(m) else f"alpha={a:g}" for m, a in zip(table["method"], table["alpha"])]
     for label, rows in sorted(table.assign(label=labels).groupby("label", sort=False), key=lambda kv: -kv[1]["alpha"].fillna(2).iloc[0]):
         cells = []
         for x in xs:

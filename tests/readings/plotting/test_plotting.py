@@ -377,10 +377,10 @@ def test_plotting_imports_only_pandas_numpy_matplotlib_the_standard_library_resu
                 names.add(node.module)
     names = {n for n in names if not n.startswith("airl_cli.readings.plotting")}
     assert not any(name.startswith("airl_cli.core") for name in names)
-    # plotting -> results (atomic writes, the checked read of a results table), methods (each method's label and colour), alpha_values
+    # plotting -> results (atomic writes, the checked read of a results table, a fit folder's reader), methods (each method's label and colour), alpha_values
     # (the alpha-vectors' value, numpy alone, shared with the sweep's rows), variants (a results
     # row's variant of the game, read off its settings) and transfer (its problem and expert model) only
-    allowed = {"airl_cli.io.files", "airl_cli.io.run_folder", "airl_cli.io.results_table", "airl_cli.methods", "airl_cli.readings.alpha_values", "airl_cli.readings.variants", "airl_cli.readings.transfer"}
+    allowed = {"airl_cli.io.files", "airl_cli.io.run_folder", "airl_cli.io.results_table", "airl_cli.io.fit_folder", "airl_cli.methods", "airl_cli.readings.alpha_values", "airl_cli.readings.variants", "airl_cli.readings.transfer"}
     assert {n for n in names if n.startswith("airl_cli")} <= allowed
     assert "matplotlib.pyplot" not in names
     for name in names - allowed:
