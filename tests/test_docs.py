@@ -389,3 +389,13 @@ def test_the_typed_learners_example_fits_as_the_command_line_does(tmp_path, monk
     exec(compile(block, "python-api.md", "exec"), scope)
     assert scope["airl"].info["converged"] and scope["airl"].method == "airl"
     assert scope["mmp"].info["iterations"] == 50
+
+
+def test_the_planner_s_solvers_example_runs_as_written():
+    """planner.md's 'solvers as objects': the block asserts the order mean <= PBVI <= optimum inside the bracket."""
+    block = next(b for b in _python_blocks("planner.md") if "MultiModelProblem(" in b)
+    scope: dict = {}
+    exec(compile(block, "planner.md", "exec"), scope)
+    from airl_cli.multimodel import Pbvi, solve
+
+    assert scope["counted"].value >= solve(Pbvi(), scope["grid"]).value - 1e-9  # the optimum: no policy does better
