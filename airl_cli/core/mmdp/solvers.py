@@ -77,15 +77,20 @@ class Pbvi:
         )
 
 
+def _plain(problem: MultiModelProblem, method: str) -> planner.Solution:
+    """``planner.solve`` with ``method`` and no settings of its own."""
+    return planner.solve(
+        problem.transitions, problem.rewards, problem.initial, method=method,
+        discount=problem.discount, prior=problem.prior, horizon=problem.horizon,
+    )
+
+
 @dataclass(frozen=True)
 class Exact:
     """Every history enumerated (``planner.solve(method="exact")``): the optimum, on tiny problems."""
 
     def solve(self, problem: MultiModelProblem) -> planner.Solution:
-        return planner.solve(
-            problem.transitions, problem.rewards, problem.initial, method="exact",
-            discount=problem.discount, prior=problem.prior, horizon=problem.horizon,
-        )
+        return _plain(problem, "exact")
 
 
 @dataclass(frozen=True)
@@ -93,10 +98,7 @@ class Mean:
     """The optimal policy of the averaged MDP (``planner.solve(method="mean")``), valued on every model."""
 
     def solve(self, problem: MultiModelProblem) -> planner.Solution:
-        return planner.solve(
-            problem.transitions, problem.rewards, problem.initial, method="mean",
-            discount=problem.discount, prior=problem.prior, horizon=problem.horizon,
-        )
+        return _plain(problem, "mean")
 
 
 @dataclass(frozen=True)
