@@ -54,6 +54,8 @@ class Method:
         alpha: the share alpha of the learner's own policy in robust MCE IRL's mixture (Viano et
             al. 2021) that this method is: MCE IRL 1; None for a method outside that family or one
             that takes alpha as an option (``method.alpha``).
+        history_axes: how ``airl plot`` draws a comparison method's ``history.csv``: (column, axis
+            label, log scale) per column; none: every numeric column, as it is named.
     """
 
     name: str
@@ -67,6 +69,7 @@ class Method:
     plays_game: bool = False
     allowed_actions: bool = False
     alpha: float | None = None
+    history_axes: tuple[tuple[str, str, bool], ...] = ()
 
 
 REGISTRY: dict[str, Method] = {
@@ -77,15 +80,27 @@ REGISTRY: dict[str, Method] = {
             "mce", "MCE IRL", "#1f77b4", "comparison:Mce",
             (Option("lam", "float", lo=0.0), Option("max_iterations", "int", lo=1)),
             action_features=True, alpha=1.0,
+            history_axes=(
+                ("objective", "objective g(w), the causal log-likelihood (maximised)", False),
+                ("grad_norm", r"gradient norm $\|\nabla g(w)\|_2$", True),
+            ),
         ),
         Method(
             "projection", "projection", "#2ca02c", "comparison:Projection",
             (Option("max_iterations", "int", lo=1), Option("tol", "float", lo=0.0)),
+            history_axes=(
+                ("margin", r"margin $\|\mu_E - \bar\mu\|_2$", True),
+                ("feature_gap", r"feature gap $\|\mu_E - \mu(w)\|_2$", True),
+            ),
         ),
         Method(
             "mmp", "MMP", "#9467bd", "comparison:Mmp",
             (Option("lam", "float", lo=0.0), Option("eta0", "float", lo=0.0, open_lo=True), Option("max_iterations", "int", lo=1)),
             uses_loss=True,
+            history_axes=(
+                ("objective", "objective f(w) of max-margin planning (minimised)", False),
+                ("grad_norm", r"subgradient norm $\|\partial f(w)\|_2$", True),
+            ),
         ),
         Method(
             "robust_mce", "robust MCE IRL", "#e377c2", "comparison:RobustMce",

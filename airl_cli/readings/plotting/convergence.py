@@ -21,7 +21,7 @@ from matplotlib.lines import Line2D
 from matplotlib.ticker import MaxNLocator
 
 from airl_cli.io.fit_folder import HISTORY, METRICS, read_metrics
-from airl_cli.methods import learns_reward, plays_game
+from airl_cli.methods import REGISTRY, learns_reward, plays_game
 from airl_cli.readings.plotting._style import METHOD_COLOURS, THRESHOLD_COLOUR, _label, _suptitle
 
 LOWER_COLOUR = "#1f77b4"
@@ -29,14 +29,9 @@ PLANNER_COLOUR = "#2ca02c"
 BRACKET_COLOUR = "#9467bd"
 PANEL_SIZE = (5.6, 4.2)  # inches per panel
 
-# what each comparison method's history.csv holds: column -> (axis label, log scale)
+# what each comparison method's history.csv holds: column -> (axis label, log scale), from the registry
 METHOD_COLUMNS: dict[str, dict[str, tuple[str, bool]]] = {
-    "mce": {"objective": ("objective g(w), the causal log-likelihood (maximised)", False),
-            "grad_norm": (r"gradient norm $\|\nabla g(w)\|_2$", True)},
-    "mmp": {"objective": ("objective f(w) of max-margin planning (minimised)", False),
-            "grad_norm": (r"subgradient norm $\|\partial f(w)\|_2$", True)},
-    "projection": {"margin": (r"margin $\|\mu_E - \bar\mu\|_2$", True),
-                   "feature_gap": (r"feature gap $\|\mu_E - \mu(w)\|_2$", True)},
+    m.name: {column: (label, log) for column, label, log in m.history_axes} for m in REGISTRY.values() if m.history_axes
 }
 EXACT_COLUMNS = ("iteration", "upper", "lower", "relative_gap")
 GRADIENT_COLUMNS = ("step", "objective", "grad_norm")
