@@ -86,7 +86,7 @@ LAYERS = (
      " settings settings.paths settings.overrides settings.problem_defaults settings.compose_memo settings.hydra_internals settings.reader"
      " readings readings.alpha_values readings.variants readings.transfer readings.claims readings.certificates"),
     ("envs", "envs envs.*"),
-    ("settings", "settings.config settings.demos settings.dynamics settings.experiments settings.envs"),
+    ("settings", "settings.config settings.job settings.demos settings.dynamics settings.experiments settings.envs"),
     ("use cases", "usecases usecases.* readings.plotting readings.plotting.* readings.summaries readings.summaries.*"),
     ("jobs", "jobs jobs.common jobs.fit jobs.generate jobs.inspect jobs.plan api"),
     ("launch", "jobs.launch"),

@@ -26,6 +26,7 @@ from airl_cli.core.mmdp.budget import estimate_fit
 from airl_cli.errors import ConfigError
 from airl_cli.io.run_folder import new_run_folder
 from airl_cli.settings.experiments import compose_airl
+from airl_cli.settings.job import fit_job
 from airl_cli.sweep import folder as sweep_folder
 from airl_cli.sweep import run as sweep_run
 from airl_cli.sweep.code import CODE, fingerprint
@@ -445,11 +446,11 @@ def test_a_closing_fit_s_estimate_counts_the_grid_it_may_refine_to_and_its_note_
     from airl_cli.jobs import common
 
     monkeypatch.setattr(memory, "available_memory", lambda: 1 << 50)
-    measured, closing = (common.memory_estimate(api.config(*extra))[0] for extra in (["game.adversary=markov"], []))
+    measured, closing = (common.memory_estimate(fit_job(api.config(*extra)))[0] for extra in (["game.adversary=markov"], []))
     assert closing.parts["bracket grid"] + closing.parts[memory.REFINED] == GRID_GROWTH * measured.parts["bracket grid"] > 0
     assert memory.REFINED not in measured.parts
-    assert common.size_note(api.config()) is None  # the README's first command: no note
-    note = common.size_note(api.config("pbvi.bracket_grid=12000000"))
+    assert common.size_note(fit_job(api.config())) is None  # the README's first command: no note
+    note = common.size_note(fit_job(api.config("pbvi.bracket_grid=12000000")))
     assert note is not None and "bracket's grid of beliefs (pbvi.bracket_grid) may take up to about" in note
 
 
@@ -459,7 +460,7 @@ def test_the_large_fit_note_names_the_optimiser_in_use(monkeypatch, optim, each)
     from airl_cli.jobs import common
 
     monkeypatch.setattr(memory, "available_memory", lambda: 1 << 50)
-    note = common.size_note(api.config(f"optim={optim}", "pbvi.iterations=14"))
+    note = common.size_note(fit_job(api.config(f"optim={optim}", "pbvi.iterations=14")))
     assert note is not None and "8,192 belief points" in note and f"{each} may take minutes" in note
     assert optim == "gradient" or "gradient" not in note
 

@@ -16,6 +16,7 @@ from airl_cli.errors import AirlError, ConfigError, ResultsUnwritable, error_lin
 from airl_cli.io.dataset import dataset_sizes
 from airl_cli.io.files import describe_os_error, is_unwritable, write_text
 from airl_cli.io.run_folder import INCOMPLETE, discard, holds_no_results, mark_complete, mark_incomplete
+from airl_cli.settings.job import FitJob
 from airl_cli.usecases import memory
 
 #: Progress and errors go to stderr; the final "where it went" line to stdout.
@@ -113,43 +114,38 @@ def stop(err: BaseException, folder: Path | None, *, fresh: bool) -> None:
     raise SystemExit(status) from None
 
 
-def fit_sizes(cfg: DictConfig) -> dict | None:
-    """S, A, T, D, N and R of the fit this config asks for, known without building or reading it all.
+def fit_sizes(job: FitJob) -> dict | None:
+    """S, A, T, D, N and R of the fit this job asks for, known without building or reading it all.
 
     None when they cannot be known cheaply (a dataset file that will fail its own check).
     """
-    from airl_cli.settings.config import problem_settings
-
-    data = cfg.get("data")
-    return memory.problem_sizes(problem_settings(cfg)) if data is None else dataset_sizes(data)
+    return memory.problem_sizes(job.problem) if job.problem is not None else dataset_sizes(job.fit.data)
 
 
-def memory_estimate(cfg: DictConfig) -> tuple[Estimate, int | None] | None:
+def memory_estimate(job: FitJob) -> tuple[Estimate, int | None] | None:
     """The fit's memory estimate and its PBVI iterations (None if it does not run PBVI)."""
-    from airl_cli.settings.config import fit_settings
-
-    sizes = fit_sizes(cfg)
-    return None if sizes is None else memory.fit_memory(sizes, fit_settings(cfg))
+    sizes = fit_sizes(job)
+    return None if sizes is None else memory.fit_memory(sizes, job.fit)
 
 
-def _shrink(cfg: DictConfig) -> str:
-    """The settings that size the problem, for the refusal to name: the grids have mdp.size."""
-    if cfg.get("data") is None and OmegaConf.select(cfg, "mdp.name") in ("grid", "objectworld"):
+def _shrink(problem) -> str:
+    """The settings that size the problem (``ProblemSettings``, None for a file), for the refusal to name: the grids have mdp.size."""
+    if problem is not None and problem.mdp.name in ("grid", "objectworld"):
         return "mdp.size, mdp.horizon"
     return "mdp.n_states, mdp.horizon"
 
 
-def check_memory(cfg: DictConfig, *, workers: int = 1) -> Estimate | None:
+def check_memory(job: FitJob, *, workers: int = 1) -> Estimate | None:
     """Refuse, before any work, a fit that will not fit in memory (one sentence: what to lower).
 
     Raises:
         ConfigError: the estimate (times ``workers`` fits at once) exceeds the free memory.
     """
-    found = memory_estimate(cfg)
+    found = memory_estimate(job)
     if found is None:
         return None
     estimate, iterations = found
-    sentence = memory.refusal(estimate, memory.available_memory(), iterations=iterations, workers=workers, shrink=_shrink(cfg))
+    sentence = memory.refusal(estimate, memory.available_memory(), iterations=iterations, workers=workers, shrink=_shrink(job.problem))
     if sentence is not None:
         raise ConfigError(sentence)
     return estimate
@@ -163,15 +159,14 @@ def check_build_memory(cfg: DictConfig) -> None:
     """
     from airl_cli.settings.config import problem_settings
 
-    estimate = memory.build_memory(memory.problem_sizes(problem_settings(cfg)))
-    sentence = memory.refusal(estimate, memory.available_memory(), shrink=_shrink(cfg), what="building this problem")
+    problem = problem_settings(cfg)
+    estimate = memory.build_memory(memory.problem_sizes(problem))
+    sentence = memory.refusal(estimate, memory.available_memory(), shrink=_shrink(problem), what="building this problem")
     if sentence is not None:
         raise ConfigError(sentence)
 
 
-def size_note(cfg: DictConfig) -> str | None:
+def size_note(job: FitJob) -> str | None:
     """A line to print before a fit whose steps will be long (a large belief set or over 1 GB)."""
-    from airl_cli.settings.config import fit_settings
-
-    found = memory_estimate(cfg)
-    return None if found is None else memory.size_note(*found, fit_settings(cfg).optimizer)
+    found = memory_estimate(job)
+    return None if found is None else memory.size_note(*found, job.fit.optimizer)

@@ -17,7 +17,8 @@ from airl_cli.io.fit_folder import write_fit
 from airl_cli.jobs.common import check_memory, err_console, out_console, output_dir, run_job, save_config, size_note, vector_text, warm_up
 from airl_cli.methods import THESIS, learns_reward, plays_game
 from airl_cli.plain_progress import PlainProgress
-from airl_cli.settings.config import FitSettings, fit_settings, loss_and_seed, problem_settings
+from airl_cli.settings.config import FitSettings
+from airl_cli.settings.job import FitJob, fit_job
 from airl_cli.settings.paths import conf_dir
 from airl_cli.usecases.evaluate import identifiability_lines, score_learned
 from airl_cli.usecases.fit import check_supported, fit_dataset, learner, with_method_loss
@@ -25,18 +26,16 @@ from airl_cli.usecases.learned import Learned
 from airl_cli.usecases.problem import build_dataset, loss_kind
 
 
-def load_dataset(cfg: DictConfig, settings: FitSettings) -> tuple[Dataset, int, bool, str]:
+def load_dataset(job: FitJob) -> tuple[Dataset, bool, str]:
     """The dataset to learn from (with the loss its method uses: ``usecases.fit.with_method_loss``),
-    the seed, whether it was built in-process, and the loss the game uses (eq. 5.9's L: what
-    ``loss=auto`` chose, or ``file`` for the file's own ``loss`` array)."""
-    if settings.data is None:
-        problem = problem_settings(cfg)
-        dataset, _ = build_dataset(problem)
-        return dataset, problem.seed, True, loss_kind(problem, dataset.features)
-    loss, seed = loss_and_seed(cfg)
-    dataset = read_dataset(settings.data)
-    name = "file" if loss == "auto" and dataset.loss is not None else ("zero_one" if loss == "auto" else loss)
-    return with_method_loss(dataset, learner(settings), loss), seed, False, name
+    whether it was built in-process, and the loss the game uses (eq. 5.9's L: what ``loss=auto``
+    chose, or ``file`` for the file's own ``loss`` array)."""
+    if job.problem is not None:
+        dataset, _ = build_dataset(job.problem)
+        return dataset, True, loss_kind(job.problem, dataset.features)
+    dataset = read_dataset(job.fit.data)
+    name = "file" if job.loss == "auto" and dataset.loss is not None else ("zero_one" if job.loss == "auto" else job.loss)
+    return with_method_loss(dataset, learner(job.fit), job.loss), False, name
 
 
 def check(cfg: DictConfig, overrides: list[str] = ()) -> list[str]:
@@ -44,13 +43,11 @@ def check(cfg: DictConfig, overrides: list[str] = ()) -> list[str]:
     (``launch.preflight``): the settings, the memory, and a dataset file with the method.
 
     Returns notes on the ``overrides`` that will do nothing (``ignored_settings``)."""
-    settings = fit_settings(cfg)
-    check_memory(cfg)
-    if settings.data is None:
-        problem_settings(cfg)
-    else:
-        check_supported(load_dataset(cfg, settings)[0], learner(settings))
-    return ignored_settings(cfg, list(overrides), settings.method)
+    job = fit_job(cfg)
+    check_memory(job)
+    if job.problem is None:
+        check_supported(load_dataset(job)[0], learner(job.fit))
+    return ignored_settings(cfg, list(overrides), job.fit.method)
 
 
 #: The groups that configure the thesis's learner alone (method=airl).
@@ -224,24 +221,28 @@ class FitRun:
     rows: list[dict]
     seconds: float
     text: str
+    loss: str = ""
+    generated: bool = True
 
 
 def fit_and_write(
     cfg: DictConfig,
     folder: Path,
+    job: FitJob,
     on_step: Callable[[dict], None] | None = None,
     on_planner: Callable[[int, int], None] | None = None,
 ) -> FitRun:
-    """Learn as the config says and write every output file of a fit into ``folder``.
+    """Learn as the job's settings (``settings.job.fit_job``, parsed once from ``cfg``) say and
+    write every output file of a fit into ``folder`` (``cfg`` itself is saved beside them).
 
     ``on_step`` gets each iteration's history row, ``on_planner(done, total)`` each time step
     inside a planner call (method=airl).
     """
-    settings = fit_settings(cfg)
-    check_memory(cfg)  # before any work: refuse, in one sentence, what will not fit in memory
-    dataset, seed, generated, loss = load_dataset(cfg, settings)
+    settings = job.fit
+    check_memory(job)  # before any work: refuse, in one sentence, what will not fit in memory
+    dataset, generated, loss = load_dataset(job)
     start = time.perf_counter()
-    learned = fit_dataset(dataset, learner(settings), seed, callback=on_step, planner_progress=on_planner)
+    learned = fit_dataset(dataset, learner(settings), job.seed, callback=on_step, planner_progress=on_planner)
     seconds = time.perf_counter() - start
     rows = score_learned(dataset, learned)
     text = summary_text(dataset, settings, learned, rows, seconds, loss)
@@ -255,11 +256,12 @@ def fit_and_write(
         timing["qp_seconds"] = round(float(np.sum(learned.history["qp_seconds"])), 6)
     write_fit(folder, metrics=metrics, timing=timing, summary=text, weights=learned.weights, step_weights=learned.step_weights, policy=learned.policy, history=learned.history)
     save_config(cfg, folder)
-    return FitRun(dataset, settings, learned, rows, seconds, text)
+    return FitRun(dataset, settings, learned, rows, seconds, text, loss, generated)
 
 
-def fit_with_progress(cfg: DictConfig, folder: Path, settings: FitSettings) -> FitRun:
+def fit_with_progress(cfg: DictConfig, folder: Path, job: FitJob) -> FitRun:
     """``fit_and_write`` under a live display: the learner's iterations, and the current planner call's time steps."""
+    settings = job.fit
     exact = settings.optimizer == "exact"
     tol = settings.certified.tol
     columns = (TextColumn("{task.description}"), BarColumn(bar_width=12), TextColumn("{task.fields[info]}"), TimeElapsedColumn())
@@ -291,21 +293,21 @@ def fit_with_progress(cfg: DictConfig, folder: Path, settings: FitSettings) -> F
 
         if settings.optimizer == "gradient" and settings.certify:
             bar.console.print("after the gradient steps, the exact solve certifies the optimum for comparison (optim.certify)")
-        return fit_and_write(cfg, folder, on_step, on_planner)
+        return fit_and_write(cfg, folder, job, on_step, on_planner)
 
 
 def main(cfg: DictConfig) -> None:
     folder = output_dir()
-    settings = fit_settings(cfg)
-    if not plays_game(settings.method):
-        with err_console.status(f"fitting method={settings.method}"):
-            run = fit_and_write(cfg, folder)
+    job = fit_job(cfg)  # every setting of the job, parsed once and passed down
+    if not plays_game(job.fit.method):
+        with err_console.status(f"fitting method={job.fit.method}"):
+            run = fit_and_write(cfg, folder, job)
     else:
-        if note := size_note(cfg):
+        if note := size_note(job):
             err_console.print(note, soft_wrap=True)
         with err_console.status("loading the planner (the first run after installing compiles it and the QP solver: about 40 s, once)"):
             warm_up()
-        run = fit_with_progress(cfg, folder, settings)
+        run = fit_with_progress(cfg, folder, job)
     out_console.print(run.text, end="", soft_wrap=True)
     if VERBOSE and plays_game(run.learned.method):
         out_console.print("\n" + "\n".join(verbose_lines(run.learned.info)), soft_wrap=True)

@@ -20,9 +20,10 @@ from omegaconf import DictConfig, OmegaConf
 from airl_cli.errors import ConfigError
 from airl_cli.io.run_folder import empty_folder_refusal
 from airl_cli.settings import compose_memo
-from airl_cli.settings.config import fit_settings, plain, problem_settings
+from airl_cli.settings.config import plain
 from airl_cli.settings.experiments import compose_airl, experiment_names  # noqa: F401 (experiment_names: the sweep's callers use it from here)
 from airl_cli.settings.hydra_internals import launcher_discoverable, overrides_dirname, split_sweep_overrides
+from airl_cli.settings.job import fit_job
 from airl_cli.sweep.folder import shared_settings
 from airl_cli.sweep.pool import workers
 from airl_cli.sweep.spec import SweepPlan, override_key
@@ -73,11 +74,9 @@ def _plan(overrides: list[str]) -> SweepPlan:
         raise ConfigError(str(err).splitlines()[0]) from None
     workers = _workers(first_job)
     if first_job.experiment.kind == "fit":
-        problem_settings(first_job)
-        fit_settings(first_job)
         from airl_cli.jobs.common import check_memory
 
-        check_memory(first_job, workers=workers)
+        check_memory(fit_job(first_job), workers=workers)
     swept = _swept_keys(params, jobs_overrides)
     job_config = OmegaConf.to_container(first_job, resolve=False)
     del job_config["hydra"]

@@ -21,6 +21,7 @@ from airl_cli.jobs.fit import fit_and_write
 from airl_cli.methods import plays_game
 from airl_cli.readings.alpha_values import largest_gap, upper_envelope_1d
 from airl_cli.settings.config import plain, problem_settings
+from airl_cli.settings.job import fit_job
 from airl_cli.sweep.job_files import setting_columns
 from airl_cli.usecases.problem import loss_kind, streams
 
@@ -34,7 +35,7 @@ def rows_csv(rows: list[dict]) -> str:
 
 def fit_rows(cfg: DictConfig, folder) -> list[dict]:
     """Run the fit of this job; one row per dynamics: ``job_files.FIT_COLUMNS``, then every setting."""
-    run = fit_and_write(cfg, folder)
+    run = fit_and_write(cfg, folder, fit_job(cfg))
     c = plain(cfg)
     exp = c["experiment"]
     ds = run.dataset
@@ -53,7 +54,7 @@ def fit_rows(cfg: DictConfig, folder) -> list[dict]:
         "demos": c["demos"]["kind"],
         "sigma": noise(float(c["dynamics"].get("sigma", 0.0)), c["dynamics"].get("sigma_states"), ds.n_states),
         "weight_sharing": run.settings.options.weight_sharing,
-        "loss": loss_kind(problem_settings(cfg), ds.features),
+        "loss": run.loss if run.generated else loss_kind(problem_settings(cfg), ds.features),
     }
     info = run.learned.info
     certified = plays_game(run.settings.method) and info.get("optimizer") == "exact"

@@ -332,3 +332,25 @@ def test_sharpening_grows_the_fit_s_belief_set_and_the_check_starts_from_it(tmp_
         result = run("fit", f"hydra.run.dir={tmp_path / 'bad'}", *SMALL, *bad)
         assert result.exit_code == 2 and "pbvi.sharpen_rounds" in result.output and "Traceback" not in result.output, bad
         assert not (tmp_path / "bad").exists()
+
+
+def test_a_fit_parses_its_settings_once_in_its_check_and_once_in_its_job(tmp_path, monkeypatch):
+    """``settings.job.fit_job`` reads every setting of a fit once, and the job passes the typed
+    value down (the check before any folder is made reads them once more): a default fit called
+    ``fit_settings`` 5 times and ``problem_settings`` 4 times before."""
+    import traceback
+
+    import airl_cli.settings.job as config  # fit_job's own names of the two readers
+
+    callers: dict[str, list[str]] = {"fit_settings": [], "problem_settings": []}
+    for name in callers:
+        original = getattr(config, name)
+
+        def counted(*args, _original=original, _name=name, **kwargs):
+            callers[_name].append(next(f.name for f in reversed(traceback.extract_stack()[:-1]) if f.name in ("check", "main")))
+            return _original(*args, **kwargs)
+
+        monkeypatch.setattr(config, name, counted)
+    result = CliRunner().invoke(app, ["fit", "method=mce", f"hydra.run.dir={tmp_path / 'run'}", "mdp.n_states=8", "mdp.horizon=4", "demos.n=10"])
+    assert result.exit_code == 0, result.output
+    assert callers == {"fit_settings": ["check", "main"], "problem_settings": ["check", "main"]}

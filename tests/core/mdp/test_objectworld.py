@@ -214,12 +214,13 @@ def test_the_built_problem():
 def test_memory_estimate_knows_the_objectworld_sizes():
     from airl_cli.core.mmdp.budget import estimate_fit
     from airl_cli.jobs.common import _shrink, fit_sizes
+    from airl_cli.settings.job import fit_job
     from airl_cli.usecases.memory import refusal
 
     cfg = api.config("mdp=objectworld", "dynamics=slip")
-    sizes = fit_sizes(cfg)
+    sizes = fit_sizes(fit_job(cfg))
     assert sizes == {"n_states": 64, "n_actions": 5, "horizon": 20, "n_dynamics": 3, "n_demos": 100, "n_next": 5}
-    sentence = refusal(estimate_fit(**sizes, iterations=16), 2**30, iterations=16, shrink=_shrink(cfg))
+    sentence = refusal(estimate_fit(**sizes, iterations=16), 2**30, iterations=16, shrink=_shrink(fit_job(cfg).problem))
     assert sentence is not None and sentence.endswith("or mdp.size, mdp.horizon")
     assert _shrink(api.config()) == "mdp.n_states, mdp.horizon"
 

@@ -155,13 +155,14 @@ def test_the_memory_estimate_counts_only_reachable_successors():
 def test_fit_sizes_know_the_reach_of_a_grid_and_of_a_file(tmp_path):
     from airl_cli import api
     from airl_cli.jobs.common import fit_sizes
+    from airl_cli.settings.job import fit_job
 
     P = sparse_problem(2, S=12, A=2, M=2)
     phi = np.eye(12)[:, :3]
     np.savez(tmp_path / "d.npz", transitions=P, features=phi, initial=np.full(12, 1 / 12), horizon=np.int64(4),
              feature_expectations=np.ones((1, 3)))
-    assert fit_sizes(api.config("mdp=objectworld", "dynamics=slip"))["n_next"] == 5
-    assert fit_sizes(api.config(f"data={tmp_path / 'd.npz'}"))["n_next"] == reachable(P).shape[1] < 12
+    assert fit_sizes(fit_job(api.config("mdp=objectworld", "dynamics=slip")))["n_next"] == 5
+    assert fit_sizes(fit_job(api.config(f"data={tmp_path / 'd.npz'}")))["n_next"] == reachable(P).shape[1] < 12
 
 
 # --------------------------------------------------------------------------- the sparse dataset file
