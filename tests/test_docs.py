@@ -278,12 +278,13 @@ def _dry_run(command: str, rest: list[str]) -> str | None:
 
 @pytest.fixture
 def pages_files(tmp_path, monkeypatch):
-    """A folder where the pages' ``mine.npz`` and ``grid/dataset.npz`` exist."""
+    """A folder where the pages' ``mine.npz`` (demonstrated states and actions, as own-problem.md's
+    is) and ``grid/dataset.npz`` exist."""
     from airl_cli import api
 
     monkeypatch.chdir(tmp_path)
     grid = api.make_dataset("mdp=grid", "dynamics=grid_suboptimal", "demos=exact", "seed=3")
-    api.save_dataset(tmp_path / "mine.npz", grid)
+    api.save_dataset(tmp_path / "mine.npz", api.make_dataset("mdp=grid", "dynamics=grid_suboptimal", "demos=sampled", "seed=3"))
     for folder in ("grid", "gen"):  # the pages' airl generate ... hydra.run.dir=FOLDER, then data=FOLDER/dataset.npz
         (tmp_path / folder).mkdir()
         api.save_dataset(tmp_path / folder / "dataset.npz", grid)
