@@ -213,7 +213,8 @@ def _objective_lines(info: dict) -> list[str]:
 
 @dataclass(frozen=True)
 class FitRun:
-    """One finished fit: its data, what was learned, the score rows, the wall time and the summary."""
+    """One finished fit: its data, what was learned, the score rows, the wall time, the summary, the
+    loss the game used (as the summary names it) and whether airl built the problem (else a file)."""
 
     dataset: Dataset
     settings: FitSettings
@@ -221,8 +222,8 @@ class FitRun:
     rows: list[dict]
     seconds: float
     text: str
-    loss: str = ""
-    generated: bool = True
+    loss: str
+    generated: bool
 
 
 def fit_and_write(

@@ -140,7 +140,7 @@ class Projection(_Options):
 
 
 @dataclass(frozen=True)
-class Mmp:
+class Mmp(_Options):
     """Maximum margin planning, its margin the loss L (``core.irl.mmp``).
 
     Attributes:
@@ -156,15 +156,9 @@ class Mmp:
     max_iterations: int = 100
     normalize_loss: bool = True
 
-    def __post_init__(self) -> None:
-        _check_options(self)
-
     @classmethod
     def from_settings(cls, settings: FitSettings) -> Mmp:
         return cls(**settings.method_options, normalize_loss=settings.options.normalize_loss)
-
-    def check(self, dataset: Dataset) -> None:
-        """Nothing beyond ``usecases.fit.check_supported``."""
 
     def fit(self, dataset: Dataset, rng: np.random.Generator, callback=None, planner_progress=None) -> Learned:
         d, loss = dataset, dataset.loss
