@@ -97,7 +97,7 @@ def test_the_layout_tree_names_every_module_and_package():
         if path.name.startswith("__pycache__") or path.name == "__init__.py":
             continue
         names.append(path.name + "/" if path.is_dir() else path.name)
-    for sub in ("core/numerics", "core/mdp", "core/mmdp", "core/irl", "io", "settings", "envs", "readings", "readings/summaries", "readings/plotting", "usecases", "sweep", "jobs"):
+    for sub in ("core/numerics", "core/mdp", "core/mmdp", "core/irl", "io", "settings", "envs", "readings", "readings/summaries", "readings/plotting", "usecases", "sweep", "jobs", "kinds"):
         names += [sub.rpartition("/")[2] + "/"] + [p.stem for p in (root / sub).glob("*.py") if not p.name.startswith("_")]
     missing = [n for n in names if n not in tree]
     assert not missing, f"the Layout tree (docs/development.md) does not name: {missing}"

@@ -1,7 +1,7 @@
 """The value of a set of alpha-vectors of two models (thesis Figs. 2-3) and its upper envelope, in numpy alone.
 
-Below both of its users: the sweep's rows (``sweep.rows``: the vectors on the envelope and the
-largest gap, written to the results) and the figure (``readings.plotting.alphas``: the envelope drawn and
+Below both of its users: the sweep's rows (``kinds.alphas.rows``: the vectors on the envelope and the
+largest gap, written to the results) and the figure (``kinds.alphas.figures``: the envelope drawn and
 the gap in the PBVI panel's title), which may not import ``airl_cli.core``.
 """
 

@@ -1,8 +1,9 @@
 """The job of ``airl sweep``: one point of an experiment's grid, skipped if an earlier run finished it.
 
-A fit experiment runs ``airl fit``'s work into the job folder and then writes ``rows.csv``, its
-tidy rows for the results table; the alpha-vector experiment (thesis Figs. 2-3) writes
-``alphas.npz`` and one row. ``rows.csv`` is written last, atomically: its presence means done.
+The experiment's kind (``airl_cli.kinds``) does the job's work and gives its rows: a fit experiment
+runs ``airl fit``'s work into the job folder, one row per dynamics; the alpha-vector experiment
+(thesis Figs. 2-3) writes ``alphas.npz`` and one row. ``rows.csv``, the tidy rows for the results
+table, is written last, atomically: its presence means done.
 Bad input stops the job with ``error.txt`` (one sentence) instead of rows.
 """
 
@@ -16,6 +17,7 @@ from omegaconf import DictConfig, OmegaConf
 from airl_cli.errors import AirlError, ResultsUnwritable, interrupted
 from airl_cli.io.files import describe_os_error, is_unwritable, write_text
 from airl_cli.jobs.common import output_dir
+from airl_cli.kinds import part
 from airl_cli.settings import compose_memo
 from airl_cli.settings.paths import conf_dir
 from airl_cli.sweep import pool
@@ -103,24 +105,20 @@ def main(cfg: DictConfig) -> None:
     if finished_earlier(cfg, folder) or finished_elsewhere(cfg, folder):
         return
     (folder / ERROR).unlink(missing_ok=True)
-    from airl_cli.sweep.rows import (  # the solvers: in the job only
-        alpha_rows,
-        fit_rows,
-        rows_csv,
-    )
-
     try:
-        if cfg.experiment.kind == "viano":
-            from airl_cli.sweep.viano_rows import viano_rows
-
-            rows = viano_rows(cfg, folder)
-        else:
-            rows = alpha_rows(cfg, folder) if cfg.experiment.kind == "alphas" else fit_rows(cfg, folder)
+        rows = part(cfg.experiment, "rows").rows(cfg, folder)  # the kind's solvers: imported in the job only
     except AirlError as err:
         write_text(folder / ERROR, f"{err}\n")
         return
     write_text(folder / CODE, fingerprint() + "\n")  # what made the rows, before them: reused only by the same code
     write_text(folder / ROWS, rows_csv(rows))
+
+
+def rows_csv(rows: list[dict]) -> str:
+    """The job's rows as the text of ``rows.csv``."""
+    import pandas as pd
+
+    return pd.DataFrame(rows).to_csv(index=False)
 
 
 @hydra.main(version_base="1.3", config_path=conf_dir(), config_name="airl")

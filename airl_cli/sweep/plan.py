@@ -19,6 +19,7 @@ from omegaconf import DictConfig, OmegaConf
 
 from airl_cli.errors import ConfigError
 from airl_cli.io.run_folder import empty_folder_refusal
+from airl_cli.kinds import kind_of
 from airl_cli.settings import compose_memo
 from airl_cli.settings.config import plain
 from airl_cli.settings.experiments import compose_airl, experiment_names  # noqa: F401 (experiment_names: the sweep's callers use it from here)
@@ -73,7 +74,7 @@ def _plan(overrides: list[str]) -> SweepPlan:
     except HydraException as err:
         raise ConfigError(str(err).splitlines()[0]) from None
     workers = _workers(first_job)
-    if first_job.experiment.kind == "fit":
+    if kind_of(first_job.experiment).fits:  # the sweep of a fit kind: its first job's memory, as airl fit checks it
         from airl_cli.jobs.common import check_memory
 
         check_memory(fit_job(first_job), workers=workers)

@@ -18,6 +18,7 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 from airl_cli.errors import ConfigError, ResultsUnwritable, interrupt_status, interrupted, say_error
 from airl_cli.io.files import describe_os_error, is_unwritable
 from airl_cli.io.run_folder import mark_complete, mark_incomplete
+from airl_cli.kinds import part_module
 from airl_cli.plain_progress import PlainProgress
 from airl_cli.sweep.folder import check_folder, check_not_foreign, check_writable, claim, record_settings, unwritable
 from airl_cli.sweep.job_files import damaged_jobs, discard
@@ -26,9 +27,6 @@ from airl_cli.sweep.pool import WorkerDied, environment, kept, prestart, shutdow
 from airl_cli.sweep.spec import SweepPlan
 from airl_cli.sweep.table import TABLE, collect, damaged_line, draw_figures, medians_text, write_partial
 
-#: What a sweep's warm workers import before their first job: the solvers and pandas, which the
-#: sweep process itself never imports (``tests/test_architecture.py``).
-JOB_CODE = ("airl_cli.sweep.rows",)
 #: The Hydra app of a sweep's jobs. Hydra names a job after its app's module ("job" here), so the
 #: sweep names it ``sweep`` itself: the jobs' ids (``sweep_0``...) and Hydra's records say ``sweep``.
 JOB_APP = "airl_cli.sweep.job"
@@ -165,7 +163,9 @@ def _claim_and_run(sweep: SweepPlan, overrides: list[str], *, draw: bool, consol
         # the workers start once the folder is known to take the results: a sweep refused on its
         # folder or its config starts no process (whose tracker, shut down at once under load,
         # printed a BrokenPipeError before the sentence); their imports overlap the resume check
-        prestart(_expected_workers(overrides), JOB_CODE)
+        # the warm workers import the kind's job code (its solvers, pandas) before their first job, which
+        # the sweep process itself never imports (``tests/test_architecture.py``)
+        prestart(_expected_workers(overrides), (part_module(sweep.experiment, "rows"),))
         try:
             return _run(sweep, overrides, draw=draw, console=console, out=out)
         except (KeyboardInterrupt, SystemError) as err:

@@ -143,10 +143,10 @@ def test_partial_draws_the_finished_jobs_and_leaves_the_whole_table_alone(pristi
 
 
 def test_an_interrupted_sweep_gets_a_partial_table(pristine, tmp_path, monkeypatch):
-    import airl_cli.sweep.rows as sweep_rows
+    import airl_cli.kinds.fit.rows as sweep_rows
 
     folder = tmp_path / "fig12"
-    fit_rows, calls = sweep_rows.fit_rows, []
+    fit_rows, calls = sweep_rows.rows, []
 
     def stop_at_the_third_job(cfg, job):
         calls.append(job)
@@ -154,11 +154,11 @@ def test_an_interrupted_sweep_gets_a_partial_table(pristine, tmp_path, monkeypat
             raise KeyboardInterrupt  # Ctrl-C, in the third job
         return fit_rows(cfg, job)
 
-    monkeypatch.setattr(sweep_rows, "fit_rows", stop_at_the_third_job)
+    monkeypatch.setattr(sweep_rows, "rows", stop_at_the_third_job)
     stopped = sweep_into(folder)
     assert stopped.exit_code == 130 and "add --partial for a table and figures of the finished jobs" in stopped.output
     assert not (folder / "results.csv").exists()
-    monkeypatch.setattr(sweep_rows, "fit_rows", fit_rows)
+    monkeypatch.setattr(sweep_rows, "rows", fit_rows)
     result = runner.invoke(app, [*SWEEP, f"hydra.sweep.dir={folder}", "--partial"])
     assert result.exit_code == 0 and "partial: 2 of 4 jobs have finished" in result.output, result.output
     assert not (folder / "results.csv").exists()  # a partial table never takes the sweep's own name

@@ -16,7 +16,8 @@ from typer.testing import CliRunner
 
 from airl_cli.cli import app
 from airl_cli.errors import ConfigError
-from airl_cli.sweep.job_files import FIT_COLUMNS, damaged_jobs
+from airl_cli.kinds.fit.files import FIT_COLUMNS
+from airl_cli.sweep.job_files import damaged_jobs
 from airl_cli.sweep.plan import experiment_names, plan
 from airl_cli.usecases.bracket import narrower
 

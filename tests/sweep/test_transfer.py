@@ -10,7 +10,7 @@ from typer.testing import CliRunner
 
 from airl_cli import api
 from airl_cli.cli import app
-from airl_cli.readings.plotting.transfer import transfer
+from airl_cli.kinds.fit.figures.transfer import transfer
 from airl_cli.readings.transfer import problem_names, transfer_summary
 from airl_cli.sweep.plan import plan
 from airl_cli.sweep.table import medians_text

@@ -18,18 +18,18 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-import numpy as np
 import pandas as pd
 from matplotlib.figure import Figure
 
+from airl_cli.errors import ConfigError
 from airl_cli.io.files import atomic_write
 from airl_cli.io.results_table import read_results_table
 from airl_cli.io.run_folder import read_experiment
+from airl_cli.kinds import part
 from airl_cli.readings.plotting._style import (  # noqa: F401 (the constants are part of the module's interface)
     DEFAULT_THRESHOLD,
     DEMONSTRATOR_COLOUR,
     DPI,
-    KINDS,
     METHOD_COLOURS,
     METHOD_LABELS,
     PDF_METADATA,
@@ -39,34 +39,14 @@ from airl_cli.readings.plotting._style import (  # noqa: F401 (the constants are
     THRESHOLD_COLOUR,
     _require,
 )
-from airl_cli.readings.plotting.alphas import _alpha_arrays, alpha_vectors  # noqa: F401
 from airl_cli.readings.plotting.convergence import convergence, fit_figures, is_fit_folder, read_fit
-from airl_cli.readings.plotting.scores import (
-    CURVES_COLUMNS,
-    HISTOGRAM_COLUMNS,
-    RUN_BARS_COLUMNS,
-    TIMES_COLUMNS,
-    _cosine_columns,
-    cosine,
-    curves,
-    histogram,
-    run_bars,
-    times,
-)
-from airl_cli.readings.plotting.transfer import TRANSFER_COLUMNS, transfer
-from airl_cli.readings.plotting.variants import VARIANTS_COLUMNS, variants
-from airl_cli.readings.plotting.viano import RETURNS_COLUMNS, returns
+from airl_cli.readings.plotting.spec import FigureKind
 
 __all__ = [
     "METHOD_COLOURS",
     "METHOD_LABELS",
-    "KINDS",
-    "histogram",
-    "curves",
-    "run_bars",
-    "cosine",
-    "times",
-    "alpha_vectors",
+    "FigureKind",
+    "figure_kinds",
     "convergence",
     "draw",
     "draw_folder",
@@ -75,8 +55,9 @@ __all__ = [
 # the sweep folder
 
 
-_DRAWERS = {"histogram": histogram, "curves": curves, "run_bars": run_bars, "cosine": cosine, "times": times, "returns": returns, "variants": variants, "transfer": transfer}
-_NEEDS = {"histogram": HISTOGRAM_COLUMNS, "curves": CURVES_COLUMNS, "run_bars": RUN_BARS_COLUMNS, "times": TIMES_COLUMNS, "returns": RETURNS_COLUMNS, "variants": VARIANTS_COLUMNS, "transfer": TRANSFER_COLUMNS}
+def figure_kinds(meta: dict[str, Any]) -> dict[str, FigureKind]:
+    """The figures the experiment's kind draws (``airl_cli.kinds.<kind>.figures``), by name."""
+    return part(meta, "figures").FIGURES
 
 
 def _unfinished(folder: Path) -> str:
@@ -98,10 +79,14 @@ def _read_meta(folder: Path) -> dict[str, Any]:
     figures = meta["figures"]
     if isinstance(figures, str) or not isinstance(figures, list):
         raise ValueError("experiment.json's 'figures' must be a list of figure kinds.")
-    unknown = [str(k) for k in figures if k not in KINDS]
+    try:
+        known = figure_kinds(meta)
+    except ConfigError as err:
+        raise ValueError(f"experiment.json in {folder}: {err}.") from None
+    unknown = [str(k) for k in figures if k not in known]
     if unknown:
         raise ValueError(
-            f"experiment.json lists unknown figure kind(s) {', '.join(unknown)}; known: {', '.join(KINDS)}."
+            f"experiment.json lists unknown figure kind(s) {', '.join(unknown)}; known: {', '.join(known)}."
         )
     return meta
 
@@ -110,22 +95,6 @@ def _read_results(folder: Path) -> pd.DataFrame:
     if not (folder / "results.csv").is_file():
         raise ValueError(f"The sweep folder {folder} has no results.csv{_unfinished(folder)}.")
     return read_results_table(folder)  # a damaged table: DamagedTable, a ValueError of one sentence
-
-
-def _read_alphas(folder: Path) -> dict[str, Any]:
-    """The sweep folder's alphas.npz, or else the first (in name order) of its job folders'."""
-    path = folder / "alphas.npz"
-    if not path.is_file():
-        in_jobs = sorted(p for p in folder.glob("*/alphas.npz") if p.is_file())
-        if not in_jobs:
-            raise ValueError(f"The sweep folder {folder} has no alphas.npz (nor has any of its job folders).")
-        path = in_jobs[0]
-    with np.load(path, allow_pickle=False) as npz:
-        data = {key: npz[key] for key in npz.files}
-    _alpha_arrays(data)
-    return data
-
-
 
 
 def _save(fig: Figure, path: Path) -> Path:
@@ -175,16 +144,16 @@ def draw(folder: str | os.PathLike, formats: tuple[str, ...] = ("png", "pdf")) -
     """
     folder = Path(folder)
     meta = _read_meta(folder)
-    kinds = list(dict.fromkeys(meta["figures"]))
+    names = list(dict.fromkeys(meta["figures"]))
     name = str(meta["name"])
+    kinds = figure_kinds(meta)
 
-    df = _read_results(folder) if any(k != "alphas" for k in kinds) else None
-    alphas = _read_alphas(folder) if "alphas" in kinds else None
-    for kind in kinds:
-        if kind == "alphas":
-            continue
-        needs = _cosine_columns(df, meta) if kind == "cosine" else _NEEDS[kind]
-        _require(df, needs, kind)
+    df = _read_results(folder) if any(kinds[k].read is None for k in names) else None
+    data = {k: df if kinds[k].read is None else kinds[k].read(folder) for k in names}
+    for k in names:
+        if kinds[k].read is None:
+            needs = kinds[k].needs
+            _require(df, needs(df, meta) if callable(needs) else needs, k)
 
     if df is not None:
         meta = {**meta, "title": sized_title(meta, df)}
@@ -192,12 +161,9 @@ def draw(folder: str | os.PathLike, formats: tuple[str, ...] = ("png", "pdf")) -
 
     def figures() -> list[tuple[str, Figure]]:
         made: list[tuple[str, Figure]] = []
-        for kind in kinds:
-            if kind == "alphas":
-                exact, pbvi = alpha_vectors(alphas, meta)
-                made += [(f"{name}_exact", exact), (f"{name}_pbvi", pbvi)]
-            else:
-                made.append((f"{name}_{kind}", _DRAWERS[kind](df, meta)))
+        for k in names:
+            drawn = kinds[k].draw(data[k], meta)
+            made += [(f"{name}_{suffix}", fig) for suffix, fig in drawn] if isinstance(drawn, list) else [(f"{name}_{k}", drawn)]
         return made
 
     return _write(folder / "figures", figures, formats)

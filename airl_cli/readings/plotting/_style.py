@@ -37,7 +37,6 @@ DPI = 150
 PNG_METADATA = {"Software": None}
 PDF_METADATA = {"CreationDate": None, "Producer": None, "Creator": None}
 
-KINDS = ("histogram", "curves", "run_bars", "cosine", "alphas", "times", "returns", "variants", "transfer")
 _ALPHA_KEYS = ("exact", "exact_envelope", "pbvi", "t", "s")
 _NUMERIC = ("x", "seed", "run", "learner_score", "demonstrator_score", "cosine_similarity", "seconds")
 

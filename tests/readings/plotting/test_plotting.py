@@ -15,6 +15,8 @@ from matplotlib.colors import to_hex
 from matplotlib.figure import Figure
 
 import airl_cli
+from airl_cli.kinds.alphas import figures as alpha_figures
+from airl_cli.kinds.fit import figures as fit_figures
 from airl_cli.readings import plotting
 from airl_cli.readings.alpha_values import envelope_vertices
 
@@ -92,7 +94,7 @@ def colours_of_lines(ax) -> dict[str, str]:
 
 def test_histogram_one_panel_per_method_with_bars_and_annotation():
     df = make_table("run")
-    fig = plotting.histogram(df, make_meta(["histogram"], "run"))
+    fig = fit_figures.histogram(df, make_meta(["histogram"], "run"))
     assert isinstance(fig, Figure)
     assert len(fig.axes) == len(METHODS)
     for ax, method in zip(fig.axes, METHODS):
@@ -110,7 +112,7 @@ def test_histogram_one_panel_per_method_with_bars_and_annotation():
 
 def test_curves_one_panel_per_dynamics_with_median_and_band():
     df = make_table("n_demos")
-    fig = plotting.curves(df, make_meta(["curves"]))
+    fig = fit_figures.curves(df, make_meta(["curves"]))
     d = df[df["dynamics"].isin(SHOWN)]
     shown = [d[d.method == "airl"].groupby(["dynamics", "x"]).learner_score.quantile(0.25).min()]
     shown += [d[d.method == m].groupby(["dynamics", "x"]).learner_score.median().min() for m in METHODS]
@@ -147,7 +149,7 @@ def test_curves_one_panel_per_dynamics_with_median_and_band():
 
 def test_curves_medians_are_the_medians_over_runs():
     df = make_table("n_demos")
-    fig = plotting.curves(df, make_meta(["curves"]))
+    fig = fit_figures.curves(df, make_meta(["curves"]))
     line = next(line for line in fig.axes[0].get_lines() if line.get_label() == plotting.METHOD_LABELS["airl"])
     rows = df[(df.method == "airl") & (df.dynamics == "tau_1")]
     expected = rows.groupby("x")["learner_score"].median().sort_index()
@@ -157,7 +159,7 @@ def test_curves_medians_are_the_medians_over_runs():
 
 def test_run_bars_grouped_bars_threshold_and_demonstrator():
     df = make_table("run")
-    fig = plotting.run_bars(df, make_meta(["run_bars"], "run"))
+    fig = fit_figures.run_bars(df, make_meta(["run_bars"], "run"))
     assert len(fig.axes) == len(SHOWN)
     for ax in fig.axes:
         assert len(ax.patches) == len(SEEDS) * len(METHODS)
@@ -175,7 +177,7 @@ def test_run_bars_keep_a_zero_axis_when_a_score_is_low():
     df = make_table("run")
     df.loc[0, "learner_score"] = 0.2
     df.loc[df.dynamics.isin(SHOWN).idxmax(), "learner_score"] = 0.2
-    fig = plotting.run_bars(df, make_meta(["run_bars"], "run"))
+    fig = fit_figures.run_bars(df, make_meta(["run_bars"], "run"))
     assert fig.axes[0].get_ylim() == pytest.approx(plotting.SCORE_LIMITS)
 
 
@@ -192,8 +194,8 @@ def test_a_smaller_sweep_than_the_thesiss_says_so_in_the_title(meta, expected):
 
 
 def test_method_colours_are_the_same_across_figures():
-    curves = plotting.curves(make_table("n_demos"), make_meta(["curves"]))
-    bars = plotting.run_bars(make_table("run"), make_meta(["run_bars"], "run"))
+    curves = fit_figures.curves(make_table("n_demos"), make_meta(["curves"]))
+    bars = fit_figures.run_bars(make_table("run"), make_meta(["run_bars"], "run"))
     line_colours = colours_of_lines(curves.axes[0])
     for method in METHODS:
         label = plotting.METHOD_LABELS[method]
@@ -204,7 +206,7 @@ def test_method_colours_are_the_same_across_figures():
 
 
 def test_cosine_against_the_swept_variable_leaves_out_bc():
-    fig = plotting.cosine(make_table("n_demos"), make_meta(["cosine"]))
+    fig = fit_figures.cosine(make_table("n_demos"), make_meta(["cosine"]))
     assert len(fig.axes) == 1
     ax = fig.axes[0]
     labels = [line.get_label() for line in ax.get_lines()]
@@ -219,7 +221,7 @@ def test_cosine_against_the_swept_variable_leaves_out_bc():
 
 
 def test_cosine_per_run_bars():
-    fig = plotting.cosine(make_table("run"), make_meta(["cosine"], "run"))
+    fig = fit_figures.cosine(make_table("run"), make_meta(["cosine"], "run"))
     assert len(fig.axes) == 1
     assert len(fig.axes[0].patches) == len(SEEDS) * 2  # airl and mce; bc has no weights
 
@@ -227,12 +229,12 @@ def test_cosine_per_run_bars():
 def test_cosine_without_any_weights_is_an_error():
     df = make_table("n_demos", methods=("bc",))
     with pytest.raises(ValueError, match="cosine"):
-        plotting.cosine(df, make_meta(["cosine"]))
+        fit_figures.cosine(df, make_meta(["cosine"]))
 
 
 def test_unknown_dynamics_is_an_error():
     with pytest.raises(ValueError, match="tau_9"):
-        plotting.curves(make_table("n_demos"), make_meta(["curves"], dynamics=["tau_1", "tau_9"]))
+        fit_figures.curves(make_table("n_demos"), make_meta(["curves"], dynamics=["tau_1", "tau_9"]))
 
 
 def test_upper_envelope_matches_brute_force():
@@ -248,7 +250,7 @@ def test_upper_envelope_matches_brute_force():
 
 def test_alpha_vectors_figures():
     data = make_alphas(200)
-    exact, pbvi = plotting.alpha_vectors(data)
+    exact, pbvi = alpha_figures.alpha_vectors(data)
     assert len(exact.axes) == 2 and len(pbvi.axes) == 1
     left, right = exact.axes
     assert left.get_lines()
@@ -267,7 +269,7 @@ def test_alpha_vectors_missing_array_is_named():
     data = make_alphas(50)
     del data["pbvi"]
     with pytest.raises(ValueError, match="pbvi"):
-        plotting.alpha_vectors(data)
+        alpha_figures.alpha_vectors(data)
 
 
 # --------------------------------------------------------------------------------------------
@@ -295,7 +297,7 @@ def test_draw_writes_png_and_pdf_for_every_kind(tmp_path, capsys):
 
 
 def test_draw_alphas(tmp_path):
-    folder = write_folder(tmp_path / "alphas", None, {"name": "fig02", "title": "Alpha-vectors", "figures": ["alphas"]},
+    folder = write_folder(tmp_path / "alphas", None, {"name": "fig02", "kind": "alphas", "title": "Alpha-vectors", "figures": ["alphas"]},
                           make_alphas(200))
     written = plotting.draw(folder)
     assert [p.name for p in written] == ["fig02_exact.png", "fig02_exact.pdf", "fig02_pbvi.png", "fig02_pbvi.pdf"]
@@ -334,14 +336,14 @@ def test_draw_names_a_missing_file(sweep, missing):
 
 
 def test_draw_finds_alphas_in_a_job_folder(tmp_path):
-    folder = write_folder(tmp_path / "a", None, {"name": "fig02_03", "figures": ["alphas"]})
+    folder = write_folder(tmp_path / "a", None, {"name": "fig02_03", "kind": "alphas", "figures": ["alphas"]})
     (folder / "seed=0").mkdir()  # the sweep keeps alphas.npz in the job's folder
     np.savez(folder / "seed=0" / "alphas.npz", **make_alphas(30))
     assert [p.name for p in plotting.draw(folder)][0] == "fig02_03_exact.png"
 
 
 def test_draw_names_a_missing_alphas_file(tmp_path):
-    folder = write_folder(tmp_path / "a", None, {"name": "fig02", "figures": ["alphas"]})
+    folder = write_folder(tmp_path / "a", None, {"name": "fig02", "kind": "alphas", "figures": ["alphas"]})
     with pytest.raises(ValueError, match=r"alphas\.npz"):
         plotting.draw(folder)
 
@@ -364,8 +366,10 @@ def test_bc_rows_with_empty_cosine_survive_the_csv(tmp_path):
 
 
 def test_plotting_imports_only_pandas_numpy_matplotlib_the_standard_library_results_and_the_method_registry():
-    files = sorted((Path(airl_cli.__file__).parent / "readings" / "plotting").glob("*.py"))
-    assert files
+    package = Path(airl_cli.__file__).parent
+    # the machinery here and every kind's figures (airl_cli/kinds/<kind>/figures[/...].py)
+    files = sorted((package / "readings" / "plotting").glob("*.py")) + sorted(package.glob("kinds/*/figures.py")) + sorted(package.glob("kinds/*/figures/*.py"))
+    assert len(files) > 8
     names = set()
     for path in files:
         assert len(path.read_text().splitlines()) <= 400, f"{path.name}: split it by figure kind"
@@ -375,12 +379,13 @@ def test_plotting_imports_only_pandas_numpy_matplotlib_the_standard_library_resu
             elif isinstance(node, ast.ImportFrom):
                 assert node.level == 0, f"{path.name} uses a relative import"
                 names.add(node.module)
-    names = {n for n in names if not n.startswith("airl_cli.readings.plotting")}
+    names = {n for n in names if not n.startswith(("airl_cli.readings.plotting", "airl_cli.kinds."))}
     assert not any(name.startswith("airl_cli.core") for name in names)
     # plotting -> results (atomic writes, the checked read of a results table, a fit folder's reader), methods (each method's label and colour), alpha_values
     # (the alpha-vectors' value, numpy alone, shared with the sweep's rows), variants (a results
     # row's variant of the game, read off its settings) and transfer (its problem and expert model) only
-    allowed = {"airl_cli.io.files", "airl_cli.io.run_folder", "airl_cli.io.results_table", "airl_cli.io.fit_folder", "airl_cli.methods", "airl_cli.readings.alpha_values", "airl_cli.readings.variants", "airl_cli.readings.transfer"}
+    allowed = {"airl_cli.io.files", "airl_cli.io.run_folder", "airl_cli.io.results_table", "airl_cli.io.fit_folder", "airl_cli.methods", "airl_cli.readings.alpha_values", "airl_cli.readings.variants", "airl_cli.readings.transfer",
+               "airl_cli.kinds", "airl_cli.errors"}  # the kinds' registry (which kind draws what), its one-sentence error
     assert {n for n in names if n.startswith("airl_cli")} <= allowed
     assert "matplotlib.pyplot" not in names
     for name in names - allowed:
@@ -396,7 +401,7 @@ def test_times_plots_one_median_per_method_and_size_on_a_log_axis():
             for seed, factor in ((0, 1.0), (1, 3.0)):
                 for dyn in ("tau_1", "tau_2", "tau_3"):
                     rows.append(dict(method=method, x=x, seed=seed, dynamics=dyn, seconds=base * factor * x))
-    fig = plotting.times(pd.DataFrame(rows), {"x_label": "grid side", "methods": ["airl", "mce"]})
+    fig = fit_figures.times(pd.DataFrame(rows), {"x_label": "grid side", "methods": ["airl", "mce"]})
     ax = fig.axes[0]
     assert ax.get_yscale() == "log"
     lines = {line.get_label(): line for line in ax.get_lines()}

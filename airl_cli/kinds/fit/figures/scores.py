@@ -16,7 +16,6 @@ from airl_cli.methods import THESIS
 from airl_cli.readings.plotting._style import (
     DEMONSTRATOR_COLOUR,
     SCORE_LABEL,
-    SCORE_LIMITS,
     THRESHOLD_COLOUR,
     _band,
     _band_handle,

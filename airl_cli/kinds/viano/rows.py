@@ -42,7 +42,7 @@ def published_expert(exp: dict, learner_epsilon: float) -> float:
     return float((exp.get("published_expert") or {}).get(str(float(learner_epsilon)), float("nan")))
 
 
-def viano_rows(cfg: DictConfig, folder) -> list[dict]:
+def rows(cfg: DictConfig, folder) -> list[dict]:
     """Fit robust MCE IRL with method.alpha to the eps_E expert; one row: ours, theirs, the expert's.
     With ``experiment.horizon`` set: any method on the finite-horizon grid (``finite_rows``)."""
     exp = plain(cfg)["experiment"]

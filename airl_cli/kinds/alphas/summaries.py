@@ -22,4 +22,5 @@ def section(meta: dict, table: pd.DataFrame) -> str:
     )
 
 
-SUMMARY = Summary(section=section, columns=ALPHA_COLUMNS, in_overview=False, sweep_files=("alphas.npz",))
+#: Summary name -> how it reads a results table (``airl_cli.kinds``).
+SUMMARIES = {"alphas": Summary(section=section, columns=ALPHA_COLUMNS, in_overview=False, sweep_files=("alphas.npz",))}

@@ -12,6 +12,7 @@ from matplotlib.figure import Figure
 
 from airl_cli.methods import takes_alpha
 from airl_cli.readings.plotting._style import _require
+from airl_cli.readings.plotting.spec import FigureKind
 
 RETURNS_COLUMNS = ("method", "alpha", "x", "total_return", "published", "expert_return")
 _COLOURS = ("#1f77b4", "#2ca02c", "#e377c2", "#9467bd", "#8c564b")
@@ -45,3 +46,7 @@ def returns(df: pd.DataFrame, meta: Mapping[str, Any]) -> Figure:
     ax.legend(fontsize=7, loc="lower left")
     fig.suptitle(str(meta.get("title") or ""), fontsize=9)
     return fig
+
+
+#: Figure name -> how it is drawn (``airl_cli.kinds``).
+FIGURES = {"returns": FigureKind(returns, RETURNS_COLUMNS)}

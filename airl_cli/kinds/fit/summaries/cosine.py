@@ -5,8 +5,8 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
+from airl_cli.kinds.fit.summaries.scores import terminal as scores_terminal
 from airl_cli.readings.summaries.base import SCORE_COLUMNS, Summary, fmt, methods
-from airl_cli.readings.summaries.scores import terminal as scores_terminal
 
 if TYPE_CHECKING:
     import pandas as pd  # tables arrive as DataFrames; pandas is imported by whoever reads them

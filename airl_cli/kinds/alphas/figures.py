@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from collections.abc import Mapping
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -12,6 +13,7 @@ from matplotlib.lines import Line2D
 
 from airl_cli.readings.alpha_values import envelope_vertices, largest_gap
 from airl_cli.readings.plotting._style import _ALPHA_KEYS, ROW_HEIGHT, _legend, _suptitle
+from airl_cli.readings.plotting.spec import FigureKind
 
 # --------------------------------------------------------------------------------------------
 # alpha-vectors (figures 2 and 3)
@@ -124,3 +126,26 @@ def alpha_vectors(data: Mapping[str, Any], meta: Mapping[str, Any] | None = None
     return first, second
 
 
+
+
+def read_alphas(folder: Path) -> dict[str, Any]:
+    """The sweep folder's alphas.npz, or else the first (in name order) of its job folders', checked."""
+    path = folder / "alphas.npz"
+    if not path.is_file():
+        in_jobs = sorted(p for p in folder.glob("*/alphas.npz") if p.is_file())
+        if not in_jobs:
+            raise ValueError(f"The sweep folder {folder} has no alphas.npz (nor has any of its job folders).")
+        path = in_jobs[0]
+    with np.load(path, allow_pickle=False) as npz:
+        data = {key: npz[key] for key in npz.files}
+    _alpha_arrays(data)
+    return data
+
+
+def _both(data: Mapping[str, Any], meta: Mapping[str, Any]) -> list[tuple[str, Figure]]:
+    exact, pbvi = alpha_vectors(data, meta)
+    return [("exact", exact), ("pbvi", pbvi)]
+
+
+#: Figure name -> how it is drawn (``airl_cli.kinds``): figures 2 and 3 as ``{name}_exact`` and ``{name}_pbvi``.
+FIGURES = {"alphas": FigureKind(_both, read=read_alphas)}

@@ -1,40 +1,22 @@
-"""The rows an ``airl sweep`` job writes: a fit's scores per dynamics with every setting, or the
-alpha-vectors of thesis Figs. 2-3.
-
-Apart from ``airl_cli.sweep.job`` so that the sweep process, which only hands jobs to its
-workers, never imports the solvers (numba, scipy.optimize); the workers import this at start-up.
-"""
+"""A fit job's rows (``airl_cli.kinds``): it runs ``airl fit``'s work into the job folder, then gives
+one row per dynamics, its scores and certificate with every setting (``kinds.fit.files.FIT_COLUMNS``)."""
 
 from __future__ import annotations
-
-import io
-import time
 
 import numpy as np
 from omegaconf import DictConfig, OmegaConf
 
 from airl_cli.core.mdp.problems import noise
-from airl_cli.core.mmdp.planner import exact_alpha_vectors, expand_beliefs, pbvi_graph
-from airl_cli.io.files import atomic_write
-from airl_cli.jobs.common import save_config
 from airl_cli.jobs.fit import fit_and_write
+from airl_cli.kinds.fit.files import setting_columns
 from airl_cli.methods import plays_game
-from airl_cli.readings.alpha_values import largest_gap, upper_envelope_1d
 from airl_cli.settings.config import plain, problem_settings
 from airl_cli.settings.job import fit_job
-from airl_cli.sweep.job_files import setting_columns
-from airl_cli.usecases.problem import loss_kind, streams
+from airl_cli.usecases.problem import loss_kind
 
 
-def rows_csv(rows: list[dict]) -> str:
-    """The job's rows as the text of ``rows.csv``."""
-    import pandas as pd
-
-    return pd.DataFrame(rows).to_csv(index=False)
-
-
-def fit_rows(cfg: DictConfig, folder) -> list[dict]:
-    """Run the fit of this job; one row per dynamics: ``job_files.FIT_COLUMNS``, then every setting."""
+def rows(cfg: DictConfig, folder) -> list[dict]:
+    """Run the fit of this job; one row per dynamics: ``kinds.fit.files.FIT_COLUMNS``, then every setting."""
     run = fit_and_write(cfg, folder, fit_job(cfg))
     c = plain(cfg)
     exp = c["experiment"]
@@ -92,37 +74,3 @@ def fit_rows(cfg: DictConfig, folder) -> list[dict]:
             }
         )
     return out
-
-
-def alpha_rows(cfg: DictConfig, folder) -> list[dict]:
-    """Thesis Figs. 2-3: every exact alpha-vector at one (t, s) of two random MDPs, and PBVI's."""
-    exp = plain(cfg)["experiment"]
-    seed = int(cfg.seed)
-    rng = streams(seed)["mdp"]
-    S, A, T, t, s = exp["n_states"], exp["n_actions"], exp["horizon"], exp["t"], exp["s"]
-    start = time.perf_counter()
-    P = rng.dirichlet(np.ones(S), size=(2, S, A))
-    R = rng.normal(size=(2, T, S))
-    exact = exact_alpha_vectors(P, R, t=t, s=s)
-    envelope = upper_envelope_1d(exact)
-    beliefs = expand_beliefs(P, iterations=exp["pbvi_iterations"], rng=streams(seed)["fit"])
-    graph = pbvi_graph(P, R, beliefs)
-    pbvi = graph.alpha[t][graph.offsets[t][s] : graph.offsets[t][s + 1]]
-    x = np.linspace(0.0, 1.0, 2001)
-    gap = largest_gap(exact[envelope], pbvi, x)
-    buf = io.BytesIO()
-    np.savez(buf, exact=exact, exact_envelope=envelope, pbvi=pbvi, t=t, s=s)
-    atomic_write(folder / "alphas.npz", lambda h: h.write(buf.getvalue()))
-    save_config(cfg, folder)
-    return [
-        {
-            "experiment": exp["name"],
-            "seed": seed,
-            "n_exact": len(exact),
-            "n_envelope": len(envelope),
-            "n_pbvi": len(pbvi),
-            "n_beliefs": len(beliefs),
-            "max_value_gap": gap,
-            "seconds": time.perf_counter() - start,
-        }
-    ]
