@@ -16,9 +16,10 @@ from typer.core import TyperCommand
 
 from airl_cli.errors import AirlError, refuse, stop_on_sigterm
 from airl_cli.heap import keep_heap_slack
-from airl_cli.jobs.launch import check_group_choices, check_keys, config_groups, quote_paths, run_hydra
+from airl_cli.jobs.launch import quote_paths, run_hydra
 from airl_cli.methods import NAMES
-from airl_cli.settings.overrides import syntax_problem
+from airl_cli.settings.command_line import checked, config_groups
+from airl_cli.settings.overrides import CommandLine, syntax_problem
 
 PASS_THROUGH = {"allow_extra_args": True, "ignore_unknown_options": True}
 
@@ -49,14 +50,16 @@ def _groups_epilog() -> str:
 EPILOG = _groups_epilog()
 
 
-def _overrides(ctx: typer.Context) -> list[str]:
-    """The command's Hydra overrides (its extra arguments), refused in one sentence if one is not an
-    override (an unknown option, a word without '='), Hydra cannot parse it, or a key is set twice."""
+def _overrides(ctx: typer.Context) -> CommandLine:
+    """The command's Hydra overrides (its extra arguments) as one value, each split once; refused in
+    one sentence if one is not an override (an unknown option, a word without '='), Hydra cannot
+    parse it, or a key is set twice."""
+    line = CommandLine.of(ctx.args)
     options = [o for p in ctx.command.params for o in getattr(p, "opts", []) if o.startswith("--")]
-    problem = syntax_problem(quote_paths(list(ctx.args)), str(ctx.command.name), options + ["--help"])
+    problem = syntax_problem(quote_paths(line), str(ctx.command.name), options + ["--help"])
     if problem is not None:
         refuse(problem)
-    return list(ctx.args)
+    return line
 
 
 def _usage_error() -> type[Exception]:
@@ -87,7 +90,7 @@ class _SweepCommand(TyperCommand):
     """``airl sweep``, whose help ends with the experiments: read from their configs only for ``--help``."""
 
     def format_epilog(self, ctx, formatter) -> None:
-        from airl_cli.jobs.launch import experiment_titles
+        from airl_cli.settings.command_line import experiment_titles
 
         titles = experiment_titles()
         width = max(map(len, titles), default=0)
@@ -224,10 +227,8 @@ def sweep(
     from airl_cli.jobs.common import err_console, out_console
     from airl_cli.sweep.run import run
 
-    check_group_choices(args)
-    check_keys(args)
     try:
-        status = run(args, draw=plot, console=err_console, out=out_console, partial=partial)
+        status = run(checked("sweep", args), draw=plot, console=err_console, out=out_console, partial=partial)
     except AirlError as err:
         refuse(err, err_console)
     raise typer.Exit(status)

@@ -85,7 +85,7 @@ LAYERS = (
     ("core.mmdp", "core.mmdp core.mmdp.*"),
     ("core.irl", "core.irl core.irl.*"),
     ("base", "airl_cli errors heap plain_progress methods multimodel kinds io io.* conf conf.* sweep.spec"
-     " settings settings.paths settings.overrides settings.problem_defaults settings.compose_memo settings.hydra_internals settings.reader"
+     " settings settings.paths settings.overrides settings.command_line settings.problem_defaults settings.compose_memo settings.hydra_internals settings.reader"
      " readings readings.alpha_values readings.variants readings.transfer readings.claims readings.certificates"),
     ("envs", "envs envs.*"),
     ("settings", "settings.config settings.job settings.demos settings.dynamics settings.experiments settings.envs"),
@@ -243,7 +243,7 @@ def test_the_sweep_machinery_and_the_report_name_no_experiment():
     or writes one (``"experiment=viano_gridworld ..."``); docstrings and comments may cite them."""
     import ast
 
-    from airl_cli.jobs.launch import experiment_titles
+    from airl_cli.settings.command_line import experiment_titles
 
     from airl_cli.kinds import KINDS
 

@@ -8,7 +8,7 @@ command joined by ``&&`` must be one this project knows, and must name only what
 
 - ``airl ...``: the subcommand, each option (from the Typer app itself), and for the Hydra commands
   each override's config group, option and key, checked by the same functions ``airl`` runs before
-  any work (``launch.check_group_choices``, ``launch.check_keys``), so a misspelt key or group fails
+  any work (``settings.command_line.checked``: ``check_group_choices``, ``check_keys``), so a misspelt key or group fails
   here as it would fail for a reader; for plot, report and inspect, at most as many arguments as
   the command takes;
 - ``pip install``: the extras named exist in pyproject.toml; ``python[3] FILE.py``: the file exists;
@@ -155,8 +155,7 @@ def _refused(check, *args) -> str | None:
 
 def _check_airl(words: list[str]) -> str | None:
     """Why an ``airl ...`` command names something that does not exist, or None."""
-    from airl_cli.jobs.launch import check_group_choices, check_keys
-    from airl_cli.settings.problem_defaults import with_problem_defaults
+    from airl_cli.settings.command_line import checked
 
     commands = _commands()
     if not words or words[0].startswith("-"):
@@ -186,9 +185,7 @@ def _check_airl(words: list[str]) -> str | None:
         return f"airl {name} takes {len(arguments)} argument(s), given {args}" if len(args) > len(arguments) else None
     if [v for v in values if "=" not in v]:
         return f"not an override (GROUP=OPTION or KEY=VALUE): {[v for v in values if '=' not in v]}"
-    if name in ("fit", "generate"):
-        values = with_problem_defaults(values)
-    return _refused(check_group_choices, values) or _refused(check_keys, values, HYDRA_COMMANDS[name])
+    return _refused(checked, name, values)  # a problem's own dynamics added (fit, generate), then the group choices and keys
 
 
 def _check_command(words: list[str], extras: set[str]) -> str | None:

@@ -188,14 +188,15 @@ def test_a_key_of_the_group_an_experiment_picks_is_accepted(capsys):
     """`experiment=size` picks mdp=objectworld (``override /mdp``): its keys are known, the random MDP's are not."""
     import typer
 
-    from airl_cli.jobs.launch import check_keys
+    from airl_cli.settings.command_line import check_keys
+    from airl_cli.settings.overrides import CommandLine
 
-    check_keys(["experiment=size", "mdp.features=thresholded"])
-    check_keys(["experiment=frozenlake", "mdp.features=state", "dynamics.values=[0.5]"])
+    check_keys(CommandLine.of(["experiment=size", "mdp.features=thresholded"]))
+    check_keys(CommandLine.of(["experiment=frozenlake", "mdp.features=state", "dynamics.values=[0.5]"]))
     with pytest.raises(typer.Exit):
-        check_keys(["experiment=frozenlake", "mdp.n_states=3"])
+        check_keys(CommandLine.of(["experiment=frozenlake", "mdp.n_states=3"]))
     assert "(mdp=gymnasium)" in capsys.readouterr().err
-    check_keys(["experiment=size", "mdp=random", "mdp.n_states=30"])  # the command line's group wins
+    check_keys(CommandLine.of(["experiment=size", "mdp=random", "mdp.n_states=30"]))  # the command line's group wins
 
 
 # ------------------------------------------------------------------ 6. unwritable folders, wrong paths

@@ -109,14 +109,14 @@ def empty_folder_refusal(key: str) -> str:
     return f"{key}= is empty (the run would write into the current folder); name a new folder, e.g. {key}=results/mine"
 
 
-def entry_refusal(folder: str, overrides: list[str], *, replace: bool, key: str = "hydra.run.dir") -> str | None:
+def entry_refusal(folder: str, inputs: list[str], *, replace: bool, key: str = "hydra.run.dir") -> str | None:
     """Why a run may not go into ``KEY=folder`` (one sentence), or None: ``hydra.run.dir`` of a
     single run, ``hydra.sweep.dir`` of a multirun (``-m``).
 
     A finished run's folder is a record: a new run into a folder that holds anything is refused,
     naming what is there, unless ``replace`` (``--replace``), which empties it first (``empty``) —
-    refused too if one of the run's own inputs (a value of ``overrides`` naming a file or folder)
-    lies in it. An empty ``hydra.run.dir=`` (Hydra would write into the current folder) is refused.
+    refused too if one of the run's own inputs (``inputs``, the values its overrides set:
+    ``settings.overrides.CommandLine.input_values``, naming a file or folder) lies in it. An empty ``hydra.run.dir=`` (Hydra would write into the current folder) is refused.
     """
     if not folder.strip():
         return empty_folder_refusal(key)
@@ -128,15 +128,13 @@ def entry_refusal(folder: str, overrides: list[str], *, replace: bool, key: str 
     if not replace:
         return f"{folder} already holds {shown}; a run never replaces another's files: name a new folder, or add --replace to empty it first"
     inside = path.resolve()
-    for item in overrides:
-        key, _, value = item.partition("=")
-        value = value.strip("'\"")
-        if not key.lstrip("+").startswith("hydra.") and value and Path(value).exists() and (Path(value).resolve() == inside or inside in Path(value).resolve().parents):
+    for value in inputs:
+        if Path(value).exists() and (Path(value).resolve() == inside or inside in Path(value).resolve().parents):
             return f"--replace would empty {folder}, which holds this run's input {value}; copy the input elsewhere first"
     return None
 
 
-def enter(folder: str, overrides: list[str], *, replace: bool, key: str = "hydra.run.dir") -> None:
+def enter(folder: str, inputs: list[str], *, replace: bool, key: str = "hydra.run.dir") -> None:
     """Make ``folder`` ready for a run: refused (``entry_refusal``) or, with ``replace``, emptied.
 
     Raises:
@@ -144,7 +142,7 @@ def enter(folder: str, overrides: list[str], *, replace: bool, key: str = "hydra
     """
     from airl_cli.errors import ConfigError
 
-    refusal = entry_refusal(folder, overrides, replace=replace, key=key)
+    refusal = entry_refusal(folder, inputs, replace=replace, key=key)
     if refusal is not None:
         raise ConfigError(refusal)
     if replace and Path(folder).is_dir():

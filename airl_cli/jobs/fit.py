@@ -19,6 +19,7 @@ from airl_cli.methods import THESIS, learns_reward, plays_game
 from airl_cli.plain_progress import PlainProgress
 from airl_cli.settings.config import FitSettings
 from airl_cli.settings.job import FitJob, fit_job
+from airl_cli.settings.overrides import CommandLine
 from airl_cli.settings.paths import conf_dir
 from airl_cli.usecases.evaluate import identifiability_lines, score_learned
 from airl_cli.usecases.fit import check_supported, fit_dataset, learner, with_method_loss
@@ -38,7 +39,7 @@ def load_dataset(job: FitJob) -> tuple[Dataset, bool, str]:
     return with_method_loss(dataset, learner(job.fit), job.loss), False, name
 
 
-def check(cfg: DictConfig, overrides: list[str] = ()) -> list[str]:
+def check(cfg: DictConfig, overrides: CommandLine | list[str] = ()) -> list[str]:
     """Everything ``main`` would refuse before its first result, checked before any folder is made
     (``launch.preflight``): the settings, the memory, and a dataset file with the method.
 
@@ -47,7 +48,7 @@ def check(cfg: DictConfig, overrides: list[str] = ()) -> list[str]:
     check_memory(job)
     if job.problem is None:
         check_supported(load_dataset(job)[0], learner(job.fit))
-    return ignored_settings(cfg, list(overrides), job.fit.method)
+    return ignored_settings(cfg, CommandLine.of(overrides), job.fit.method)
 
 
 #: The groups that configure the thesis's learner alone (method=airl).
@@ -56,13 +57,11 @@ LEARNER_GROUPS = ("game", "optim", "pbvi", "variant")
 PROBLEM_GROUPS = ("mdp", "dynamics", "demos")
 
 
-def ignored_settings(cfg: DictConfig, overrides: list[str], method: str) -> list[str]:
+def ignored_settings(cfg: DictConfig, line: CommandLine, method: str) -> list[str]:
     """One sentence per kind of override that this command will not read: the problem's groups
     with data=FILE, the thesis's learner's groups with another method, a map with an environment
     that has none."""
-    from airl_cli.settings.overrides import split_override
-
-    set_here = [(item, split_override(item)[0].lstrip("+").split(".")[0], split_override(item)[0]) for item in overrides if "=" in item]
+    set_here = [(o.text, o.key.split(".")[0], o.key) for o in line.items if o.sets]
     notes = []
     if cfg.get("data") is not None:
         given = [item for item, group, _ in set_here if group in PROBLEM_GROUPS]

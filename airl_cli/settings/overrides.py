@@ -1,37 +1,126 @@
-"""A command-line override's parts: ``GROUP=OPTION``, ``GROUP.KEY=VALUE``, ``+KEY=VALUE``, ``~KEY``.
+"""The command line, split once: its overrides' parts (``GROUP=OPTION``, ``GROUP.KEY=VALUE``,
+``+KEY=VALUE``, ``~KEY``) as ``Override``s, the whole as one ``CommandLine``.
 
-Read by every command that looks at its overrides before Hydra does (``launch``, the jobs' checks,
-``problem_defaults``, ``sweep``); it imports nothing of airl.
+The one module that splits an override string: every command that looks at its overrides before
+Hydra does (``launch``, the jobs' checks, ``problem_defaults``, ``sweep``, ``io.run_folder``) reads
+a ``CommandLine``; it imports nothing of airl.
 """
 
 from __future__ import annotations
 
-#: Keys an earlier version had, and the sentence that says what took their place (``launch.check_keys``).
+from collections.abc import Iterable
+from dataclasses import dataclass
+
+#: Keys an earlier version had, and the sentence that says what took their place (``settings.command_line.check_keys``).
 RENAMED_KEYS = {
     "optim.bracket_tol": "'optim.bracket_tol' is now 'optim.tol': every fit closes the bracket on eq. 5.9's minimum, to a relative width of optim.tol (1e-3 by default)",
 }
 
 
+@dataclass(frozen=True)
+class Override:
+    """One command-line override, split once (``Override.of``).
+
+    Attributes:
+        text: as given (``+demos.n=10``).
+        prefix: Hydra's ``+`` (add), ``++`` (force add) or ``~`` (delete), or "".
+        key: what it sets or deletes, without the prefix (``demos.n``).
+        sep: "=" where it sets a value, "" for ``~KEY``.
+        value: the value as given ("" for ``~KEY``).
+    """
+
+    text: str
+    prefix: str
+    key: str
+    sep: str
+    value: str
+
+    @classmethod
+    def of(cls, text: str) -> Override:
+        """``+demos.n=10`` -> Override("+demos.n=10", "+", "demos.n", "=", "10"); ``~seed`` -> (.., "~", "seed", "", "")."""
+        left, sep, value = text.partition("=")
+        key = left.lstrip("+~")
+        return cls(text, left[: len(left) - len(key)], key, sep, value)
+
+    @property
+    def sets(self) -> bool:
+        """Whether it sets a value (``KEY=VALUE``), not deletes one (``~KEY``)."""
+        return bool(self.sep)
+
+    @property
+    def is_hydra(self) -> bool:
+        """Whether it is Hydra's own (``hydra.KEY``, ``hydra/GROUP``), not the job's."""
+        return self.key.startswith(("hydra.", "hydra/"))
+
+    @property
+    def unquoted(self) -> str:
+        """The value without the quotes around it (a folder, a path)."""
+        return self.value.strip("'\"")
+
+
+@dataclass(frozen=True)
+class CommandLine:
+    """A command's overrides, each split once, in order: the one value every check before Hydra reads.
+
+    Attributes:
+        items: the overrides (``Override``).
+        checked: whether airl's checks passed on them (``settings.command_line.checked``: group choices, keys,
+            a problem's dynamics), so that a later step (the sweep's jobs) runs them no more.
+    """
+
+    items: tuple[Override, ...] = ()
+    checked: bool = False
+
+    @classmethod
+    def of(cls, overrides: CommandLine | Iterable[str]) -> CommandLine:
+        """The command line of these overrides (a ``CommandLine`` is returned as it is)."""
+        return overrides if isinstance(overrides, CommandLine) else cls(tuple(Override.of(o) for o in overrides))
+
+    @property
+    def overrides(self) -> list[str]:
+        """The overrides as text, in order (what Hydra is given)."""
+        return [o.text for o in self.items]
+
+    def chosen(self) -> dict[str, str]:
+        """key -> value of every ``KEY=VALUE`` (the last one wins)."""
+        return {o.key: o.value for o in self.items if o.sets}
+
+    def value(self, key: str) -> str | None:
+        """The value the command line sets ``key`` to (the last), or None."""
+        return self.chosen().get(key)
+
+    def tasks(self) -> list[Override]:
+        """The overrides of the job's config (not Hydra's own)."""
+        return [o for o in self.items if not o.is_hydra]
+
+    def plus(self, *overrides: str) -> CommandLine:
+        """This command line with ``overrides`` added after its own (airl's, checked or not checked as it is)."""
+        return CommandLine(self.items + tuple(Override.of(o) for o in overrides), self.checked)
+
+    def first(self, *overrides: str) -> CommandLine:
+        """This command line with ``overrides`` put before its own (the command's own then win)."""
+        return CommandLine(tuple(Override.of(o) for o in overrides) + self.items, self.checked)
+
+    def input_values(self) -> list[str]:
+        """The values the job's overrides set, unquoted (``io.run_folder`` looks for a run's inputs among them)."""
+        return [o.unquoted for o in self.tasks() if o.sets and o.unquoted]
+
+
 def split_override(item: str) -> tuple[str, str, str]:
     """(key, "=" or "", value) of a command-line override, the key without Hydra's leading ``+``
     (add) or ``~`` (delete): ``+demos.n=10`` -> ("demos.n", "=", "10"), ``~seed`` -> ("seed", "", "")."""
-    key, sep, value = item.partition("=")
-    return key.lstrip("+~"), sep, value
+    o = Override.of(item)
+    return o.key, o.sep, o.value
 
 
 def override_key(item: str) -> str:
     """The key an override sets or deletes (``split_override``'s first part)."""
-    return split_override(item)[0]
+    return Override.of(item).key
 
 
 def chosen_values(overrides: list[str]) -> dict[str, str]:
     """key -> value of every ``KEY=VALUE`` override (the last one wins), keys as ``split_override`` gives them."""
-    chosen = {}
-    for item in overrides:
-        key, sep, value = split_override(item)
-        if sep:
-            chosen[key] = value
-    return chosen
+    return CommandLine.of(overrides).chosen()
 
 
 def syntax_problem(args: list[str], command: str, options: list[str]) -> str | None:

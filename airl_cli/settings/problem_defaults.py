@@ -12,7 +12,7 @@ from pathlib import Path
 
 import yaml
 
-from airl_cli.settings.overrides import chosen_values
+from airl_cli.settings.overrides import CommandLine
 from airl_cli.settings.paths import conf_dir
 
 
@@ -28,15 +28,19 @@ def default_dynamics() -> dict[str, str]:
     return dict(yaml.safe_load((Path(conf_dir()) / "mdp" / "_dynamics.yaml").read_text()) or {})
 
 
-def with_problem_defaults(overrides: list[str]) -> list[str]:
+def with_problem_defaults(overrides: CommandLine | list[str]) -> CommandLine | list[str]:
     """``overrides`` plus ``dynamics=OPTION`` for the problem they pick, if they pick no dynamics,
     no experiment, no named problem (``problem=``, which brings its own) and no dataset file;
-    unchanged otherwise (and for a comma-separated sweep over problems)."""
-    chosen = chosen_values(overrides)
+    unchanged otherwise (and for a comma-separated sweep over problems). A ``CommandLine`` gives a
+    ``CommandLine``, a list a list (the Python API's overrides)."""
+    line = CommandLine.of(overrides)
+    chosen = line.chosen()
     mdp = chosen.get("mdp")
-    if mdp is None or any(k in chosen for k in ("dynamics", "experiment", "data", "problem")) or "," in mdp:
-        return list(overrides)
-    dynamics = default_dynamics().get(mdp)
-    if mdp == "gymnasium" and is_env_id(chosen.get("mdp.env")):
-        dynamics = "env_default"  # its own parameter where airl knows it, else action slips (settings.dynamics)
-    return list(overrides) if dynamics is None else [*overrides, f"dynamics={dynamics}"]
+    dynamics = None
+    if mdp is not None and not any(k in chosen for k in ("dynamics", "experiment", "data", "problem")) and "," not in mdp:
+        dynamics = default_dynamics().get(mdp)
+        if mdp == "gymnasium" and is_env_id(chosen.get("mdp.env")):
+            dynamics = "env_default"  # its own parameter where airl knows it, else action slips (settings.dynamics)
+    if dynamics is not None:
+        line = line.plus(f"dynamics={dynamics}")
+    return line if isinstance(overrides, CommandLine) else line.overrides

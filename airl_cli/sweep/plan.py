@@ -25,28 +25,30 @@ from airl_cli.settings.config import plain
 from airl_cli.settings.experiments import compose_airl, experiment_names  # noqa: F401 (experiment_names: the sweep's callers use it from here)
 from airl_cli.settings.hydra_internals import launcher_discoverable, overrides_dirname, split_sweep_overrides
 from airl_cli.settings.job import fit_job
+from airl_cli.settings.overrides import CommandLine, Override
 from airl_cli.sweep.folder import shared_settings
 from airl_cli.sweep.pool import workers
-from airl_cli.sweep.spec import SweepPlan, override_key
+from airl_cli.sweep.spec import SweepPlan
 
 
 def _is_task_override(item: str) -> bool:
-    key = override_key(item)
-    return not (key.startswith("hydra.") or key.startswith("hydra/"))
+    """Whether an override Hydra made (a job's, the experiment's sweep) sets the job's config, not Hydra's."""
+    return not Override.of(item).is_hydra
 
 
-def plan(overrides: list[str]) -> SweepPlan:
+def plan(overrides: CommandLine | list[str]) -> SweepPlan:
     """The sweep folder and job list for these command-line overrides; checks the first job's config.
 
     Raises:
         ConfigError: no experiment named, an unknown override, or a bad value in the first job.
     """
     with compose_memo.active():  # the first job's composition reuses the sweep's
-        return _plan(overrides)
+        return _plan(CommandLine.of(overrides))
 
 
-def _plan(overrides: list[str]) -> SweepPlan:
+def _plan(line: CommandLine) -> SweepPlan:
     launcher_discoverable()  # before Hydra's plugin registry is first built
+    overrides = line.overrides
     parser = OverridesParser.create()
     try:
         parsed = parser.parse_overrides(overrides)
@@ -64,13 +66,13 @@ def _plan(overrides: list[str]) -> SweepPlan:
     if cfg.get("experiment") is None:
         raise ConfigError("name an experiment: airl sweep experiment=NAME (see airl sweep --help)")
     params = [f"{k}={v}" for k, v in (cfg.hydra.sweeper.params or {}).items()]
-    task_args = [o for o in overrides if _is_task_override(o)]
+    task_args = [o.text for o in line.tasks()]
     jobs_overrides = split_sweep_overrides(parser.parse_overrides(params + task_args))
     exclude = list(cfg.hydra.job.config.override_dirname.exclude_keys)
     parsed_once = {o: parser.parse_override(o) for o in {o for job in jobs_overrides for o in job}}  # 2 ms each
     jobs = tuple(overrides_dirname([parsed_once[o] for o in job], exclude) for job in jobs_overrides)
     try:
-        first_job = compose_airl([o for o in overrides if not _is_task_override(o)] + jobs_overrides[0])
+        first_job = compose_airl([o.text for o in line.items if o.is_hydra] + jobs_overrides[0])
     except HydraException as err:
         raise ConfigError(str(err).splitlines()[0]) from None
     workers = _workers(first_job)
@@ -83,7 +85,7 @@ def _plan(overrides: list[str]) -> SweepPlan:
     del job_config["hydra"]
     settings = shared_settings(plain(OmegaConf.create(job_config)), swept)
     job_overrides = tuple(tuple(job) for job in jobs_overrides)
-    return SweepPlan(plain(cfg.experiment), _folder(cfg, overrides, parser), jobs, settings, swept, workers, job_overrides)
+    return SweepPlan(plain(cfg.experiment), _folder(cfg, line, parser), jobs, settings, swept, workers, job_overrides)
 
 
 def _swept_keys(params: list[str], jobs_overrides: list[list[str]]) -> tuple[str, ...]:
@@ -94,8 +96,8 @@ def _swept_keys(params: list[str], jobs_overrides: list[list[str]]) -> tuple[str
     for job in jobs_overrides:
         for item in job:
             if _is_task_override(item):
-                values.setdefault(override_key(item), set()).add(item)
-    experiment = {override_key(p) for p in params}
+                values.setdefault(Override.of(item).key, set()).add(item)
+    experiment = {Override.of(p).key for p in params}
     return tuple(sorted(k for k, v in values.items() if k in experiment or len(v) > 1))
 
 
@@ -109,18 +111,18 @@ def _workers(cfg: DictConfig) -> int:
     return workers(n_jobs)
 
 
-def _folder(cfg: DictConfig, overrides: list[str], parser: OverridesParser) -> Path:
+def _folder(cfg: DictConfig, line: CommandLine, parser: OverridesParser) -> Path:
     """The sweep folder: results/sweeps/<study>-<profile>, plus the command's other overrides.
 
     A variant of an experiment (say mdp.transition=dirichlet) thus gets a folder of its own and
     never mixes its table with the plain experiment's; hydra.sweep.dir=PATH names it outright.
     """
-    named = [o.split("=", 1)[1] for o in overrides if o.split("=", 1)[0] == "hydra.sweep.dir"]
-    if named:
-        if not named[-1].strip("'\" "):
+    named = line.value("hydra.sweep.dir")
+    if named is not None:
+        if not named.strip("'\" "):
             raise ConfigError(empty_folder_refusal("hydra.sweep.dir"))
         return Path(cfg.hydra.sweep.dir)
-    extra = [o for o in overrides if _is_task_override(o) and override_key(o) not in ("experiment", "profile")]
+    extra = [o.text for o in line.tasks() if o.key not in ("experiment", "profile")]
     suffix = overrides_dirname(parser.parse_overrides(extra), []) if extra else ""
     if len(suffix) > 100:
         suffix = hashlib.sha1(suffix.encode()).hexdigest()[:12]

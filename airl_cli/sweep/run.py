@@ -20,6 +20,7 @@ from airl_cli.io.files import describe_os_error, is_unwritable
 from airl_cli.io.run_folder import mark_complete, mark_incomplete
 from airl_cli.kinds import part_module
 from airl_cli.plain_progress import PlainProgress
+from airl_cli.settings.overrides import CommandLine
 from airl_cli.sweep.folder import check_folder, check_not_foreign, check_writable, claim, record_settings, unwritable
 from airl_cli.sweep.job_files import damaged_jobs, discard
 from airl_cli.sweep.plan import plan
@@ -99,7 +100,7 @@ FULL = (
 )
 
 
-def run(overrides: list[str], *, draw: bool, console: Console, out: Console, partial: bool = False) -> int:
+def run(overrides: CommandLine | list[str], *, draw: bool, console: Console, out: Console, partial: bool = False) -> int:
     """``airl sweep``: plan, run the jobs not yet done, collect the table, draw the figures.
 
     With ``partial``, run no job: the table and figures of the jobs that have finished go to the
@@ -113,11 +114,12 @@ def run(overrides: list[str], *, draw: bool, console: Console, out: Console, par
         ConfigError: bad overrides, a folder in use by another sweep, or a folder that holds
             another sweep's jobs.
     """
+    line = CommandLine.of(overrides)
     try:
-        sweep = plan(overrides)
+        sweep = plan(line)
         if partial and (status := write_partial(sweep, draw=draw, console=console, out=out)) is not None:
             return status
-        return _claim_and_run(sweep, overrides, draw=draw, console=console, out=out)
+        return _claim_and_run(sweep, line, draw=draw, console=console, out=out)
     except KeyboardInterrupt:  # while it planned: nothing was run
         console.print(f"[bold yellow]{INTERRUPTED}[/]", soft_wrap=True)
         return interrupt_status()
@@ -125,29 +127,25 @@ def run(overrides: list[str], *, draw: bool, console: Console, out: Console, par
         shutdown(idle=True)  # workers left here run no job: warming up (bad input) or done (figures)
 
 
-def print_config(overrides: list[str], *, cfg: str, resolve: bool) -> None:
+def print_config(overrides: CommandLine | list[str], *, cfg: str, resolve: bool) -> None:
     """``airl sweep --cfg job|hydra|all``: the config Hydra composes for these overrides, printed; no job runs."""
     from airl_cli.jobs.launch import run_hydra
 
-    run_hydra("sweep", [JOB_NAME, *overrides], cfg=cfg, resolve=resolve, app=JOB_APP)
+    run_hydra("sweep", CommandLine.of(overrides).first(JOB_NAME), cfg=cfg, resolve=resolve, app=JOB_APP)
 
 
-def _expected_workers(overrides: list[str]) -> int:
+def _expected_workers(line: CommandLine) -> int:
     """The workers airl's launcher will start, read off the command line (1: another launcher)."""
-    n_jobs = -1
-    for item in overrides:
-        key, _, value = item.partition("=")
-        if key.lstrip("+") == "hydra/launcher" and value != AIRL_LAUNCHER:
-            return 1
-        if key.lstrip("+") == "hydra.launcher.n_jobs":
-            try:
-                n_jobs = int(value)
-            except ValueError:
-                return 1
-    return workers(n_jobs)
+    launcher, n_jobs = line.value("hydra/launcher"), line.value("hydra.launcher.n_jobs")
+    if launcher is not None and launcher != AIRL_LAUNCHER:
+        return 1
+    try:
+        return workers(-1 if n_jobs is None else int(n_jobs))
+    except ValueError:
+        return 1
 
 
-def _claim_and_run(sweep: SweepPlan, overrides: list[str], *, draw: bool, console: Console, out: Console) -> int:
+def _claim_and_run(sweep: SweepPlan, line: CommandLine, *, draw: bool, console: Console, out: Console) -> int:
     """Hold the folder, mark it ``INCOMPLETE`` until every job, the table and the figures are
     written, and run; a stop (Ctrl-C, a dead worker, a full disk) is one sentence and a status."""
     check_not_foreign(sweep)  # before the claim's lock file, which a refused sweep must not leave in another run's folder
@@ -165,9 +163,9 @@ def _claim_and_run(sweep: SweepPlan, overrides: list[str], *, draw: bool, consol
         # printed a BrokenPipeError before the sentence); their imports overlap the resume check
         # the warm workers import the kind's job code (its solvers, pandas) before their first job, which
         # the sweep process itself never imports (``tests/test_architecture.py``)
-        prestart(_expected_workers(overrides), (part_module(sweep.experiment, "rows"),))
+        prestart(_expected_workers(line), (part_module(sweep.experiment, "rows"),))
         try:
-            return _run(sweep, overrides, draw=draw, console=console, out=out)
+            return _run(sweep, line, draw=draw, console=console, out=out)
         except (KeyboardInterrupt, SystemError) as err:
             if not interrupted(err):
                 raise
@@ -197,7 +195,7 @@ def _discard_damaged(sweep: SweepPlan, console: Console) -> None:
         console.print(damaged_line(damaged, "run again"), soft_wrap=True)
 
 
-def _run(sweep: SweepPlan, overrides: list[str], *, draw: bool, console: Console, out: Console) -> int:
+def _run(sweep: SweepPlan, line: CommandLine, *, draw: bool, console: Console, out: Console) -> int:
     from airl_cli.jobs.launch import run_hydra
 
     _discard_damaged(sweep, console)
@@ -207,7 +205,7 @@ def _run(sweep: SweepPlan, overrides: list[str], *, draw: bool, console: Console
     if done < len(sweep.jobs):
         # an absolute folder: launcher workers may be reused processes with another working directory
         quoted = str(sweep.folder.resolve()).replace("\\", "\\\\").replace("'", "\\'")
-        absolute = [JOB_NAME, *overrides, f"hydra.sweep.dir='{quoted}'"]  # quoted: folder names hold '=' and ','
+        absolute = line.first(JOB_NAME).plus(f"hydra.sweep.dir='{quoted}'")  # quoted: folder names hold '=' and ','
         # the jobs watch this process and stop when it dies (see pool.watch_parent)
         # with figures to draw, the warm workers stay for them and import the plotting code
         with environment(sweep.workers), progress(sweep, console), kept(["airl_cli.readings.plotting"] if draw else []):

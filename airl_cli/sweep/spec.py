@@ -12,8 +12,6 @@ from pathlib import Path
 
 from omegaconf import DictConfig, OmegaConf
 
-from airl_cli.settings.overrides import override_key, split_override  # noqa: F401 (the sweep's own use them from here)
-
 #: A job's rows for the results table; written last, so its presence means the job is done.
 ROWS = "rows.csv"
 #: A job's one-sentence error, when it stopped on bad input (its rows are then absent).

@@ -354,3 +354,41 @@ def test_a_fit_parses_its_settings_once_in_its_check_and_once_in_its_job(tmp_pat
     result = CliRunner().invoke(app, ["fit", "method=mce", f"hydra.run.dir={tmp_path / 'run'}", "mdp.n_states=8", "mdp.horizon=4", "demos.n=10"])
     assert result.exit_code == 0, result.output
     assert callers == {"fit_settings": ["check", "main"], "problem_settings": ["check", "main"]}
+
+
+def test_the_command_line_is_checked_once_per_command(tmp_path, monkeypatch):
+    """The overrides become one ``CommandLine`` (each split once) whose checks run once: ``airl sweep``
+    ran ``check_group_choices`` and ``check_keys`` in the CLI and again when it launched its jobs."""
+    import airl_cli.settings.command_line as launch
+
+    calls: list[str] = []
+    for name in ("check_group_choices", "check_keys"):
+        original = getattr(launch, name)
+
+        def counted(*args, _original=original, _name=name, **kwargs):
+            calls.append(_name)
+            return _original(*args, **kwargs)
+
+        monkeypatch.setattr(launch, name, counted)
+    result = CliRunner().invoke(app, ["sweep", "experiment=fig02_03", "profile=quick", "hydra/launcher=basic", "--no-plot", f"hydra.sweep.dir={tmp_path / 'sweep'}"])
+    assert result.exit_code == 0, result.output
+    assert calls == ["check_group_choices", "check_keys"]
+    calls.clear()
+    result = CliRunner().invoke(app, ["fit", "method=mce", f"hydra.run.dir={tmp_path / 'run'}", "mdp.n_states=8", "mdp.horizon=4", "demos.n=10"])
+    assert result.exit_code == 0, result.output
+    assert calls == ["check_group_choices", "check_keys"]
+
+
+def test_override_strings_are_split_in_one_module():
+    """``settings.overrides`` splits an override (``Override.of``); no other module of the package
+    partitions a string at '=' (seven functions in two modules each split the same strings before)."""
+    import re
+    from pathlib import Path
+
+    import airl_cli
+
+    package = Path(airl_cli.__file__).parent
+    splitting = re.compile(r"""\.(partition|split|rpartition)\(\s*["']=["']""")
+    found = [str(p.relative_to(package)) for p in package.rglob("*.py") if splitting.search(p.read_text()) and p.name != "overrides.py"]
+    assert not found, found
+    assert splitting.search((package / "settings" / "overrides.py").read_text())

@@ -17,6 +17,7 @@ from typer.testing import CliRunner
 
 from airl_cli.cli import app
 from airl_cli.settings import compose_memo
+from airl_cli.settings.overrides import CommandLine
 from airl_cli.settings.paths import conf_dir
 from airl_cli.sweep import pool
 from airl_cli.sweep.plan import experiment_names, plan
@@ -100,10 +101,10 @@ def test_a_remembered_parse_is_a_copy_and_function_calls_are_parsed_afresh():
 
 
 def test_the_workers_a_command_line_asks_for():
-    assert _expected_workers(["experiment=fig12"]) == pool.workers(-1)
-    assert _expected_workers(["experiment=fig12", "hydra.launcher.n_jobs=1"]) == 1
-    assert _expected_workers(["experiment=fig12", "hydra/launcher=basic"]) == 1
-    assert _expected_workers(["experiment=fig12", "hydra/launcher=joblib"]) == 1
+    assert _expected_workers(CommandLine.of(["experiment=fig12"])) == pool.workers(-1)
+    assert _expected_workers(CommandLine.of(["experiment=fig12", "hydra.launcher.n_jobs=1"])) == 1
+    assert _expected_workers(CommandLine.of(["experiment=fig12", "hydra/launcher=basic"])) == 1
+    assert _expected_workers(CommandLine.of(["experiment=fig12", "hydra/launcher=joblib"])) == 1
     assert pool.workers(-1) == pool.cores() and pool.workers(-1, n_tasks=1) == 1 and pool.workers(5) == pool.cores()
 
 
