@@ -173,6 +173,30 @@ def _longest(s: np.ndarray, z: np.ndarray, ds: np.ndarray, dz: np.ndarray) -> fl
 
 
 @njit(cache=True)
+def _status(x, s, z, C, lam, d, rd, rp, rs, tol, scale, gamma, rows):  # noqa: ANN001, ANN202
+    """(done, centred, gap, objective) of the iterate (x, s, z) with residuals rd, rp, rs: done when
+    stationarity (to ``STATIONARITY`` tol, times the data's ``scale``), feasibility and the duality
+    gap are within ``tol``; centred when no s_i z_i is below ``gamma`` times their mean over ``rows``.
+    Shared by both methods (the lowrank one too), so that they stop alike."""
+    gap = s @ z
+    objective = 0.5 * lam * (x[:d] @ x[:d]) - C @ x[:d] + x[d]
+    done = max(np.max(np.abs(rd)) / STATIONARITY, np.max(np.abs(rs))) <= tol * scale and abs(rp) <= tol and gap <= tol * (1.0 + abs(objective))
+    centred = np.min(s * z) >= gamma * gap / rows
+    return done, centred, gap, objective
+
+
+@njit(cache=True)
+def _advance(x, y, s, z, dx, dy, ds, dz, step):  # noqa: ANN001, ANN202
+    """The step along (dx, dy, ds, dz), 0.99 of the longest that keeps s and z positive: x, s, z in
+    place; the new y returned."""
+    step *= 0.99
+    x += step * dx
+    s += step * ds
+    z += step * dz
+    return y + step * dy
+
+
+@njit(cache=True)
 def _start(Gm, h, d, n, m0, x0, s0, z0):  # noqa: ANN001, ANN202
     """(x, s, z): copies of (x0, s0, z0) if given (a warm start), else the cold start: w = 0, p
     uniform, v 1 above every row, slacks at least 1, duals 1."""
@@ -225,10 +249,7 @@ def mehrotra(C: np.ndarray, lam: float, L: np.ndarray, Phi: np.ndarray, tol: flo
         rd = qdiag * x + c + _GT(GmT, z, d) + a * y  # stationarity
         rp = np.sum(x[d + 1 :]) - 1.0
         rs = _G(Gm, x, d) + s - h
-        gap = s @ z
-        objective = 0.5 * lam * (x[:d] @ x[:d]) - C @ x[:d] + x[d]
-        done = max(np.max(np.abs(rd)) / STATIONARITY, np.max(np.abs(rs))) <= tol * scale and abs(rp) <= tol and gap <= tol * (1.0 + abs(objective))
-        centred = np.min(s * z) >= gamma * gap / (m + n)
+        done, centred, gap, objective = _status(x, s, z, C, lam, d, rd, rp, rs, tol, scale, gamma, m + n)
         if done and centred:
             return True, x, s, z, objective
         W = z / s
@@ -251,9 +272,5 @@ def mehrotra(C: np.ndarray, lam: float, L: np.ndarray, Phi: np.ndarray, tol: flo
             if corrector == 0 and not done:
                 sigma = (((s + step * ds) @ (z + step * dz)) / gap) ** 3
                 rsz = s * z + ds * dz - sigma * gap / (m + n)
-        step *= 0.99
-        x += step * dx
-        y += step * dy
-        s += step * ds
-        z += step * dz
+        y = _advance(x, y, s, z, dx, dy, ds, dz, step)
     return False, x, s, z, 0.0

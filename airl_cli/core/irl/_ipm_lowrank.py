@@ -26,7 +26,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from airl_cli.core.irl._ipm import LOOSE, LOOSE_REFINEMENTS, REFINEMENTS, STATIONARITY, _factor, _forward_backward, _longest, _objective
+from airl_cli.core.irl._ipm import LOOSE, LOOSE_REFINEMENTS, REFINEMENTS, _advance, _factor, _forward_backward, _longest, _objective, _status
 
 
 @njit(cache=True)
@@ -157,10 +157,7 @@ def mehrotra(C: np.ndarray, lam: float, L: np.ndarray, Phi: np.ndarray, tol: flo
         rd = qdiag * x + c + _GT(PhiT, L, z, d, b) + a * y
         rp = np.sum(x[d + 1 :]) - 1.0
         rs = _G(Phi, LT, x, d, b) + s - h
-        gap = s @ z
-        objective = 0.5 * lam * (x[:d] @ x[:d]) - C @ x[:d] + x[d]
-        done = max(np.max(np.abs(rd)) / STATIONARITY, np.max(np.abs(rs))) <= tol * scale and abs(rp) <= tol and gap <= tol * (1.0 + abs(objective))
-        centred = np.min(s * z) >= gamma * gap / rows
+        done, centred, gap, objective = _status(x, s, z, C, lam, d, rd, rp, rs, tol, scale, gamma, rows)
         if done and centred:
             return True, x, s, z, objective
         W = z / s
@@ -174,9 +171,5 @@ def mehrotra(C: np.ndarray, lam: float, L: np.ndarray, Phi: np.ndarray, tol: flo
             if corrector == 0 and not done:
                 sigma = (((s + step * ds) @ (z + step * dz)) / gap) ** 3
                 rsz = s * z + ds * dz - sigma * gap / rows
-        step *= 0.99
-        x += step * dx
-        y += step * dy
-        s += step * ds
-        z += step * dz
+        y = _advance(x, y, s, z, dx, dy, ds, dz, step)
     return False, x, s, z, 0.0
