@@ -191,25 +191,35 @@ def test_the_layering_checks_can_fail():
 
 # --------------------------------------------------------------------------- size
 
-#: A function may run longer than this only if its docstring says why ("Long because ...").
-MAX_FUNCTION_LINES = 80
-MAX_MODULE_LINES = 400
+#: Sizes a reviewer looks at again (``python tests/test_architecture.py`` lists what passes them):
+#: a signal, not where a file ends. A module is one concern; it is cut where its concerns part.
+REVIEW_FUNCTION_LINES = 80
+REVIEW_MODULE_LINES = 400
+#: The outer limits the test holds: past them a module or a function is surely more than one thing.
+#: A function may run longer only if its docstring says why ("Long because ...").
+MAX_FUNCTION_LINES = 120
+MAX_MODULE_LINES = 600
 
 
-def long_functions(source: str) -> list[tuple[str, int]]:
-    """(name, lines) of each function of ``source`` longer than MAX_FUNCTION_LINES without a reason."""
+def long_functions(source: str, limit: int = MAX_FUNCTION_LINES) -> list[tuple[str, int]]:
+    """(name, lines) of each function of ``source`` longer than ``limit`` lines without a reason."""
     found = []
     for node in ast.walk(ast.parse(source)):
         if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
             lines = node.end_lineno - node.lineno + 1
-            if lines > MAX_FUNCTION_LINES and "Long because" not in (ast.get_docstring(node) or ""):
+            if lines > limit and "Long because" not in (ast.get_docstring(node) or ""):
                 found.append((node.name, lines))
     return found
 
 
-def test_no_function_over_80_lines_and_no_module_over_400():
-    too_long = [f"{p.relative_to(PACKAGE)}: {name} ({n} lines)" for p in PACKAGE.rglob("*.py") for name, n in long_functions(p.read_text())]
-    too_long += [f"{p.relative_to(PACKAGE)} ({n} lines)" for p in PACKAGE.rglob("*.py") if (n := len(p.read_text().splitlines())) > MAX_MODULE_LINES]
+def oversized(function_lines: int, module_lines: int) -> list[str]:
+    """The package's functions over ``function_lines`` and modules over ``module_lines``, one line each."""
+    found = [f"{p.relative_to(PACKAGE)}: {name} ({n} lines)" for p in sorted(PACKAGE.rglob("*.py")) for name, n in long_functions(p.read_text(), function_lines)]
+    return found + [f"{p.relative_to(PACKAGE)} ({n} lines)" for p in sorted(PACKAGE.rglob("*.py")) if (n := len(p.read_text().splitlines())) > module_lines]
+
+
+def test_no_function_and_no_module_past_the_outer_limits():
+    too_long = oversized(MAX_FUNCTION_LINES, MAX_MODULE_LINES)
     assert not too_long, "\n".join(too_long)
     body = "\n".join(f"    x = {i}" for i in range(MAX_FUNCTION_LINES))
     assert long_functions(f"def f():\n{body}\n") == [("f", MAX_FUNCTION_LINES + 1)]
@@ -262,3 +272,7 @@ def test_the_sweep_machinery_and_the_report_name_no_experiment():
                 assert not set(compared) & names, f"{path.name} compares with an experiment's name: {set(compared) & names}"
             if isinstance(node, ast.Constant) and isinstance(node.value, str):
                 assert not any(f"experiment={n}" in node.value for n in names), f"{path.name} names an experiment: {node.value!r}"
+
+
+if __name__ == "__main__":  # a reviewer's list: what passes the sizes worth a second look
+    print("\n".join(oversized(REVIEW_FUNCTION_LINES, REVIEW_MODULE_LINES)) or "nothing past the review sizes")
