@@ -28,9 +28,11 @@ from hydra import compose, initialize_config_dir
 from omegaconf import DictConfig
 
 from airl_cli.core.irl.options import CertifiedOptions, FitOptions, PlannerOptions
+from airl_cli.errors import ConfigError
 from airl_cli.io.dataset import Dataset, read_dataset, write_dataset
 from airl_cli.io.fit_folder import read_fit
 from airl_cli.io.results_table import read_results_table
+from airl_cli.settings.command_line import config_groups
 from airl_cli.settings.config import fit_settings, loss_and_seed, problem_settings
 from airl_cli.settings.hydra_internals import launcher_discoverable
 from airl_cli.settings.paths import conf_dir
@@ -108,7 +110,7 @@ def learner(*overrides: str):
     return _fit.learner(fit_settings(config(*overrides)))
 
 
-def fit(dataset: Dataset, *overrides: str, method=None, callback=None, planner_progress=None) -> Learned:
+def fit(dataset: Dataset, *overrides: str, method=None, loss: str | None = None, seed: int | None = None, callback=None, planner_progress=None) -> Learned:
     """Learn from ``dataset`` with the learner ``method``, or with the method and settings of the
     overrides (default: this thesis's method).
 
@@ -118,8 +120,11 @@ def fit(dataset: Dataset, *overrides: str, method=None, callback=None, planner_p
             ``"seed=3"``, ``"loss=squared_features"``; the problem groups (mdp, dynamics, demos) are
             ignored, as with ``airl fit data=PATH``. With ``method``, only ``seed`` and ``loss`` are read.
         method (Airl | Mce | RobustMce | Projection | Mmp | Bc | None): a typed learner, e.g.
-            ``api.Mce(lam=0.01)``, ``api.Airl(certified=api.CertifiedOptions(tol=1e-2))``, or
-            ``api.learner(...)``'s; None: the one the overrides describe.
+            ``api.Mce(lam=0.01)``, ``api.Airl.exact(tol=1e-2)``, or ``api.learner(...)``'s; None:
+            the one the overrides describe.
+        loss: eq. 5.9's loss by its name in conf/loss/ (``"zero_one"``, ``"squared_features"``...), as
+            ``loss=NAME`` would; None: the overrides' (the config's default).
+        seed: the fit's seed, as ``seed=N`` would; None: the overrides' (0 by default).
         callback (Callable[[dict], None] | None): called with each history row of the learner (method=airl), as the progress bar is.
         planner_progress (Callable[[int, int], None] | None): called as ``planner_progress(done, total)`` after each time step inside
             every planner call (method=airl): a long call's progress.
@@ -127,10 +132,13 @@ def fit(dataset: Dataset, *overrides: str, method=None, callback=None, planner_p
     Returns:
         The learner's ``Learned``: ``weights`` (D, K) or ``policy``, ``info`` and ``history``.
     """
-    cfg = config(*overrides)
-    loss, seed = loss_and_seed(cfg)
+    if loss is not None and loss not in (losses := config_groups()["loss"]):
+        raise ConfigError(f"loss={loss!r} is not a loss airl knows; choose one of: {', '.join(losses)}")
+    named = ([f"loss={loss}"] if loss is not None else []) + ([f"seed={int(seed)}"] if seed is not None else [])
+    cfg = config(*overrides, *named)
+    loss_setting, seed_value = loss_and_seed(cfg)
     fitter = _fit.learner(fit_settings(cfg)) if method is None else method
-    return fit_dataset(dataset, fitter, seed, loss, callback=callback, planner_progress=planner_progress)
+    return fit_dataset(dataset, fitter, seed_value, loss_setting, callback=callback, planner_progress=planner_progress)
 
 
 def score(dataset: Dataset, learned: Learned) -> pd.DataFrame:

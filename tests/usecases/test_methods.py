@@ -67,3 +67,26 @@ def test_no_method_name_is_compared_outside_the_registry():
             continue
         found += [f"{rel}:{i}: {line.strip()}" for i, line in enumerate(path.read_text().split("\n"), 1) if compared.search(line)]
     assert not found, "\n".join(found)
+
+
+def test_the_thesis_learner_is_made_by_the_configs_names():
+    """``Airl.exact(tol=..., lam=...)`` is the learner ``airl fit optim.tol=... optim.lam=...`` makes, the
+    rest the packaged config's; a value the config refuses is refused (one sentence naming its key)."""
+    assert api.Airl.exact() == api.Airl()
+    assert api.Airl.exact(tol=1e-2) == api.learner("optim.tol=1e-2")
+    assert api.Airl.exact(lam=0.5, weight_sharing=True, max_iterations=50) == api.learner("optim.lam=0.5", "optim.weight_sharing=true", "optim.max_iterations=50")
+    assert api.Airl.exact(planner=api.PlannerOptions(method="pbvi")) == api.learner("pbvi.method=pbvi")
+    for bad, key in ((dict(tol=0.5), "optim.tol"), (dict(tol=0.0), "optim.tol"), (dict(lam=0.0), "optim.lam"), (dict(max_iterations=0), "optim.max_iterations"), (dict(matching="x"), "game.matching")):
+        with pytest.raises(ConfigError, match=key):
+            api.Airl.exact(**bad)
+
+
+def test_the_api_fit_takes_the_loss_and_the_seed_by_name():
+    dataset = api.make_dataset("mdp.n_states=6", "mdp.horizon=4", "demos.n=10")
+    typed = api.fit(dataset, method=api.Airl.exact(tol=1e-2), loss="squared_features", seed=3)
+    spelt = api.fit(dataset, "optim.tol=1e-2", "loss=squared_features", "seed=3")
+    assert (typed.weights == spelt.weights).all()
+    zero_one = api.fit(dataset, method=api.Airl.exact(tol=1e-2), loss="zero_one", seed=3)
+    assert zero_one.info["objective"] != typed.info["objective"]  # the loss was the one named
+    with pytest.raises(ConfigError, match="loss='nope' is not a loss airl knows"):
+        api.fit(dataset, method=api.Mce(), loss="nope")

@@ -28,7 +28,7 @@ from airl_cli.core.irl.per_step import step_blocks, step_features, step_targets
 from airl_cli.core.mmdp.refine import PER_ROUND, refine
 from airl_cli.errors import ConfigError
 from airl_cli.io.dataset import Dataset
-from airl_cli.settings.config import FitSettings
+from airl_cli.settings.config import MAX_TOL, FitSettings
 from airl_cli.usecases.bracket import bracket_info, certificate_line, closer, closes
 from airl_cli.usecases.learned import Learned
 from airl_cli.usecases.memory import affordable_beliefs, affordable_check
@@ -57,6 +57,42 @@ class Airl:
     @classmethod
     def from_settings(cls, settings: FitSettings) -> Airl:
         return cls(settings.options, settings.certified, settings.optimizer, settings.certify, settings.matching)
+
+    @classmethod
+    def exact(
+        cls,
+        *,
+        tol: float | None = None,
+        lam: float | None = None,
+        weight_sharing: bool | None = None,
+        max_iterations: int | None = None,
+        max_seconds: float | None = None,
+        normalize_loss: bool | None = None,
+        planner: PlannerOptions | None = None,
+        matching: str = "total",
+    ) -> Airl:
+        """The certified minimiser of eq. 5.9 with these settings, by the config's names (``optim.tol``,
+        ``optim.lam``, ``optim.weight_sharing``, ``optim.max_iterations``, ``optim.max_seconds``,
+        ``game.normalize_loss``, the ``pbvi`` group as ``planner``, ``game.matching``), the others the
+        packaged config's: ``Airl.exact(tol=1e-2)`` is the learner of ``airl fit optim.tol=1e-2``.
+
+        Raises:
+            ConfigError: a value the config would refuse (one sentence naming its key).
+        """
+        base = cls()
+        given = dict(tol=tol, lam=lam, weight_sharing=weight_sharing, max_iterations=max_iterations, max_seconds=max_seconds, normalize_loss=normalize_loss)
+        certified = replace(base.certified, **{k: v for k, v in given.items() if v is not None})
+        if not 0 < certified.tol <= MAX_TOL:
+            raise ConfigError(f"optim.tol must be in (0, {MAX_TOL:g}] (the bracket's relative width), got {certified.tol!r}")
+        if not certified.lam > 0:
+            raise ConfigError(f"optim.lam must be > 0 for the certified solve, got {certified.lam!r}")
+        if certified.max_iterations < 1 or (certified.max_seconds is not None and not certified.max_seconds > 0):
+            raise ConfigError(f"optim.max_iterations must be >= 1 and optim.max_seconds > 0, got {certified.max_iterations!r} and {certified.max_seconds!r}")
+        if matching not in ("total", "per_step"):
+            raise ConfigError(f"game.matching must be total or per_step, got {matching!r}")
+        planner = base.options.planner if planner is None else planner
+        options = replace(base.options, weight_sharing=certified.weight_sharing, lam=certified.lam, normalize_loss=certified.normalize_loss, planner=planner)
+        return cls(options, certified, "exact", False, matching)
 
     def check(self, dataset: Dataset) -> None:
         """One sentence for what the thesis's learner cannot take: per-step matching without the exact
