@@ -3,18 +3,27 @@ who brackets (the fit's planner, its dynamics and belief set), and what the fit'
 
 from __future__ import annotations
 
+from typing import Protocol
+
 import numpy as np
 
 from airl_cli.core.irl.bracket import MAX_CLOSE_STEPS, TARGET_SHARE, Closer, relative_width
 from airl_cli.core.irl.certified import stop_tol
 from airl_cli.core.irl.certified_steps import answer_penalty
 from airl_cli.core.irl.game_problem import GameProblem
-from airl_cli.core.irl.options import BRACKET_MAX_BELIEFS, EXACT_PLANNERS, closes_bracket
+from airl_cli.core.irl.options import BRACKET_MAX_BELIEFS, EXACT_PLANNERS, CertifiedOptions, FitOptions, closes_bracket
 from airl_cli.core.mdp.sparse import sparse_dynamics
-from airl_cli.settings.config import FitSettings
 
 
-def closer(problem: GameProblem, oracle, settings: FitSettings) -> Closer | None:
+class LearnerSettings(Protocol):
+    """What the bracket reads of the thesis's learner (``usecases.learners.thesis.Airl``, or the
+    ``FitSettings`` it is made from): the game's settings, its planner among them, and the exact solve's."""
+
+    options: FitOptions
+    certified: CertifiedOptions
+
+
+def closer(problem: GameProblem, oracle, settings: LearnerSettings) -> Closer | None:
     """The bracket's planner for a certified fit, or None: ``pbvi.bracket_beliefs`` = 0 turns it off,
     and ``pbvi.method=exact`` or ``counts`` needs none (their best responses are exact, so the
     certificate already holds for eq. 5.9 itself). It plans PBVI at the fit's belief set (if the fit reuses one)."""
@@ -27,12 +36,12 @@ def closer(problem: GameProblem, oracle, settings: FitSettings) -> Closer | None
     return Closer(P, problem.initial, getattr(oracle, "beliefs", None), budget, planner.bracket_grid)
 
 
-def _brackets(settings: FitSettings) -> bool:
+def _brackets(settings: LearnerSettings) -> bool:
     planner = settings.options.planner
     return planner.bracket_beliefs > 0 and planner.method not in EXACT_PLANNERS
 
 
-def gap_tol(settings: FitSettings) -> float:
+def gap_tol(settings: LearnerSettings) -> float:
     """The relative gap the certified fit drives its own certificate (against its planner) to:
     ``optim.tol`` where its planner is exact (``pbvi=exact``, ``counts``: the gap is then the
     bracket) or it does not close a bracket (the Markov adversary, ``pbvi.bracket_beliefs=0``), and
@@ -40,13 +49,13 @@ def gap_tol(settings: FitSettings) -> float:
     return stop_tol(settings.certified.tol, closes(settings) and _brackets(settings))
 
 
-def closes(settings: FitSettings) -> bool:
+def closes(settings: LearnerSettings) -> bool:
     """Whether the fit's certificate is a bracket on eq. 5.9's minimum closed to ``optim.tol``
     (``minimize``'s ``close`` with an inexact planner; the exact planners' gap is that bracket; ``options.closes_bracket``)."""
     return closes_bracket(settings.options.planner)
 
 
-def bracket_info(res, settings: FitSettings, targets: np.ndarray, close: Closer | None, exact=None) -> dict:
+def bracket_info(res, settings: LearnerSettings, targets: np.ndarray, close: Closer | None, exact=None) -> dict:
     """The metrics of the bracket [L, U] on min f: ``minimum_bracket``, ``bracket_relative_gap``,
     ``answer_upper`` (f at the learned w is at most it, whatever the adversary's policy; U, the
     smallest such bound found at any w, may be lower), the beliefs its last call backed up and the strategies it added; and ``planner_resolution``, how
