@@ -84,16 +84,17 @@ LAYERS = (
     ("core.mdp", "core.mdp core.mdp.*"),
     ("core.mmdp", "core.mmdp core.mmdp.*"),
     ("core.irl", "core.irl core.irl.*"),
-    ("base", "airl_cli errors heap plain_progress methods multimodel kinds io io.* conf conf.* sweep.spec"
+    ("base", "airl_cli errors heap plain_progress methods experiment_kinds multimodel io io.* conf conf.* sweep.spec"
      " settings settings.paths settings.overrides settings.command_line settings.problem_defaults settings.compose_memo settings.hydra_internals settings.reader"
      " readings readings.alpha_values readings.variants readings.transfer readings.claims readings.certificates"),
     ("envs", "envs envs.*"),
     ("settings", "settings.config settings.job settings.demos settings.dynamics settings.experiments settings.envs"),
     ("use cases", "usecases usecases.* readings.plotting readings.plotting.* readings.summaries readings.summaries.*"
-     " kinds.* kinds.*.summaries kinds.*.summaries.* kinds.*.figures kinds.*.figures.*"),
+     " kinds.*.summaries kinds.*.summaries.* kinds.*.figures kinds.*.figures.*"),
     ("jobs", "jobs jobs.common jobs.fit jobs.generate jobs.inspect jobs.plan api"),
     ("launch", "jobs.launch"),
     ("sweeps", "sweep sweep.* readings.report hydra_plugins.* kinds.*.rows kinds.*.files"),
+    ("kinds", "kinds kinds.*"),  # the kinds' folders: their parts are in the layers above by their patterns
     ("command line", "cli __main__"),
 )
 
@@ -253,9 +254,8 @@ def test_the_sweep_machinery_and_the_report_name_no_experiment():
     or writes one (``"experiment=viano_gridworld ..."``); docstrings and comments may cite them."""
     import ast
 
+    from airl_cli.experiment_kinds import KINDS
     from airl_cli.settings.command_line import experiment_titles
-
-    from airl_cli.kinds import KINDS
 
     names = set(experiment_titles()) | set(KINDS)  # nor a kind of experiment (airl_cli/kinds/: issue 70)
     assert {"fig05", "fig15", "transfer", "degeneracy", "fit", "alphas", "viano"} <= names

@@ -15,9 +15,9 @@ import hydra
 from omegaconf import DictConfig, OmegaConf
 
 from airl_cli.errors import AirlError, ResultsUnwritable, interrupted
+from airl_cli.experiment_kinds import part
 from airl_cli.io.files import describe_os_error, is_unwritable, write_text
 from airl_cli.jobs.common import output_dir
-from airl_cli.kinds import part
 from airl_cli.settings import compose_memo
 from airl_cli.settings.paths import conf_dir
 from airl_cli.sweep import pool

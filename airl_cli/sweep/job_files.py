@@ -14,8 +14,8 @@ import shutil
 from pathlib import Path
 
 from airl_cli.errors import ConfigError
+from airl_cli.experiment_kinds import part
 from airl_cli.io.job_rows import Damaged, csv_table, job_config
-from airl_cli.kinds import part
 from airl_cli.sweep.code import made_here
 from airl_cli.sweep.spec import ROWS
 

@@ -18,8 +18,8 @@ from hydra.errors import HydraException
 from omegaconf import DictConfig, OmegaConf
 
 from airl_cli.errors import ConfigError
+from airl_cli.experiment_kinds import kind_of
 from airl_cli.io.run_folder import empty_folder_refusal
-from airl_cli.kinds import kind_of
 from airl_cli.settings import compose_memo
 from airl_cli.settings.config import plain
 from airl_cli.settings.experiments import compose_airl, experiment_names  # noqa: F401 (experiment_names: the sweep's callers use it from here)

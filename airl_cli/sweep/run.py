@@ -16,9 +16,9 @@ from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 
 from airl_cli.errors import ConfigError, ResultsUnwritable, interrupt_status, interrupted, say_error
+from airl_cli.experiment_kinds import part_module
 from airl_cli.io.files import describe_os_error, is_unwritable
 from airl_cli.io.run_folder import mark_complete, mark_incomplete
-from airl_cli.kinds import part_module
 from airl_cli.plain_progress import PlainProgress
 from airl_cli.settings.overrides import CommandLine
 from airl_cli.sweep.folder import check_folder, check_not_foreign, check_writable, claim, record_settings, unwritable

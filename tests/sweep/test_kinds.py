@@ -17,7 +17,7 @@ import pytest
 
 import airl_cli
 from airl_cli.errors import ConfigError
-from airl_cli.kinds import DEFAULT, KINDS, PARTS, kind_name, part
+from airl_cli.experiment_kinds import DEFAULT, KINDS, PARTS, kind_name, part
 
 SOURCE = Path(airl_cli.__file__).resolve().parent
 
@@ -118,7 +118,7 @@ def test_a_kind_added_as_the_docs_say_runs_through_a_sweep_and_the_report(tmp_pa
     for name, body in (("__init__", '"""A fixture kind."""\n'), ("rows", ROWS), ("files", FILES), ("summaries", SUMMARIES), ("figures", FIGURES)):
         (folder / f"{name}.py").write_text(body)
     # one registry line
-    registry = src / "airl_cli" / "kinds" / "__init__.py"
+    registry = src / "airl_cli" / "experiment_kinds.py"
     text = registry.read_text()
     assert '    "viano": Kind("viano"),\n' in text
     registry.write_text(text.replace('    "viano": Kind("viano"),\n', '    "viano": Kind("viano"),\n    "fixture": Kind("fixture"),\n'))

@@ -147,5 +147,5 @@ def _both(data: Mapping[str, Any], meta: Mapping[str, Any]) -> list[tuple[str, F
     return [("exact", exact), ("pbvi", pbvi)]
 
 
-#: Figure name -> how it is drawn (``airl_cli.kinds``): figures 2 and 3 as ``{name}_exact`` and ``{name}_pbvi``.
+#: Figure name -> how it is drawn (``airl_cli.experiment_kinds``): figures 2 and 3 as ``{name}_exact`` and ``{name}_pbvi``.
 FIGURES = {"alphas": FigureKind(_both, read=read_alphas)}

@@ -1,4 +1,4 @@
-"""An alpha-vector job's files, checked (``airl_cli.kinds``): its one row and its alphas.npz."""
+"""An alpha-vector job's files, checked (``airl_cli.experiment_kinds``): its one row and its alphas.npz."""
 
 from __future__ import annotations
 

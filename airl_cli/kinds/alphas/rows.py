@@ -1,4 +1,4 @@
-"""An alpha-vector job's row (``airl_cli.kinds``), thesis Figs. 2-3: every exact alpha-vector at one
+"""An alpha-vector job's row (``airl_cli.experiment_kinds``), thesis Figs. 2-3: every exact alpha-vector at one
 (t, s) of two random MDPs (Theorem 6.3.1's enumeration) and those modified PBVI computes, written to
 ``alphas.npz``, with their counts and the largest gap between the two value functions."""
 

@@ -22,5 +22,5 @@ def section(meta: dict, table: pd.DataFrame) -> str:
     )
 
 
-#: Summary name -> how it reads a results table (``airl_cli.kinds``).
+#: Summary name -> how it reads a results table (``airl_cli.experiment_kinds``).
 SUMMARIES = {"alphas": Summary(section=section, columns=ALPHA_COLUMNS, in_overview=False, sweep_files=("alphas.npz",))}

@@ -1,4 +1,4 @@
-"""A fit job's files, checked (``airl_cli.kinds``): a finished job is reused only if they are what
+"""A fit job's files, checked (``airl_cli.experiment_kinds``): a finished job is reused only if they are what
 ``kinds.fit.rows`` writes, read off its own ``config.yaml``. Standard library only (``io.job_rows``)."""
 
 from __future__ import annotations

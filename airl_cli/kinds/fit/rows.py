@@ -1,4 +1,4 @@
-"""A fit job's rows (``airl_cli.kinds``): it runs ``airl fit``'s work into the job folder, then gives
+"""A fit job's rows (``airl_cli.experiment_kinds``): it runs ``airl fit``'s work into the job folder, then gives
 one row per dynamics, its scores and certificate with every setting (``kinds.fit.files.FIT_COLUMNS``)."""
 
 from __future__ import annotations

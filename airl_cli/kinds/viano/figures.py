@@ -48,5 +48,5 @@ def returns(df: pd.DataFrame, meta: Mapping[str, Any]) -> Figure:
     return fig
 
 
-#: Figure name -> how it is drawn (``airl_cli.kinds``).
+#: Figure name -> how it is drawn (``airl_cli.experiment_kinds``).
 FIGURES = {"returns": FigureKind(returns, RETURNS_COLUMNS)}

@@ -1,4 +1,4 @@
-"""A Viano et al. GridWorld job's files, checked (``airl_cli.kinds``): its one row."""
+"""A Viano et al. GridWorld job's files, checked (``airl_cli.experiment_kinds``): its one row."""
 
 from __future__ import annotations
 

@@ -38,5 +38,5 @@ def terminal(experiment: dict, table: pd.DataFrame) -> str:
     return with_claim(experiment, lines, prefix="")  # its claim is another paper's, said as it is
 
 
-#: Summary name -> how it reads a results table (``airl_cli.kinds``).
+#: Summary name -> how it reads a results table (``airl_cli.experiment_kinds``).
 SUMMARIES = {"viano": Summary(terminal=terminal, columns=(), in_overview=False, reported=False)}

@@ -22,10 +22,10 @@ import pandas as pd
 from matplotlib.figure import Figure
 
 from airl_cli.errors import ConfigError
+from airl_cli.experiment_kinds import part
 from airl_cli.io.files import atomic_write
 from airl_cli.io.results_table import read_results_table
 from airl_cli.io.run_folder import read_experiment
-from airl_cli.kinds import part
 from airl_cli.readings.plotting._style import (  # noqa: F401 (the constants are part of the module's interface)
     DEFAULT_THRESHOLD,
     DEMONSTRATOR_COLOUR,

@@ -9,7 +9,7 @@ picks one by ``experiment.summary``, else its kind's first. ``airl_cli.sweep`` a
 from __future__ import annotations
 
 from airl_cli.errors import ConfigError
-from airl_cli.kinds import part
+from airl_cli.experiment_kinds import part
 from airl_cli.readings.summaries.base import Summary
 
 

@@ -385,7 +385,7 @@ def test_plotting_imports_only_pandas_numpy_matplotlib_the_standard_library_resu
     # (the alpha-vectors' value, numpy alone, shared with the sweep's rows), variants (a results
     # row's variant of the game, read off its settings) and transfer (its problem and expert model) only
     allowed = {"airl_cli.io.files", "airl_cli.io.run_folder", "airl_cli.io.results_table", "airl_cli.io.fit_folder", "airl_cli.methods", "airl_cli.readings.alpha_values", "airl_cli.readings.variants", "airl_cli.readings.transfer",
-               "airl_cli.kinds", "airl_cli.errors"}  # the kinds' registry (which kind draws what), its one-sentence error
+               "airl_cli.experiment_kinds", "airl_cli.errors"}  # the kinds' registry (which kind draws what), its one-sentence error
     assert {n for n in names if n.startswith("airl_cli")} <= allowed
     assert "matplotlib.pyplot" not in names
     for name in names - allowed:

@@ -1,4 +1,4 @@
-"""The fit experiments' figures (``airl_cli.kinds``): what ``experiment.figures`` may list."""
+"""The fit experiments' figures (``airl_cli.experiment_kinds``): what ``experiment.figures`` may list."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""The fit experiments' summaries (``airl_cli.kinds``): the median scores per method and swept value by
+"""The fit experiments' summaries (``airl_cli.experiment_kinds``): the median scores per method and swept value by
 default; an experiment picks another by ``experiment.summary``."""
 
 from __future__ import annotations
