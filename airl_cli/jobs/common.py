@@ -128,11 +128,23 @@ def memory_estimate(job: FitJob) -> tuple[Estimate, int | None] | None:
     return None if sizes is None else memory.fit_memory(sizes, job.fit)
 
 
+#: The settings that size each problem airl builds, for a refusal to name (an environment's states are its own).
+SIZE_SETTINGS = {
+    "random": "mdp.n_states, mdp.horizon",
+    "grid": "mdp.size, mdp.horizon",
+    "objectworld": "mdp.size, mdp.horizon",
+    "windy": "mdp.width, mdp.height, mdp.horizon",
+    "gymnasium": "mdp.horizon",
+    "seals": "mdp.horizon",
+}
+
+
 def _shrink(problem) -> str:
-    """The settings that size the problem (``ProblemSettings``, None for a file), for the refusal to name: the grids have mdp.size."""
-    if problem is not None and problem.mdp.name in ("grid", "objectworld"):
-        return "mdp.size, mdp.horizon"
-    return "mdp.n_states, mdp.horizon"
+    """The settings that size the problem (``ProblemSettings``; None for a dataset file, whose sizes
+    are the file's), for the refusal to name."""
+    if problem is None:
+        return "the dataset's states or horizon (a smaller file)"
+    return SIZE_SETTINGS.get(problem.mdp.name, "mdp.horizon")
 
 
 def check_memory(job: FitJob, *, workers: int = 1) -> Estimate | None:

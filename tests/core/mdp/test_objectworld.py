@@ -291,3 +291,22 @@ def test_a_bad_objectworld_value_is_one_sentence_on_the_command_line(tmp_path, i
     assert result.exit_code == 2
     assert "dynamics=gaussian" in result.output and "Traceback" not in result.output
     assert len(result.output.strip().splitlines()) == 1 and not out.exists()
+
+
+def test_a_memory_refusal_names_settings_the_problem_has():
+    """Each problem's refusal names the settings that size it, each a key of its config (an environment
+    by id named mdp.n_states, which gymnasium's config does not have); a dataset file names the file."""
+    from pathlib import Path
+
+    import yaml
+
+    from airl_cli.jobs.common import SIZE_SETTINGS, _shrink
+    from airl_cli.settings.paths import conf_dir
+
+    options = {p.stem for p in (Path(conf_dir()) / "mdp").glob("*.yaml") if not p.name.startswith("_")}
+    assert options == set(SIZE_SETTINGS)
+    for name, settings in SIZE_SETTINGS.items():
+        keys = set(yaml.safe_load((Path(conf_dir()) / "mdp" / f"{name}.yaml").read_text()))
+        assert {s.removeprefix("mdp.") for s in settings.split(", ")} <= keys, name
+    assert _shrink(api.config("mdp=gymnasium", "mdp.env=Taxi-v4")) == "mdp.horizon"
+    assert "dataset" in _shrink(None)
