@@ -106,23 +106,6 @@ class CommandLine:
         return [o.unquoted for o in self.tasks() if o.sets and o.unquoted]
 
 
-def split_override(item: str) -> tuple[str, str, str]:
-    """(key, "=" or "", value) of a command-line override, the key without Hydra's leading ``+``
-    (add) or ``~`` (delete): ``+demos.n=10`` -> ("demos.n", "=", "10"), ``~seed`` -> ("seed", "", "")."""
-    o = Override.of(item)
-    return o.key, o.sep, o.value
-
-
-def override_key(item: str) -> str:
-    """The key an override sets or deletes (``split_override``'s first part)."""
-    return Override.of(item).key
-
-
-def chosen_values(overrides: list[str]) -> dict[str, str]:
-    """key -> value of every ``KEY=VALUE`` override (the last one wins), keys as ``split_override`` gives them."""
-    return CommandLine.of(overrides).chosen()
-
-
 def syntax_problem(args: list[str], command: str, options: list[str]) -> str | None:
     """One sentence on what is wrong with the overrides of ``airl COMMAND``, or None if nothing is.
 
@@ -144,7 +127,8 @@ def syntax_problem(args: list[str], command: str, options: list[str]) -> str | N
     for item in args:
         if item.startswith("-"):
             return f"'{item}' is not an option of airl {command} (its options: {', '.join(options)}; see airl {command} --help)"
-        key, sep, value = split_override(item)
+        o = Override.of(item)
+        key, sep, value = o.key, o.sep, o.value
         if not sep and not item.startswith("~"):
             return f"'{item}' sets nothing: an override is KEY=VALUE in one word, e.g. '{item}=VALUE' (no spaces around '='; quote a value with spaces)"
         parser = parser or OverridesParser.create()
