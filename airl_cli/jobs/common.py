@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from hydra.core.hydra_config import HydraConfig
@@ -22,6 +24,16 @@ from airl_cli.usecases import memory
 #: Progress and errors go to stderr; the final "where it went" line to stdout.
 err_console = Console(stderr=True, highlight=False)
 out_console = Console(highlight=False)
+
+
+@dataclass(frozen=True)
+class Prepared:
+    """What a job's ``prepare(cfg, line)`` read of its composed config and checked before any folder
+    is made: ``value``, the typed settings its ``main(cfg, value)`` takes (read once, passed down),
+    and ``notes``, one sentence per override it will not read."""
+
+    value: Any
+    notes: list[str] = field(default_factory=list)
 
 
 def vector_text(x: np.ndarray) -> str:

@@ -14,7 +14,7 @@ from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
 from airl_cli.io.dataset import Dataset, read_dataset, write_dataset
 from airl_cli.io.fit_folder import write_fit
-from airl_cli.jobs.common import check_memory, err_console, out_console, output_dir, run_job, save_config, size_note, vector_text, warm_up
+from airl_cli.jobs.common import Prepared, check_memory, err_console, out_console, output_dir, run_job, save_config, size_note, vector_text, warm_up
 from airl_cli.methods import THESIS, learns_reward, plays_game
 from airl_cli.plain_progress import PlainProgress
 from airl_cli.settings.config import FitSettings
@@ -39,16 +39,17 @@ def load_dataset(job: FitJob) -> tuple[Dataset, bool, str]:
     return with_method_loss(dataset, learner(job.fit), job.loss), False, name
 
 
-def check(cfg: DictConfig, overrides: CommandLine | list[str] = ()) -> list[str]:
-    """Everything ``main`` would refuse before its first result, checked before any folder is made
-    (``launch.preflight``): the settings, the memory, and a dataset file with the method.
+def prepare(cfg: DictConfig, overrides: CommandLine | list[str] = ()) -> Prepared:
+    """The job's settings read once (``settings.job.fit_job``) and everything ``main`` would refuse
+    before its first result checked, before any folder is made (``launch.preflight``): the
+    settings, the memory, and a dataset file with the method.
 
-    Returns notes on the ``overrides`` that will do nothing (``ignored_settings``)."""
+    Returns the ``FitJob`` for ``main`` and notes on the ``overrides`` that will do nothing (``ignored_settings``)."""
     job = fit_job(cfg)
     check_memory(job)
     if job.problem is None:
         check_supported(load_dataset(job)[0], learner(job.fit))
-    return ignored_settings(cfg, CommandLine.of(overrides), job.fit.method)
+    return Prepared(job, ignored_settings(cfg, CommandLine.of(overrides), job.fit.method))
 
 
 #: The groups that configure the thesis's learner alone (method=airl).
@@ -296,9 +297,9 @@ def fit_with_progress(cfg: DictConfig, folder: Path, job: FitJob) -> FitRun:
         return fit_and_write(cfg, folder, job, on_step, on_planner)
 
 
-def main(cfg: DictConfig) -> None:
+def main(cfg: DictConfig, job: FitJob) -> None:
+    """Fit as ``job`` (``prepare``'s, read from ``cfg``) says, into Hydra's run folder, and report."""
     folder = output_dir()
-    job = fit_job(cfg)  # every setting of the job, parsed once and passed down
     if not plays_game(job.fit.method):
         with err_console.status(f"fitting method={job.fit.method}"):
             run = fit_and_write(cfg, folder, job)
@@ -371,4 +372,5 @@ def fit_warnings(info: dict) -> list[str]:
 
 @hydra.main(version_base="1.3", config_path=conf_dir(), config_name="airl")
 def hydra_main(cfg: DictConfig) -> None:
-    run_job(main, cfg)
+    """One job of ``airl fit --multirun`` (a single run is composed, prepared and started by ``launch``)."""
+    run_job(lambda c: main(c, prepare(c).value), cfg)

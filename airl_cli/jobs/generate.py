@@ -11,7 +11,7 @@ from airl_cli.core.mdp.problems import noise
 from airl_cli.envs.named import env_parameter
 from airl_cli.io.dataset import Dataset, write_dataset
 from airl_cli.io.files import write_text
-from airl_cli.jobs.common import check_build_memory, err_console, out_console, output_dir, run_job, save_config, vector_text
+from airl_cli.jobs.common import Prepared, check_build_memory, err_console, out_console, output_dir, run_job, save_config, vector_text
 from airl_cli.plain_progress import PlainProgress
 from airl_cli.settings.config import EnvMDPSettings, ProblemSettings, WindyMDPSettings, problem_settings
 from airl_cli.settings.paths import conf_dir
@@ -89,18 +89,18 @@ def summary_text(settings: ProblemSettings, dataset: Dataset, scores: np.ndarray
     return "\n".join(lines) + "\n"
 
 
-def check(cfg: DictConfig, overrides: list[str] = ()) -> list[str]:
-    """What ``main`` would refuse before building anything, checked before any folder is made
-    (``launch.preflight``): the settings, and the memory the problem needs. (The learner's groups,
-    which only ``airl fit`` reads, pass unremarked: a shared list of overrides is common.)"""
-    problem_settings(cfg)
-    check_build_memory(cfg)
-    return []
-
-
-def main(cfg: DictConfig) -> None:
-    check_build_memory(cfg)
+def prepare(cfg: DictConfig, overrides: list[str] = ()) -> Prepared:
+    """The problem's settings read once (``problem_settings``, for ``main``) and what ``main`` would
+    refuse before building anything checked, before any folder is made (``launch.preflight``): the
+    settings, and the memory the problem needs. (The learner's groups, which only ``airl fit``
+    reads, pass unremarked: a shared list of overrides is common.)"""
     settings = problem_settings(cfg)
+    check_build_memory(cfg)
+    return Prepared(settings)
+
+
+def main(cfg: DictConfig, settings: ProblemSettings) -> None:
+    """Build the problem and its demonstrations as ``settings`` (``prepare``'s) say, write the dataset file, and report."""
     folder = output_dir()
     plain = PlainProgress(err_console)  # stderr to a file: plain lines, at most every 5 s
     with Progress(SpinnerColumn(), TextColumn("{task.description}"), TimeElapsedColumn(), console=err_console, transient=True, disable=plain.active) as bar:
@@ -122,4 +122,5 @@ def main(cfg: DictConfig) -> None:
 
 @hydra.main(version_base="1.3", config_path=conf_dir(), config_name="airl")
 def hydra_main(cfg: DictConfig) -> None:
-    run_job(main, cfg)
+    """One job of ``airl generate --multirun`` (a single run is composed, prepared and started by ``launch``)."""
+    run_job(lambda c: main(c, prepare(c).value), cfg)

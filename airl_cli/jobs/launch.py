@@ -9,7 +9,7 @@ import sys
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from omegaconf import OmegaConf
 from rich.markup import escape
@@ -20,6 +20,9 @@ from airl_cli.io.run_folder import claimed_folder, enter, holds_no_results, new_
 from airl_cli.settings.command_line import check_output_folder, checked
 from airl_cli.settings.overrides import CommandLine
 from airl_cli.settings.paths import conf_dir
+
+if TYPE_CHECKING:
+    from airl_cli.jobs.common import Prepared
 
 
 def quote(value: str) -> str:
@@ -98,8 +101,6 @@ def _run_hydra(job: str, overrides: CommandLine | list[str], *, cfg: str | None,
         check_output_folder(line, multirun=multirun)
     if multirun and cfg is None and job in PRINT_ONLY:
         line = _multirun_folder(job, line, replace=replace)
-    # printing a config needs Hydra only: the job module (numpy, scipy, pandas, numba) is not loaded
-    main = _print_config_app(job) if cfg is not None and job in PRINT_ONLY else importlib.import_module(app or f"airl_cli.jobs.{job}").hydra_main
     argv = [f"airl {job}"]
     if multirun:
         argv.append("--multirun")
@@ -111,16 +112,43 @@ def _run_hydra(job: str, overrides: CommandLine | list[str], *, cfg: str | None,
 
     saved = sys.argv
     sys.argv = argv + quote_paths(line)
-    claim = not multirun and cfg is None
+    claim = not multirun and cfg is None and job in PRINT_ONLY
     if claim:  # a folder of its own for this run, even if another started in the same second
         OmegaConf.register_new_resolver("airl.new_run_folder", new_run_folder, replace=True)
     try:
-        with _jobs_composed_once(multirun and cfg is None), _checked_first(job if claim else None, line, replace), atomic_hydra_records(save_hydra_record):
-            main()
+        with atomic_hydra_records(save_hydra_record):
+            if claim:
+                _run_once(job, line, replace)
+            else:
+                with _jobs_composed_once(multirun and cfg is None):
+                    _hydra_app(job, cfg, app)()
     finally:
         sys.argv = saved
         if claim:
             OmegaConf.register_new_resolver("airl.new_run_folder", lambda path: path, replace=True)
+
+
+def _hydra_app(job: str, cfg: str | None, app: str | None):
+    """The ``@hydra.main`` app that reads ``sys.argv``: a sweep's or a ``--multirun``'s, or one that
+    only prints the config (``--cfg``: Hydra only; the job module, with numpy, scipy, pandas and
+    numba, is not loaded)."""
+    if cfg is not None and job in PRINT_ONLY:
+        return _print_config_app(job)
+    return importlib.import_module(app or f"airl_cli.jobs.{job}").hydra_main
+
+
+def _run_once(job: str, line: CommandLine, replace: bool) -> None:
+    """One run of ``job``: its config composed once, as Hydra composes it for the run
+    (``hydra_internals.single_run``), prepared (``preflight``: its typed settings read and checked,
+    its folder entered), then the job run on that config and those settings in the folder Hydra
+    makes (``jobs.common.run_job``: one sentence on bad input, Ctrl-C or a full disk)."""
+    from airl_cli.jobs.common import run_job
+    from airl_cli.settings.hydra_internals import single_run
+
+    module = importlib.import_module(f"airl_cli.jobs.{job}")
+    with single_run(conf_dir(), PRINT_ONLY[job], job, quote_paths(line)) as run:
+        prepared = _prepared(module, run.job_cfg, line, replace)
+        run.start(lambda cfg: run_job(lambda c: module.main(c, prepared.value), cfg))
 
 
 def _multirun_folder(job: str, line: CommandLine, *, replace: bool) -> CommandLine:
@@ -138,51 +166,39 @@ def _multirun_folder(job: str, line: CommandLine, *, replace: bool) -> CommandLi
         refuse(err)
 
 
-@contextmanager
-def _checked_first(job: str | None, line: CommandLine, replace: bool) -> Iterator[None]:
-    """``preflight`` for a single run of ``job`` (None: nothing to check), then the block, with
-    compositions remembered in both (Hydra composes the same config again)."""
-    if job is None or job not in PRINT_ONLY:
-        yield
-        return
-    from airl_cli.settings import compose_memo
-
-    with compose_memo.active():
-        preflight(job, line, replace=replace)
-        yield
-
-
-def preflight(job: str, overrides: CommandLine | list[str], *, replace: bool = False) -> None:
+def preflight(job: str, overrides: CommandLine | list[str], *, replace: bool = False) -> Prepared:
     """Refuse bad input in one sentence before Hydra makes or touches any folder (it writes its
-    records there before the job starts): the job's config composed and ``check``ed (settings,
-    memory, input files), the settings it will not read named one line each, then the
-    ``hydra.run.dir`` folder entered (``io.run_folder.enter``: new or empty; ``replace`` empties
-    it). Compositions are remembered (``compose_memo``): Hydra's own, next, costs little.
-    """
-    from hydra import compose, initialize_config_dir
-
-    from airl_cli.errors import AirlError
+    records there before the job starts): the job's config composed as for its run and prepared
+    (``_prepared``). What ``airl JOB`` checks before it starts, without starting it (the pages'
+    dry run of their command lines)."""
+    from airl_cli.settings.hydra_internals import single_run
 
     line = CommandLine.of(overrides)
     module = importlib.import_module(f"airl_cli.jobs.{job}")
-    with initialize_config_dir(config_dir=conf_dir(), version_base="1.3", job_name=job):
-        cfg = compose(PRINT_ONLY[job], overrides=quote_paths(line))
+    with single_run(conf_dir(), PRINT_ONLY[job], job, quote_paths(line)) as run:
+        return _prepared(module, run.job_cfg, line, replace)
+
+
+def _prepared(module: Any, cfg: Any, line: CommandLine, replace: bool) -> Prepared:
+    """The job's ``prepare`` on its composed config (its typed settings, read once; settings,
+    memory, input files checked), the settings it will not read named one line each, then the
+    ``hydra.run.dir`` folder entered (``io.run_folder.enter``: new or empty; ``replace`` empties it).
+    Bad input is refused in one sentence (exit 2)."""
+    from airl_cli.errors import AirlError
+
     try:
-        notes = module.check(cfg, line)
-    except AirlError as err:
-        refuse(err)
-    folder = line.value("hydra.run.dir")
-    try:
-        if folder is not None:
+        prepared = module.prepare(cfg, line)
+        if (folder := line.value("hydra.run.dir")) is not None:
             enter(folder.strip("'\""), line.input_values(), replace=replace)
     except AirlError as err:
         refuse(err)
-    if notes:
+    if prepared.notes:
         from rich.console import Console
 
         console = Console(stderr=True, highlight=False)
-        for note in notes:
+        for note in prepared.notes:
             console.print(f"note: {escape(note)}", soft_wrap=True)
+    return prepared
 
 
 @contextmanager

@@ -8,6 +8,8 @@ Markov methods; ``airl_cli.io.policy_file.load_policy`` reads it back) and ``con
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import hydra
 import numpy as np
 from omegaconf import DictConfig
@@ -15,18 +17,26 @@ from omegaconf import DictConfig
 from airl_cli.core.numerics.magnitude import MAX_SUM, largest_sum
 from airl_cli.errors import ConfigError
 from airl_cli.io.files import write_json
-from airl_cli.io.mmdp_files import input_path, read_problem
+from airl_cli.io.mmdp_files import MMDPProblem, input_path, read_problem
 from airl_cli.io.policy_file import save_policy
-from airl_cli.jobs.common import err_console, out_console, output_dir, run_job, save_config, warm_up
+from airl_cli.jobs.common import Prepared, err_console, out_console, output_dir, run_job, save_config, warm_up
 from airl_cli.plain_progress import PlainProgress
-from airl_cli.settings.config import plan_settings
+from airl_cli.settings.config import PlanSettings, plan_settings
 from airl_cli.settings.paths import conf_dir
 from airl_cli.usecases.memory import plan_refusal
 from airl_cli.usecases.plan import bracket_optimum, run_plan
 
 
-def check(cfg: DictConfig, overrides: list[str] = ()) -> list[str]:
-    """What ``main`` would refuse before planning, checked before any folder is made
+class PlanInput(NamedTuple):
+    """What one plan reads (``prepare``): its settings and the problem of its input files."""
+
+    settings: PlanSettings
+    problem: MMDPProblem
+
+
+def prepare(cfg: DictConfig, overrides: list[str] = ()) -> Prepared:
+    """The plan's settings and input files read once (a ``PlanInput``, for ``main``) and what
+    ``main`` would refuse before planning checked, before any folder is made
     (``launch.preflight``): the settings, the input's files, and a horizon that surely does not fit in memory."""
     settings = plan_settings(cfg)
     problem = read_problem(settings.input)
@@ -41,12 +51,12 @@ def check(cfg: DictConfig, overrides: list[str] = ()) -> list[str]:
                 f"the {name} reach {np.max(np.abs(rewards)):.3g}: their sums over plan.horizon = {settings.horizon} decisions "
                 f"(up to {largest_sum(rewards, settings.horizon):.3g}) are beyond {MAX_SUM:.0e}, where the planners' values overflow; scale them down"
             )
-    return []
+    return Prepared(PlanInput(settings, problem))
 
 
-def main(cfg: DictConfig) -> dict:
-    settings = plan_settings(cfg)
-    problem = read_problem(settings.input)
+def main(cfg: DictConfig, plan: PlanInput) -> dict:
+    """Plan as ``plan`` (``prepare``'s) says, write plan.json and policy.npz, and report."""
+    settings, problem = plan
     M, S, A = problem.shape
     folder = output_dir()
     what = f"planning with {settings.method} (M={M}, S={S}, A={A}, T={settings.horizon})"
@@ -104,4 +114,5 @@ def main(cfg: DictConfig) -> dict:
 
 @hydra.main(version_base="1.3", config_path=conf_dir(), config_name="airl_plan")
 def hydra_main(cfg: DictConfig) -> None:
-    run_job(main, cfg)
+    """One job of ``airl plan --multirun`` (a single run is composed, prepared and started by ``launch``)."""
+    run_job(lambda c: main(c, prepare(c).value), cfg)

@@ -78,7 +78,7 @@ def _check_problem_choice(line: CommandLine) -> None:
     would not be read, and an experiment that does not sweep problems (``hydra.sweeper.params``) has
     its own problem, which would silently win over it or ignore it.
     """
-    chosen = line.chosen()
+    chosen = line.chosen
     problem = chosen.get("problem")
     if problem in (None, "", "null"):
         return
@@ -147,7 +147,7 @@ def check_keys(line: CommandLine, primary: str = "airl") -> None:
         typer.Exit: status 2, after the sentence (the key, the group's real keys, the closest).
     """
     groups = config_groups()
-    values = [o for o in line.tasks() if o.sets and not o.prefix.startswith("~") and o.key not in groups]
+    values = [o for o in line.tasks if o.sets and not o.prefix.startswith("~") and o.key not in groups]
     if not values:
         return
     known, top = _known_keys(line, primary)

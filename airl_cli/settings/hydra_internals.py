@@ -23,6 +23,11 @@ checks each function against Hydra itself, are the one place to look. What each 
   ``ConfigLoaderImpl._compose_config_from_defaults_list`` and ``OverridesParser.parse_rule`` (the
   last is public, swapped with the other two), and the fields of Hydra's ``DefaultsList`` and
   ``ResultDefault``: the steps of composing a config that ``compose_memo`` remembers.
+- ``single_run``: ``hydra._internal.hydra.Hydra.run`` and ``hydra._internal.callbacks.Callbacks`` (what ``@hydra.main`` calls for one run), cut
+  in two: the config composed once, as Hydra composes it for that run, handed to airl's checks,
+  then the job run on that same config by Hydra's ``run_job`` (its folder, records and logging).
+  ``@hydra.main`` composes the config twice itself (``get_mode``, then ``run``) and offers no
+  moment between composing and making the folder.
 
 Hydra itself is imported inside the functions, when one is called: importing this module costs
 nothing (``airl``'s command line starts without Hydra).
@@ -30,6 +35,7 @@ nothing (``airl``'s command line starts without Hydra).
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
@@ -157,6 +163,62 @@ def set_composition_steps(steps: CompositionSteps) -> None:
     config_loader_impl.create_defaults_list = steps.create_defaults_list
     ConfigLoaderImpl._compose_config_from_defaults_list = steps.compose_from_defaults_list  # type: ignore[method-assign]
     OverridesParser.parse_rule = steps.parse_rule  # type: ignore[method-assign]
+
+
+class SingleRun(NamedTuple):
+    """One Hydra run composed and not yet started (``single_run``).
+
+    ``cfg``: the composed config, with its ``hydra`` node (Hydra's own for a run: ``hydra.mode=RUN``).
+    ``job_cfg``: a copy without that node, as the job will get it.
+    ``start(task)``: makes the run's folder (``hydra.run.dir``), writes Hydra's records there,
+    configures logging and calls ``task(job_cfg)`` (``job_cfg``: ``cfg`` without the ``hydra``
+    node) as ``@hydra.main`` does; a task that raises is reported as ``@hydra.main`` reports it
+    (its message, exit 1; raised with ``HYDRA_FULL_ERROR=1``).
+    """
+
+    cfg: Any
+    job_cfg: Any
+    start: Callable[[Callable[[Any], Any]], Any]
+
+
+@contextmanager
+def single_run(config_dir: str, config_name: str, task_name: str, overrides: Sequence[str]) -> Iterator[SingleRun]:
+    """Within: one run of Hydra's app ``config_name`` (searched in ``config_dir``; ``task_name`` is
+    ``hydra.job.name``) composed with these override strings, exactly as ``@hydra.main`` composes
+    it for a run (no ``--multirun``, ``hydra.mode`` unset in the config), and not started. Hydra's
+    global state is cleared afterwards. An error of Hydra's own (a composition that fails) is
+    reported as ``@hydra.main`` reports it (one line and exit 1)."""
+    from hydra._internal.hydra import Hydra
+    from hydra._internal.utils import create_config_search_path, run_and_report
+    from hydra.core.global_hydra import GlobalHydra
+    from hydra.core.utils import run_job
+    from hydra.types import HydraContext, RunMode
+    from omegaconf import open_dict, read_write
+
+    hydra = run_and_report(lambda: Hydra.create_main_hydra2(task_name=task_name, config_search_path=create_config_search_path(config_dir)))
+    try:
+        line = [*overrides, "hydra.mode=RUN"]  # what @hydra.main adds when the config sets no mode
+        cfg = run_and_report(lambda: hydra.compose_config(config_name=config_name, overrides=line, with_log_configuration=True, run_mode=RunMode.RUN))
+
+        def start(task: Callable[[Any], Any]) -> Any:
+            def run() -> Any:
+                from hydra._internal.callbacks import Callbacks
+
+                callbacks = Callbacks(cfg)
+                callbacks.on_run_start(config=cfg, config_name=config_name)
+                context = HydraContext(config_loader=hydra.config_loader, callbacks=callbacks)
+                ret = run_job(hydra_context=context, task_function=task, config=cfg, job_dir_key="hydra.run.dir", job_subdir_key=None, configure_logging=True)
+                callbacks.on_run_end(config=cfg, config_name=config_name, job_return=ret)
+                return ret.return_value  # raises the task's exception, if it raised one
+
+            return run_and_report(run)
+
+        job_cfg = copy.deepcopy(cfg)  # as run_job hands it to the task
+        with read_write(job_cfg), open_dict(job_cfg):
+            del job_cfg["hydra"]
+        yield SingleRun(cfg, job_cfg, start)
+    finally:
+        GlobalHydra.instance().clear()
 
 
 def defaults_with_overrides(defaults_list: Any, overrides: list[Any]) -> Any:

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from collections.abc import Iterable
 from dataclasses import dataclass
+from functools import cached_property
 
 #: Keys an earlier version had, and the sentence that says what took their place (``settings.command_line.check_keys``).
 RENAMED_KEYS = {
@@ -71,6 +72,16 @@ class CommandLine:
     items: tuple[Override, ...] = ()
     checked: bool = False
 
+    @cached_property
+    def chosen(self) -> dict[str, str]:
+        """key -> value of every ``KEY=VALUE`` (the last one wins), read once."""
+        return {o.key: o.value for o in self.items if o.sets}
+
+    @cached_property
+    def tasks(self) -> tuple[Override, ...]:
+        """The overrides of the job's config (not Hydra's own), read once."""
+        return tuple(o for o in self.items if not o.is_hydra)
+
     @classmethod
     def of(cls, overrides: CommandLine | Iterable[str]) -> CommandLine:
         """The command line of these overrides (a ``CommandLine`` is returned as it is)."""
@@ -81,17 +92,9 @@ class CommandLine:
         """The overrides as text, in order (what Hydra is given)."""
         return [o.text for o in self.items]
 
-    def chosen(self) -> dict[str, str]:
-        """key -> value of every ``KEY=VALUE`` (the last one wins)."""
-        return {o.key: o.value for o in self.items if o.sets}
-
     def value(self, key: str) -> str | None:
         """The value the command line sets ``key`` to (the last), or None."""
-        return self.chosen().get(key)
-
-    def tasks(self) -> list[Override]:
-        """The overrides of the job's config (not Hydra's own)."""
-        return [o for o in self.items if not o.is_hydra]
+        return self.chosen.get(key)
 
     def plus(self, *overrides: str) -> CommandLine:
         """This command line with ``overrides`` added after its own (airl's, checked or not checked as it is)."""
@@ -103,7 +106,7 @@ class CommandLine:
 
     def input_values(self) -> list[str]:
         """The values the job's overrides set, unquoted (``io.run_folder`` looks for a run's inputs among them)."""
-        return [o.unquoted for o in self.tasks() if o.sets and o.unquoted]
+        return [o.unquoted for o in self.tasks if o.sets and o.unquoted]
 
 
 def syntax_problem(args: list[str], command: str, options: list[str]) -> str | None:

@@ -34,7 +34,7 @@ def with_problem_defaults(overrides: CommandLine | list[str]) -> CommandLine | l
     unchanged otherwise (and for a comma-separated sweep over problems). A ``CommandLine`` gives a
     ``CommandLine``, a list a list (the Python API's overrides)."""
     line = CommandLine.of(overrides)
-    chosen = line.chosen()
+    chosen = line.chosen
     mdp = chosen.get("mdp")
     dynamics = None
     if mdp is not None and not any(k in chosen for k in ("dynamics", "experiment", "data", "problem")) and "," not in mdp:

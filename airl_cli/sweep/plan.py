@@ -66,7 +66,7 @@ def _plan(line: CommandLine) -> SweepPlan:
     if cfg.get("experiment") is None:
         raise ConfigError("name an experiment: airl sweep experiment=NAME (see airl sweep --help)")
     params = [f"{k}={v}" for k, v in (cfg.hydra.sweeper.params or {}).items()]
-    task_args = [o.text for o in line.tasks()]
+    task_args = [o.text for o in line.tasks]
     jobs_overrides = split_sweep_overrides(parser.parse_overrides(params + task_args))
     exclude = list(cfg.hydra.job.config.override_dirname.exclude_keys)
     parsed_once = {o: parser.parse_override(o) for o in {o for job in jobs_overrides for o in job}}  # 2 ms each
@@ -122,7 +122,7 @@ def _folder(cfg: DictConfig, line: CommandLine, parser: OverridesParser) -> Path
         if not named.strip("'\" "):
             raise ConfigError(empty_folder_refusal("hydra.sweep.dir"))
         return Path(cfg.hydra.sweep.dir)
-    extra = [o.text for o in line.tasks() if o.key not in ("experiment", "profile")]
+    extra = [o.text for o in line.tasks if o.key not in ("experiment", "profile")]
     suffix = overrides_dirname(parser.parse_overrides(extra), []) if extra else ""
     if len(suffix) > 100:
         suffix = hashlib.sha1(suffix.encode()).hexdigest()[:12]

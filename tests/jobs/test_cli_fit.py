@@ -334,26 +334,46 @@ def test_sharpening_grows_the_fit_s_belief_set_and_the_check_starts_from_it(tmp_
         assert not (tmp_path / "bad").exists()
 
 
-def test_a_fit_parses_its_settings_once_in_its_check_and_once_in_its_job(tmp_path, monkeypatch):
-    """``settings.job.fit_job`` reads every setting of a fit once, and the job passes the typed
-    value down (the check before any folder is made reads them once more): a default fit called
-    ``fit_settings`` 5 times and ``problem_settings`` 4 times before."""
+def _counted(monkeypatch, owner, name: str, calls: list[str], frames: tuple[str, ...]) -> None:
+    """Record in ``calls`` the innermost of ``frames`` (function names) each call of ``owner.name`` is made from."""
     import traceback
 
-    import airl_cli.settings.job as config  # fit_job's own names of the two readers
+    original = getattr(owner, name)
 
-    callers: dict[str, list[str]] = {"fit_settings": [], "problem_settings": []}
-    for name in callers:
-        original = getattr(config, name)
+    def counted(*args, **kwargs):
+        calls.append(next((f.name for f in reversed(traceback.extract_stack()[:-1]) if f.name in frames), "?"))
+        return original(*args, **kwargs)
 
-        def counted(*args, _original=original, _name=name, **kwargs):
-            callers[_name].append(next(f.name for f in reversed(traceback.extract_stack()[:-1]) if f.name in ("check", "main")))
-            return _original(*args, **kwargs)
+    monkeypatch.setattr(owner, name, counted)
 
-        monkeypatch.setattr(config, name, counted)
-    result = CliRunner().invoke(app, ["fit", "method=mce", f"hydra.run.dir={tmp_path / 'run'}", "mdp.n_states=8", "mdp.horizon=4", "demos.n=10"])
+
+@pytest.mark.parametrize(
+    "job, readers, args",
+    [
+        ("fit", ("settings.job:fit_settings", "settings.job:problem_settings"), ["method=mce", "mdp.n_states=8", "mdp.horizon=4", "demos.n=10"]),
+        ("generate", ("jobs.generate:problem_settings",), ["mdp.n_states=8", "mdp.horizon=4", "demos.n=10"]),
+        ("plan", ("jobs.plan:plan_settings", "jobs.plan:read_problem"), ["plan.input=benchmark:riverswim", "plan.horizon=5"]),
+    ],
+)
+def test_a_run_composes_its_config_once_and_reads_its_settings_once(tmp_path, monkeypatch, job, readers, args):
+    """One ``airl fit|generate|plan`` composes its config once (Hydra's ``@hydra.main`` composed it
+    twice, the check before any folder once more: 3) and reads its settings once, in ``prepare``,
+    which hands them to the job (a default fit called ``fit_settings`` 5 times and
+    ``problem_settings`` 4 times, then once in its check and once in its job)."""
+    import importlib
+
+    from hydra._internal.hydra import Hydra
+
+    composed: list[str] = []
+    _counted(monkeypatch, Hydra, "compose_config", composed, ("_run_once",))
+    calls: dict[str, list[str]] = {}
+    for reader in readers:
+        module, name = reader.split(":")
+        _counted(monkeypatch, importlib.import_module(f"airl_cli.{module}"), name, calls.setdefault(name, []), ("prepare", "main"))
+    result = CliRunner().invoke(app, [job, *args, f"hydra.run.dir={tmp_path / 'run'}"])
     assert result.exit_code == 0, result.output
-    assert callers == {"fit_settings": ["check", "main"], "problem_settings": ["check", "main"]}
+    assert composed == ["_run_once"]
+    assert calls == {reader.split(":")[1]: ["prepare"] for reader in readers}
 
 
 def test_the_command_line_is_checked_once_per_command(tmp_path, monkeypatch):

@@ -216,3 +216,45 @@ def test_composition_steps_stand_in_for_hydras_and_are_put_back(tmp_path):
     assert copy.config_overrides == values and copy.defaults is found.defaults and len(found.config_overrides) == 2
     key = hydra_internals.defaults_key(seen["defaults"][0])
     assert key == hydra_internals.defaults_key(list(seen["defaults"][0])) and any(entry[0] == "cfg" for entry in key)
+
+
+def test_a_single_run_composes_and_runs_as_hydra_main_does(tmp_path, monkeypatch):
+    """``single_run`` composes the config ``@hydra.main`` composes for one run and runs the task as
+    it does: the same job config, the same three records (but the folder's name), the task's
+    exception reported as Hydra reports it; the config without its ``hydra`` node is what the task gets."""
+    folder = _config(tmp_path / "conf")
+    got: dict[str, object] = {}
+    overrides = ["a=7", "+d=q", "hydra/job_logging=none", "hydra/hydra_logging=none"]
+
+    @hydra.main(version_base="1.3", config_path=str(folder), config_name="cfg")
+    def app(cfg) -> None:
+        got["hydra"] = OmegaConf.to_container(cfg)
+
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr(sys, "argv", ["app", *overrides, "hydra.run.dir=by_hydra"])
+    app()
+    task = "test_hydra_internals"  # @hydra.main's job name: its module's
+    with hydra_internals.single_run(str(folder), "cfg", task, [*overrides, "hydra.run.dir=by_us"]) as run:
+        assert "hydra" in run.cfg and "hydra" not in run.job_cfg
+        assert run.cfg.hydra.job.name == task
+        run.start(lambda cfg: got.__setitem__("ours", OmegaConf.to_container(cfg)))
+    assert got["ours"] == got["hydra"] == OmegaConf.to_container(run.job_cfg)
+    for record in ("config.yaml", "hydra.yaml", "overrides.yaml"):
+        ours = (tmp_path / "by_us" / ".hydra" / record).read_text().replace("by_us", "X")
+        assert ours == (tmp_path / "by_hydra" / ".hydra" / record).read_text().replace("by_hydra", "X"), record
+    monkeypatch.delenv("HYDRA_FULL_ERROR", raising=False)
+
+    def fails(cfg) -> None:
+        raise KeyError("stop")
+
+    @hydra.main(version_base="1.3", config_path=str(folder), config_name="cfg")
+    def failing_app(cfg) -> None:
+        fails(cfg)
+
+    monkeypatch.setattr(sys, "argv", ["app", *overrides, "hydra.run.dir=failed_hydra"])
+    with pytest.raises(SystemExit) as by_hydra:
+        failing_app()
+    with hydra_internals.single_run(str(folder), "cfg", task, [*overrides, "hydra.run.dir=failed_us"]) as run:
+        with pytest.raises(SystemExit) as by_us:
+            run.start(fails)
+    assert by_us.value.code == by_hydra.value.code == 1  # reported as Hydra reports a failed task
