@@ -282,7 +282,7 @@ def test_the_planner_is_not_starved_while_the_learner_keeps_improving(tmp_path):
     and the fit stopped at the cap (1,500 iterations, relative gap 4.5e-6). The planner is asked at
     least every ``REFRESH_AFTER`` iterations and whenever the master's value is below the lower
     bound (a row is then violated), and the same fit ends on its tolerance in about 420 iterations."""
-    from airl_cli.core.irl.certified_steps import REFRESH_AFTER
+    from airl_cli.core.irl.oracle_sides import REFRESH_AFTER
 
     out = tmp_path / "run"
     # without the bracket (pbvi.bracket_beliefs=0) optim.tol is the gap against the planner itself

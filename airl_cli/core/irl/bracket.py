@@ -34,7 +34,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from airl_cli.core.irl.certified_steps import Run, penalty
+from airl_cli.core.irl.run_bounds import Run, penalty
 from airl_cli.core.irl.strategy_sets import StrategySets
 from airl_cli.core.mdp.sparse import SparseDynamics, sparse_dynamics
 from airl_cli.core.mmdp.bounds import Bracket, bracket, grid_graph, grid_planner, merge_beliefs
@@ -249,7 +249,7 @@ def closed(sets: StrategySets, close: Close, run: Run, C: np.ndarray, lam: float
     policy at this w could only narrow it further (default problem, seed 1: 165 iterations instead
     of 171, the last three closing steps not taken, the bracket 9.7e-4 wide instead of 9.0e-4).
     Where an earlier bracket's U already makes it that narrow, none is taken here (the answer's
-    own, ``certified._bracket_answer``, follows).
+    own, ``certified_answer._bracket_answer``, follows).
     """
     scale = max(1.0, abs(run.upper))
     if run.upper_rewards is None:

@@ -95,5 +95,5 @@ def scaled(loss: np.ndarray) -> np.ndarray:
 
 #: The adversary's best response: rewards (M, T, S) -> (its exact value, its marginals (M, T, S)).
 #: An oracle whose responses are the best over every history-dependent policy says so with a true
-#: ``exact_responses`` attribute (``certified_steps.adversary_side`` then bounds min f by them).
+#: ``exact_responses`` attribute (``oracle_sides.adversary_side`` then bounds min f by them).
 AdversaryOracle = Callable[[np.ndarray], tuple[float, np.ndarray]]

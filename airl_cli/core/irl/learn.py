@@ -60,7 +60,7 @@ class FitResult:
             objective is not smooth, so at its minimum the LP may return any of several equilibria
             and the last step's features need not equal c~_j; their running average does converge.
         game: the restricted game at the end (its strategies, over the scaled loss), to warm-start
-            another double oracle at these weights (``certified.objective_at``).
+            another double oracle at these weights (``game.objective_at``).
     """
 
     weights: np.ndarray
@@ -177,7 +177,7 @@ class PBVIThenExact:
 
     @property
     def exact_responses(self) -> bool:
-        """Whether the calls are exact now (``certified_steps.adversary_side`` then takes their bounds as the bracket's)."""
+        """Whether the calls are exact now (``oracle_sides.adversary_side`` then takes their bounds as the bracket's)."""
         return self.switched
 
     def switch(self, R: np.ndarray) -> tuple[float, np.ndarray] | None:

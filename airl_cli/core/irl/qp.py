@@ -141,7 +141,7 @@ class MasterQP:
         ``box`` (centre (d,), radius) keeps w within radius of centre in every coordinate (the
         certified learner's region that must hold the minimiser); the tight solve and Clarabel ignore it.
         ``record``: a loose solve's final point becomes the next loose solve's start (``qp_start``);
-        False leaves the start as it was (a solve beside the path, ``certified_steps.lower_side``).
+        False leaves the start as it was (a solve beside the path, ``oracle_sides.lower_side``).
         """
         accuracy = max(float(accuracy), TIGHT)
         box = _finite(box) if accuracy > TIGHT else None

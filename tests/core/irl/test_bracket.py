@@ -11,7 +11,7 @@ from test_markov_adversary import markov_game
 
 from airl_cli.core.irl.bracket import LEVEL_PATIENCE, Closer, closing_oracle
 from airl_cli.core.irl.certified import CertifiedOptions, minimize
-from airl_cli.core.irl.certified_steps import penalty
+from airl_cli.core.irl.run_bounds import penalty
 from airl_cli.core.irl.learn import PlannerOptions, make_oracle
 from airl_cli.core.mmdp.planner import solve
 
@@ -276,7 +276,7 @@ def test_a_closing_step_stops_the_fit_once_the_bracket_is_as_narrow_as_asked():
     closing share goes into the game (the fit goes on) while [L, U] is wider than ``bracket_tol``,
     and not once it is within it: the bracket is then the certificate the fit was asked for."""
     from airl_cli.core.irl.bracket import closed
-    from airl_cli.core.irl.certified_steps import Run
+    from airl_cli.core.irl.run_bounds import Run
 
     class Sets:
         def __init__(self):
@@ -302,7 +302,7 @@ def test_a_closing_step_brackets_nothing_where_an_earlier_bracket_is_already_nar
     """``bracket.closed``: with [L, U] from earlier brackets within ``bracket_tol``, the fit stops
     without a new bracket (its cost is a grid plan on the bracket's finest grid)."""
     from airl_cli.core.irl.bracket import closed
-    from airl_cli.core.irl.certified_steps import Run
+    from airl_cli.core.irl.run_bounds import Run
 
     def close(R, target):
         raise AssertionError("no bracket should be taken")

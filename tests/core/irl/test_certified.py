@@ -11,7 +11,7 @@ from scipy.optimize import linprog
 from scipy.optimize import minimize as scipy_minimize
 from tiny import random_dynamics
 
-from airl_cli.core.irl import certified, certified_steps
+from airl_cli.core.irl import certified, strategy_sets
 from airl_cli.core.irl.certified import CertifiedOptions, minimize, upper_at
 from airl_cli.core.irl.game import objective_at
 from airl_cli.core.irl.game_problem import GameProblem
@@ -271,8 +271,8 @@ def test_pruning_every_other_iteration_still_reaches_the_brute_force_minimum(mon
     default) or of both sides: the minimum is the brute-force one, and the strategies dropped are
     the ones the setting says."""
     monkeypatch.setattr(certified, "PRUNE_AFTER", 2)
-    monkeypatch.setattr(certified_steps, "PRUNE_AGE", 1)
-    monkeypatch.setattr(certified_steps, "ADVERSARY_KEEP", adversary_keep)
+    monkeypatch.setattr(strategy_sets, "PRUNE_AGE", 1)
+    monkeypatch.setattr(strategy_sets, "ADVERSARY_KEEP", adversary_keep)
     dropped = {"learner": 0, "adversary": 0}
     keep = StrategySets.keep
 

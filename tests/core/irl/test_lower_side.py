@@ -1,4 +1,4 @@
-"""A closing fit's second solve for its lower bound (``certified_steps.lower_side``) and the QP's
+"""A closing fit's second solve for its lower bound (``oracle_sides.lower_side``) and the QP's
 solve beside the path (``MasterQP.solve(record=False)``), against exact restricted optima."""
 
 from __future__ import annotations
@@ -12,7 +12,8 @@ from test_qp_start import _game
 
 from airl_cli.core.irl import certified
 from airl_cli.core.irl.certified import CertifiedOptions, minimize
-from airl_cli.core.irl.certified_steps import LOWER_SHARE, Run, learner_side, lower_side
+from airl_cli.core.irl.oracle_sides import LOWER_SHARE, learner_side, lower_side
+from airl_cli.core.irl.run_bounds import Run
 from airl_cli.core.irl.qp import MasterQP, solve_clarabel
 from airl_cli.core.irl.strategy_sets import StrategySets
 from airl_cli.core.mdp.planning import state_marginals

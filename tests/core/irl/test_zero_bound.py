@@ -11,7 +11,7 @@ from scipy.optimize import linprog
 from test_certified import T, enumerated_game, exact_oracle, f_brute, game_value, learner_marginals, tiny
 
 from airl_cli.core.irl.certified import CertifiedOptions, minimize, upper_at
-from airl_cli.core.irl.certified_steps import zero_upper_at
+from airl_cli.core.irl.zero_side import zero_upper_at
 from airl_cli.core.irl.qp import MasterQP
 from airl_cli.core.irl.strategy_sets import StrategySets
 from airl_cli.core.irl.zero_bound import ZeroBound, best_at_zero
@@ -88,7 +88,7 @@ def test_a_degenerate_game_is_certified_at_zero(seed):
 
 @pytest.mark.parametrize("seed,loss", [(0, "zero_one"), (1, "random"), pytest.param(2, "zero_one", marks=pytest.mark.slow)])
 def test_the_bound_through_f0_bounds_f_at_every_w(seed, loss):
-    """f(w) <= f(0) + B(w) + (lambda/2)|w|^2 (``certified_steps.zero_upper_at``) against f of the
+    """f(w) <= f(0) + B(w) + (lambda/2)|w|^2 (``zero_side.zero_upper_at``) against f of the
     enumerated game, at small and large w, shared and not."""
     problem, targets = tiny(seed, S=3, loss=loss)
     problem = problem.with_scaled_loss()
