@@ -9,9 +9,9 @@ import numpy as np
 
 from airl_cli.core.irl.bracket import MAX_CLOSE_STEPS, TARGET_SHARE, Closer, relative_width
 from airl_cli.core.irl.certified import stop_tol
-from airl_cli.core.irl.run_bounds import answer_penalty
 from airl_cli.core.irl.game_problem import GameProblem
 from airl_cli.core.irl.options import BRACKET_MAX_BELIEFS, EXACT_PLANNERS, CertifiedOptions, FitOptions, closes_bracket
+from airl_cli.core.irl.run_bounds import answer_penalty
 from airl_cli.core.mdp.sparse import sparse_dynamics
 
 

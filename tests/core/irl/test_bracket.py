@@ -11,8 +11,8 @@ from test_markov_adversary import markov_game
 
 from airl_cli.core.irl.bracket import LEVEL_PATIENCE, Closer, closing_oracle
 from airl_cli.core.irl.certified import CertifiedOptions, minimize
-from airl_cli.core.irl.run_bounds import penalty
 from airl_cli.core.irl.learn import PlannerOptions, make_oracle
+from airl_cli.core.irl.run_bounds import penalty
 from airl_cli.core.mmdp.planner import solve
 
 CASES = [(0, 2, True, "zero_one"), (1, 3, False, "zero_one"), (2, 3, True, "squared_features"), (3, 2, False, "squared_features"), (4, 3, True, "random")]

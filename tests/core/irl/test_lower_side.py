@@ -13,8 +13,8 @@ from test_qp_start import _game
 from airl_cli.core.irl import certified
 from airl_cli.core.irl.certified import CertifiedOptions, minimize
 from airl_cli.core.irl.oracle_sides import LOWER_SHARE, learner_side, lower_side
-from airl_cli.core.irl.run_bounds import Run
 from airl_cli.core.irl.qp import MasterQP, solve_clarabel
+from airl_cli.core.irl.run_bounds import Run
 from airl_cli.core.irl.strategy_sets import StrategySets
 from airl_cli.core.mdp.planning import state_marginals
 

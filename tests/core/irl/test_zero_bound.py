@@ -11,10 +11,10 @@ from scipy.optimize import linprog
 from test_certified import T, enumerated_game, exact_oracle, f_brute, game_value, learner_marginals, tiny
 
 from airl_cli.core.irl.certified import CertifiedOptions, minimize, upper_at
-from airl_cli.core.irl.zero_side import zero_upper_at
 from airl_cli.core.irl.qp import MasterQP
 from airl_cli.core.irl.strategy_sets import StrategySets
 from airl_cli.core.irl.zero_bound import ZeroBound, best_at_zero
+from airl_cli.core.irl.zero_side import zero_upper_at
 from airl_cli.core.mdp.planning import backward_induction, state_marginals
 
 
