@@ -51,15 +51,17 @@ EPILOG = _groups_epilog()
 
 
 def _overrides(ctx: typer.Context) -> CommandLine:
-    """The command's Hydra overrides (its extra arguments) as one value, each split once; refused in
-    one sentence if one is not an override (an unknown option, a word without '='), Hydra cannot
-    parse it, or a key is set twice."""
+    """The command's Hydra overrides (its extra arguments) as one value, each split once, and
+    checked, once (``settings.command_line.checked``: group choices and keys; a problem's own
+    dynamics added); refused in one sentence if one is not an override (an unknown option, a word
+    without '='), Hydra cannot parse it, a key is set twice, or airl has no such option or key."""
     line = CommandLine.of(ctx.args)
+    command = str(ctx.command.name)
     options = [o for p in ctx.command.params for o in getattr(p, "opts", []) if o.startswith("--")]
-    problem = syntax_problem(quote_paths(line), str(ctx.command.name), options + ["--help"])
+    problem = syntax_problem(quote_paths(line), command, options + ["--help"])
     if problem is not None:
         refuse(problem)
-    return line
+    return checked(command, line)
 
 
 def _usage_error() -> type[Exception]:
@@ -228,7 +230,7 @@ def sweep(
     from airl_cli.sweep.run import run
 
     try:
-        status = run(checked("sweep", args), draw=plot, console=err_console, out=out_console, partial=partial)
+        status = run(args, draw=plot, console=err_console, out=out_console, partial=partial)
     except AirlError as err:
         refuse(err, err_console)
     raise typer.Exit(status)

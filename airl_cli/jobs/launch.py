@@ -17,7 +17,7 @@ from rich.markup import escape
 from airl_cli.errors import ConfigError, ResultsUnwritable, interrupted, refuse
 from airl_cli.io.files import describe_os_error, is_unwritable, write_text
 from airl_cli.io.run_folder import claimed_folder, enter, holds_no_results, new_run_folder
-from airl_cli.settings.command_line import check_output_folder, checked
+from airl_cli.settings.command_line import check_output_folder
 from airl_cli.settings.overrides import CommandLine
 from airl_cli.settings.paths import conf_dir
 
@@ -62,7 +62,7 @@ def _print_config_app(job: str):
 
 def run_hydra(
     job: str,
-    overrides: CommandLine | list[str],
+    overrides: CommandLine,
     *,
     cfg: str | None = None,
     resolve: bool = False,
@@ -70,7 +70,8 @@ def run_hydra(
     app: str | None = None,
     replace: bool = False,
 ) -> None:
-    """Run the Hydra app of ``airl_cli.jobs.<job>`` (or of the module ``app``) with these overrides.
+    """Run the Hydra app of ``airl_cli.jobs.<job>`` (or of the module ``app``) with these overrides
+    (a command line checked once before, ``settings.command_line.checked``).
 
     A Ctrl-C, or a run folder that cannot be written, before the job itself starts (its imports,
     Hydra's records) is said in one sentence as in the job (``jobs.common.stop``); ``airl sweep``
@@ -92,11 +93,13 @@ def run_hydra(
         raise
 
 
-def _run_hydra(job: str, overrides: CommandLine | list[str], *, cfg: str | None, resolve: bool, multirun: bool, app: str | None, replace: bool) -> None:
+def _run_hydra(job: str, overrides: CommandLine, *, cfg: str | None, resolve: bool, multirun: bool, app: str | None, replace: bool) -> None:
     from airl_cli.settings.hydra_internals import launcher_discoverable
 
     launcher_discoverable()  # hydra/launcher=airl's config comes with the plugin
-    line = checked(job, overrides)
+    line = CommandLine.of(overrides)
+    if not line.checked:
+        raise ValueError("run_hydra takes a command line checked once before it (settings.command_line.checked)")
     if cfg is None:
         check_output_folder(line, multirun=multirun)
     if multirun and cfg is None and job in PRINT_ONLY:
