@@ -38,6 +38,7 @@ SOURCES: dict[str, list[str]] = {
     "first_fit": ["benchmarks/first_fit.py", "--json", "docs/numbers/first_fit.json"],
     "test_suite": ["benchmarks/test_suite.py", "--json", "docs/numbers/test_suite.json"],
     "environments": ["benchmarks/environments.py", "--timeout", "300", "--json", "docs/numbers/environments.json"],
+    "page_runs": ["benchmarks/page_runs.py", "--json", "docs/numbers/page_runs.json"],
 }
 
 BLOCK = re.compile(r"<!-- numbers (?P<source>[\w-]+)\n(?P<template>.*?)\n-->\n(?P<text>.*?)<!-- /numbers -->", re.DOTALL)

@@ -1,0 +1,126 @@
+"""The command lines the pages quote a result of: `python benchmarks/page_runs.py --json FILE`.
+
+Runs, each in a fresh process as a user runs it:
+
+- `airl plan plan.input=benchmark:riverswim` (Published results), and its count program alone
+  (`plan.bracket_beliefs=0`) with 10^4 to 2 * 10^7 nodes (`plan.bracket_nodes`), which cut it at
+  more and more layers (the planner's page): the bracket on the optimum, its width, the layers, the
+  process's seconds and peak memory;
+- `airl fit demos.expert=own demos.beta=0.3 dynamics.n_test=3`, the thesis's learner and MCE IRL
+  (Your own problem's soft experts): the degenerate verdict, the size of w, cos(w, w*), the scores;
+- Your own problem's Python example with slippery FrozenLake as tau (`api.dataset_from_env`), both
+  methods: the scores under tau and tau_1;
+- `airl generate mdp=objectworld dynamics=slip mdp.size=64` (Performance: Objectworld is built
+  sparse): seconds, peak memory, the file's size;
+- sampling 1,000 demonstrations under each of 3 dynamics at S = 20, T = 10 (`benchmarks/bench.py
+  sampling`'s first row, one core): the median of 7 runs;
+
+and writes them with the commit, the machine and the command (docs/hooks/page_numbers.py renders
+the pages' passages from the file).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import subprocess
+import sys
+import tempfile
+import textwrap
+from pathlib import Path
+
+import numpy as np
+from _runs import provenance, run
+
+#: name -> `airl plan` overrides: riverswim as airl plans it by default, then its count program alone
+#: (the sawtooth off) cut where fewer and more nodes allow
+PLANS = {
+    "riverswim": ["plan.input=benchmark:riverswim"],
+    **{f"count_{n}": ["plan.input=benchmark:riverswim", "plan.bracket_beliefs=0", f"plan.bracket_nodes={n}"] for n in (10**4, 10**5, 10**6, 2 * 10**7)},
+}
+#: name -> `airl fit` overrides
+FITS = {
+    "soft_airl": ["demos.expert=own", "demos.beta=0.3", "dynamics.n_test=3"],
+    "soft_mce": ["demos.expert=own", "demos.beta=0.3", "dynamics.n_test=3", "method=mce"],
+}
+#: `benchmarks/bench.py sampling`'s first case (its env: one core), in milliseconds
+SAMPLING = textwrap.dedent(
+    """
+    import sys
+    sys.path.insert(0, "benchmarks")
+    import bench  # sets one thread for BLAS and numba, as its own runs do
+    import numpy as np
+    from airl_cli.core.mdp.planning import backward_induction
+    from airl_cli.core.mdp.demos import sample_trajectories
+
+    P, phi, w, p0 = bench.random_problem(S=20)
+    policy, _ = backward_induction(P[0], phi @ w, horizon=10)
+    rng = np.random.default_rng(0)
+    print(1e3 * bench.median_seconds(lambda: sample_trajectories(rng, P[1:], policy, p0, 1000)))
+    """
+)
+#: Your own problem's example, with the slippery lake as tau (its scores for each method, by dynamics).
+FROZENLAKE = textwrap.dedent(
+    """
+    import json, sys
+    import gymnasium
+    from airl_cli import api
+
+    tau = gymnasium.make("FrozenLake-v1").unwrapped
+    ds = api.dataset_from_env(tau, gymnasium.make("FrozenLake-v1", success_rate=0.8).unwrapped, horizon=20, n_demos=100, seed=0)
+    out = {}
+    for name, method in (("airl", api.Airl()), ("mce", api.Mce())):
+        rows = api.score(ds, api.fit(ds, method=method)).to_dict("records")
+        out[name] = {row["dynamics"]: row["learner_score"] for row in rows}
+    json.dump(out, sys.stdout)
+    """
+)
+
+
+def plan_record(folder: Path, seconds: float, peak: int) -> dict:
+    """A finished plan's bracket on the optimum (its sides, relative width, the count program's layers), time and memory."""
+    plan = json.loads((folder / "plan.json").read_text())
+    lower, upper = plan["optimum_bracket"]
+    return {"lower": lower, "upper": upper, "width": max(0.0, (upper - lower) / max(1.0, abs(upper))), "layers": plan["bracket_count_layers"],
+            "horizon": plan["horizon"], "objective": plan["objective"], "seconds": seconds, "peak_gb": peak / 2**30}
+
+
+def fit_record(folder: Path, seconds: float) -> dict:
+    """A finished fit's verdict, the size of w, cos(w, w*) and the learner's scores over every dynamics but tau."""
+    metrics = json.loads((folder / "metrics.json").read_text())
+    weights = np.asarray(json.loads((folder / "weights.json").read_text())["weights"], dtype=float)
+    rows = metrics["dynamics"][1:]
+    scores = [r["learner_score"] for r in rows]
+    return {"degenerate": bool(metrics.get("degenerate", False)), "w_norm": float(np.linalg.norm(weights[0])),
+            "cosine": rows[0]["cosine_similarity"], "score_low": min(scores), "score_high": max(scores), "seconds": seconds}
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--json", type=Path, required=True, help="the file to write")
+    args = parser.parse_args()
+    out = provenance(sys.argv)
+    with tempfile.TemporaryDirectory() as tmp:
+        out["plans"] = {}
+        for name, overrides in PLANS.items():
+            folder = Path(tmp) / name
+            seconds, peak = run(["plan", *overrides, f"hydra.run.dir={folder}"])
+            out["plans"][name] = plan_record(folder, seconds, peak)
+        out["fits"] = {}
+        for name, overrides in FITS.items():
+            folder = Path(tmp) / name
+            seconds, _ = run(["fit", *overrides, f"hydra.run.dir={folder}"])
+            out["fits"][name] = fit_record(folder, seconds)
+        folder = Path(tmp) / "objectworld64"
+        seconds, peak = run(["generate", "mdp=objectworld", "dynamics=slip", "mdp.size=64", f"hydra.run.dir={folder}"])
+        out["generate_ow64"] = {"seconds": seconds, "peak_gb": peak / 2**30, "file_mb": (folder / "dataset.npz").stat().st_size / 2**20}
+    lake = subprocess.run([sys.executable, "-c", FROZENLAKE], capture_output=True, text=True, check=True)
+    out["frozenlake_api"] = json.loads(lake.stdout)
+    root = Path(__file__).resolve().parents[1]
+    sampling = subprocess.run([sys.executable, "-c", SAMPLING], capture_output=True, text=True, check=True, cwd=root)
+    out["sampling_ms"] = float(sampling.stdout.strip().splitlines()[-1])
+    args.json.write_text(json.dumps(out, indent=1) + "\n")
+
+
+if __name__ == "__main__":
+    main()
