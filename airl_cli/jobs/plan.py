@@ -105,7 +105,7 @@ def main(cfg: DictConfig, plan: PlanInput) -> dict:
         how = [f"{br.beliefs:,} beliefs backed up"] if br.beliefs else []
         how += [f"the count program exact over {br.count_layers} of {settings.horizon + 1} layers"] if br.count_layers else []
         how += [f"with each model known: {br.corner:.4f}"] if br.corner is not None else []
-        width = (br.upper - br.lower) / max(1.0, abs(br.upper))
+        width = max(0.0, br.upper - br.lower) / max(1.0, abs(br.upper))  # a closed bracket's sides may cross by rounding
         lines.append(f"  the optimum on the training models lies in [{br.lower:.4f}, {br.upper:.4f}] whatever the planner (relative width {width:.2g}; {'; '.join(how)})")
     out_console.print("\n".join(lines), soft_wrap=True)
     out_console.print(f"wrote {folder / 'plan.json'} and {folder / 'policy.npz'}", soft_wrap=True)

@@ -278,4 +278,14 @@ def test_plan_brackets_the_optimum_with_the_count_program_cut_where_its_nodes_ru
         lo, up = record["optimum_bracket"]
         assert record["bracket_count_layers"] == layers and lo - 1e-9 <= optimum <= up + 1e-9
         assert f"the count program exact over {layers} of 11 layers" in result.output
+        assert "relative width -" not in result.output  # a closed bracket's sides may cross by rounding: width 0
     assert lo == pytest.approx(optimum, abs=1e-9) and up == pytest.approx(optimum, abs=1e-9)
+
+
+def test_a_closed_brackets_width_is_never_printed_negative(tmp_path):
+    """riverswim at T = 10: the count program exact over all 11 layers gives the optimum twice, its
+    two sides 1e-13 apart the wrong way round; the command said "relative width -1.1e-15"."""
+    result = runner.invoke(app, ["plan", "plan.input=benchmark:riverswim", "plan.horizon=10", f"hydra.run.dir={tmp_path / 'r'}"])
+    assert result.exit_code == 0, result.output
+    assert "the count program exact over 11 of 11 layers" in result.output
+    assert "(relative width 0;" in result.output
