@@ -97,7 +97,7 @@ def _run_hydra(job: str, overrides: CommandLine, *, cfg: str | None, resolve: bo
     from airl_cli.settings.hydra_internals import launcher_discoverable
 
     launcher_discoverable()  # hydra/launcher=airl's config comes with the plugin
-    line = CommandLine.of(overrides)
+    line = overrides
     if not line.checked:
         raise ValueError("run_hydra takes a command line checked once before it (settings.command_line.checked)")
     if cfg is None:
@@ -141,17 +141,25 @@ def _hydra_app(job: str, cfg: str | None, app: str | None):
 
 
 def _run_once(job: str, line: CommandLine, replace: bool) -> None:
-    """One run of ``job``: its config composed once, as Hydra composes it for the run
-    (``hydra_internals.single_run``), prepared (``preflight``: its typed settings read and checked,
-    its folder entered), then the job run on that config and those settings in the folder Hydra
-    makes (``jobs.common.run_job``: one sentence on bad input, Ctrl-C or a full disk)."""
+    """One run of ``job``: its config composed once and prepared (``_prepared_run``), then the job
+    run on that config and those settings in the folder Hydra makes (``jobs.common.run_job``: one
+    sentence on bad input, Ctrl-C or a full disk)."""
     from airl_cli.jobs.common import run_job
+
+    with _prepared_run(job, line, replace) as (module, run, prepared):
+        run.start(lambda cfg: run_job(lambda c: module.main(c, prepared.value), cfg))
+
+
+@contextmanager
+def _prepared_run(job: str, line: CommandLine, replace: bool) -> Iterator[tuple[Any, Any, Prepared]]:
+    """Within: ``job``'s module, its run composed once as Hydra composes it (``hydra_internals.single_run``,
+    not started) and what the job's ``prepare`` made of it (``_prepared``: its typed settings read and
+    checked, its folder entered)."""
     from airl_cli.settings.hydra_internals import single_run
 
     module = importlib.import_module(f"airl_cli.jobs.{job}")
     with single_run(conf_dir(), PRINT_ONLY[job], job, quote_paths(line)) as run:
-        prepared = _prepared(module, run.job_cfg, line, replace)
-        run.start(lambda cfg: run_job(lambda c: module.main(c, prepared.value), cfg))
+        yield module, run, _prepared(module, run.job_cfg, line, replace)
 
 
 def _multirun_folder(job: str, line: CommandLine, *, replace: bool) -> CommandLine:
@@ -174,12 +182,8 @@ def preflight(job: str, overrides: CommandLine | list[str], *, replace: bool = F
     records there before the job starts): the job's config composed as for its run and prepared
     (``_prepared``). What ``airl JOB`` checks before it starts, without starting it (the pages'
     dry run of their command lines)."""
-    from airl_cli.settings.hydra_internals import single_run
-
-    line = CommandLine.of(overrides)
-    module = importlib.import_module(f"airl_cli.jobs.{job}")
-    with single_run(conf_dir(), PRINT_ONLY[job], job, quote_paths(line)) as run:
-        return _prepared(module, run.job_cfg, line, replace)
+    with _prepared_run(job, CommandLine.of(overrides), replace) as (_, _, prepared):
+        return prepared
 
 
 def _prepared(module: Any, cfg: Any, line: CommandLine, replace: bool) -> Prepared:
