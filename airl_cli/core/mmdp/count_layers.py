@@ -70,16 +70,24 @@ def count_tables(n: int, horizon: int) -> tuple[list[np.ndarray], list[np.ndarra
     for t in range(1, horizon):
         prev = counts[-1]
         keys = (prev[:, None, :] + eye[None, :, :]).reshape(-1, n)  # c_i + e_k in the order (i, k), each summing to t
-        if n * np.log2(t + 1) < 62:  # one integer per vector (its digits in base t + 1): a 1-d unique, far faster
-            _, first, inverse = np.unique(keys @ (t + 1) ** np.arange(n, dtype=np.int64), return_index=True, return_inverse=True)
-        else:
-            _, first, inverse = np.unique(keys, axis=0, return_index=True, return_inverse=True)
-        order = np.argsort(first, kind="stable")  # numbered in order of first appearance, as a loop over (i, k) numbers them
-        rank = np.empty(order.size, dtype=np.int64)
-        rank[order] = np.arange(order.size)
-        successor.append(rank[inverse.reshape(-1)].reshape(prev.shape[0], n))
-        counts.append(keys[first[order]])
+        first, rank = _first_appearance(keys, t)
+        successor.append(rank.reshape(prev.shape[0], n))
+        counts.append(keys[first])
     return counts, successor
+
+
+def _first_appearance(keys: np.ndarray, t: int) -> tuple[np.ndarray, np.ndarray]:
+    """The distinct count vectors among ``keys`` (N, n), each summing to t, numbered in order of first
+    appearance: (the index in ``keys`` of each one's first appearance (D,), each row's number (N,))."""
+    n = keys.shape[1]
+    if n * np.log2(t + 1) < 62:  # one integer per vector (its digits in base t + 1): a 1-d unique, far faster
+        _, first, inverse = np.unique(keys @ (t + 1) ** np.arange(n, dtype=np.int64), return_index=True, return_inverse=True)
+    else:
+        _, first, inverse = np.unique(keys, axis=0, return_index=True, return_inverse=True)
+    order = np.argsort(first, kind="stable")  # numbered in order of first appearance, as a loop over (i, k) numbers them
+    rank = np.empty(order.size, dtype=np.int64)
+    rank[order] = np.arange(order.size)
+    return first[order], rank[inverse.reshape(-1)]
 
 
 def n_nodes(S: int, n: int, horizon: int) -> int:
@@ -118,6 +126,9 @@ def posterior_tables(kinds: Kinds, horizon: int, prior: np.ndarray, max_vectors:
     far fewer posteriors than count vectors (CliffWalking with tau and its slippery tau_1 on the
     post-decision expansion, 4 kinds over T = 39: 112,000 count vectors, 26.9 million nodes). Layers
     are numbered in order of first appearance along (node, kind), as ``count_tables`` numbers them.
+    Each layer's moves c + e_k are first merged by count vector, and a posterior is computed once
+    per distinct one: C_{t+1} of them, not C_t n (riverswim, 6 kinds and 100 models over 27 layers:
+    2.0 s and 1.4 GB, against 16.6 s and 3.9 GB for a posterior per move).
     """
     n = kinds.n_kinds
     eye = np.eye(n, dtype=np.int64)
@@ -125,20 +136,21 @@ def posterior_tables(kinds: Kinds, horizon: int, prior: np.ndarray, max_vectors:
     beliefs = [posteriors(vectors[0], kinds.directions, prior)]
     successor: list[np.ndarray] = []
     total = 1
-    for _ in range(1, horizon):
+    for t in range(1, horizon):
         cand = (vectors[-1][:, None, :] + eye[None, :, :]).reshape(-1, n)  # c_i + e_k in the order (i, k)
-        b = posteriors(cand, kinds.directions, prior)
+        distinct, number = _first_appearance(cand, t)  # the posterior of each distinct count vector once
+        b = posteriors(cand[distinct], kinds.directions, prior)
         live = b.sum(axis=1) > 0  # a zero row: no model with mass makes the move
         keys = np.round(b[live] / POSTERIOR_TOL).astype(np.int64)
         first, inverse = _unique_rows(keys)
         order = np.argsort(first, kind="stable")
         rank = np.empty(order.size, dtype=np.int64)
         rank[order] = np.arange(order.size)
-        index = np.zeros(cand.shape[0], dtype=np.int64)
+        index = np.zeros(distinct.size, dtype=np.int64)
         index[live] = rank[inverse.reshape(-1)]
-        successor.append(index.reshape(-1, n))
+        successor.append(index[number].reshape(-1, n))
         chosen = np.flatnonzero(live)[first[order]]
-        vectors.append(cand[chosen])
+        vectors.append(cand[distinct[chosen]])
         beliefs.append(b[chosen])
         total += chosen.size
         if max_vectors is not None and total > max_vectors:

@@ -197,6 +197,50 @@ def test_count_vectors_of_one_posterior_are_one_node():
         assert np.allclose(a.marginals, b.marginals, atol=1e-12)
 
 
+def _posterior_tables_over_every_move(kinds, horizon, prior):
+    """The layers of the count program written plainly: the posterior of every (node, kind) move,
+    grouped by its rounded entries in order of first appearance (a dict), no count vector merged first."""
+    n = kinds.n_kinds
+    vectors = [np.zeros((1, n), dtype=np.int64)]
+    beliefs = [counts.posteriors(vectors[0], kinds.directions, prior)]
+    successor = []
+    for _ in range(horizon - 1):
+        seen: dict[tuple, int] = {}
+        rows, table = [], np.zeros((len(vectors[-1]), n), dtype=np.int64)
+        for i, c in enumerate(vectors[-1]):
+            for k in range(n):
+                after = c + np.eye(n, dtype=np.int64)[k]
+                b = counts.posteriors(after[None], kinds.directions, prior)[0]
+                if b.sum() == 0:
+                    continue
+                key = tuple(np.round(b / counts.POSTERIOR_TOL).astype(np.int64))
+                if key not in seen:
+                    seen[key] = len(seen)
+                    rows.append(after)
+                table[i, k] = seen[key]
+        successor.append(table)
+        vectors.append(np.array(rows, dtype=np.int64).reshape(-1, n))
+        beliefs.append(counts.posteriors(vectors[-1], kinds.directions, prior))
+    return vectors, beliefs, successor
+
+
+@pytest.mark.parametrize("slips, horizon", [([0.0, 0.3], 9), ([0.1, 0.2, 0.3], 7), ([0.0, 0.1, 0.3], 8)])
+def test_the_posterior_tables_equal_a_plain_loop_over_every_move(slips, horizon):
+    """``posterior_tables`` computes a posterior once per distinct count vector (riverswim's 27 layers:
+    16.6 s and 3.9 GB when it computed one per (node, kind) move, 2.0 s and 1.4 GB now): its vectors,
+    posteriors and successors equal, bit for bit, a plain loop over every move's posterior, with models
+    ruled out by a kind of move ([0, ...]) or not, a uniform prior or another."""
+    dyn = slip_sparse(3, slips)
+    kinds = counts.move_kinds(dyn)
+    M = len(slips)
+    for prior in (np.full(M, 1.0 / M), np.random.default_rng(2).dirichlet(np.ones(M))):
+        got = counts.posterior_tables(kinds, horizon, prior)
+        want = _posterior_tables_over_every_move(kinds, horizon, prior)
+        for got_layers, want_layers in zip(got, want):
+            assert len(got_layers) == len(want_layers)
+            assert all(np.array_equal(a, b) for a, b in zip(got_layers, want_layers))
+
+
 def test_the_posteriors_unique_rows_fall_back_when_their_mixed_keys_collide(monkeypatch):
     """One mixed int64 per posterior key, checked: where two different rows share it (here every row,
     the multipliers zeroed) the row-wise unique answers, the same as np.unique(axis=0)."""
