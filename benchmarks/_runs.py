@@ -41,15 +41,17 @@ class Refused(SystemExit):
     """airl refused the command (exit status 2): its one sentence is the message."""
 
 
-def run(args: list[str], timeout: float | None = None) -> tuple[float, int]:
-    """Run ``airl ARGS`` in a fresh process: (wall seconds, its peak resident memory in bytes).
+def run(args: list[str], timeout: float | None = None, env: dict[str, str] | None = None) -> tuple[float, int]:
+    """Run ``airl ARGS`` in a fresh process (with the environment ``env``, default this one's): (wall
+    seconds, its peak resident memory in bytes). On Linux a child's peak counts its parent's memory
+    at the fork: run these before a script's own large work.
 
     Raises:
         TimedOut: if it ran longer than ``timeout`` seconds (it is killed).
     """
     with tempfile.TemporaryFile("w+") as err:
         start = time.perf_counter()
-        proc = subprocess.Popen([sys.executable, "-m", "airl_cli", *args], stdout=subprocess.DEVNULL, stderr=err)
+        proc = subprocess.Popen([sys.executable, "-m", "airl_cli", *args], stdout=subprocess.DEVNULL, stderr=err, env=env)
         while True:
             pid, status, usage = os.wait4(proc.pid, os.WNOHANG)  # this child's own resource usage
             if pid:

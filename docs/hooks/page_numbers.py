@@ -39,6 +39,7 @@ SOURCES: dict[str, list[str]] = {
     "test_suite": ["benchmarks/test_suite.py", "--json", "docs/numbers/test_suite.json"],
     "environments": ["benchmarks/environments.py", "--timeout", "300", "--json", "docs/numbers/environments.json"],
     "page_runs": ["benchmarks/page_runs.py", "--json", "docs/numbers/page_runs.json"],
+    "mmdp": ["benchmarks/mmdp.py", "--json", "docs/numbers/mmdp.json"],
 }
 
 BLOCK = re.compile(r"<!-- numbers (?P<source>[\w-]+)\n(?P<template>.*?)\n-->\n(?P<text>.*?)<!-- /numbers -->", re.DOTALL)
@@ -238,7 +239,60 @@ def _environment_tables(values: dict) -> dict:
     return {"table": "\n".join(lines), "ratio": {env: _cell(x, "x1") for env, x in ratio.items()}}
 
 
-TABLES = {"default_fit": _default_fit_tables, "first_fit": _first_fit_excerpts, "test_suite": _suite_minutes, "environments": _environment_tables}
+def _seconds(value: float) -> str:
+    return "< 0.01 s" if value < 0.005 else f"{value:.2f} s" if value < 10 else f"{value:.0f} s"
+
+
+def _mmdp_tables(values: dict) -> dict:
+    """Published results' riverswim table (benchmarks/mmdp.py: every method in-process, then `airl plan`'s
+    brackets) and what its passages derive from it: each method's distance from the optimum, PBVI's
+    iterations by number, hiv's common objective."""
+    river, hiv = values["domains"]["riverswim"], values["domains"]["hiv"]
+    plans = values["plans"]
+    rows = {(r["method"], r["iterations"]): r for r in river["rows"]}
+    wsu = rows[("wsu", None)]["objective"]
+    lines = ["| method | policy | training objective | test return | published test return | time |",
+             "| --- | --- | ---: | ---: | ---: | ---: |"]
+
+    def row(label: str, policy: str, r: dict, bold: bool = False) -> str:
+        b = "**" if bold else ""
+        cells = [f"{b}{label}{b}", policy, f"{b}{r['objective']:.3f}{b}", f"{b}{_cell(r['test_return'], '.3f')}{b}",
+                 _cell(r["published"], ".3f") if r["published"] is not None else "", _seconds(r["seconds"])]
+        return "| " + " | ".join(cells) + " |"
+
+    for method, name in (("mvp", "MVP"), ("wsu", "WSU"), ("cadp", "CADP")):
+        r = rows[(method, None)]
+        lines.append(row(name + (f" ({r['sweeps']} sweeps)" if method == "cadp" else ""), "Markov", r))
+    for (method, iterations), r in rows.items():
+        if method != "pbvi":
+            continue
+        label = f"PBVI, {iterations} iteration{'s' * (iterations > 1)} ({r['beliefs']} belief{'s' * (r['beliefs'] > 1)})"
+        lines.append(row(label, "= WSU" if abs(r["objective"] - wsu) <= 1e-9 * abs(wsu) else "history-dependent", r, bold=iterations == 8))
+    default, saw = plans["riverswim"], plans["riverswim_sawtooth"]
+    lines.append(f"| each model's own optimum (an upper bound) | | {default['each_model_known']:.3f} | | | |")
+    lines.append(f"| **the optimum, bracketed whatever the planner** (`airl plan`'s default: the sawtooth's {default['beliefs']:,} beliefs and "
+                 f"the count program exact over {default['layers']} of {river['T'] + 1} layers) | history-dependent | "
+                 f"**[{default['lower']:.4f}, {default['upper']:.4f}]** | | | {default['seconds']:.1f} s in all |")
+    lines.append(f"| the sawtooth alone (`plan.bracket_nodes=0`) | history-dependent | [{saw['lower']:.4f}, {saw['upper']:.4f}] | | | "
+                 f"{saw['seconds']:.1f} s in all |")
+    upper = default["upper"]
+    markov = max(r["objective"] for (m, _), r in rows.items() if m != "pbvi")
+    above = [i for (m, i), r in rows.items() if m == "pbvi" and r["objective"] > markov + 1e-9]
+    iterations = {r["iterations"]: r for r in values["iterations"]}
+    hiv_objectives = [r["objective"] for r in hiv["rows"]]
+    hiv_same = max(hiv_objectives) - min(hiv_objectives) <= 1e-7 * abs(max(hiv_objectives))  # the same to the page's digits
+    return {
+        "riverswim": "\n".join(lines),
+        "pbvi_gap": (upper - rows[("pbvi", 8)]["objective"]) / upper, "cadp_gap": (upper - rows[("cadp", None)]["objective"]) / upper,
+        "known_gap": (default["each_model_known"] - upper) / upper, "pbvi8": rows[("pbvi", 8)]["objective"],
+        "cadp": rows[("cadp", None)]["objective"], "pbvi_above_from": min(above) if above else None,
+        "hiv_gap": (plans["hiv_1000"]["upper"] - max(hiv_objectives)) / plans["hiv_1000"]["upper"],
+        "hiv_objective": max(hiv_objectives) if hiv_same else None,
+        "it": iterations, "beyond_8": max(r["objective"] for r in values["iterations"]) - iterations[8]["objective"],
+    }
+
+
+TABLES = {"default_fit": _default_fit_tables, "first_fit": _first_fit_excerpts, "test_suite": _suite_minutes, "environments": _environment_tables, "mmdp": _mmdp_tables}
 
 
 # --------------------------------------------------------------------------- the MkDocs hook
