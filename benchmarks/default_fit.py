@@ -4,7 +4,8 @@ For every case the script writes one dataset file with `airl generate` (the over
 times `airl fit data=FILE` (the thesis's method with no options, or with ``--extra``) and
 `airl fit data=FILE method=mce`, each in a fresh process on every core as a user runs them,
 ``--repeat`` times alternating, and prints one row: the relative width of the bracket on eq. 5.9's
-minimum that the fit ends with (``bracket_relative_gap``), whether it met its tolerance, its
+minimum that the fit ends with (``bracket_relative_gap``; the JSON also holds [L, U], the closing
+steps and the bracket's grid resolution), whether it met its tolerance, its
 iterations and planner calls, the adversary's best responses it used, the median wall time of
 the fit and of the whole process, MCE IRL's process, their ratio and the peak resident memory.
 The fits must come out the same in every repeat (the script stops if not). ``--json FILE`` also
@@ -125,6 +126,7 @@ def measure(name: str, file: Path, folder: Path, extra: list[str], repeat: int, 
     wall, mce_wall = median(walls), median(mce_walls)
     row = {
         "case": name, **_size(file), "bracket width": m.get("bracket_relative_gap"), "converged": m.get("converged"),
+        "bracket": m.get("minimum_bracket"), "closing steps": m.get("close_steps"), "grid resolution": m.get("bracket_grid_resolution"),
         "iterations": m.get("iterations"), "planner calls": m.get("planner_calls"), "best responses": m.get("best_responses", "-"),
         # who answered the adversary: the bracket's grid of beliefs, else the planner the fit chose
         "planner": "grid" if m.get("best_responses") == "grid" else m.get("planner"),

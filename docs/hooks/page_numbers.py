@@ -174,6 +174,33 @@ CASE_NAMES = {
 }
 
 
+def _seeds_table(rows: list[dict]) -> str:
+    """The method page's table of the default problem's seeds: the closed bracket, its closing steps and grid, the times."""
+    lines = ["| seed | closed bracket | width | closing steps | grid resolution | iterations | process | MCE IRL's process | ratio | peak memory |",
+             "| ---: | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |"]
+    for r in rows:
+        lower_upper = "—" if r.get("bracket") is None else f"[{r['bracket'][0]:.5f}, {r['bracket'][1]:.5f}]"
+        cells = [r["case"].removeprefix("default-s"), lower_upper, _cell(r["bracket width"], "e1"), _cell(r.get("closing steps")),
+                 _cell(r.get("grid resolution")), _cell(r["iterations"]), f"{r['process s']:.1f} s", f"{r['MCE process s']:.1f} s",
+                 _cell(r["process / MCE"], "x1"), f"{r['peak MB']:,.0f} MB"]
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def _closing_sentence(rows: list[dict]) -> str:
+    """Which of the default problem's seeds close without a closing step, and to which grid resolution the others refine."""
+    def seeds(rs: list[dict]) -> str:
+        names = [r["case"].removeprefix("default-s") for r in rs]
+        return ("seed " if len(names) == 1 else "seeds ") + (names[0] if len(names) == 1 else ", ".join(names[:-1]) + " and " + names[-1])
+
+    none = [r for r in rows if not r.get("closing steps")]
+    parts = [f"{seeds(none)} close{'s' * (len(none) == 1)} with no closing step at all"] if none else []
+    for resolution in sorted({r.get("grid resolution") for r in rows if r.get("closing steps")}, key=lambda x: (x is None, x)):
+        group = [r for r in rows if r.get("closing steps") and r.get("grid resolution") == resolution]
+        parts.append(f"{seeds(group)} refine{'s' * (len(group) == 1)} {'its' if len(group) == 1 else 'their'} grid to resolution {resolution}")
+    return "; ".join(parts)
+
+
 def _default_fit_tables(values: dict) -> dict:
     """The performance page's two tables and what its sentences say of them."""
     rows = values["rows"]
@@ -192,7 +219,9 @@ def _default_fit_tables(values: dict) -> dict:
 
     timeouts = [r for r in growth if isinstance(r["process s"], str)]
     words = {1: "one", 2: "two", 3: "three"}
+    seeds = [r for r in rows if r["case"].startswith("default-")]
     return {
+        "seeds": _seeds_table(seeds), "seeds_closing": _closing_sentence(seeds),
         "first": _fit_table(first, with_t=True), "first_closed": closed(first), "first_n": len(first),
         "default_ratio_low": default_low, "default_ratio_high": default_high, "ow_ratio_low": ow_low, "ow_ratio_high": ow_high,
         "growth": _fit_table(growth, with_t=False), "growth_closed": closed(growth), "growth_n": len(growth),
