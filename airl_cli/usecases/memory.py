@@ -64,6 +64,8 @@ def problem_sizes(problem: ProblemSettings) -> dict:
 
         by_id = is_env_id(mdp.env)
         S, A = id_sizes(mdp.env) if by_id else env_sizes(mdp.name, mdp.env, map_name=mdp.map_name, width=mdp.width, height=mdp.height)
+        if by_id:  # its own successors, where its perturbations keep them (its parameter, action slips)
+            return _sizes(problem, S, A, _id_next_states(problem, S, A))
     elif mdp.name == "windy":
         S, A = mdp.width * mdp.height, 4
     else:  # the grid world and the objectworld: size x size cells
@@ -71,12 +73,30 @@ def problem_sizes(problem: ProblemSettings) -> dict:
         from airl_cli.core.mdp.problems import GRID_ACTIONS
 
         S, A = mdp.size**2, len(OBJECTWORLD_ACTIONS if mdp.name == "objectworld" else GRID_ACTIONS)
-    n = problem.demos.n if problem.demos.kind == "sampled" else 1
     # the most next states a state reaches: a grid cell its neighbours and itself
     R = None if mdp.name in ("random", "gymnasium", "seals", "windy") else 5
     if mdp.name == "random" and mdp.transition == "sparse":
         R = mdp.n_next * mdp.n_actions * (problem.dynamics.n_dynamics + 1)
-    return {"n_states": S, "n_actions": A, "horizon": mdp.horizon, "n_dynamics": problem.dynamics.n_dynamics, "n_demos": n, "n_next": R}
+    return _sizes(problem, S, A, R)
+
+
+def _sizes(problem: ProblemSettings, S: int, A: int, R: int | None) -> dict:
+    n = problem.demos.n if problem.demos.kind == "sampled" else 1
+    return {"n_states": S, "n_actions": A, "horizon": problem.mdp.horizon, "n_dynamics": problem.dynamics.n_dynamics, "n_demos": n, "n_next": R}
+
+
+def _id_next_states(problem: ProblemSettings, S: int, A: int) -> int | None:
+    """R of an environment by id: its own tables' (``envs.generic.most_next_states``) where its
+    dynamics keep its successors (its parameter's values, action slips, tau alone); None (S) under
+    Gaussian noise on every entry."""
+    from airl_cli.envs.generic import most_next_states
+    from airl_cli.envs.named import parameter_kwargs
+
+    mdp, dyn = problem.mdp, problem.dynamics
+    if dyn.kind not in ("env_values", "slip", "same"):
+        return None
+    values = dyn.values + dyn.test_values if dyn.kind == "env_values" else ()
+    return most_next_states(mdp.env, [parameter_kwargs(mdp.parameter_of, v) for v in values], S, A)
 
 
 def fit_memory(sizes: dict, settings: FitSettings) -> tuple[Estimate, int | None]:

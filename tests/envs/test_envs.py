@@ -572,3 +572,30 @@ def test_the_goal_and_the_returns_are_reported_for_an_environment(tmp_path, monk
     assert max(r["demonstrator_goal"] for r in rows) > 0.01  # not all zero: the check above compares numbers
     line = next(line for line in summary.splitlines() if line.strip().startswith("tau_3"))
     assert float(line.split()[-1]) == pytest.approx(rows[-1]["demonstrator_goal"], abs=5e-4)
+
+
+@pytest.mark.parametrize("overrides", [
+    ("mdp.env=Taxi-v4",),  # its rainy_probability
+    ("mdp.env=FrozenLake-v1", "dynamics.test_values=[0.4]"),  # success_rate, and a held-out value
+    ("mdp.env=CliffWalking-v1",),  # is_slippery
+    ("mdp.env=CliffWalking-v1", "dynamics=slip"),
+    ("mdp.env=seals/Branching-v0",),  # no parameter airl knows: action slips
+])
+def test_the_memory_estimate_counts_an_environment_s_own_next_states(overrides):
+    """The memory estimate of an environment by id counts the next states its own tables reach
+    (Taxi-v4: 5 under its rain, not its 500 states: a fit of it was refused at 28.4 GB), the number
+    the built problem's sparse dynamics has: the union over actions and models."""
+    from airl_cli.usecases.memory import problem_sizes
+    from airl_cli.usecases.problem import build_problem
+
+    settings = problem_settings(_compose("mdp=gymnasium", *overrides))
+    problem = build_problem(settings)
+    P = np.concatenate([problem.transitions, *([] if problem.test_transitions is None else [problem.test_transitions])])
+    want = int(np.max(np.sum(np.any(P > 0, axis=(0, 2)), axis=1)))
+    assert problem_sizes(settings)["n_next"] == want < P.shape[1]
+
+
+def test_the_memory_estimate_counts_every_state_under_gaussian_noise():
+    from airl_cli.usecases.memory import problem_sizes
+
+    assert problem_sizes(problem_settings(_compose("mdp=gymnasium", "mdp.env=FrozenLake-v1", "dynamics=gaussian")))["n_next"] is None
