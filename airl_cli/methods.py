@@ -131,6 +131,12 @@ def plays_game(name: str) -> bool:
     return name in REGISTRY and REGISTRY[name].plays_game
 
 
+def takes_action_features(name: str) -> bool:
+    """Whether the method named ``name`` takes features of a state and an action as they are (the
+    others learn on the post-decision expansion, ``core.mdp.state_action``)."""
+    return name in REGISTRY and REGISTRY[name].action_features
+
+
 def takes_alpha(name: str) -> bool:
     """Whether the method named ``name`` takes robust MCE IRL's share alpha as an option."""
     return name in REGISTRY and any(o.key == "alpha" for o in REGISTRY[name].options)

@@ -102,21 +102,27 @@ def env_sizes(env_id: str) -> tuple[int, int]:
     )
 
 
-#: ``most_next_states`` reads an environment's tables only where each takes at most this many bytes dense.
-NEXT_STATES_BYTES = 256 * 2**20
+#: ``table_sizes`` reads an environment's tables only where each takes at most this many bytes dense.
+TABLE_BYTES = 256 * 2**20
 
 
-def most_next_states(env_id: str, variants: list[dict[str, Any]], S: int, A: int) -> int | None:
-    """R, the most next states a state reaches under any action in the environment ``env_id`` as
-    registered or made with any of ``variants`` (keyword arguments of ``gymnasium.make``), as the
-    problem's sparse dynamics counts them (the union over actions and models); None where a table
-    (S, A, S) would take more than ``NEXT_STATES_BYTES`` (the estimate then counts S)."""
-    if 8 * S * A * S > NEXT_STATES_BYTES:
-        return None
-    reach = np.zeros((S, S), dtype=bool)
-    for kwargs in [{}, *variants]:
+def table_sizes(env_id: str, variants: list[dict[str, Any]], S: int, A: int, *, successors: bool) -> tuple[int | None, bool]:
+    """What the memory estimate needs of the environment ``env_id`` as registered or made with any of
+    ``variants`` (keyword arguments of ``gymnasium.make``): (R, the most next states a state reaches
+    under any action, as the problem's sparse dynamics counts them, the union over actions and
+    models, None unless ``successors``; whether its reward is one of (s, a), which makes a
+    problem with features of (s, a)). (None, False) where a table (S, A, S) would take more than
+    ``TABLE_BYTES``."""
+    if 8 * S * A * S > TABLE_BYTES:
+        return None, False
+    first = table(make_by_id(env_id))
+    action_reward = first.reward is not None and first.reward.ndim == 2
+    if not successors:
+        return None, action_reward
+    reach = (first.transitions > 0).any(axis=1)
+    for kwargs in variants:
         reach |= (table(make_by_id(env_id, **kwargs)).transitions > 0).any(axis=1)
-    return int(reach.sum(axis=1).max())
+    return int(reach.sum(axis=1).max()), action_reward
 
 
 @dataclass(frozen=True)

@@ -76,7 +76,7 @@ from airl_cli.io.dataset_checks import (
     shape,
 )
 from airl_cli.io.files import atomic_write
-from airl_cli.io.npz_members import check_declared_sizes
+from airl_cli.io.npz_members import check_declared_sizes, declared_arrays
 
 KEYS = (
     "transitions",
@@ -376,8 +376,9 @@ def write_dataset(path: str | os.PathLike, dataset: Dataset) -> Path:
 
 
 def dataset_sizes(path: str | os.PathLike) -> dict | None:
-    """S, A, T, D, N and R (the most next states a state reaches) of a dataset file, read from its
-    arrays' shapes without checking it; None if they cannot be read (``read_dataset`` says why)."""
+    """S, A, T, D, N and R (the most next states a state reaches) of a dataset file, and whether its
+    features are of (s, a), read from its arrays' shapes without checking it; None if they cannot be
+    read (``read_dataset`` says why)."""
     try:
         check_declared_sizes(Path(path))
         with np.load(str(path), allow_pickle=False) as npz:
@@ -389,8 +390,10 @@ def dataset_sizes(path: str | os.PathLike) -> dict | None:
                 R = int(np.max(np.sum(np.any(P != 0, axis=(0, 2)), axis=1))) if P.size else None
             T = int(npz["horizon"])
             n = npz["demo_states"].shape[1] if "demo_states" in npz.files else 0
+            phi = next((shape for key, shape, *_ in declared_arrays(Path(path)) if key == "features"), ())  # from its header alone
+            action_features = len(phi) == 4 or (len(phi) == 3 and phi[:2] == (S, A))  # (T-1, S, A, K) or (S, A, K), as Dataset reads them
     except Exception:  # noqa: BLE001 (read_dataset names what is wrong)
         return None
     if R is None or min(M, S, A, T, R) < 1:  # an empty axis: the file fails its own check, which says so
         return None
-    return {"n_states": S, "n_actions": A, "horizon": T, "n_dynamics": M - 1, "n_demos": n, "n_next": R}
+    return {"n_states": S, "n_actions": A, "horizon": T, "n_dynamics": M - 1, "n_demos": n, "n_next": R, "action_features": action_features}

@@ -8,7 +8,7 @@ from airl_cli.core.irl.options import closes_bracket
 from airl_cli.core.mmdp.budget import GB, GRID_GROWTH, Estimate, estimate_fit, fewer_iterations, graph_bytes, plan_bytes_at_least, total_with_iterations
 from airl_cli.heap import TOP_PAD
 from airl_cli.io.machine import available_memory  # noqa: F401 (the use cases' callers and tests reach it here)
-from airl_cli.methods import plays_game
+from airl_cli.methods import plays_game, takes_action_features
 from airl_cli.settings.config import FitSettings, ProblemSettings
 
 
@@ -52,8 +52,9 @@ def plan_refusal(n_models: int, n_states: int, n_next: int, horizon: int) -> str
 
 
 def problem_sizes(problem: ProblemSettings) -> dict:
-    """S, A, T, D, N and R (the most next states a state reaches; None: S) of a built problem,
-    known from its settings without building it."""
+    """S, A, T, D, N and R (the most next states a state reaches; None: S) of a built problem, and
+    whether its features are of (s, a), known from its settings without building it (an
+    environment by id: from its own tables, ``envs.generic.table_sizes``)."""
     mdp = problem.mdp
     if mdp.name == "random":
         S, A = mdp.n_states, mdp.n_actions
@@ -65,7 +66,7 @@ def problem_sizes(problem: ProblemSettings) -> dict:
         by_id = is_env_id(mdp.env)
         S, A = id_sizes(mdp.env) if by_id else env_sizes(mdp.name, mdp.env, map_name=mdp.map_name, width=mdp.width, height=mdp.height)
         if by_id:  # its own successors, where its perturbations keep them (its parameter, action slips)
-            return _sizes(problem, S, A, _id_next_states(problem, S, A))
+            return _sizes(problem, S, A, *_id_sizes(problem, S, A))
     elif mdp.name == "windy":
         S, A = mdp.width * mdp.height, 4
     else:  # the grid world and the objectworld: size x size cells
@@ -77,31 +78,43 @@ def problem_sizes(problem: ProblemSettings) -> dict:
     R = None if mdp.name in ("random", "gymnasium", "seals", "windy") else 5
     if mdp.name == "random" and mdp.transition == "sparse":
         R = mdp.n_next * mdp.n_actions * (problem.dynamics.n_dynamics + 1)
-    return _sizes(problem, S, A, R)
+    return _sizes(problem, S, A, R, mdp.name == "windy")  # the windy grid's reward is of (s, a)
 
 
-def _sizes(problem: ProblemSettings, S: int, A: int, R: int | None) -> dict:
+def _sizes(problem: ProblemSettings, S: int, A: int, R: int | None, action_features: bool) -> dict:
     n = problem.demos.n if problem.demos.kind == "sampled" else 1
-    return {"n_states": S, "n_actions": A, "horizon": problem.mdp.horizon, "n_dynamics": problem.dynamics.n_dynamics, "n_demos": n, "n_next": R}
+    return {"n_states": S, "n_actions": A, "horizon": problem.mdp.horizon, "n_dynamics": problem.dynamics.n_dynamics, "n_demos": n, "n_next": R,
+            "action_features": action_features}
 
 
-def _id_next_states(problem: ProblemSettings, S: int, A: int) -> int | None:
-    """R of an environment by id: its own tables' (``envs.generic.most_next_states``) where its
-    dynamics keep its successors (its parameter's values, action slips, tau alone); None (S) under
-    Gaussian noise on every entry."""
-    from airl_cli.envs.generic import most_next_states
+def _id_sizes(problem: ProblemSettings, S: int, A: int) -> tuple[int | None, bool]:
+    """R of an environment by id and whether its features are of (s, a) (``envs.generic.table_sizes``):
+    its own tables' R where its dynamics keep its successors (its parameter's values, action slips,
+    tau alone); None (S) under Gaussian noise on every entry."""
+    from airl_cli.envs.generic import table_sizes
     from airl_cli.envs.named import parameter_kwargs
 
     mdp, dyn = problem.mdp, problem.dynamics
-    if dyn.kind not in ("env_values", "slip", "same"):
-        return None
     values = dyn.values + dyn.test_values if dyn.kind == "env_values" else ()
-    return most_next_states(mdp.env, [parameter_kwargs(mdp.parameter_of, v) for v in values], S, A)
+    return table_sizes(mdp.env, [parameter_kwargs(mdp.parameter_of, v) for v in values], S, A, successors=dyn.kind in ("env_values", "slip", "same"))
+
+
+def expanded_sizes(sizes: dict, method: str) -> dict:
+    """The sizes the fit of ``method`` plans over (``estimate_fit``'s arguments): a problem with
+    features of (s, a) is fitted on its post-decision expansion (``core.mdp.state_action``: S(1 + A)
+    states, 2T - 1 layers, a decision state reaching its A post-decision states) by every method
+    that does not take such features as they are (the registry's ``action_features``)."""
+    sizes = dict(sizes)
+    if sizes.pop("action_features", False) and not takes_action_features(method):
+        S, A, R = sizes["n_states"], sizes["n_actions"], sizes["n_next"]
+        sizes |= {"n_states": S * (1 + A), "horizon": 2 * sizes["horizon"] - 1, "n_next": max(A, S if R is None else R)}
+    return sizes
 
 
 def fit_memory(sizes: dict, settings: FitSettings) -> tuple[Estimate, int | None]:
     """The fit's memory estimate for these sizes (``problem_sizes``) and its PBVI iterations
     (None if it does not run PBVI)."""
+    sizes = expanded_sizes(sizes, settings.method)
     planner = settings.options.planner
     runs_pbvi = planner.method in ("auto", "pbvi")  # auto: PBVI answers first, on every problem (``oracles.choose_planner``)
     estimate = estimate_fit(**sizes, game=plays_game(settings.method), planner="pbvi" if runs_pbvi else planner.method, iterations=planner.iterations, grid_work=planner.bracket_grid)
@@ -129,6 +142,7 @@ def build_memory(sizes: dict) -> Estimate:
     and writing them, as ``airl generate`` does: the fit's estimate without a planner, plus one more
     (S, S) array (writing checks a copy of the loss; measured peak 1.54 GB on a 96 x 96 grid, where
     this says 2.2 GB)."""
+    sizes = {k: v for k, v in sizes.items() if k != "action_features"}  # generating draws on tau and the tau_j as they are
     fit = with_heap_slack(estimate_fit(**sizes, game=False))
     parts = {**fit.parts, "writing": 8 * sizes["n_states"] ** 2}
     return Estimate(total=sum(parts.values()), parts=parts, n_beliefs=0)

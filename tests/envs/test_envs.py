@@ -599,3 +599,23 @@ def test_the_memory_estimate_counts_every_state_under_gaussian_noise():
     from airl_cli.usecases.memory import problem_sizes
 
     assert problem_sizes(problem_settings(_compose("mdp=gymnasium", "mdp.env=FrozenLake-v1", "dynamics=gaussian")))["n_next"] is None
+
+
+def test_a_fit_with_features_of_s_and_a_is_estimated_on_its_post_decision_expansion(tmp_path):
+    """Taxi-v4's reward is of (s, a): the thesis's method (and every method but MCE IRL) plans over
+    its post-decision expansion, S(1 + A) states over 2T - 1 layers, and the memory estimate counts
+    that (it counted S = 500 over T = 201: 5.7 GB against a measured peak of 7.3 GB). The sizes of
+    the environment by id and of its dataset file agree."""
+    from airl_cli.io.dataset import dataset_sizes
+    from airl_cli.usecases.memory import expanded_sizes, problem_sizes
+
+    settings = problem_settings(_compose("mdp=gymnasium", "mdp.env=Taxi-v4", "mdp.horizon=6"))
+    by_id = problem_sizes(settings)
+    assert by_id["action_features"] and by_id["n_next"] == 5
+    result = runner.invoke(app, ["generate", "mdp=gymnasium", "mdp.env=Taxi-v4", "mdp.horizon=6", f"hydra.run.dir={tmp_path / 'gen'}"])
+    assert result.exit_code == 0, result.output
+    assert dataset_sizes(tmp_path / "gen" / "dataset.npz") == by_id
+    assert expanded_sizes(by_id, "airl") == {"n_states": 3500, "n_actions": 6, "horizon": 11, "n_dynamics": 3, "n_demos": 100, "n_next": 6}
+    assert expanded_sizes(by_id, "mce") == {k: v for k, v in by_id.items() if k != "action_features"}
+    state_only = problem_settings(_compose("mdp=gymnasium", "mdp.env=FrozenLake-v1"))
+    assert not problem_sizes(state_only)["action_features"]

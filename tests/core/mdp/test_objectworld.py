@@ -215,12 +215,12 @@ def test_memory_estimate_knows_the_objectworld_sizes():
     from airl_cli.core.mmdp.budget import estimate_fit
     from airl_cli.jobs.common import _shrink, fit_sizes
     from airl_cli.settings.job import fit_job
-    from airl_cli.usecases.memory import refusal
+    from airl_cli.usecases.memory import expanded_sizes, refusal
 
     cfg = api.config("mdp=objectworld", "dynamics=slip")
     sizes = fit_sizes(fit_job(cfg))
-    assert sizes == {"n_states": 64, "n_actions": 5, "horizon": 20, "n_dynamics": 3, "n_demos": 100, "n_next": 5}
-    sentence = refusal(estimate_fit(**sizes, iterations=16), 2**30, iterations=16, shrink=_shrink(fit_job(cfg).problem))
+    assert sizes == {"n_states": 64, "n_actions": 5, "horizon": 20, "n_dynamics": 3, "n_demos": 100, "n_next": 5, "action_features": False}
+    sentence = refusal(estimate_fit(**expanded_sizes(sizes, "airl"), iterations=16), 2**30, iterations=16, shrink=_shrink(fit_job(cfg).problem))
     assert sentence is not None and sentence.endswith("or mdp.size, mdp.horizon")
     assert _shrink(api.config()) == "mdp.n_states, mdp.horizon"
 
