@@ -167,7 +167,8 @@ def test_the_one_pass_backup_keeps_the_same_nodes_as_backup_then_unique_nodes(ki
     (action, succ, alpha), (kc, vc) = class_backup(dyn, R_t, B, alpha_next, offsets)
     separate = _kernels.unique_nodes(action, succ, alpha)
     cls, _, _, scale = dyn.column_classes
-    one_pass = _column_kernels.backup_nodes_classes(dyn.model_axis_last(), dyn.next_states, dyn.count, cls, scale, kc, vc, R_t, np.ascontiguousarray(B.T), alpha_next, offsets, pack)
+    every_action = np.full(S, A, np.int64)
+    one_pass = _column_kernels.backup_nodes_classes(dyn.model_axis_last(), dyn.next_states, dyn.count, cls, scale, kc, vc, R_t, np.ascontiguousarray(B.T), alpha_next, offsets, every_action, pack)
     assert separate[0].size < S * 12  # some plans repeat
     for x, y in zip(separate, one_pass):
         assert x.dtype == y.dtype and np.array_equal(x, y)
@@ -180,3 +181,31 @@ def test_plan_keys_are_packed_while_they_fit_in_62_bits():
     assert _column_kernels._plan_bits(offsets, 5, 19) == 3  # 3 + 57 bits
     assert _column_kernels._plan_bits(offsets, 5, 20) == 0  # 63 bits: hashed
     assert _column_kernels._plan_bits(np.array([0, 1, 2]), 2, 61) == 1
+
+
+@pytest.mark.parametrize("M, sparse", [(2, False), (3, True), (4, False)])
+def test_a_state_whose_actions_are_one_is_backed_up_once_with_the_same_nodes(M, sparse, monkeypatch):
+    """On the post-decision expansion of a slip grid with rewards of (s, a) (``core.mdp.state_action``),
+    every action at a post-decision state leads where (s, a) leads and earns the same: PBVI backs
+    such a state up with action 0 alone (``_actions_to_back_up``), and its policy graph is the one of
+    the backup over every action, node for node and bit for bit."""
+    from airl_cli.core.mdp.state_action import expand
+
+    P = slip_grid(4, M)
+    M_, S, A, _ = P.shape
+    rng = np.random.default_rng(M)
+    phi = rng.normal(size=(S, A, 3))
+    ex = expand(sparse_dynamics(P) if sparse else P, phi, None, uniform_initial(4), horizon=6)
+    R = np.stack([np.einsum("tsk,k->ts", np.broadcast_to(ex.features, (ex.horizon, *ex.features.shape)), rng.normal(size=3)) for _ in range(M_)])
+    dyn = sparse_dynamics(ex.transitions)
+    classes = multimodel._shared_columns(dyn)
+    assert classes is not None and classes[-1][S:].all() and not classes[-1][:S].any()  # post-decision states move one way
+    counts = multimodel._actions_to_back_up(classes[-1], np.ascontiguousarray(np.repeat(R[:, 0, :, None], A, axis=2)))
+    assert (counts[S:] == 1).all() and (counts[:S] == A).all()
+    B = expand_beliefs(dyn, iterations=4, rng=np.random.default_rng(0))
+    once = multimodel.pbvi_graph(dyn, R, B)
+    monkeypatch.setattr(multimodel, "_actions_to_back_up", lambda one_move, R_t: np.full(R_t.shape[1], R_t.shape[2], np.int64))
+    every = multimodel.pbvi_graph(dyn, R, B)
+    for a, b in zip((once.state, once.action, once.successor, once.alpha, once.offsets), (every.state, every.action, every.successor, every.alpha, every.offsets)):
+        assert all(np.array_equal(x, y) for x, y in zip(a, b))
+    assert np.array_equal(once.start, every.start)
