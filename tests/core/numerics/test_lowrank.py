@@ -16,8 +16,8 @@ def test_a_squared_feature_loss_factors_at_rank_k_plus_two_and_its_products_are_
     S, K = 300, 5
     phi = rng.random((S, K))
     L = squared_feature_loss(phi)
-    Q, B, shift = factors = lowrank.factor(L)
-    assert shift == 0.0 and Q.shape[1] <= K + 2 and np.allclose(Q.T @ Q, np.eye(Q.shape[1]), atol=1e-12)
+    Q, B, shift, support = factors = lowrank.factor(L)
+    assert shift == 0.0 and support is None and Q.shape[1] <= K + 2 and np.allclose(Q.T @ Q, np.eye(Q.shape[1]), atol=1e-12)
     X = rng.dirichlet(np.ones(S), size=(7, 3))  # (7, 3, S) marginals
     assert np.allclose(lowrank.times(X, L, factors), X @ L, rtol=1e-11, atol=1e-11)
     assert np.allclose(lowrank.times_transposed(X, L, factors), X @ L.T, rtol=1e-11, atol=1e-11)
@@ -27,7 +27,7 @@ def test_the_zero_one_loss_is_the_identity_below_rank_one_and_its_products_are_t
     rng = np.random.default_rng(3)
     S = 300
     for L in (zero_one_loss(S), 2.0 * zero_one_loss(S) + 0.5):  # 1 1^T - I, and a 1 1^T + c I with c = -2
-        Q, B, shift = factors = lowrank.factor(L)
+        Q, B, shift, _ = factors = lowrank.factor(L)
         assert Q.shape[1] == 1 and np.isclose(shift, L[0, 0] - L[0, 1])
         X = rng.dirichlet(np.ones(S), size=(4, 5))
         assert np.allclose(lowrank.times(X, L, factors), X @ L, rtol=1e-12, atol=1e-12)
@@ -62,3 +62,23 @@ def test_the_game_plans_the_same_with_the_factored_loss():
     assert zero_one._loss_factors.shift == -1.0
     assert np.array_equal(learner_best_policy(zero_one, tau), learner_best_policy(zero_one_dense, tau))
     assert np.allclose(adversary_rewards(zero_one, tau, w), adversary_rewards(zero_one_dense, tau, w), rtol=1e-11, atol=1e-11)
+
+
+def test_a_loss_on_a_block_of_states_is_factored_and_multiplied_there():
+    """The post-decision expansion's loss lives on its decision states (``core.mdp.state_action``):
+    a zero-one loss on 300 of 1,800 states factors there (the identity below rank one), a random one
+    keeps its block dense, and their products are the dense ones, zero off the block."""
+    rng = np.random.default_rng(4)
+    S, n = 1800, 300
+    support = np.sort(rng.choice(S, size=n, replace=False))
+    for block, low_rank in ((zero_one_loss(n), True), (rng.random((n, n)), False)):
+        L = np.zeros((S, S))
+        L[np.ix_(support, support)] = block
+        factors = lowrank.factor(L)
+        assert np.array_equal(factors.support, support) and (factors.Q is not None) == low_rank
+        X = rng.dirichlet(np.ones(S), size=(3, 4))
+        for got, want in ((lowrank.times(X, L, factors), X @ L), (lowrank.times_transposed(X, L, factors), X @ L.T)):
+            assert got.shape == want.shape and np.allclose(got, want, rtol=1e-12, atol=1e-12)
+            assert not got[..., np.setdiff1d(np.arange(S), support)].any()
+    most = lowrank.factor(np.pad(squared_feature_loss(rng.random((300, 3))), ((0, 200), (0, 200))))
+    assert most is not None and most.support is None  # a block of most states: the whole loss is factored
