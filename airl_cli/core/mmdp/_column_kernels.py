@@ -119,7 +119,7 @@ def _backup_state(s, PR, nxt, cnt, cls, scale, kc, vc, R_t, Bt, alpha_next, offs
 
 
 @njit(cache=True, parallel=True)
-def backup_nodes_classes(PR, nxt, cnt, cls, scale, kc, vc, R_t, Bt, alpha_next, offsets_next, n_act, pack=True):  # pragma: no cover - compiled
+def backup_nodes_classes(PR, nxt, cnt, cls, scale, kc, vc, R_t, Bt, alpha_next, offsets_next, one_move, pack=True):  # pragma: no cover - compiled
     """``_kernels.unique_nodes(*backup_step_classes(...))`` in one pass, bit for bit: the same nodes
     in the same order (the first belief of each distinct alpha-vector per state).
 
@@ -132,14 +132,14 @@ def backup_nodes_classes(PR, nxt, cnt, cls, scale, kc, vc, R_t, Bt, alpha_next, 
     keys are equal plans), else hashed and compared; rewards that do not depend on the action
     (state rewards) are weighted by the beliefs once per state, not once per action.
 
-    A state whose actions all have one plan and one value (``n_act[s]`` = 1: every action's columns and
-    rewards those of action 0, as at a post-decision state of ``core.mdp.state_action``'s expansion,
-    whose every action leads where (s, a) leads) is backed up with action 0 alone, which the full
-    backup would choose there too (near-ties go to the lowest action): the same nodes, bit for bit,
-    at 1/A of the work (Taxi's expansion: 3,000 of its 3,500 states).
+    A state whose actions all have one plan and one value (``one_move[s]``: every action's columns
+    those of action 0, and its rewards at this step too, as at a post-decision state of
+    ``core.mdp.state_action``'s expansion, whose every action leads where (s, a) leads) is backed up
+    with action 0 alone, which the full backup would choose there too (near-ties go to the lowest
+    action): the same nodes, bit for bit, at 1/A of the work (Taxi's expansion: 3,000 of its 3,500 states).
 
-    Args: as ``backup_step_classes``; n_act: (S,) int64, the actions to back up at each state (A, or
-        1 where every action is action 0's); pack: False hashes every plan key (the tests' switch).
+    Args: as ``backup_step_classes``; one_move: (S,) bool, whether every action of a state has action
+        0's columns; pack: False hashes every plan key (the tests' switch).
 
     Returns:
         node_state (n,), node_action (n,), node_succ (n, R) (-1 on the padding), node_alpha (n, M),
@@ -162,7 +162,8 @@ def backup_nodes_classes(PR, nxt, cnt, cls, scale, kc, vc, R_t, Bt, alpha_next, 
         ks = np.empty(Rm, np.int64)
         vec = np.empty(M)
         for s in range(chunk * S // CHUNKS, (chunk + 1) * S // CHUNKS):
-            n_r, A_s = cnt[s], n_act[s]
+            n_r = cnt[s]
+            A_s = 1 if one_move[s] and _one_reward(R_t, s) else A
             for r in range(n_r):
                 first[r] = offsets_next[nxt[s, r]]
             _values(s, PR, cnt, cls, scale, vc, R_t, Bt, total, base, A_s)
@@ -197,6 +198,17 @@ def backup_nodes_classes(PR, nxt, cnt, cls, scale, kc, vc, R_t, Bt, alpha_next, 
                 n += 1
             count[s] = n
     return gather_nodes(count, np.empty((S, 0), np.int64), kept_action, kept_succ, kept_alpha)
+
+
+@njit(cache=True, inline="always")
+def _one_reward(R_t, s):  # pragma: no cover - compiled
+    """Whether every action of state s earns action 0's reward R_t (M, S, A) in every model."""
+    M, _, A = R_t.shape
+    for a in range(1, A):
+        for j in range(M):
+            if R_t[j, s, a] != R_t[j, s, 0]:
+                return False
+    return True
 
 
 @njit(cache=True, inline="always")

@@ -182,21 +182,14 @@ CLASS_SHARE = 0.5
 
 def _shared_columns(dyn: SparseDynamics) -> tuple | None:
     """``dyn.column_classes`` when few enough columns differ in direction to pay off, else None;
-    with them, (S,) whether every action of a state has action 0's columns (``_actions_to_back_up``)."""
+    with them, (S,) whether every action of a state has action 0's columns (a post-decision state of
+    ``core.mdp.state_action``'s expansion: ``_column_kernels.backup_nodes_classes`` backs it up once
+    where its rewards are one too)."""
     cls, dirs, cls_state, scale = dyn.column_classes
     if len(dirs) > CLASS_SHARE * np.count_nonzero(cls >= 0):
         return None
     one_move = np.all((cls == cls[:, :1]) & (scale == scale[:, :1]), axis=(1, 2))
     return cls, dirs, cls_state, scale, one_move
-
-
-def _actions_to_back_up(one_move: np.ndarray, R_t: np.ndarray) -> np.ndarray:
-    """(S,) int64 the actions a backup looks at per state: 1 where every action has action 0's
-    columns (``one_move``) and its rewards R_t (M, S, A) at this step (a post-decision state of
-    ``core.mdp.state_action``'s expansion), else A (``_column_kernels.backup_nodes_classes``)."""
-    A = R_t.shape[2]
-    same = one_move & np.all(R_t == R_t[:, :, :1], axis=(0, 2))
-    return np.where(same, 1, A).astype(np.int64)
 
 
 def _backup_nodes(dyn: SparseDynamics, classes: tuple | None, R_t, Bt, alpha_next, offsets_next):
@@ -212,8 +205,7 @@ def _backup_nodes(dyn: SparseDynamics, classes: tuple | None, R_t, Bt, alpha_nex
         return _kernels.unique_nodes(*_kernels.backup_step(PR, nxt, cnt, R_t, Bt, alpha_next, offsets_next))
     cls, dirs, cls_state, scale, one_move = classes
     kc, vc = _column_kernels.class_successors(dirs, cls_state, Bt, alpha_next, offsets_next)
-    n_act = _actions_to_back_up(one_move, R_t)
-    return _column_kernels.backup_nodes_classes(PR, nxt, cnt, cls, scale, kc, vc, R_t, Bt, alpha_next, offsets_next, n_act, True)  # pack given: the signature the tests compile
+    return _column_kernels.backup_nodes_classes(PR, nxt, cnt, cls, scale, kc, vc, R_t, Bt, alpha_next, offsets_next, one_move, True)  # pack given: the signature the tests compile
 
 
 def _best_start_nodes(alpha0: np.ndarray, offsets0: np.ndarray, prior: np.ndarray | None = None) -> np.ndarray:

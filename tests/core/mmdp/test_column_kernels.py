@@ -167,8 +167,8 @@ def test_the_one_pass_backup_keeps_the_same_nodes_as_backup_then_unique_nodes(ki
     (action, succ, alpha), (kc, vc) = class_backup(dyn, R_t, B, alpha_next, offsets)
     separate = _kernels.unique_nodes(action, succ, alpha)
     cls, _, _, scale = dyn.column_classes
-    every_action = np.full(S, A, np.int64)
-    one_pass = _column_kernels.backup_nodes_classes(dyn.model_axis_last(), dyn.next_states, dyn.count, cls, scale, kc, vc, R_t, np.ascontiguousarray(B.T), alpha_next, offsets, every_action, pack)
+    one_move = np.zeros(S, dtype=bool)
+    one_pass = _column_kernels.backup_nodes_classes(dyn.model_axis_last(), dyn.next_states, dyn.count, cls, scale, kc, vc, R_t, np.ascontiguousarray(B.T), alpha_next, offsets, one_move, pack)
     assert separate[0].size < S * 12  # some plans repeat
     for x, y in zip(separate, one_pass):
         assert x.dtype == y.dtype and np.array_equal(x, y)
@@ -187,8 +187,8 @@ def test_plan_keys_are_packed_while_they_fit_in_62_bits():
 def test_a_state_whose_actions_are_one_is_backed_up_once_with_the_same_nodes(M, sparse, monkeypatch):
     """On the post-decision expansion of a slip grid with rewards of (s, a) (``core.mdp.state_action``),
     every action at a post-decision state leads where (s, a) leads and earns the same: PBVI backs
-    such a state up with action 0 alone (``_actions_to_back_up``), and its policy graph is the one of
-    the backup over every action, node for node and bit for bit."""
+    such a state up with action 0 alone (``_shared_columns``' flag), and its policy graph is the one of
+    the backup over every action, node for node and bit for bit, and the per-column kernel's."""
     from airl_cli.core.mdp.state_action import expand
 
     P = slip_grid(4, M)
@@ -200,12 +200,21 @@ def test_a_state_whose_actions_are_one_is_backed_up_once_with_the_same_nodes(M, 
     dyn = sparse_dynamics(ex.transitions)
     classes = multimodel._shared_columns(dyn)
     assert classes is not None and classes[-1][S:].all() and not classes[-1][:S].any()  # post-decision states move one way
-    counts = multimodel._actions_to_back_up(classes[-1], np.ascontiguousarray(np.repeat(R[:, 0, :, None], A, axis=2)))
-    assert (counts[S:] == 1).all() and (counts[:S] == A).all()
     B = expand_beliefs(dyn, iterations=4, rng=np.random.default_rng(0))
     once = multimodel.pbvi_graph(dyn, R, B)
-    monkeypatch.setattr(multimodel, "_actions_to_back_up", lambda one_move, R_t: np.full(R_t.shape[1], R_t.shape[2], np.int64))
+    monkeypatch.setattr(multimodel, "_shared_columns", lambda d: (*classes[:-1], np.zeros_like(classes[-1])))
     every = multimodel.pbvi_graph(dyn, R, B)
     for a, b in zip((once.state, once.action, once.successor, once.alpha, once.offsets), (every.state, every.action, every.successor, every.alpha, every.offsets)):
         assert all(np.array_equal(x, y) for x, y in zip(a, b))
     assert np.array_equal(once.start, every.start)
+    monkeypatch.setattr(multimodel, "_shared_columns", lambda d: None)  # the per-column kernel: every action, no classes
+    plain = multimodel.pbvi_graph(dyn, R, B)
+    for t in range(ex.horizon):
+        assert np.array_equal(once.offsets[t], plain.offsets[t]) and np.allclose(once.alpha[t], plain.alpha[t], rtol=1e-10, atol=1e-10)
+        assert t == ex.horizon - 1 or np.array_equal(once.action[t], plain.action[t])
+    R_sa = rng.normal(size=(M_, ex.horizon, dyn.probs.shape[1], A))  # rewards that differ by action: every action backed up
+    monkeypatch.setattr(multimodel, "_shared_columns", lambda d: classes)
+    by_action = multimodel.pbvi_graph(dyn, R_sa, B)
+    monkeypatch.setattr(multimodel, "_shared_columns", lambda d: None)
+    plain = multimodel.pbvi_graph(dyn, R_sa, B)
+    assert all(np.array_equal(x, y) for x, y in zip(by_action.action, plain.action))
