@@ -78,7 +78,7 @@ def problem_sizes(problem: ProblemSettings) -> dict:
     R = None if mdp.name in ("random", "gymnasium", "seals", "windy") else 5
     if mdp.name == "random" and mdp.transition == "sparse":
         R = mdp.n_next * mdp.n_actions * (problem.dynamics.n_dynamics + 1)
-    return _sizes(problem, S, A, R, mdp.name == "windy")  # the windy grid's reward is of (s, a)
+    return _sizes(problem, S, A, R, mdp.name == "windy" and mdp.reward == "theirs")  # their windy reward is one of (s, a)
 
 
 def _sizes(problem: ProblemSettings, S: int, A: int, R: int | None, action_features: bool) -> dict:

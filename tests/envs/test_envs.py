@@ -619,3 +619,12 @@ def test_a_fit_with_features_of_s_and_a_is_estimated_on_its_post_decision_expans
     assert expanded_sizes(by_id, "mce") == {k: v for k, v in by_id.items() if k != "action_features"}
     state_only = problem_settings(_compose("mdp=gymnasium", "mdp.env=FrozenLake-v1"))
     assert not problem_sizes(state_only)["action_features"]
+
+
+def test_the_windy_grid_is_estimated_on_its_expansion_with_their_reward_of_s_and_a_only():
+    from airl_cli.usecases.memory import problem_sizes
+    from airl_cli.usecases.problem import build_problem
+
+    for overrides, action_features in ((("problem=windy",), True), (("problem=windy", "mdp.reward=states"), False)):
+        settings = problem_settings(_compose(*overrides))
+        assert problem_sizes(settings)["action_features"] == action_features == (build_problem(settings).features.ndim == 3)
