@@ -76,7 +76,7 @@ from airl_cli.io.dataset_checks import (
     shape,
 )
 from airl_cli.io.files import atomic_write
-from airl_cli.io.npz_members import check_declared_sizes, declared_arrays
+from airl_cli.io.npz_members import check_declared_sizes
 
 KEYS = (
     "transitions",
@@ -144,8 +144,7 @@ class Dataset:
     def action_features(self) -> bool:
         """Whether the features are of a state and an action: phi(s, a) (S, A, K), or phi_t(s, a)
         (T-1, S, A, K). A 3-axis array that fits both (S, A, K) and (T, S, K) is (S, A, K)."""
-        phi = self.features
-        return phi.ndim == 4 or (phi.ndim == 3 and phi.shape[:2] == (self.n_states, self.n_actions))
+        return features_of_actions(self.features.shape, self.n_states, self.n_actions)
 
     @property
     def time_features(self) -> bool:
@@ -375,12 +374,18 @@ def write_dataset(path: str | os.PathLike, dataset: Dataset) -> Path:
     return atomic_write(path, write)
 
 
+def features_of_actions(shape: tuple[int, ...], S: int, A: int) -> bool:
+    """Whether features of this shape are of a state and an action: (S, A, K) or (T-1, S, A, K). A
+    3-axis shape that fits both (S, A, K) and (T, S, K) is (S, A, K)."""
+    return len(shape) == 4 or (len(shape) == 3 and tuple(shape[:2]) == (S, A))
+
+
 def dataset_sizes(path: str | os.PathLike) -> dict | None:
     """S, A, T, D, N and R (the most next states a state reaches) of a dataset file, and whether its
     features are of (s, a), read from its arrays' shapes without checking it; None if they cannot be
     read (``read_dataset`` says why)."""
     try:
-        check_declared_sizes(Path(path))
+        members = check_declared_sizes(Path(path))
         with np.load(str(path), allow_pickle=False) as npz:
             if "transition_probs" in npz.files:  # the sparse form: (M, S, A, R)
                 M, S, A, R = npz["transition_probs"].shape
@@ -390,8 +395,8 @@ def dataset_sizes(path: str | os.PathLike) -> dict | None:
                 R = int(np.max(np.sum(np.any(P != 0, axis=(0, 2)), axis=1))) if P.size else None
             T = int(npz["horizon"])
             n = npz["demo_states"].shape[1] if "demo_states" in npz.files else 0
-            phi = next((shape for key, shape, *_ in declared_arrays(Path(path)) if key == "features"), ())  # from its header alone
-            action_features = len(phi) == 4 or (len(phi) == 3 and phi[:2] == (S, A))  # (T-1, S, A, K) or (S, A, K), as Dataset reads them
+            phi = next((shape for key, shape, *_ in members if key == "features"), ())  # from its header alone
+            action_features = features_of_actions(phi, S, A)
     except Exception:  # noqa: BLE001 (read_dataset names what is wrong)
         return None
     if R is None or min(M, S, A, T, R) < 1:  # an empty axis: the file fails its own check, which says so

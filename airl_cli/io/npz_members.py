@@ -42,15 +42,16 @@ def declared_arrays(path: Path) -> list[tuple[str, tuple[int, ...], np.dtype, in
     return out
 
 
-def check_declared_sizes(path: Path) -> None:
+def check_declared_sizes(path: Path) -> list[tuple[str, tuple[int, ...], np.dtype, int, int]]:
     """Refuse, in one sentence, an ``.npz`` whose headers declare more than the file holds or, all
-    together, more than the memory free.
+    together, more than the memory free; else the headers it read (``declared_arrays``).
 
     Raises:
         DatasetError: naming the key and the sizes.
     """
     total = 0
-    for key, shape, dtype, declared, stored in declared_arrays(path):
+    members = declared_arrays(path)
+    for key, shape, dtype, declared, stored in members:
         if declared > stored:
             raise DatasetError(
                 f"key '{key}' of '{path}' declares a {' x '.join(map(str, shape)) or 'scalar'} {dtype} array ({_size(declared)}) but the file holds {_size(stored)} of it: "
@@ -60,3 +61,4 @@ def check_declared_sizes(path: Path) -> None:
     free = available_memory()
     if total > free:
         raise DatasetError(f"the arrays of '{path}' take {_size(total)}, more than the {_size(free)} of memory free")
+    return members

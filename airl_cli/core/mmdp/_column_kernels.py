@@ -103,7 +103,7 @@ def _backup_state(s, PR, nxt, cnt, cls, scale, kc, vc, R_t, Bt, alpha_next, offs
     nb = Bt.shape[1]
     n_r = cnt[s]
     A = PR.shape[1]
-    _values(s, PR, cnt, cls, scale, vc, R_t, Bt, total, base, A)
+    _values(s, cnt, cls, scale, vc, R_t, Bt, total, base, A, _one_reward(R_t, s))
     _winners(total, top, astar, A)
     for b in range(nb):
         a_star = astar[b]
@@ -163,10 +163,11 @@ def backup_nodes_classes(PR, nxt, cnt, cls, scale, kc, vc, R_t, Bt, alpha_next, 
         vec = np.empty(M)
         for s in range(chunk * S // CHUNKS, (chunk + 1) * S // CHUNKS):
             n_r = cnt[s]
-            A_s = 1 if one_move[s] and _one_reward(R_t, s) else A
+            same = _one_reward(R_t, s)
+            A_s = 1 if one_move[s] and same else A
             for r in range(n_r):
                 first[r] = offsets_next[nxt[s, r]]
-            _values(s, PR, cnt, cls, scale, vc, R_t, Bt, total, base, A_s)
+            _values(s, cnt, cls, scale, vc, R_t, Bt, total, base, A_s, same)
             _winners(total, top, astar, A_s)
             if bits > 0:
                 _packed_keys(s, n_r, cls, kc, first, bits, key_a, A_s)
@@ -266,15 +267,11 @@ def _plan_bits(offsets_next, A, Rm):  # pragma: no cover - compiled
 
 
 @njit(cache=True, inline="always")
-def _values(s, PR, cnt, cls, scale, vc, R_t, Bt, total, base, A):  # pragma: no cover - compiled
+def _values(s, cnt, cls, scale, vc, R_t, Bt, total, base, A, same):  # pragma: no cover - compiled
     """total[a, b] = b . R_t(s, a) + sum_r scale[s, a, r] vc[cls[s, a, r], b] for a < A into (A', nb)
-    scratch; b . R_t(s, a) once into ``base`` (nb,) when R_t(s, a) is the same for every a (the same sums)."""
-    M = PR.shape[3]
+    scratch; b . R_t(s, a) once into ``base`` (nb,) when R_t(s, a) is the same for every a (``same``,
+    ``_one_reward``: the same sums)."""
     nb = Bt.shape[1]
-    same = True
-    for a in range(1, A):
-        for j in range(M):
-            same = same and R_t[j, s, a] == R_t[j, s, 0]
     if same:
         _weighted(Bt, R_t, s, 0, base)
     for a in range(A):
