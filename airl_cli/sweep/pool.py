@@ -229,7 +229,7 @@ def call(targets: Sequence[tuple[str, tuple]]) -> list[Any] | None:
         wait(futures)  # all of them, even if one fails: a worker stopped mid-write leaves a temporary file
         return [f.result() for f in futures]
     except BrokenProcessPool:
-        shutdown(wait=False)
+        shutdown(idle=True)  # as in launch: the manager thread is done before this process exits
         return None
 
 
@@ -321,6 +321,10 @@ def launch(launcher: Any, job_overrides: Sequence[Sequence[str]], initial_job_id
         done = True
         return results
     except BrokenProcessPool:
+        # wait for the executor's manager thread, which closes its wake-up pipe on a broken pool:
+        # left running, it raced the interpreter's exit hook (concurrent.futures' _python_exit),
+        # which then wrote to the closed pipe and printed a traceback under the one sentence
+        shutdown(idle=True)
         raise WorkerDied(WORKER_DIED) from None
     except BaseException:
         shutdown(idle=True)  # a Ctrl-C, or a job that stops the sweep: the jobs under way are given up

@@ -179,6 +179,22 @@ def test_work_on_kept_workers_returns_in_order_or_raises_and_none_without_worker
 
 
 @pytest.mark.skipif(pool.cores() < 2, reason="two workers need two cores")
+def test_a_worker_that_dies_leaves_no_executor_thread_to_race_the_exit():
+    """A worker killed under ``call`` (``launch`` shares the path): None, and the executor's manager
+    thread has ended before the call returns. Left running, it closed its wake-up pipe while the
+    interpreter's exit hook wrote to it, and a traceback followed the one sentence (seen in CI)."""
+    from concurrent.futures import process as futures_process
+
+    pool.prestart(2)
+    try:
+        assert pool.call([("os:_exit", (9,)), ("time:sleep", (5,))]) is None
+        assert not pool._pool
+        assert not [t for t in list(futures_process._threads_wakeups) if t.is_alive()]
+    finally:
+        pool.shutdown()
+
+
+@pytest.mark.skipif(pool.cores() < 2, reason="two workers need two cores")
 def test_workers_that_run_no_job_are_stopped_at_once():
     """A sweep stopped by a bad value does not wait for its warm workers' imports to finish."""
     pool.prestart(2)
