@@ -46,8 +46,8 @@ def plan_refusal(n_models: int, n_states: int, n_next: int, horizon: int) -> str
     if needed <= free:
         return None
     return (
-        f"plan.horizon={horizon} needs at least {_size(needed)} of memory (a policy node per state and step, S = {n_states}, M = {n_models}), "
-        f"more than the {_size(free)} free; lower plan.horizon (a discounted problem's returns past about 1/(1 - discount) steps add little)"
+        f"plan.horizon={horizon} needs at least {size_text(needed)} of memory (a policy node per state and step, S = {n_states}, M = {n_models}), "
+        f"more than the {size_text(free)} free; lower plan.horizon (a discounted problem's returns past about 1/(1 - discount) steps add little)"
     )
 
 
@@ -182,13 +182,13 @@ def refusal(
             what = f"pbvi.iterations (to {fits} or less), or " + what
         else:
             smallest = total_with_iterations(estimate, iterations, 1)
-            nothing_fits = f"; it does not fit even with the smallest planner (pbvi.iterations=1, about {_size(smallest)})"
+            nothing_fits = f"; it does not fit even with the smallest planner (pbvi.iterations=1, about {size_text(smallest)})"
     if estimate.parts.get("bracket grid", 0) + estimate.parts.get(REFINED, 0) > estimate.total / 2:
         what = "pbvi.bracket_grid, or " + what
     if workers > 1:
         what += ", or hydra.launcher.n_jobs"
     beliefs = f" (up to {estimate.n_beliefs} belief points in the planner's policy graph)" if estimate.n_beliefs else ""
-    return f"{who} needs about {_size(estimate.total)} of memory{at_once}{beliefs}, but only {_size(available)} is free{nothing_fits}; lower {what}"
+    return f"{who} needs about {size_text(estimate.total)} of memory{at_once}{beliefs}, but only {size_text(available)} is free{nothing_fits}; lower {what}"
 
 
 def size_note(estimate: Estimate, iterations: int | None, optimizer: str) -> str | None:
@@ -209,5 +209,6 @@ def size_note(estimate: Estimate, iterations: int | None, optimizer: str) -> str
     )
 
 
-def _size(n: float) -> str:
+def size_text(n: float) -> str:
+    """A number of bytes as a sentence says it: "2.3 GB", or "150 MB" below a tenth of a GB."""
     return f"{n / GB:,.1f} GB" if n >= GB / 10 else f"{n / 2**20:.0f} MB"

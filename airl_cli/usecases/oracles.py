@@ -11,6 +11,8 @@ from airl_cli.core.mdp.sparse import sparse_dynamics
 from airl_cli.core.mmdp import counts
 from airl_cli.core.mmdp.exact import EXACT_MAX_HISTORIES
 from airl_cli.errors import ConfigError
+from airl_cli.usecases.memory import available_memory, size_text
+
 
 @dataclass(frozen=True)
 class PlannerChoice:
@@ -26,7 +28,8 @@ def choose_planner(problem: GameProblem, planner: PlannerOptions, *, optimizer: 
 
     The history-dependent adversary of the certified fit is planned by the count program
     (``core.mmdp.counts``: exact, so the fit's certificate is a bracket on eq. 5.9 itself) where the
-    moves are of a few kinds and the program has at most ``counts.MAX_NODES`` nodes: on the slip
+    moves are of a few kinds, the program has at most ``counts.MAX_NODES`` nodes and takes at most half
+    the free memory (``counts.ProgramSize``): on the slip
     and wind grids it closes the bracket where PBVI's responses leave it open (16 x 16 Objectworld,
     squared features: 110 iterations and 7.9 s against PBVI's closing fit's 395 and 63 s). Elsewhere
     (a dense random MDP, whose every move is its own kind) PBVI with the bracket's grid of beliefs
@@ -42,14 +45,18 @@ def choose_planner(problem: GameProblem, planner: PlannerOptions, *, optimizer: 
     P = problem.transitions
     dyn = P if hasattr(P, "next_states") else sparse_dynamics(P)
     kinds = counts.move_kinds(dyn)
-    nodes = counts.program_size(dyn, problem.horizon)
-    if nodes is not None:
+    size = counts.program_size(dyn, problem.horizon)
+    free = available_memory()
+    if size is not None and size.bytes <= free // 2:
         return PlannerChoice(
             replace(planner, method="counts"),
             f"the moves are of {kinds.n_kinds} kinds, so the posterior over the models is a count of them: "
-            f"the count program plans the adversary exactly ({nodes:,} nodes)",
+            f"the count program plans the adversary exactly ({size.nodes:,} nodes, about {size_text(size.bytes)})",
         )
-    why = "every move its own kind" if kinds is None else f"more than {counts.MAX_NODES:,} count nodes"
+    if size is not None:
+        why = f"its {size.nodes:,} nodes would take about {size_text(size.bytes)}, more than half the {size_text(free)} free"
+    else:
+        why = "every move its own kind" if kinds is None else f"more than {counts.MAX_NODES:,} count nodes"
     return PlannerChoice(pbvi, f"the moves are of too many kinds for the exact count program ({why}): PBVI, closed by the bracket (on its grid of beliefs where that fits)")
 
 
@@ -68,8 +75,14 @@ def planner_refusal(problem: GameProblem, planner: PlannerOptions) -> None:
     if planner.method == "counts":
         P = problem.transitions
         dyn = P if hasattr(P, "next_states") else sparse_dynamics(P)
-        if counts.program_size(dyn, T) is None:
+        size, free = counts.program_size(dyn, T), available_memory()
+        if size is None:
             raise ConfigError(f"pbvi.method=counts cannot plan this problem: {counts.declined_sentence(dyn, T)}")
+        if size.bytes > free:
+            raise ConfigError(
+                f"pbvi.method=counts would need about {size_text(size.bytes)} of memory for its {size.nodes:,} nodes, but only {size_text(free)} "
+                f"is free; use pbvi.method=pbvi"
+            )
 
 
 def oracle_name(planner: PlannerOptions) -> str:

@@ -42,3 +42,25 @@ def test_what_the_count_planner_cannot_plan_is_refused_in_one_sentence(tiny_grid
         api.fit(tiny_grid, "pbvi=counts", "game.adversary=markov")
     with pytest.raises(ConfigError, match=r"pbvi.method=exact enumerates every history, .* above its 2,000,000"):
         api.fit(random, "pbvi=exact")
+
+
+def test_a_count_program_larger_than_half_the_free_memory_is_left_to_pbvi(tiny_grid, monkeypatch):
+    """The fit's own choice (pbvi.method=auto) takes the count program only where its memory
+    (counts.ProgramSize) is at most half the free memory; pbvi=counts is refused above all of it."""
+    from airl_cli.core.irl.game_problem import GameProblem
+    from airl_cli.core.irl.options import PlannerOptions
+    from airl_cli.usecases import oracles
+
+    d = tiny_grid
+    problem = GameProblem(d.transitions, d.features, d.initial, d.loss, d.horizon, d.discount)
+    chosen = oracles.choose_planner(problem, PlannerOptions(method="auto"))
+    assert chosen.planner.method == "counts" and "nodes, about" in chosen.reason
+    size = oracles.counts.program_size(oracles.sparse_dynamics(d.transitions), d.horizon)
+    assert f"({size.nodes:,} nodes, about" in chosen.reason
+    monkeypatch.setattr(oracles, "available_memory", lambda: 2 * size.bytes - 1)
+    chosen = oracles.choose_planner(problem, PlannerOptions(method="auto"))
+    assert chosen.planner.method == "pbvi" and "more than half the" in chosen.reason
+    oracles.planner_refusal(problem, PlannerOptions(method="counts"))  # within all of it: planned
+    monkeypatch.setattr(oracles, "available_memory", lambda: size.bytes - 1)
+    with pytest.raises(ConfigError, match=r"pbvi.method=counts would need about .* of memory for its [\d,]+ nodes, but only .* is free; use pbvi.method=pbvi"):
+        oracles.planner_refusal(problem, PlannerOptions(method="counts"))

@@ -254,3 +254,20 @@ def test_the_posteriors_unique_rows_fall_back_when_their_mixed_keys_collide(monk
         first, inverse = count_layers._unique_rows(keys)
         assert np.array_equal(keys[first[inverse]], keys) and len(first) == len(want_first) == 3
         assert np.array_equal(inverse == inverse[0], want_inverse.reshape(-1) == want_inverse.reshape(-1)[0])
+
+
+def test_the_program_size_counts_its_nodes_and_bounds_the_arrays_a_solve_holds():
+    """ProgramSize.nodes is the built program's; its bytes are at least the arrays of the built and
+    solved program (tables, actions, the widest layer's values through each kind) and not 3 times more."""
+    grid = slip_sparse(6, [0.0, 0.1, 0.2, 0.3])
+    T = 12
+    size = counts.program_size(grid, T)
+    built = counts.program(grid, T)
+    assert size.nodes == built.n_nodes
+    rng = np.random.default_rng(0)
+    sol = built.solve(layered_rewards(grid, rng.normal(size=(4, T, 36))), uniform_initial(6))
+    S, n = 36, built.kinds.n_kinds
+    widest = max(c.shape[0] for c in built.counts)
+    held = sum(a.nbytes for group in (built.counts, built.beliefs_T, built.along_T, built.successor_T, built.successor, sol.action) for a in group)
+    held += built.last_beliefs.nbytes + 8 * n * S * widest + 2 * 8 * S * widest + sum(a.nbytes for a in built._forward_scratch())
+    assert held <= size.bytes <= 3 * held, (held, size.bytes)
