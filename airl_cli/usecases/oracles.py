@@ -21,6 +21,8 @@ class PlannerChoice:
 
     planner: PlannerOptions
     reason: str
+    #: the count program, where it is the planner (built once: choosing it meant building it)
+    program: counts.CountProgram | None = None
 
 
 def choose_planner(problem: GameProblem, planner: PlannerOptions, *, optimizer: str = "exact") -> PlannerChoice:
@@ -45,14 +47,16 @@ def choose_planner(problem: GameProblem, planner: PlannerOptions, *, optimizer: 
     P = problem.transitions
     dyn = P if hasattr(P, "next_states") else sparse_dynamics(P)
     kinds = counts.move_kinds(dyn)
-    size = counts.program_size(dyn, problem.horizon)
-    free = available_memory()
-    if size is not None and size.bytes <= free // 2:
+    built = counts.program(dyn, problem.horizon)
+    size, free = (None if built is None else built.size), available_memory()
+    if built is not None and size.bytes <= free // 2:
         return PlannerChoice(
             replace(planner, method="counts"),
             f"the moves are of {kinds.n_kinds} kinds, so the posterior over the models is a count of them: "
             f"the count program plans the adversary exactly ({size.nodes:,} nodes, about {size_text(size.bytes)})",
+            built,
         )
+    del built  # its tables are not kept for PBVI's fit
     if size is not None:
         why = f"its {size.nodes:,} nodes would take about {size_text(size.bytes)}, more than half the {size_text(free)} free"
     else:

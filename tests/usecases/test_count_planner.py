@@ -3,6 +3,7 @@ eq. 5.9 itself; refused in one sentence where it cannot plan."""
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 
 from airl_cli import api
@@ -56,7 +57,11 @@ def test_a_count_program_larger_than_half_the_free_memory_is_left_to_pbvi(tiny_g
     chosen = oracles.choose_planner(problem, PlannerOptions(method="auto"))
     assert chosen.planner.method == "counts" and "nodes, about" in chosen.reason
     size = oracles.counts.program_size(oracles.sparse_dynamics(d.transitions), d.horizon)
-    assert f"({size.nodes:,} nodes, about" in chosen.reason
+    assert f"({size.nodes:,} nodes, about" in chosen.reason and chosen.program.size == size
+    from airl_cli.core.irl.learn import make_oracles
+
+    oracle, _, _ = make_oracles(problem, chosen.planner, np.random.default_rng(0), program=chosen.program)
+    assert oracle.exact.program is chosen.program  # built once, for the choice and the fit
     monkeypatch.setattr(oracles, "available_memory", lambda: 2 * size.bytes - 1)
     chosen = oracles.choose_planner(problem, PlannerOptions(method="auto"))
     assert chosen.planner.method == "pbvi" and "more than half the" in chosen.reason

@@ -78,10 +78,12 @@ def make_oracles(
     options: PlannerOptions,
     rng: np.random.Generator,
     progress: Callable[[int, int], None] | None = None,
+    program: counts.CountProgram | None = None,
 ) -> tuple[AdversaryOracle, AdversaryOracle | None, int]:
     """The adversary's best response as a function of its rewards, a cheaper screening one, and the belief-set size.
 
     ``progress`` is passed to every full planner call (see ``multimodel.solve``), not to screens.
+    ``program``: the count program of ``pbvi.method=counts``, where the caller has built it already.
 
     The belief set depends only on the dynamics, so with ``reuse_beliefs`` it is built here once
     (from ``belief_seed`` if set). The screening oracle is PBVI at the first
@@ -89,7 +91,7 @@ def make_oracles(
     """
     p0 = problem.initial
     if options.method == "counts" and options.adversary != "markov":  # exact where the posterior is a count (core.mmdp.counts)
-        exact = CountOracle(problem.transitions, p0, problem.horizon)
+        exact = CountOracle(problem.transitions, p0, problem.horizon, program)
         first, _, n_beliefs = make_oracles(problem, replace(options, method="pbvi"), rng, progress)
         return PBVIThenExact(first, exact), None, n_beliefs
     if options.adversary == "markov":  # the variant of core.markov_adversary: no beliefs, no screen
@@ -134,15 +136,16 @@ class BeliefOracle:
 
 class CountOracle:
     """The adversary's exact best response by the count program (``mmdp.counts``): rewards (M, T, S)
-    -> (its value, its marginals (M, T, S)); the program is built once for the dynamics.
+    -> (its value, its marginals (M, T, S)); the program is built once for the dynamics (or given:
+    ``program``, built for ``P``, the uniform prior and ``horizon``).
 
     Raises:
         ValueError: where the dynamics' moves have too many kinds or the program too many nodes.
     """
 
-    def __init__(self, P, p0: np.ndarray, horizon: int):
+    def __init__(self, P, p0: np.ndarray, horizon: int, program: counts.CountProgram | None = None):
         self.dyn = P if isinstance(P, SparseDynamics) else sparse_dynamics(P)
-        self.program = counts.program(self.dyn, horizon)
+        self.program = counts.program(self.dyn, horizon) if program is None else program
         if self.program is None:
             raise ValueError(counts.declined_sentence(self.dyn, horizon))
         self.p0 = p0

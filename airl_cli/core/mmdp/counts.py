@@ -102,7 +102,8 @@ class CountSolution:
 
 
 class CountProgram:
-    """The count program of a dynamics and horizon, built once and solved for any rewards.
+    """The count program of a dynamics and horizon, built once and solved for any rewards; ``size``
+    its nodes and memory (``ProgramSize``).
 
     Args:
         dyn: the dynamics (M models); kinds: its ``move_kinds``; horizon: T layers;
@@ -128,6 +129,7 @@ class CountProgram:
         self.kind = np.ascontiguousarray(kinds.kind)
         self.scale = self.probs.sum(axis=0)  # (S, A, R): lambda, P(s'|s, a) = lambda v_k
         self.n_nodes = self.probs.shape[1] * sum(c.shape[0] for c in self.counts)  # (t, s, b) nodes
+        self.size = ProgramSize(self.n_nodes, program_bytes(self.probs.shape[1], M, kinds.n_kinds, [c.shape[0] for c in self.counts]))
         self._scratch: tuple[np.ndarray, np.ndarray] | None = None  # ``_forward``'s, made at the first ``solve``
 
     def _forward_scratch(self) -> tuple[np.ndarray, np.ndarray]:
@@ -181,14 +183,10 @@ def _tables(dyn: SparseDynamics, kinds: Kinds, horizon: int, prior: np.ndarray |
 
 
 def program_size(dyn: SparseDynamics, horizon: int, *, max_kinds: int = 12, max_nodes: int = MAX_NODES) -> ProgramSize | None:
-    """The size of the count program of ``dyn`` over ``horizon`` layers, or None where ``program`` declines."""
-    kinds = move_kinds(dyn, max_kinds)
-    tables = None if kinds is None else _tables(dyn, kinds, horizon, None, max_nodes)
-    if kinds is None or tables is None:
-        return None
-    M, S = dyn.probs.shape[0], dyn.probs.shape[1]
-    layers = [c.shape[0] for c in tables[0]]
-    return ProgramSize(nodes=S * sum(layers), bytes=program_bytes(S, M, kinds.n_kinds, layers))
+    """The size of the count program of ``dyn`` over ``horizon`` layers, or None where ``program``
+    declines (a caller that will solve it keeps ``program``'s answer and reads its ``size``)."""
+    built = program(dyn, horizon, max_kinds=max_kinds, max_nodes=max_nodes)
+    return None if built is None else built.size
 
 
 def declined_sentence(dyn: SparseDynamics, horizon: int, max_kinds: int = 12, max_nodes: int = MAX_NODES) -> str:

@@ -147,7 +147,7 @@ def _learn_airl(
     chosen = choose_planner(problem, settings.options.planner, optimizer=settings.optimizer)
     settings = replace(settings, options=replace(settings.options, planner=chosen.planner))
     planner_refusal(problem, chosen.planner)
-    oracle, screen, n_beliefs = make_oracles(problem, chosen.planner, rng, planner_progress)
+    oracle, screen, n_beliefs = make_oracles(problem, chosen.planner, rng, planner_progress, chosen.program)
     if settings.optimizer == "exact":
         return _certified(problem, targets, settings, rng, callback, oracle, screen, n_beliefs, chosen.reason)
     result = fit(problem, targets, rng=rng, options=settings.options, oracle=oracle, callback=callback)
