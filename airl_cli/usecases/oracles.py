@@ -38,14 +38,14 @@ def choose_planner(problem: GameProblem, planner: PlannerOptions, *, optimizer: 
     (``core.irl.bracket``). The Markov adversary (CADP) and the thesis's gradient steps keep PBVI.
     """
     if planner.method != "auto":
-        return PlannerChoice(planner, f"pbvi.method={planner.method}, as set")
+        program = counts.program(_dynamics(problem), problem.horizon) if planner.method == "counts" and planner.adversary == "history" else None
+        return PlannerChoice(planner, f"pbvi.method={planner.method}, as set", program)
     pbvi = replace(planner, method="pbvi")
     if planner.adversary != "history":
         return PlannerChoice(pbvi, "the Markov adversary's best responses are CADP's (game.adversary=markov)")
     if optimizer != "exact":
         return PlannerChoice(pbvi, "Table I's gradient steps plan the adversary with PBVI, as the thesis does")
-    P = problem.transitions
-    dyn = P if hasattr(P, "next_states") else sparse_dynamics(P)
+    dyn = _dynamics(problem)
     kinds = counts.move_kinds(dyn)
     built = counts.program(dyn, problem.horizon)
     size, free = (None if built is None else built.size), available_memory()
@@ -56,7 +56,6 @@ def choose_planner(problem: GameProblem, planner: PlannerOptions, *, optimizer: 
             f"the count program plans the adversary exactly ({size.nodes:,} nodes, about {size_text(size.bytes)})",
             built,
         )
-    del built  # its tables are not kept for PBVI's fit
     if size is not None:
         why = f"its {size.nodes:,} nodes would take about {size_text(size.bytes)}, more than half the {size_text(free)} free"
     else:
@@ -64,9 +63,17 @@ def choose_planner(problem: GameProblem, planner: PlannerOptions, *, optimizer: 
     return PlannerChoice(pbvi, f"the moves are of too many kinds for the exact count program ({why}): PBVI, closed by the bracket (on its grid of beliefs where that fits)")
 
 
-def planner_refusal(problem: GameProblem, planner: PlannerOptions) -> None:
+def _dynamics(problem: GameProblem):
+    """The game's dynamics in the sparse form the count program takes."""
+    P = problem.transitions
+    return P if hasattr(P, "next_states") else sparse_dynamics(P)
+
+
+def planner_refusal(problem: GameProblem, chosen: PlannerChoice) -> None:
     """Raise ``ConfigError`` (one sentence) where an exact planner cannot plan ``problem`` (the
-    game's problem: a dataset's, or its post-decision expansion); the other planners always can."""
+    game's problem: a dataset's, or its post-decision expansion); the other planners always can.
+    ``chosen``: ``choose_planner``'s answer (the count program it built, for ``pbvi.method=counts``)."""
+    planner = chosen.planner
     if planner.adversary != "history":
         return
     M, S, A, _ = problem.transitions.shape
@@ -77,11 +84,9 @@ def planner_refusal(problem: GameProblem, planner: PlannerOptions) -> None:
             f"T = {T}), above its {EXACT_MAX_HISTORIES:,}; use pbvi.method=pbvi, or pbvi.method=counts where the dynamics allow it"
         )
     if planner.method == "counts":
-        P = problem.transitions
-        dyn = P if hasattr(P, "next_states") else sparse_dynamics(P)
-        size, free = counts.program_size(dyn, T), available_memory()
-        if size is None:
-            raise ConfigError(f"pbvi.method=counts cannot plan this problem: {counts.declined_sentence(dyn, T)}")
+        if chosen.program is None:
+            raise ConfigError(f"pbvi.method=counts cannot plan this problem: {counts.declined_sentence(_dynamics(problem), T)}")
+        size, free = chosen.program.size, available_memory()
         if size.bytes > free:
             raise ConfigError(
                 f"pbvi.method=counts would need about {size_text(size.bytes)} of memory for its {size.nodes:,} nodes, but only {size_text(free)} "

@@ -56,7 +56,7 @@ def test_a_count_program_larger_than_half_the_free_memory_is_left_to_pbvi(tiny_g
     problem = GameProblem(d.transitions, d.features, d.initial, d.loss, d.horizon, d.discount)
     chosen = oracles.choose_planner(problem, PlannerOptions(method="auto"))
     assert chosen.planner.method == "counts" and "nodes, about" in chosen.reason
-    size = oracles.counts.program_size(oracles.sparse_dynamics(d.transitions), d.horizon)
+    size = oracles.counts.program(oracles.sparse_dynamics(d.transitions), d.horizon).size
     assert f"({size.nodes:,} nodes, about" in chosen.reason and chosen.program.size == size
     from airl_cli.core.irl.learn import make_oracles
 
@@ -65,7 +65,9 @@ def test_a_count_program_larger_than_half_the_free_memory_is_left_to_pbvi(tiny_g
     monkeypatch.setattr(oracles, "available_memory", lambda: 2 * size.bytes - 1)
     chosen = oracles.choose_planner(problem, PlannerOptions(method="auto"))
     assert chosen.planner.method == "pbvi" and "more than half the" in chosen.reason
-    oracles.planner_refusal(problem, PlannerOptions(method="counts"))  # within all of it: planned
+    counts_set = oracles.choose_planner(problem, PlannerOptions(method="counts"))
+    assert counts_set.program is not None and counts_set.program.size == size  # built once, for the refusal and the fit
+    oracles.planner_refusal(problem, counts_set)  # within all of it: planned
     monkeypatch.setattr(oracles, "available_memory", lambda: size.bytes - 1)
     with pytest.raises(ConfigError, match=r"pbvi.method=counts would need about .* of memory for its [\d,]+ nodes, but only .* is free; use pbvi.method=pbvi"):
-        oracles.planner_refusal(problem, PlannerOptions(method="counts"))
+        oracles.planner_refusal(problem, counts_set)

@@ -60,7 +60,7 @@ MAX_NODES = 100_000_000
 
 @dataclass(frozen=True)
 class ProgramSize:
-    """The size of a count program (``program_size``).
+    """The size of a count program (``CountProgram.size``).
 
     Attributes:
         nodes: its (t, s, b) nodes, S sum_t C_t.
@@ -180,13 +180,6 @@ def _tables(dyn: SparseDynamics, kinds: Kinds, horizon: int, prior: np.ndarray |
     M, S = dyn.probs.shape[0], dyn.probs.shape[1]
     w = np.full(M, 1.0 / M) if prior is None else np.asarray(prior, dtype=np.float64)
     return posterior_tables(kinds, horizon, w, max_vectors=max_nodes // S)
-
-
-def program_size(dyn: SparseDynamics, horizon: int, *, max_kinds: int = 12, max_nodes: int = MAX_NODES) -> ProgramSize | None:
-    """The size of the count program of ``dyn`` over ``horizon`` layers, or None where ``program``
-    declines (a caller that will solve it keeps ``program``'s answer and reads its ``size``)."""
-    built = program(dyn, horizon, max_kinds=max_kinds, max_nodes=max_nodes)
-    return None if built is None else built.size
 
 
 def declined_sentence(dyn: SparseDynamics, horizon: int, max_kinds: int = 12, max_nodes: int = MAX_NODES) -> str:

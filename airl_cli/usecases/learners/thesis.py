@@ -146,7 +146,7 @@ def _learn_airl(
     """The thesis's method: the certified minimiser of eq. 5.9, or Table I's gradient steps."""
     chosen = choose_planner(problem, settings.options.planner, optimizer=settings.optimizer)
     settings = replace(settings, options=replace(settings.options, planner=chosen.planner))
-    planner_refusal(problem, chosen.planner)
+    planner_refusal(problem, chosen)
     oracle, screen, n_beliefs = make_oracles(problem, chosen.planner, rng, planner_progress, chosen.program)
     if settings.optimizer == "exact":
         return _certified(problem, targets, settings, rng, callback, oracle, screen, n_beliefs, chosen.reason)

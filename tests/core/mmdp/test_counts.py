@@ -74,7 +74,7 @@ def test_the_count_tables():
 def test_a_dense_random_mdp_is_declined_in_one_sentence():
     rng = np.random.default_rng(0)
     dyn = sparse_dynamics(rng.dirichlet(np.ones(10), size=(4, 10, 5)))
-    assert counts.program(dyn, 10) is None and counts.program_size(dyn, 10) is None
+    assert counts.program(dyn, 10) is None
     assert "more directions" in counts.declined_sentence(dyn, 10)
     grid = slip_sparse(8, [0.0, 0.1, 0.2, 0.3])
     assert counts.program(grid, 20, max_nodes=1000) is None
@@ -256,17 +256,17 @@ def test_the_posteriors_unique_rows_fall_back_when_their_mixed_keys_collide(monk
         assert np.array_equal(inverse == inverse[0], want_inverse.reshape(-1) == want_inverse.reshape(-1)[0])
 
 
-def test_the_program_size_counts_its_nodes_and_bounds_the_arrays_a_solve_holds():
-    """ProgramSize.nodes is the built program's; its bytes are at least the arrays of the built and
+def test_the_program_s_size_counts_its_nodes_and_bounds_the_arrays_a_solve_holds():
+    """CountProgram.size: its nodes, and its bytes are at least the arrays of the built and
     solved program (tables, actions, the widest layer's values through each kind) and not 3 times more."""
     grid = slip_sparse(6, [0.0, 0.1, 0.2, 0.3])
-    T = 12
-    size = counts.program_size(grid, T)
+    T, S = 12, 36
     built = counts.program(grid, T)
-    assert size.nodes == built.n_nodes
+    size = built.size
+    assert size.nodes == built.n_nodes == S * sum(c.shape[0] for c in built.counts)
     rng = np.random.default_rng(0)
-    sol = built.solve(layered_rewards(grid, rng.normal(size=(4, T, 36))), uniform_initial(6))
-    S, n = 36, built.kinds.n_kinds
+    sol = built.solve(layered_rewards(grid, rng.normal(size=(4, T, S))), uniform_initial(6))
+    n = built.kinds.n_kinds
     widest = max(c.shape[0] for c in built.counts)
     held = sum(a.nbytes for group in (built.counts, built.beliefs_T, built.along_T, built.successor_T, built.successor, sol.action) for a in group)
     held += built.last_beliefs.nbytes + 8 * n * S * widest + 2 * 8 * S * widest + sum(a.nbytes for a in built._forward_scratch())
