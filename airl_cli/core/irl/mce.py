@@ -25,18 +25,29 @@ from airl_cli.core.irl.baselines import BaselineResult, _check_weights, check_pr
 from airl_cli.core.mdp.basics import per_time
 from airl_cli.core.mdp.planning import soft_backward_induction, soft_backward_induction_sa, state_marginals
 from airl_cli.core.mdp.sparse import planning_form
+from airl_cli.core.numerics.threads import blas_on_one_thread
 
 
 def action_feature_sum(P, policy: np.ndarray, p0: np.ndarray, phi: np.ndarray, discount: float = 1.0) -> np.ndarray:
     """Expected feature sum E[sum_t gamma^t phi_t(s_t, a_t)] (K,), t = 0..T-2, of a (T-1, S, A)
     policy under P (S, A, S), dense or sparse; phi (S, A, K), or (T-1, S, A, K) time-dependent."""
-    d = state_marginals(P, policy, p0)  # (T, S)
-    x = d[:-1, :, None] * policy  # (T-1, S, A): Pr(s_t = s, a_t = a)
-    weights = discount ** np.arange(x.shape[0], dtype=np.float64)
     if phi.ndim == 4:
-        return np.einsum("t,tsa,tsak->k", weights, x, phi)
+        x = state_marginals(P, policy, p0)[:-1, :, None] * policy  # (T-1, S, A): Pr(s_t = s, a_t = a)
+        return np.einsum("t,tsa,tsak->k", discount ** np.arange(x.shape[0], dtype=np.float64), x, phi)
+    return _stationary_sum(_visits(P, policy, p0, discount), phi)
+
+
+def _visits(P, policy: np.ndarray, p0: np.ndarray, discount: float) -> np.ndarray:
+    """(S A,) sum_t gamma^t Pr(s_t = s, a_t = a), t = 0..T-2, of a (T-1, S, A) policy under P (S, A, S)
+    from p0 (S,), flattened as (s, a)."""
+    x = state_marginals(P, policy, p0)[:-1, :, None] * policy  # (T-1, S, A)
+    return (discount ** np.arange(x.shape[0], dtype=np.float64)) @ x.reshape(x.shape[0], -1)
+
+
+def _stationary_sum(visits: np.ndarray, phi: np.ndarray) -> np.ndarray:
+    """(K,) sum_{s, a} visits[s A + a] phi[s, a] for phi (S, A, K)."""
     S, A, K = phi.shape
-    return (weights @ x.reshape(x.shape[0], S * A)) @ phi.reshape(S * A, K)
+    return visits @ phi.reshape(S * A, K)
 
 
 def _mce_value_and_grad(
@@ -51,14 +62,21 @@ def _mce_value_and_grad(
         R = per_time(phi @ w, horizon)
     value = float(w @ targets.sum(axis=0)) - 0.5 * lam * float(w @ w)
     grad = targets.sum(axis=0) - lam * w
+    stationary = action_features and phi.ndim == 3
+    visits = 0.0  # sum_j sum_t gamma^t Pr_j(s_t, a_t), (S A,): one product with phi for all tau_j
     for Pj in P[1:]:
-        if action_features:
+        if stationary:
+            policy, V = soft_backward_induction_sa(Pj, R, discount=discount)
+            visits = visits + _visits(Pj, policy, p0, discount)
+        elif action_features:
             policy, V = soft_backward_induction_sa(Pj, R, discount=discount)
             grad = grad - action_feature_sum(Pj, policy, p0, phi, discount)
         else:
             policy, V = soft_backward_induction(Pj, R, discount=discount)
             grad = grad - feature_sum(Pj, policy, p0, phi, discount)
         value -= float(p0 @ V[0])
+    if stationary:
+        grad = grad - _stationary_sum(visits, phi)
     return value, grad
 
 
@@ -103,6 +121,7 @@ def mce_objective(
     return _mce_value_and_grad(_check_weights(w, phi.shape[-1]), P, phi, p0, horizon, c, lam, discount, action_features)
 
 
+@blas_on_one_thread  # numba's threads back up the states; OpenBLAS's left spinning after phi @ w took their cores (Taxi-v4: 8-25 ms a backup against 5-7)
 def mce_irl(
     transitions: np.ndarray,
     features: np.ndarray,

@@ -118,7 +118,7 @@ def soft_backward_induction_sa(P, R: np.ndarray, *, discount: float = 1.0) -> tu
     if isinstance(P, SparseModel):  # compiled: a numpy step per t cost more than its arithmetic (Taxi-v4 at T = 201)
         from airl_cli.core.mdp import _sparse_kernels
 
-        return _sparse_kernels.soft_backward_sa(P.safe_next, np.ascontiguousarray(P.probs), np.ascontiguousarray(R), float(discount))
+        return _sparse_kernels.soft_backward_sa(P.safe_next, np.ascontiguousarray(P.probs), R, float(discount))
     T1, S, A = R.shape
     V = np.zeros((T1 + 1, S))
     policy = np.empty((T1, S, A))

@@ -330,20 +330,24 @@ def test_the_planning_form_is_sparse_on_a_grid_and_scores_a_mixture_as_the_dense
     assert mixture_performance(P, R, policies, mix, p0) == pytest.approx(normalised(by_hand, bounds), rel=1e-12)
 
 
-@pytest.mark.parametrize("seed", [0, 1])
-def test_soft_planning_and_stochastic_marginals_on_a_sparse_model_equal_the_dense_forms(seed):
+@pytest.mark.parametrize("seed, S", [(0, 12), (1, 12), (2, 300)])
+def test_soft_planning_and_stochastic_marginals_on_a_sparse_model_equal_the_dense_forms(seed, S):
     """The compiled soft backup with rewards of (s, a) and the forward pass of a stochastic policy
-    (what MCE IRL runs on a sparse tau_j) against the numpy forms on the dense array."""
+    (what MCE IRL runs on a sparse tau_j) against the numpy forms on the dense array; S = 300 is
+    past ``PARALLEL_SOFT_STATES`` (the states of a step backed up on every thread), and its rewards
+    are stationary, broadcast over t as MCE IRL passes them (read in place, zero strides)."""
+    from airl_cli.core.mdp import _sparse_kernels
     from airl_cli.core.mdp.planning import soft_backward_induction_sa, state_marginals
 
     rng = np.random.default_rng(seed)
-    S, A, T, Rn = 12, 3, 7, 3
+    A, T, Rn = 3, 7, 3
+    assert (S >= _sparse_kernels.PARALLEL_SOFT_STATES) == (S == 300)
     P = np.zeros((S, A, S))
     for s in range(S):
         succ = rng.choice(S, size=Rn, replace=False)
         P[s, :, succ] = rng.dirichlet(np.ones(Rn), size=A).T
     model = sparse_dynamics(P[None])[0]
-    R = rng.normal(size=(T - 1, S, A))
+    R = rng.normal(size=(T - 1, S, A)) if S < 300 else np.broadcast_to(rng.normal(size=(S, A)), (T - 1, S, A))
     dense_policy, dense_V = soft_backward_induction_sa(P, R, discount=0.9)
     policy, V = soft_backward_induction_sa(model, R, discount=0.9)
     assert np.allclose(policy, dense_policy, atol=1e-13) and np.allclose(V, dense_V, atol=1e-12)
