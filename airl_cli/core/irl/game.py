@@ -266,7 +266,6 @@ def double_oracle(
         _, marginals = oracle(adversary_rewards(problem, game.learner_marginals.mean(axis=0), game.w))
         calls += 1
         game.add_adversary(marginals)
-    T, S = problem.horizon, problem.transitions.shape[1]
     steps = []
     capped = False
     it = 0
@@ -276,7 +275,7 @@ def double_oracle(
         v, p, q = sol.value, sol.row, sol.col
         tol = threshold * (1.0 + abs(v))
         # the learner's best response to the adversary's mixture (cheap)
-        l_policy = learner_best_policy(problem, (q @ game.adversary_tau).reshape(T, S))
+        l_policy = learner_best_policy(problem, game.on_states(q @ game.adversary_tau))
         l_marg = state_marginals(problem.tau, l_policy, problem.initial)
         l_row = game.learner_row(l_marg) @ game.adversary_tau.T
         v_learner = float((l_row + game.feature_part()) @ q)

@@ -69,6 +69,15 @@ class GameProblem:
         return self.discount ** np.arange(self.horizon, dtype=np.float64)
 
     @cached_property
+    def loss_support(self) -> np.ndarray | None:
+        """(S_L,) the states s whose column loss(., s) has a nonzero entry, increasing: the only
+        states at which the adversary's marginals under tau enter the loss part of a payoff (the
+        decision states of a post-decision expansion, ``core.mdp.state_action``: S of its S (1 + A));
+        None where that is every state (or none)."""
+        cols = np.flatnonzero(np.any(np.asarray(self.loss) != 0.0, axis=0))
+        return None if cols.size in (0, self.loss.shape[1]) else cols
+
+    @cached_property
     def _loss_factors(self) -> lowrank.Factors | None:
         return lowrank.factor(self.loss)
 

@@ -24,7 +24,8 @@ from airl_cli.core.irl.markov_adversary import markov_oracle
 from airl_cli.core.irl.options import SCHEDULES, FitOptions, PlannerOptions  # noqa: F401 (re-exported)
 from airl_cli.core.mdp.sparse import SparseDynamics, sparse_dynamics
 from airl_cli.core.mmdp import counts
-from airl_cli.core.mmdp.planner import expand_beliefs, solve
+from airl_cli.core.mmdp.expansion import folding
+from airl_cli.core.mmdp.planner import expand_beliefs, pbvi_graph, solve
 from airl_cli.core.mmdp.policy_graph import layered_rewards
 from airl_cli.core.mmdp.refine import PER_ROUND, refine
 from airl_cli.core.numerics.threads import blas_on_one_thread
@@ -119,19 +120,35 @@ def make_oracles(
 class BeliefOracle:
     """The adversary's best response by the planner (``mmdp.planner.solve``): rewards (M, T, S) ->
     (the exact value of the returned policy, its marginals (M, T, S)). ``beliefs`` (nb, M) is the
-    belief set PBVI reuses (None: built anew at every call); ``sharpener`` can grow it."""
+    belief set PBVI reuses (None: built anew at every call); ``sharpener`` can grow it. Where the
+    problem is a post-decision expansion (rewards of (s, a)), PBVI plans its original problem
+    (``mmdp.expansion``: the same policies, a tenth of the nodes)."""
 
     def __init__(self, P, p0: np.ndarray, beliefs: np.ndarray | None, options: PlannerOptions, rng: np.random.Generator, progress=None):
         self.P, self.p0, self.beliefs, self.options, self.rng, self.progress = P, p0, beliefs, options, rng, progress
         self.exact_responses = options.method == "exact"  # every history enumerated: the best value over every policy
+        exact_pbvi = options.method == "pbvi" and options.expectations == "exact" and isinstance(P, SparseDynamics)
+        self.folding = folding(P, p0) if exact_pbvi else None
 
     def __call__(self, R: np.ndarray) -> tuple[float, np.ndarray]:
         o = self.options
+        if self.folding is not None and R.shape[1] % 2 == 1:
+            return self._folded(R)
         sol = solve(
             self.P, R, self.p0, method=o.method, iterations=o.iterations, rng=self.rng, beliefs=self.beliefs,
             expansion=o.expansion, expectations=o.expectations, n_samples=o.n_samples, progress=self.progress,
         )
         return sol.value, sol.marginals
+
+    def _folded(self, R: np.ndarray) -> tuple[float, np.ndarray]:
+        """PBVI on the expansion's original problem at the same beliefs: (value, marginals (M, T, S'))."""
+        o, f = self.options, self.folding
+        B = self.beliefs
+        if B is None:
+            B = expand_beliefs(f.transitions, iterations=o.iterations, rng=self.rng, expansion=o.expansion)
+        graph = pbvi_graph(f.transitions, f.rewards(np.asarray(R, dtype=np.float64)), B, progress=self.progress)
+        p0 = f.initial(self.p0)
+        return float(graph.values(p0).sum()), f.marginals(graph, p0)
 
 
 class CountOracle:

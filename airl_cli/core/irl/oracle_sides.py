@@ -77,11 +77,10 @@ def learner_side(sets: StrategySets, q: np.ndarray, C: np.ndarray, lam: float, t
     """The learner's best response against q: raises ``run.lower`` and, if it beats every known
     learner strategy by more than ``tiny``, adds it as a column. Returns that improvement."""
     problem = sets.problem
-    T, S = problem.horizon, problem.transitions.shape[1]
     q_tau = q @ sets.adversary_tau
-    br_policy = learner_best_policy(problem, q_tau.reshape(T, S))
+    br_policy = learner_best_policy(problem, sets.on_states(q_tau))
     br = state_marginals(problem.tau, br_policy, problem.initial)
-    br_loss = float(problem.loss_times(br).reshape(-1) @ q_tau)
+    br_loss = float(sets.learner_row(br) @ q_tau)
     g = q @ sets.qp.Phi - C
     run.lower = max(run.lower, br_loss - float(g @ g) / (2.0 * lam))
     gap_l = float(np.min(sets.qp.L @ q)) - br_loss  # L q = learner_loss @ q_tau, from the (n, m) matrix

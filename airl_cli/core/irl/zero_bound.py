@@ -81,7 +81,6 @@ class ZeroBound:
     def advance(self, max_steps: int, enough: float) -> None:
         """Run up to ``max_steps`` double-oracle iterations, fewer once upper - lower <= ``enough``."""
         problem, game = self._game.problem, self._game
-        T, S = problem.horizon, problem.transitions.shape[1]
         for _ in range(max_steps):
             if self.upper - self.lower <= enough:
                 return
@@ -89,7 +88,7 @@ class ZeroBound:
             self.steps += 1
             learner_tau = np.tensordot(sol.row, game.learner_marginals, axes=1)
             q_tau = sol.col @ game.adversary_tau
-            policy = learner_best_policy(problem, q_tau.reshape(T, S))
+            policy = learner_best_policy(problem, game.on_states(q_tau))
             marginals = state_marginals(problem.tau, policy, problem.initial)
             self.lower = max(self.lower, float(game.learner_row(marginals) @ q_tau))
             if not is_known(game.learner_marginals, marginals):

@@ -149,7 +149,7 @@ def test_double_oracle_equilibrium_against_every_learner_policy():
     w = rng.normal(size=(2, 2))
     game = RestrictedGame(problem)
     result = double_oracle(game, w, exact_oracle(problem), threshold=1e-12, max_iterations=500)
-    adv_tau = (result.adversary_mix @ game.adversary_tau).reshape(problem.horizon, -1)
+    adv_tau = game.on_states(result.adversary_mix @ game.adversary_tau)
     feature_part = result.adversary_mix @ game.feature_part()
     best = min(float(np.sum((d @ problem.loss) * adv_tau)) + feature_part for d in all_learner_marginals(problem))
     assert best >= result.value - 1e-9

@@ -147,3 +147,27 @@ def test_demonstrations_on_the_expansion():
 def test_a_wrong_feature_shape_is_refused_in_one_sentence():
     with pytest.raises(ValueError, match=r"\(S, A, K\) or \(T - 1, S, A, K\)"):
         expand(np.ones((2, 2, 2)) / 2, np.ones((2, 3, 1)), np.ones((2, 2)), np.ones(2) / 2, 3)
+
+
+def test_the_game_keeps_an_expansions_strategies_at_its_decision_states():
+    """The loss of an expansion sees only its S decision states (``GameProblem.loss_support``): the
+    game keeps T' S numbers per strategy, not T' S (1 + A), with the same L as the whole marginals
+    give, and ``on_states`` puts a mixture back with zeros at the post-decision states."""
+    from airl_cli.core.irl.strategies import Strategies
+
+    P, phi, p0, L_s, targets = tiny_sa(7, S=3, A=2, loss="random")
+    problem = expanded_problem(P, phi, p0, L_s, 0.9)
+    S, Sx, Tx = 3, problem.transitions.shape[1], problem.horizon
+    assert np.array_equal(problem.loss_support, np.arange(S))
+    sets = Strategies(problem)
+    rng = np.random.default_rng(0)
+    learner = rng.dirichlet(np.ones(Sx), size=Tx)
+    adversaries = [rng.dirichlet(np.ones(Sx), size=(problem.n_models, Tx)) for _ in range(2)]
+    sets.add_learner(np.zeros((Tx - 1, Sx), dtype=np.int64), learner)
+    columns = [sets.add_adversary(m)[0] for m in adversaries]
+    assert sets.adversary_tau.shape == (2, Tx * S)
+    g = problem.discount ** np.arange(Tx)
+    for col, m in zip(columns, adversaries):
+        assert col[0] == pytest.approx(float(np.einsum("ts,su,tu,t->", learner, problem.loss, m[0], g)), rel=1e-12)
+    back = sets.on_states(sets.adversary_tau[1])
+    assert np.allclose(back[:, :S], adversaries[1][0, :, :S] * g[:, None]) and not back[:, S:].any()
