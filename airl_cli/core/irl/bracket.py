@@ -39,8 +39,9 @@ from airl_cli.core.irl.strategy_sets import StrategySets
 from airl_cli.core.mdp.sparse import SparseDynamics, sparse_dynamics
 from airl_cli.core.mmdp.bounds import Bracket, bracket, grid_graph, grid_planner, merge_beliefs
 from airl_cli.core.mmdp.budget import GRID_GROWTH
+from airl_cli.core.mmdp.expansion import folding
 from airl_cli.core.mmdp.grid_bound import WORK
-from airl_cli.core.mmdp.planner import solve
+from airl_cli.core.mmdp.planner import expand_beliefs, pbvi_graph, solve
 from airl_cli.core.mmdp.refine import layer_posteriors
 
 #: Where the fit would stop, the closing step adds at most this many strategies in all: each is a
@@ -79,6 +80,10 @@ class Closer:
     then up to ``max_beliefs`` beliefs backed up where the bounds still differ, starting each call
     from the beliefs of the last (their backups hold for any rewards).
 
+    Where the dynamics are a post-decision expansion (rewards of (s, a), ``core.mmdp.expansion``),
+    every bracket, grid and policy is planned on its original problem (a policy and a bound there are
+    one of the expansion's: the same values), and their marginals unfolded back.
+
     Args:
         P: the oracle's dynamics (M, S, A, S), sparse or dense; p0: (S,);
         beliefs: (nb, M) the oracle's belief set, or None (PBVI's default set);
@@ -89,6 +94,11 @@ class Closer:
 
     def __init__(self, P, p0: np.ndarray, beliefs: np.ndarray | None, max_beliefs: int, grid_work: int = WORK):
         self.P, self.p0, self.beliefs, self.max_beliefs, self.grid_work = P, p0, beliefs, max_beliefs, grid_work
+        dyn = P if isinstance(P, SparseDynamics) else sparse_dynamics(P)
+        self._folding = folding(dyn, p0)
+        # what every bracket, grid and policy is planned on: the original problem of an expansion
+        self._dyn = dyn if self._folding is None else self._folding.transitions
+        self._p0 = p0 if self._folding is None else self._folding.initial(p0)
         self.max_grid_work = grid_work * GRID_GROWTH
         self.points: tuple | None = None  # every belief the brackets backed up, per layer
         self.reached: tuple | None = None  # the posteriors where the brackets' policies go, per layer
@@ -101,10 +111,10 @@ class Closer:
 
     def bracket(self, R: np.ndarray, target: float = 0.0) -> Bracket:
         """The bracket on the adversary's best value at rewards R (M, T, S)."""
-        self.last = bracket(self.P, R, self.p0, graph=self._pbvi(R), target=target, max_beliefs=self.max_beliefs, points=self.points, grid=self.grid(R))
+        self.last = bracket(self._dyn, self._planned(R), self._p0, graph=self._pbvi(R), target=target, max_beliefs=self.max_beliefs, points=self.points, grid=self.grid(R))
         self.points = self.last.points
         if self.grid(R) is None:
-            self.reached = union(self.reached, reached_posteriors(self.last.graph, self.P, self.p0))
+            self.reached = union(self.reached, reached_posteriors(self.last.graph, self._dyn, self._p0))
         self.calls += 1
         self.ran = True
         return self.last
@@ -131,7 +141,7 @@ class Closer:
         self.steps_at_level += on_grid
         if on_grid and (self.steps_at_level >= LEVEL_PATIENCE or br.lower - self._answered(R) > target / TARGET_SHARE):
             self.level, self.steps_at_level = self.level + 1, 0
-        return br.lower, br.graph.marginals(self.P, self.p0), br.upper
+        return br.lower, self._marginals(br.graph), br.upper
 
     def _answered(self, R: np.ndarray) -> float:
         """The value of the grid's response at R (M, T, S): the fit's own, where it asked for R on
@@ -140,7 +150,7 @@ class Closer:
         kept = self._values.get(id(R))
         if kept is not None and kept[0]() is R and kept[1] == self._response_work():
             return kept[2]
-        return float(self._response(R).values(self.p0).sum())
+        return float(self._response(R).values(self._p0).sum())
 
     def answers(self, R: np.ndarray) -> bool:
         """Whether the fit's best response at rewards R (M, T, S) is ``respond``'s: from the first
@@ -160,18 +170,18 @@ class Closer:
         where the brackets' policies went (``reached``): a better policy, at a small part of a
         bracket's cost (its value is exact, as any policy graph's)."""
         found = self._response(R)
-        value = float(found.values(self.p0).sum())
+        value = float(found.values(self._p0).sum())
         self._values = {k: v for k, v in self._values.items() if v[0]() is not None}  # the rewards still held
         self._values[id(R)] = (weakref.ref(R), self._response_work(), value)
-        return value, found.marginals(self.P, self.p0)
+        return value, self._marginals(found)
 
     def _response(self, R: np.ndarray):
         """``respond``'s policy graph (its value and marginals are the caller's to compute)."""
         grid = self._response_grid(R) or self.grid(R)
         self.answered_on_grid = self.answered_on_grid or grid is not None
         if grid is None:
-            return bracket(self.P, R, self.p0, graph=self._pbvi(R), rounds=0, points=self.reached, grid=None).graph
-        return grid_graph(grid, self._dyn, R)
+            return bracket(self._dyn, self._planned(R), self._p0, graph=self._pbvi(R), rounds=0, points=self.reached, grid=None).graph
+        return grid_graph(grid, self._dyn, self._planned(R))
 
     @property
     def resolution(self) -> int:
@@ -191,12 +201,23 @@ class Closer:
         (``grid_work`` by default; ``bounds.grid_planner``), or None where too large; built once per budget."""
         work = self.grid_work if work is None else work
         if work not in self._grids:
-            self._dyn = self.P if isinstance(self.P, SparseDynamics) else sparse_dynamics(self.P)
-            self._grids[work] = grid_planner(self._dyn, R.shape[1], np.ones(self._dyn.shape[0]), work)
+            horizon = R.shape[1] if self._folding is None else (R.shape[1] + 1) // 2
+            self._grids[work] = grid_planner(self._dyn, horizon, np.ones(self._dyn.shape[0]), work)
         return self._grids[work]
 
     def _pbvi(self, R: np.ndarray):
-        return solve(self.P, R, self.p0, beliefs=self.beliefs, method="pbvi").graph
+        if self._folding is None:
+            return solve(self._dyn, R, self._p0, beliefs=self.beliefs, method="pbvi").graph
+        B = expand_beliefs(self._dyn) if self.beliefs is None else self.beliefs
+        return pbvi_graph(self._dyn, self._folding.rewards(R), B)
+
+    def _planned(self, R: np.ndarray):
+        """The rewards (M, T, S) as the plans take them: folded into the original's on an expansion."""
+        return R if self._folding is None else self._folding.rewards(np.asarray(R, dtype=np.float64))
+
+    def _marginals(self, graph) -> np.ndarray:
+        """(M, T, S) a planned graph's marginals on the fit's states (unfolded on an expansion)."""
+        return graph.marginals(self._dyn, self._p0) if self._folding is None else self._folding.marginals(graph, self._p0)
 
 
 def _growth(gap: float, target: float, M: int) -> int:

@@ -88,3 +88,35 @@ def test_the_fits_oracle_plans_an_expansion_on_its_original():
     R = rng.normal(size=(M, 9, S + S * A))
     (v1, m1), (v2, m2) = folded(R), plain(R)
     assert v1 == pytest.approx(v2, rel=1e-12) and np.allclose(m1, m2, atol=1e-12)
+
+
+@pytest.mark.parametrize("seed, grid_work", [(4, 0), (5, 200_000)])
+def test_the_closer_brackets_an_expansion_on_its_original_around_the_true_optimum(seed, grid_work):
+    """The fit's bracket (``core.irl.bracket.Closer``) on an expansion plans on the original problem
+    (with and without the grid of beliefs: random dense moves, every move its own kind): its lower
+    side is the value of its policy, read back on the expansion, and the optimum over every
+    history-dependent policy, enumerated on the original with the rewards of (s, a) written out by
+    hand, lies in [lower, upper]."""
+    from airl_cli.core.irl.bracket import Closer
+    from airl_cli.core.mmdp.exact import exact_graph
+
+    rng, P, p0 = _problem(seed, M=2, S=3, A=2, n_next=3)
+    M, S, A, _ = P.shape
+    T = 4
+    x = sparse_dynamics(expand_transitions(P))
+    p0x = expand_initial(p0, A)
+    R = rng.normal(size=(M, 2 * T - 1, S + S * A))
+    closer = Closer(x, p0x, None, max_beliefs=500, grid_work=grid_work)
+    assert closer._folding is not None
+    lower, marginals, upper = closer(R, 0.0)
+    assert lower == pytest.approx(float(np.sum(marginals * R)), rel=1e-12)
+    by_hand = np.zeros((M, T, S, A))  # R(t, s, a) = R'(2t, s) + R'(2t + 1, (s, a)); the last layer's R'(2T - 2, s) on every action of t = T - 1's
+    for t in range(T - 1):
+        for s in range(S):
+            for a in range(A):
+                by_hand[:, t, s, a] = R[:, 2 * t, s] + R[:, 2 * t + 1, S + s * A + a]
+    by_hand[:, T - 1] = R[:, 2 * T - 2, :S, None]
+    optimum = float(exact_graph(P, by_hand).values(p0).sum())
+    assert lower <= optimum + 1e-9 and optimum <= upper + 1e-9
+    value, response = closer.respond(R)
+    assert value == pytest.approx(float(np.sum(response * R)), rel=1e-12) and value <= optimum + 1e-9
