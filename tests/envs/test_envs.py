@@ -621,6 +621,24 @@ def test_a_fit_with_features_of_s_and_a_is_estimated_on_its_post_decision_expans
     assert not problem_sizes(state_only)["action_features"]
 
 
+def test_the_planners_memory_of_a_fit_with_features_of_s_and_a_is_counted_on_its_own_states():
+    """PBVI and the bracket plan the original problem of an expansion (``core.mmdp.expansion``):
+    Taxi-v4's policy graph is counted at S = 500 over T = 201 layers, the rest of the fit on the
+    expansion (3,500 states over 401 layers)."""
+    from airl_cli import api
+    from airl_cli.core.mmdp.budget import estimate_fit, graph_bytes
+    from airl_cli.jobs.common import fit_sizes
+    from airl_cli.settings.job import fit_job
+    from airl_cli.usecases.memory import expanded_sizes, fit_memory
+
+    job = fit_job(api.config("mdp=gymnasium", "mdp.env=Taxi-v4"))
+    sizes = fit_sizes(job)
+    estimate, iterations = fit_memory(sizes, job.fit)
+    assert estimate.parts["policy graph"] == graph_bytes(500, 201, 4, 5, iterations)
+    on_expansion = estimate_fit(**expanded_sizes(sizes, "airl"), iterations=iterations)
+    assert estimate.parts["planning"] == on_expansion.parts["planning"] and estimate.parts["policy graph"] < on_expansion.parts["policy graph"] / 10
+
+
 def test_the_windy_grid_is_estimated_on_its_expansion_with_their_reward_of_s_and_a_only():
     from airl_cli.usecases.memory import problem_sizes
     from airl_cli.usecases.problem import build_problem
