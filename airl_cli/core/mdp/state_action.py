@@ -25,8 +25,11 @@ model), so the multiple-MDP planner and the game of eq. 5.9 solved on the expans
 the original. Features of (s, a) count at the T - 1 steps where an action is taken (t = 0..T-2):
 a demonstration of T states has T - 1 actions, and the last state's would be unknown.
 
-The expansion costs the planner two layers a step and S A more states, each with a single
-successor law; a problem with features of a state alone is never expanded.
+Planned as it is, the expansion costs the planner two layers a step and S A more states, each with
+a single successor law: PBVI and the bracket of eq. 5.9's minimum recognise it and plan its original
+problem with the rewards of (s, a) folded back (``core.mmdp.expansion``), and the game keeps its
+strategies at the decision states, where its loss lives (``GameProblem.loss_support``); the count
+program plans it as it is. A problem with features of a state alone is never expanded.
 
 Shapes: transitions P (M, S, A, S); features phi (S, A, K) or (T - 1, S, A, K) (step t's);
 loss (S, S); initial p0 (S,); demonstrations states (..., T), actions (..., T - 1).
