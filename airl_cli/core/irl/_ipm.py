@@ -4,16 +4,21 @@ The formulation (``core.qp``'s docstring): x = (w, v, p), N = d + 1 + n,
 
     min (1/2) x^T Q x + c^T x   s.t.  G x + s = 0, s >= 0 (duals z),  a^T x = 1 (dual y),
 
-Q = diag(lam I_d, 0, 0), c = (-C, 1, 0), a = (0, 0, 1_n), G = [Gm; 0 0 -I_n] with the m rows
-Gm[k] = (Phi[k], -1, L[:, k]). A step eliminates ds and dz and solves
+Q = diag(lam I_d, 0, 0), c = (-C, 1, 0), a = (0, 0, 1_n), G = [Gm; I_b 0 0; -I_b 0 0; 0 0 -I_n]
+with the m rows Gm[k] = (Phi[k], -1, L[:, k]) and, with a box on w, b = d rows each side. A step
+eliminates ds and dz and solves
 
     (Q + G^T diag(z / s) G) dx + a dy = -rd - G^T (W rs - rsz / s),   a^T dx = -rp
 
-with one Cholesky factor of the N x N matrix; the equality is eliminated by its Schur complement.
-Compiled, a step costs its arithmetic (the Gram matrix G^T diag(z / s) G, N x N from m rows, and a
-factorisation); as numpy calls, the call overheads were most of a solve at the sizes a fit meets
-(40-120 strategies). The Gram matrix is BLAS's symmetric rank-k update (dsyrk, half a general
-product's work: 368 -> 242 us at N = 151, m = 299, two thirds of a step there).
+with one Cholesky factor; the equality is eliminated by its Schur complement. Compiled, a step
+costs its arithmetic (the Gram matrix Gm^T diag(z / s) Gm from the m rows, and a factorisation);
+as numpy calls, the call overheads were most of a solve at the sizes a fit meets (40-120
+strategies). The Gram matrix is BLAS's symmetric rank-k update (dsyrk, half a general product's
+work: 368 -> 242 us at N = 151, m = 299, two thirds of a step there). The rows that are +-e_i
+(the box's, p's bounds) add to H's diagonal only and never enter the rank-k update (they were a
+third of its rows at the end of a CliffWalking-v1 fit), and a weight w_i whose column of Phi is zero
+(features that no adversary strategy visits: 40 of 192 there) has a row of H that is diagonal
+only: it is solved apart, and the factor is of the rest (``_live``).
 """
 
 from __future__ import annotations
@@ -115,48 +120,99 @@ def _forward_backward(Lc: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 
 @njit(cache=True)
-def _G(Gm: np.ndarray, x: np.ndarray, d: int) -> np.ndarray:
-    """G x: (m + n,)."""
+def _live(Phi: np.ndarray, d: int, N: int) -> tuple[np.ndarray, np.ndarray]:
+    """(live, dead): the indices of x = (w, v, p) whose rows and columns of H carry Gram terms (the
+    weights w_i with a nonzero Phi[:, i], v, every p_i), and the weights whose Phi column is zero:
+    their rows of H are diagonal (lam and the box's duals), solved apart."""
+    m = Phi.shape[0]
+    used = np.zeros(N, np.bool_)
+    used[d:] = True
+    for k in range(m):
+        for i in range(d):
+            if Phi[k, i] != 0.0:
+                used[i] = True
+    return np.flatnonzero(used), np.flatnonzero(~used)
+
+
+@njit(cache=True)
+def _G(Gm: np.ndarray, x: np.ndarray, d: int, b: int) -> np.ndarray:
+    """G x (m + 2b + n,): the adversary rows Gm x, the box rows +-w (b = d of them each side, or none), the rows -p."""
     m, n = Gm.shape[0], x.size - d - 1
-    out = np.empty(m + n)
+    out = np.empty(m + 2 * b + n)
     out[:m] = Gm @ x
-    out[m:] = -x[d + 1 :]
+    out[m : m + b] = x[:b]
+    out[m + b : m + 2 * b] = -x[:b]
+    out[m + 2 * b :] = -x[d + 1 :]
     return out
 
 
 @njit(cache=True)
-def _GT(GmT: np.ndarray, z: np.ndarray, d: int) -> np.ndarray:
+def _GT(GmT: np.ndarray, z: np.ndarray, d: int, b: int) -> np.ndarray:
     """G^T z: (N,), from GmT = Gm^T stored contiguous (numba's products of a transposed view do
     not reach BLAS: at 300 x 300 they made a solve ten times slower)."""
     m = GmT.shape[1]
     out = GmT @ z[:m].copy()
-    out[d + 1 :] -= z[m:]
+    if b:
+        out[:b] += z[m : m + b] - z[m + b : m + 2 * b]
+    out[d + 1 :] -= z[m + 2 * b :]
     return out
 
 
 @njit(cache=True)
-def _direction(Gm, GmT, d, Lc, Ha, aHa, W, s, z, r1, r2, r3, r4):  # noqa: ANN001, ANN202
+def _factors(GmT_live, live, dead, qdiag, W, m, d, b, n):  # noqa: ANN001, ANN202
+    """H = Q + G^T diag(W) G as (the Cholesky factor of its live block, live, dead, its dead diagonal):
+    the Gram terms over the adversary rows on the live indices (``_gram``), the box rows' and p's
+    bounds' W on the diagonal (a box row is +-e_i, never a Gram term), each diagonal entry nudged by
+    1e-14 so that the factorisation stays defined."""
+    H = _gram(GmT_live, W)
+    diag = qdiag.copy()
+    for i in range(b):
+        diag[i] += W[m + i] + W[m + b + i]
+    for i in range(n):
+        diag[d + 1 + i] += W[m + 2 * b + i]
+    for j in range(live.size):
+        i = live[j]
+        H[j, j] += diag[i]
+        H[j, j] += 1e-14 * (1.0 + abs(H[j, j]))
+    dd = np.empty(dead.size)
+    for j in range(dead.size):
+        dd[j] = diag[dead[j]] + 1e-14 * (1.0 + abs(diag[dead[j]]))
+    return _factor(H), live, dead, dd
+
+
+@njit(cache=True)
+def _hsolve(fac, r):  # noqa: ANN001, ANN202
+    """H^-1 r (N,) from ``_factors``' answer: the live block by its factor, the dead diagonal by division."""
+    Lc, live, dead, dd = fac
+    x = np.empty(r.size)
+    x[live] = _forward_backward(Lc, r[live])
+    x[dead] = r[dead] / dd
+    return x
+
+
+@njit(cache=True)
+def _direction(Gm, GmT, d, b, fac, Ha, aHa, W, s, z, r1, r2, r3, r4):  # noqa: ANN001, ANN202
     """(dx, dy, ds, dz) with  Q dx + G^T dz + a dy = -r1,  a.dx = -r2,  G dx + ds = -r3,
-    z ds + s dz = -r4, through the factor Lc of H = Q + G^T diag(W) G (W = z / s)."""
-    Hr = _forward_backward(Lc, -r1 - _GT(GmT, W * r3 - r4 / s, d))
+    z ds + s dz = -r4, through the factors of H = Q + G^T diag(W) G (W = z / s, ``_factors``)."""
+    Hr = _hsolve(fac, -r1 - _GT(GmT, W * r3 - r4 / s, d, b))
     dy = (np.sum(Hr[d + 1 :]) + r2) / aHa
     dx = Hr - Ha * dy
-    dz = W * (_G(Gm, dx, d) + r3) - r4 / s
+    dz = W * (_G(Gm, dx, d, b) + r3) - r4 / s
     ds = -(r4 + s * dz) / z
     return dx, dy, ds, dz
 
 
 @njit(cache=True)
-def _refined(Gm, GmT, d, qdiag, a, Lc, Ha, aHa, W, s, z, r1, r2, r3, r4, refinements):  # noqa: ANN001, ANN202
+def _refined(Gm, GmT, d, b, qdiag, a, fac, Ha, aHa, W, s, z, r1, r2, r3, r4, refinements):  # noqa: ANN001, ANN202
     """``_direction``, then corrected against the unreduced system's residual: the factor of the
     reduced matrix loses accuracy as z / s spreads, the products with G and Q do not."""
-    dx, dy, ds, dz = _direction(Gm, GmT, d, Lc, Ha, aHa, W, s, z, r1, r2, r3, r4)
+    dx, dy, ds, dz = _direction(Gm, GmT, d, b, fac, Ha, aHa, W, s, z, r1, r2, r3, r4)
     for _ in range(refinements):
-        e1 = qdiag * dx + _GT(GmT, dz, d) + dy * a + r1
+        e1 = qdiag * dx + _GT(GmT, dz, d, b) + dy * a + r1
         e2 = np.sum(dx[d + 1 :]) + r2
-        e3 = _G(Gm, dx, d) + ds + r3
+        e3 = _G(Gm, dx, d, b) + ds + r3
         e4 = z * ds + s * dz + r4
-        cx, cy, cs, cz = _direction(Gm, GmT, d, Lc, Ha, aHa, W, s, z, e1, e2, e3, e4)
+        cx, cy, cs, cz = _direction(Gm, GmT, d, b, fac, Ha, aHa, W, s, z, e1, e2, e3, e4)
         dx, dy, ds, dz = dx + cx, dy + cy, ds + cs, dz + cz
     return dx, dy, ds, dz
 
@@ -197,15 +253,15 @@ def _advance(x, y, s, z, dx, dy, ds, dz, step):  # noqa: ANN001, ANN202
 
 
 @njit(cache=True)
-def _start(Gm, h, d, n, m0, x0, s0, z0):  # noqa: ANN001, ANN202
+def _start(Gm, h, d, b, n, x0, s0, z0):  # noqa: ANN001, ANN202
     """(x, s, z): copies of (x0, s0, z0) if given (a warm start), else the cold start: w = 0, p
     uniform, v 1 above every row, slacks at least 1, duals 1."""
     if x0.size > 0:
         return x0.copy(), s0.copy(), z0.copy()
     x = np.zeros(d + 1 + n)
     x[d + 1 :] = 1.0 / n
-    x[d] = np.max(Gm[:m0] @ x) + 1.0 if m0 else 1.0
-    return x, np.maximum(h - _G(Gm, x, d), 1.0), np.ones(h.size)
+    x[d] = np.max(Gm @ x) + 1.0 if Gm.shape[0] else 1.0
+    return x, np.maximum(h - _G(Gm, x, d, b), 1.0), np.ones(h.size)
 
 
 @njit(cache=True)
@@ -221,56 +277,49 @@ def mehrotra(C: np.ndarray, lam: float, L: np.ndarray, Phi: np.ndarray, tol: flo
     too; a step taken when the accuracy is met but not that is a centring one (sigma = 1). A cold
     start passes 0 (its path stays near the centre), a warm one ``core.qp.CENTRED``.
     """
-    n, m0 = L.shape
+    n, m = L.shape
     d = C.size
     N = d + 1 + n
     b = d if np.isfinite(radius) else 0
-    m = m0 + 2 * b
     Gm = np.zeros((m, N))
-    Gm[:m0, :d] = Phi
-    Gm[:m0, d] = -1.0
-    Gm[:m0, d + 1 :] = L.T
-    h = np.zeros(m + n)
+    Gm[:, :d] = Phi
+    Gm[:, d] = -1.0
+    Gm[:, d + 1 :] = L.T
+    h = np.zeros(m + 2 * b + n)
     for i in range(b):
-        Gm[m0 + i, i] = 1.0
-        Gm[m0 + b + i, i] = -1.0
-        h[m0 + i] = radius + centre[i]
-        h[m0 + b + i] = radius - centre[i]
+        h[m + i] = radius + centre[i]
+        h[m + b + i] = radius - centre[i]
     GmT = np.ascontiguousarray(Gm.T)
+    live, dead = _live(Phi, d, N)
+    GmT_live = np.ascontiguousarray(GmT[live])
     c, qdiag, a = _objective(C, lam, N)
-    scale = max(1.0, np.max(np.abs(C)) if d else 0.0, np.max(np.abs(Gm)))
+    scale = max(1.0, np.max(np.abs(C)) if d else 0.0, np.max(np.abs(Gm)) if m else 0.0)
+    rows = m + 2 * b + n
     # start: w = 0, p uniform, v above every row; slacks and duals >= 1. (w at its unconstrained
     # optimum C / lam, 4,485 where the answer is 0.06 on a 16 x 16 grid, cost the solves a third
     # more steps: 19.4 against 12.8 at accuracy 1e-4, 13.3 against 7.1 at 1e-2.)
-    x, s, z = _start(Gm, h, d, n, m0, x0, s0, z0)
+    x, s, z = _start(Gm, h, d, b, n, x0, s0, z0)
     y = 0.0
     refinements = REFINEMENTS if tol <= LOOSE else LOOSE_REFINEMENTS
     for _ in range(max_iterations):
-        rd = qdiag * x + c + _GT(GmT, z, d) + a * y  # stationarity
+        rd = qdiag * x + c + _GT(GmT, z, d, b) + a * y  # stationarity
         rp = np.sum(x[d + 1 :]) - 1.0
-        rs = _G(Gm, x, d) + s - h
-        done, centred, gap, objective = _status(x, s, z, C, lam, d, rd, rp, rs, tol, scale, gamma, m + n)
+        rs = _G(Gm, x, d, b) + s - h
+        done, centred, gap, objective = _status(x, s, z, C, lam, d, rd, rp, rs, tol, scale, gamma, rows)
         if done and centred:
             return True, x, s, z, objective
         W = z / s
-        H = _gram(GmT, W)
-        for i in range(N):
-            H[i, i] += qdiag[i]
-        for i in range(n):
-            H[d + 1 + i, d + 1 + i] += W[m + i]
-        for i in range(N):
-            H[i, i] += 1e-14 * (1.0 + abs(H[i, i]))  # keeps the factorisation defined
-        Lc = _factor(H)
-        Ha = _forward_backward(Lc, a)
+        fac = _factors(GmT_live, live, dead, qdiag, W, m, d, b, n)
+        Ha = _hsolve(fac, a)
         aHa = a @ Ha
         # predictor (rsz = s z), then corrector (rsz = s z + ds dz - sigma mu); within the accuracy
         # but off-centre, one centring direction (rsz = s z - mu, sigma = 1) and no predictor
-        rsz = s * z - gap / (m + n) if done else s * z
+        rsz = s * z - gap / rows if done else s * z
         for corrector in range(1 if done else 2):
-            dx, dy, ds, dz = _refined(Gm, GmT, d, qdiag, a, Lc, Ha, aHa, W, s, z, rd, rp, rs, rsz, refinements)
+            dx, dy, ds, dz = _refined(Gm, GmT, d, b, qdiag, a, fac, Ha, aHa, W, s, z, rd, rp, rs, rsz, refinements)
             step = _longest(s, z, ds, dz)
             if corrector == 0 and not done:
                 sigma = (((s + step * ds) @ (z + step * dz)) / gap) ** 3
-                rsz = s * z + ds * dz - sigma * gap / (m + n)
+                rsz = s * z + ds * dz - sigma * gap / rows
         y = _advance(x, y, s, z, dx, dy, ds, dz, step)
     return False, x, s, z, 0.0

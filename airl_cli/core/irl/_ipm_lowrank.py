@@ -16,8 +16,13 @@ Woodbury, with R = D^(1/2) Phi (m x d),
 
 and H is solved by the Schur complement S = E - B^T A^-1 B ((n + 1) x (n + 1)):
 x_r = S^-1 (r_r - B^T A^-1 r_w), x_w = A^-1 (r_w - B x_r). A step costs O(d m (m + n) + m^3 + n^3).
-The box rows are never formed. Everything else (residuals, steps, stopping, centring) is
-``core._ipm``'s, so both methods solve the same problem to the same accuracy; ``core.qp`` uses this
+The box rows are never formed, and a weight whose column of Phi is zero (Taxi-v4: 1,438 of 3,000,
+the (s, a) no adversary strategy visits) is outside K: its row of A is Delta's alone. Everything else (residuals, steps, stopping, centring) is
+``core._ipm``'s, so both methods solve the same problem to the same accuracy, except that every
+direction here is refined against the unreduced system (``REFINEMENTS``), at a loose accuracy too:
+without it, on Taxi-v4's masters (d = 3,000, box radius ~300) the push-through solve's error let the
+stationarity residual grow while the gap fell to 1e-7, and 35 of 674 solves of a 150 s fit ran out
+of steps (14.5 s, then repeated from scratch or by Clarabel); refined, they converge in ~10 steps; ``core.qp`` uses this
 one from ``core.qp.LOWRANK_FROM`` weights on (below it the dense method, as always: same bits).
 """
 
@@ -26,7 +31,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from airl_cli.core.irl._ipm import LOOSE, LOOSE_REFINEMENTS, REFINEMENTS, _advance, _factor, _forward_backward, _longest, _objective, _status
+from airl_cli.core.irl._ipm import REFINEMENTS, _advance, _factor, _forward_backward, _live, _longest, _objective, _status
 
 
 @njit(cache=True)
@@ -56,18 +61,19 @@ def _GT(PhiT, L, z, d, b):  # noqa: ANN001, ANN202
 
 
 @njit(cache=True)
-def _factors(Phi, LT, lam, W, d, b, n):  # noqa: ANN001, ANN202
+def _factors(Phi, LT, lam, W, d, b, n, live):  # noqa: ANN001, ANN202
     """What a solve with H needs (the module docstring, in the scaled form): Delta^(-1/2) (d,),
-    K = D^(1/2) Phi Delta^(-1/2) (m, d) and K^T, M's factor, V = D^(1/2) U (m, n + 1) and the factor
-    of S = V^T M^-1 V + diag(0, W_p), each factored matrix nudged by 1e-14 on its diagonal as the
-    dense method nudges H."""
+    K = D^(1/2) Phi Delta^(-1/2) (m, l) over the ``live`` weights only (the l columns of Phi that are
+    not zero: the others' rows of A are Delta's alone) and K^T, M's factor, V = D^(1/2) U (m, n + 1)
+    and the factor of S = V^T M^-1 V + diag(0, W_p), each factored matrix nudged by 1e-14 on its
+    diagonal as the dense method nudges H."""
     m = Phi.shape[0]
     root = np.sqrt(W[:m])
     delta = np.full(d, lam)
     if b:
         delta += W[m : m + b] + W[m + b : m + 2 * b]
     dh = 1.0 / np.sqrt(delta)
-    K = Phi * root[:, None] * dh[None, :]
+    K = Phi * root[:, None] * dh[live][None, :]
     KT = np.ascontiguousarray(K.T)
     M = K @ KT
     for k in range(m):
@@ -84,20 +90,23 @@ def _factors(Phi, LT, lam, W, d, b, n):  # noqa: ANN001, ANN202
         S[1 + i, 1 + i] += W[m + 2 * b + i]
     for i in range(n + 1):
         S[i, i] += 1e-14 * (1.0 + abs(S[i, i]))
-    return dh, K, KT, Mc, V, np.ascontiguousarray(V.T), _factor(S)
+    return dh, K, KT, Mc, V, np.ascontiguousarray(V.T), _factor(S), live
 
 
 @njit(cache=True)
 def _solve(fac, r, d):  # noqa: ANN001, ANN202
     """H^-1 r (N,) by the Schur complement on the w block: with g = Delta^(-1/2) r_w,
     x_r = S^-1 (r_r - V^T M^-1 K g) and x_w = Delta^(-1/2) (I + K^T K)^-1 (g - K^T V x_r),
-    (I + K^T K)^-1 y = y - K^T M^-1 K y (push-through: no difference of large terms in S)."""
-    dh, K, KT, Mc, V, VT, Sc = fac
+    (I + K^T K)^-1 y = y - K^T M^-1 K y (push-through: no difference of large terms in S); K's
+    columns are the live weights', the identity elsewhere."""
+    dh, K, KT, Mc, V, VT, Sc, live = fac
     g = dh * r[:d]
-    xr = _forward_backward(Sc, r[d:] - VT @ _forward_backward(Mc, K @ g))
-    y = g - KT @ (V @ xr)
+    xr = _forward_backward(Sc, r[d:] - VT @ _forward_backward(Mc, K @ g[live]))
+    y = g.copy()
+    y[live] -= KT @ (V @ xr)
     out = np.empty(r.size)
-    out[:d] = dh * (y - KT @ _forward_backward(Mc, K @ y))
+    y[live] -= KT @ _forward_backward(Mc, K @ y[live])
+    out[:d] = dh * y
     out[d:] = xr
     return out
 
@@ -137,6 +146,8 @@ def mehrotra(C: np.ndarray, lam: float, L: np.ndarray, Phi: np.ndarray, tol: flo
     b = d if np.isfinite(radius) else 0
     Phi = np.ascontiguousarray(Phi)
     PhiT, LT = np.ascontiguousarray(Phi.T), np.ascontiguousarray(L.T)
+    live = _live(Phi, d, d)[0]
+    Phi_live = np.ascontiguousarray(Phi[:, live])
     h = np.zeros(m + 2 * b + n)
     for i in range(b):
         h[m + i] = radius + centre[i]
@@ -152,7 +163,7 @@ def mehrotra(C: np.ndarray, lam: float, L: np.ndarray, Phi: np.ndarray, tol: flo
         s, z = np.maximum(h - _G(Phi, LT, x, d, b), 1.0), np.ones(h.size)
     y = 0.0
     rows = h.size
-    refinements = REFINEMENTS if tol <= LOOSE else LOOSE_REFINEMENTS
+    refinements = REFINEMENTS  # at every accuracy: see the module docstring
     for _ in range(max_iterations):
         rd = qdiag * x + c + _GT(PhiT, L, z, d, b) + a * y
         rp = np.sum(x[d + 1 :]) - 1.0
@@ -161,7 +172,7 @@ def mehrotra(C: np.ndarray, lam: float, L: np.ndarray, Phi: np.ndarray, tol: flo
         if done and centred:
             return True, x, s, z, objective
         W = z / s
-        fac = _factors(Phi, LT, lam, W, d, b, n)
+        fac = _factors(Phi_live, LT, lam, W, d, b, n, live)
         Ha = _solve(fac, a, d)
         aHa = a @ Ha
         rsz = s * z - gap / rows if done else s * z
