@@ -41,7 +41,7 @@ from airl_cli.core.mmdp.bounds import Bracket, bracket, grid_graph, grid_planner
 from airl_cli.core.mmdp.budget import GRID_GROWTH
 from airl_cli.core.mmdp.expansion import folding
 from airl_cli.core.mmdp.grid_bound import WORK
-from airl_cli.core.mmdp.planner import expand_beliefs, pbvi_graph, solve
+from airl_cli.core.mmdp.planner import expand_beliefs, solve
 from airl_cli.core.mmdp.refine import layer_posteriors
 
 #: Where the fit would stop, the closing step adds at most this many strategies in all: each is a
@@ -209,11 +209,11 @@ class Closer:
         if self._folding is None:
             return solve(self._dyn, R, self._p0, beliefs=self.beliefs, method="pbvi").graph
         B = expand_beliefs(self._dyn) if self.beliefs is None else self.beliefs
-        return pbvi_graph(self._dyn, self._folding.rewards(R), B)
+        return self._folding.pbvi(R, B)
 
     def _planned(self, R: np.ndarray):
         """The rewards (M, T, S) as the plans take them: folded into the original's on an expansion."""
-        return R if self._folding is None else self._folding.rewards(np.asarray(R, dtype=np.float64))
+        return R if self._folding is None else self._folding.rewards(R)
 
     def _marginals(self, graph) -> np.ndarray:
         """(M, T, S) a planned graph's marginals on the fit's states (unfolded on an expansion)."""

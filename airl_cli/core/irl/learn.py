@@ -25,7 +25,7 @@ from airl_cli.core.irl.options import SCHEDULES, FitOptions, PlannerOptions  # n
 from airl_cli.core.mdp.sparse import SparseDynamics, sparse_dynamics
 from airl_cli.core.mmdp import counts
 from airl_cli.core.mmdp.expansion import folding
-from airl_cli.core.mmdp.planner import expand_beliefs, pbvi_graph, solve
+from airl_cli.core.mmdp.planner import expand_beliefs, solve
 from airl_cli.core.mmdp.policy_graph import layered_rewards
 from airl_cli.core.mmdp.refine import PER_ROUND, refine
 from airl_cli.core.numerics.threads import blas_on_one_thread
@@ -146,7 +146,7 @@ class BeliefOracle:
         B = self.beliefs
         if B is None:
             B = expand_beliefs(f.transitions, iterations=o.iterations, rng=self.rng, expansion=o.expansion)
-        graph = pbvi_graph(f.transitions, f.rewards(np.asarray(R, dtype=np.float64)), B, progress=self.progress)
+        graph = f.pbvi(R, B, progress=self.progress)
         p0 = f.initial(self.p0)
         return float(graph.values(p0).sum()), f.marginals(graph, p0)
 

@@ -32,6 +32,7 @@ import numpy as np
 
 from airl_cli.core.mdp.sparse import SparseDynamics
 from airl_cli.core.mmdp import _walk_kernels
+from airl_cli.core.mmdp.planner import pbvi_graph
 from airl_cli.core.mmdp.policy_graph import LayeredRewards, PolicyGraph
 
 
@@ -49,7 +50,8 @@ class Folding:
     transitions: SparseDynamics
 
     def rewards(self, R: np.ndarray) -> LayeredRewards:
-        """The expansion's rewards (M, 2T - 1, S') folded into the original's (see the module)."""
+        """The expansion's rewards (M, 2T - 1, S') folded into the original's (see the module), as float64."""
+        R = np.asarray(R, dtype=np.float64)
         S, A = self.n_states, self.n_actions
         M, Tx = R.shape[0], R.shape[1]
         T = (Tx + 1) // 2
@@ -59,6 +61,11 @@ class Folding:
     def initial(self, initial: np.ndarray) -> np.ndarray:
         """p0 (S,) of the original from the expansion's p0' (S')."""
         return np.ascontiguousarray(initial[: self.n_states])
+
+    def pbvi(self, R: np.ndarray, beliefs: np.ndarray, progress=None) -> PolicyGraph:  # noqa: ANN001
+        """PBVI's policy graph (``mmdp.planner.pbvi_graph``) of the original problem at ``beliefs``
+        (nb, M), for the expansion's rewards R (M, 2T - 1, S')."""
+        return pbvi_graph(self.transitions, self.rewards(R), beliefs, progress=progress)
 
     def marginals(self, graph: PolicyGraph, initial: np.ndarray) -> np.ndarray:
         """(M, 2T - 1, S') the expansion's marginals of a graph of the original (T layers), from
