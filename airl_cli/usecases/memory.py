@@ -131,7 +131,8 @@ def fit_memory(sizes: dict, settings: FitSettings) -> tuple[Estimate, int | None
 
     expanded = expanded_sizes(sizes, settings.method)
     planned = {k: v for k, v in sizes.items() if k != "action_features"} if runs_pbvi else expanded
-    estimate = _planned_on(estimate_at(expanded, planner.bracket_grid), estimate_at(planned, planner.bracket_grid))
+    whole = estimate_at(expanded, planner.bracket_grid)
+    estimate = whole if planned is expanded else _planned_on(whole, estimate_at(planned, planner.bracket_grid))
     if closes_bracket(planner) and "bracket grid" in estimate.parts:  # a closing fit may refine the grid up to GRID_GROWTH times
         refined = estimate_at(planned, planner.bracket_grid * GRID_GROWTH)
         extra = refined.parts["bracket grid"] - estimate.parts["bracket grid"]
