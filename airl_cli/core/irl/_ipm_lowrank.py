@@ -17,13 +17,14 @@ Woodbury, with R = D^(1/2) Phi (m x d),
 and H is solved by the Schur complement S = E - B^T A^-1 B ((n + 1) x (n + 1)):
 x_r = S^-1 (r_r - B^T A^-1 r_w), x_w = A^-1 (r_w - B x_r). A step costs O(d m (m + n) + m^3 + n^3).
 The box rows are never formed, and a weight whose column of Phi is zero (Taxi-v4: 1,438 of 3,000,
-the (s, a) no adversary strategy visits) is outside K: its row of A is Delta's alone. Everything else (residuals, steps, stopping, centring) is
-``core._ipm``'s, so both methods solve the same problem to the same accuracy, except that every
-direction here is refined against the unreduced system (``REFINEMENTS``), at a loose accuracy too:
-without it, on Taxi-v4's masters (d = 3,000, box radius ~300) the push-through solve's error let the
-stationarity residual grow while the gap fell to 1e-7, and 35 of 674 solves of a 150 s fit ran out
-of steps (14.5 s, then repeated from scratch or by Clarabel); refined, they converge in ~10 steps; ``core.qp`` uses this
-one from ``core.qp.LOWRANK_FROM`` weights on (below it the dense method, as always: same bits).
+the (s, a) no adversary strategy visits) is outside K: its row of A is Delta's alone. Everything
+else (residuals, steps, stopping, centring) is ``core._ipm``'s, so both methods solve the same
+problem to the same accuracy, except that every direction here is refined against the unreduced
+system (``REFINEMENTS``), at a loose accuracy too: without it, on Taxi-v4's masters (d = 3,000, box
+radius ~300) the push-through solve's error let the stationarity residual grow while the gap fell
+to 1e-7, and 35 of 674 solves of a 150 s fit ran out of steps (14.5 s, then repeated from scratch
+or by Clarabel); refined, they converge in ~10 steps. ``core.qp`` uses this one from
+``core.qp.LOWRANK_FROM`` weights on (below it the dense method, as always: same bits).
 """
 
 from __future__ import annotations
@@ -163,7 +164,6 @@ def mehrotra(C: np.ndarray, lam: float, L: np.ndarray, Phi: np.ndarray, tol: flo
         s, z = np.maximum(h - _G(Phi, LT, x, d, b), 1.0), np.ones(h.size)
     y = 0.0
     rows = h.size
-    refinements = REFINEMENTS  # at every accuracy: see the module docstring
     for _ in range(max_iterations):
         rd = qdiag * x + c + _GT(PhiT, L, z, d, b) + a * y
         rp = np.sum(x[d + 1 :]) - 1.0
@@ -177,7 +177,7 @@ def mehrotra(C: np.ndarray, lam: float, L: np.ndarray, Phi: np.ndarray, tol: flo
         aHa = a @ Ha
         rsz = s * z - gap / rows if done else s * z
         for corrector in range(1 if done else 2):
-            dx, dy, ds, dz = _refined(Phi, PhiT, L, LT, d, b, qdiag, a, fac, Ha, aHa, W, s, z, rd, rp, rs, rsz, refinements)
+            dx, dy, ds, dz = _refined(Phi, PhiT, L, LT, d, b, qdiag, a, fac, Ha, aHa, W, s, z, rd, rp, rs, rsz, REFINEMENTS)
             step = _longest(s, z, ds, dz)
             if corrector == 0 and not done:
                 sigma = (((s + step * ds) @ (z + step * dz)) / gap) ** 3

@@ -150,13 +150,8 @@ class MasterQP:
         answer = None
         if accuracy > TIGHT and self._start.ready and WARM:  # a loose solve from the last point (``qp_start``)
             answer = self._dense(accuracy, box, self._start.point(self.L, self.Phi, box), record, centred=True)
-        if answer is None and accuracy > TIGHT:
-            answer = self._dense(accuracy, box, None, record, centred=True)
-        for limit in (TIGHT,) if self.d < LOWRANK_FROM else LOWRANK_TIGHT:  # to the method's own limit, then exact on its supports
-            if answer is not None or accuracy > TIGHT:
-                break
-            found = self._dense(limit, None, None, False, centred=False)
-            answer = found and (crossover(self.C, self.lam, self.L, self.Phi, found[2], found[3]) or self._clear_crossover(found) or found)
+        if answer is None:
+            answer = self._dense(accuracy, box, None, record, centred=True) if accuracy > TIGHT else self._tight()
         if answer is None:
             self.fallbacks += 1
             answer, accuracy = solve_clarabel(self.C, self.lam, self.L, self.Phi), TIGHT
@@ -174,6 +169,16 @@ class MasterQP:
         if record:
             self._start.record(x, s, z, self.m, 0 if box is None else self.d)
         return _answer(x, s, z, objective, self.d, self.m, box, centred=centred)
+
+    def _tight(self):
+        """A tight solve from scratch, to the method's own limit (``TIGHT``, or ``LOWRANK_TIGHT``'s
+        accuracies in turn), then exact on its supports where ``crossover`` can make it so; None if
+        no accuracy converged."""
+        for limit in (TIGHT,) if self.d < LOWRANK_FROM else LOWRANK_TIGHT:
+            found = self._dense(limit, None, None, False, centred=False)
+            if found is not None:
+                return crossover(self.C, self.lam, self.L, self.Phi, found[2], found[3]) or self._clear_crossover(found) or found
+        return None
 
     def _clear_crossover(self, answer: tuple):
         """``crossover`` again without the weights an interior point cannot classify: a p_i or q_k
