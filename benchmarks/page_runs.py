@@ -8,6 +8,11 @@ Runs, each in a fresh process as a user runs it:
   peak memory (riverswim as airl plans it by default is benchmarks/mmdp.py's, with the other methods);
 - `airl fit demos.expert=own demos.beta=0.3 dynamics.n_test=3`, the thesis's learner and MCE IRL
   (Your own problem's soft experts): the degenerate verdict, the size of w, cos(w, w*), the scores;
+- the fit against PBVI alone (`pbvi.method=pbvi pbvi.bracket_beliefs=0 optim.tol=1e-4`, the method
+  page) on the default problem, with PBVI's default and a finer belief set, and on the 16 x 16
+  Objectworld file with squared features (`airl generate mdp=objectworld dynamics=slip demos.n=200
+  mdp.size=16`), each beside the default fit's closed bracket: the objective PBVI certifies, its
+  beliefs, the bracket and the planner that closed it;
 - Your own problem's Python example with slippery FrozenLake as tau (`api.dataset_from_env`), both
   methods: the scores under tau and tau_1;
 - `airl generate mdp=objectworld dynamics=slip mdp.size=64` (Performance: Objectworld is built
@@ -41,6 +46,17 @@ PLANS = {
 FITS = {
     "soft_airl": ["demos.expert=own", "demos.beta=0.3", "dynamics.n_test=3"],
     "soft_mce": ["demos.expert=own", "demos.beta=0.3", "dynamics.n_test=3", "method=mce"],
+}
+#: name -> (`airl generate` overrides or None for the default problem's fit without a file, `airl fit`
+#: overrides): the certificate against PBVI alone and the default fit's closed bracket, on the same data
+PBVI_ALONE = ("optim.tol=1e-4", "pbvi.method=pbvi", "pbvi.bracket_beliefs=0")
+OW16 = ("mdp=objectworld", "dynamics=slip", "demos.n=200", "mdp.size=16")
+CERTIFICATES = {
+    "default_pbvi": (None, PBVI_ALONE),
+    "default_pbvi_fine": (None, (*PBVI_ALONE, "pbvi.iterations=10")),
+    "default_closed": (None, ()),
+    "ow16_sq_pbvi": (OW16, PBVI_ALONE),
+    "ow16_sq_closed": (OW16, ()),
 }
 #: `benchmarks/bench.py sampling`'s first case (its env: one core), in milliseconds
 SAMPLING = textwrap.dedent(
@@ -94,6 +110,30 @@ def fit_record(folder: Path, seconds: float) -> dict:
             "cosine": rows[0]["cosine_similarity"], "score_low": min(scores), "score_high": max(scores), "seconds": seconds}
 
 
+def certificate_record(folder: Path) -> dict:
+    """A finished fit's objective and lower bound, its planner and beliefs, and the bracket on eq. 5.9's minimum (None if off)."""
+    metrics = json.loads((folder / "metrics.json").read_text())
+    lower, upper = metrics.get("minimum_bracket") or (None, None)
+    return {"objective": metrics["objective"], "lower_bound": metrics["lower_bound"], "n_beliefs": metrics["n_beliefs"],
+            "planner": metrics["planner"], "bracket_lower": lower, "bracket_upper": upper, "bracket_width": metrics.get("bracket_relative_gap")}
+
+
+def certificates(tmp: Path) -> dict:
+    """``CERTIFICATES``' fits, each dataset generated once."""
+    out, files = {}, {}
+    for name, (generate, overrides) in CERTIFICATES.items():
+        data = []
+        if generate is not None:
+            if generate not in files:
+                files[generate] = Path(tmp) / f"data{len(files)}"
+                run(["generate", *generate, f"hydra.run.dir={files[generate]}"])
+            data = [f"data={files[generate] / 'dataset.npz'}"]
+        folder = Path(tmp) / name
+        run(["fit", *data, *overrides, f"hydra.run.dir={folder}"])
+        out[name] = certificate_record(folder)
+    return out
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--json", type=Path, required=True, help="the file to write")
@@ -110,6 +150,7 @@ def main() -> None:
             folder = Path(tmp) / name
             seconds, _ = run(["fit", *overrides, f"hydra.run.dir={folder}"])
             out["fits"][name] = fit_record(folder, seconds)
+        out["certificates"] = certificates(Path(tmp))
         folder = Path(tmp) / "objectworld64"
         seconds, peak = run(["generate", "mdp=objectworld", "dynamics=slip", "mdp.size=64", f"hydra.run.dir={folder}"])
         out["generate_ow64"] = {"seconds": seconds, "peak_gb": peak / 2**30, "file_mb": (folder / "dataset.npz").stat().st_size / 2**20}
