@@ -4,8 +4,8 @@ Runs each source's script (docs/hooks/page_numbers.py: SOURCES), each writing do
 at this commit on this machine, then renders every marked passage of the pages again from those
 files. ``--render-only`` skips the measurements and renders from the files as they are (after a
 page's template was edited); ``--only`` measures the named sources alone. The whole run measures
-on every core for about half an hour (the 64 × 64 Objectworld fits dominate): run it on a quiet
-machine, then commit the files and the pages together.
+on every core for hours (the experiments' sweeps, ``sweeps``; the other sources about three
+quarters of an hour): run it on a quiet machine, then commit the files and the pages together.
 """
 
 from __future__ import annotations

@@ -95,3 +95,39 @@ def test_every_source_names_its_commit_machine_and_command():
         assert path.stem in page_numbers.SOURCES
         assert re.fullmatch(r"[0-9a-f]{7,}", values["commit"]), f"{path.name} was measured on uncommitted code"
         assert values["machine"] and values["command"].startswith("python benchmarks/")
+
+
+def _sweep(group: str, label: str, jobs: int, seconds: float, attempts: int = 1, before: int = 0) -> dict:
+    return {"group": group, "label": label, "jobs": jobs, "seconds": seconds, "attempts": attempts, "jobs_before": before}
+
+
+def test_the_sweeps_wall_time_table_from_a_record():
+    record = {"sweeps": {
+        "fig04": _sweep("thesis", "fig04", 500, 66.0), "fig05": _sweep("thesis", "fig05", 350, 462.0),
+        "fig14": _sweep("thesis", "fig14 + fig15", 1350, 34.2),
+        "fig05 method=airl mdp.transition=uniform": _sweep("variants", "fig05 mdp.transition=uniform", 175, 120.0),
+        "size": _sweep("beyond", "size", 80, 36.0, attempts=2),
+    }}
+    t = page_numbers.TABLES["sweeps"](record)
+    assert t["wall"].splitlines()[2:] == ["| fig04 | 500 | 1.1 | | fig14 + fig15 | 1,350 | 0.6 |", "| fig05 | 350 | 7.7 | | | | |"]
+    assert (round(t["thesis_minutes"], 2), t["variants_minutes"], t["beyond_minutes"]) == (9.37, 2.0, 0.6)
+    assert t["minutes"]["size"] == 0.6 and t["n_variants"] == 1
+    assert "size ran in more than one attempt" in t["note"]
+    assert page_numbers.TABLES["sweeps"]({"sweeps": {"fig04": _sweep("thesis", "fig04", 5, 6.0)}})["note"] == ""
+
+
+def test_the_sweeps_script_runs_every_reading_the_claims_table_reads():
+    """benchmarks/sweeps.py's variant sweeps are those the report's claims table looks for."""
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    import sweeps
+
+    from airl_cli.readings.claims import READINGS, reading_of, readings_for
+
+    planned = {(item["experiment"], reading_of(",".join(item["overrides"]))) for item in sweeps.plan(("variants",))}
+    assert None not in {r for _, r in planned}  # each variant changes exactly one reading
+    wanted = {(e, r) for e in sweeps.THESIS.values() for r in readings_for(e)}
+    assert planned == wanted
+    assert all("method=airl" in item["overrides"] for item in sweeps.plan(("variants",)))
+    assert {item["experiment"] for item in sweeps.plan(("thesis", "beyond"))} | {"fig15", "fig18"} == {
+        p.stem for p in (ROOT / "conf" / "experiment").glob("*.yaml") if not p.stem.startswith("_")}
+    assert set(READINGS) == {r for _, r in wanted}

@@ -40,6 +40,7 @@ SOURCES: dict[str, list[str]] = {
     "environments": ["benchmarks/environments.py", "--timeout", "300", "--json", "docs/numbers/environments.json"],
     "page_runs": ["benchmarks/page_runs.py", "--json", "docs/numbers/page_runs.json"],
     "mmdp": ["benchmarks/mmdp.py", "--json", "docs/numbers/mmdp.json"],
+    "sweeps": ["benchmarks/sweeps.py", "--json", "docs/numbers/sweeps.json", "--report", "experiments"],
 }
 
 BLOCK = re.compile(r"<!-- numbers (?P<source>[\w-]+)\n(?P<template>.*?)\n-->\n(?P<text>.*?)<!-- /numbers -->", re.DOTALL)
@@ -321,7 +322,27 @@ def _mmdp_tables(values: dict) -> dict:
     }
 
 
-TABLES = {"default_fit": _default_fit_tables, "first_fit": _first_fit_excerpts, "test_suite": _suite_minutes, "environments": _environment_tables, "mmdp": _mmdp_tables}
+def _sweep_tables(values: dict) -> dict:
+    """The experiments' wall times (benchmarks/sweeps.py's record): the table of chapter 7's sweeps in
+    two columns, each group's minutes, each sweep's minutes by its key, and a note on any sweep that
+    did not run whole in one attempt."""
+    sweeps = values["sweeps"]
+    minutes = {key: s["seconds"] / 60 for key, s in sweeps.items()}
+    thesis = [s for s in sweeps.values() if s["group"] == "thesis"]
+    cells = [f"{s['label']} | {s['jobs']:,} | {_cell(s['seconds'] / 60, '.1f')}" for s in thesis]
+    half = (len(cells) + 1) // 2
+    left, right = cells[:half], cells[half:] + ["| |"] * (2 * half - len(cells))
+    lines = ["| experiment | jobs | minutes | | experiment | jobs | minutes |", "|---|---|---|---|---|---|---|"]
+    lines += [f"| {a} | | {b} |" for a, b in zip(left, right)]
+    odd = [key for key, s in sweeps.items() if s["attempts"] > 1 or s.get("jobs_before")]
+    note = (f" ({', '.join(odd)} ran in more than one attempt or resumed jobs of an earlier run: their minutes are the attempts' sum)"
+            if odd else "")
+    totals = {g: sum(s["seconds"] for s in sweeps.values() if s["group"] == g) / 60 for g in ("thesis", "variants", "beyond")}
+    return {"wall": "\n".join(lines), "minutes": minutes, "note": note, "n_variants": sum(s["group"] == "variants" for s in sweeps.values()),
+            **{f"{g}_minutes": m for g, m in totals.items()}}
+
+
+TABLES = {"sweeps": _sweep_tables, "default_fit": _default_fit_tables, "first_fit": _first_fit_excerpts, "test_suite": _suite_minutes, "environments": _environment_tables, "mmdp": _mmdp_tables}
 
 
 # --------------------------------------------------------------------------- the MkDocs hook

@@ -1,0 +1,133 @@
+"""Every experiment's sweep at one commit, timed, then the report: `python benchmarks/sweeps.py --json FILE`.
+
+Runs, one after the other in fresh processes with the default launcher (two warm workers on two
+cores), as a user runs them from the repository's root:
+
+- the sweeps of chapter 7's figures (`airl sweep experiment=NAME`: fig14 and fig15 are one sweep,
+  as are fig17 and fig18);
+- the claims table's variant sweeps: `method=airl` with one reading changed (`READINGS` of
+  ``airl_cli.readings.claims``: the random MDP's uniform and sparse rows, the grid's grid-distance
+  loss, Table I's gradient steps, with `optim.certify=false` on fig05-fig09);
+- the experiments beyond the thesis (sizes, environments, Viano et al.'s GridWorld, the degeneracy
+  study, the windy gridworld's and the cross-problem transfer).
+
+Each sweep writes ``results/sweeps/<study>-<profile>[-<overrides>]/`` (the folder `airl sweep`
+names) and its wall time, jobs and attempts go to FILE as soon as it ends, with the commit and the
+machine. Run again, the script skips the sweeps FILE records as whole at this commit and resumes
+the others (`airl sweep` keeps a sweep's finished jobs; an attempt's seconds add up): a
+three-hour run may be stopped and continued. FILE written at another commit is started afresh.
+With ``--report DIR`` the report (`airl report --out DIR`: experiments/README.md's claims table,
+results.md and the figures) is written from the sweeps at the end. ``--profile quick`` runs the
+same list at a small size (minutes; the pages quote the full size only). Nothing else should run
+on the machine meanwhile: the times are the pages' (docs/hooks/page_numbers.py renders them).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import re
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+from _runs import provenance
+
+ROOT = Path(__file__).resolve().parents[1]
+
+#: chapter 7's sweeps: table label -> experiment
+THESIS = {
+    "fig02_03": "fig02_03", "fig04": "fig04", "fig05": "fig05", "fig06": "fig06", "fig07": "fig07", "fig08": "fig08",
+    "fig09": "fig09", "fig12": "fig12", "fig13": "fig13", "fig14 + fig15": "fig14", "fig17 + fig18": "fig17",
+}
+RANDOM_MDP = ("fig04", "fig05", "fig06", "fig07", "fig08", "fig09")
+GRID = ("fig12", "fig13", "fig14", "fig17")
+#: the claims table's variants: (experiment, overrides), each `method=airl` with one reading changed
+VARIANTS = [
+    *[(e, ("method=airl", f"mdp.transition={t}")) for e in RANDOM_MDP for t in ("uniform", "sparse")],
+    *[(e, ("method=airl", "loss=squared_euclidean")) for e in GRID],
+    ("fig04", ("method=airl", "optim=gradient")),
+    *[(e, ("method=airl", "optim=gradient", "optim.certify=false")) for e in RANDOM_MDP[1:]],
+    *[(e, ("method=airl", "optim=gradient")) for e in GRID],
+]
+#: the experiments beyond the thesis
+BEYOND = ("size", "size_random", "size_random_scaled", "size_random_markov", "frozenlake", "cliffworld",
+          "viano_gridworld", "viano_finite", "degeneracy", "windy_transfer", "transfer")
+GROUPS = ("thesis", "variants", "beyond")
+
+HEAD = re.compile(r"sweep (?P<name>\S+): (?P<jobs>\d+) jobs, (?P<earlier>\d+) finished earlier; folder (?P<folder>.+)")
+
+
+def plan(groups: tuple[str, ...]) -> list[dict]:
+    """The sweeps of the chosen groups, in order: each its group, table label, experiment and overrides."""
+    out = []
+    if "thesis" in groups:
+        out += [{"group": "thesis", "label": label, "experiment": e, "overrides": []} for label, e in THESIS.items()]
+    if "variants" in groups:
+        out += [{"group": "variants", "label": " ".join((e, *o[1:])), "experiment": e, "overrides": list(o)} for e, o in VARIANTS]
+    if "beyond" in groups:
+        out += [{"group": "beyond", "label": e, "experiment": e, "overrides": []} for e in BEYOND]
+    return out
+
+
+def sweep(item: dict, profile: str) -> tuple[float, dict | None, str]:
+    """Run one sweep (resuming its finished jobs): (wall seconds, what its first line said — jobs,
+    finished earlier, folder — or None if it failed or was stopped, and its error output's tail)."""
+    args = [sys.executable, "-m", "airl_cli", "sweep", f"experiment={item['experiment']}", *item["overrides"]]
+    if profile != "full":
+        args.append(f"profile={profile}")
+    start = time.perf_counter()
+    try:
+        done = subprocess.run(args, cwd=ROOT, capture_output=True, text=True, check=False)
+    except KeyboardInterrupt:  # the sweep got the same Ctrl-C and stops (its finished jobs are kept)
+        return time.perf_counter() - start, None, "stopped (Ctrl-C)"
+    seconds = time.perf_counter() - start
+    head = next((m for m in map(HEAD.match, done.stdout.splitlines()) if m), None)
+    if done.returncode != 0 or head is None:
+        return seconds, None, f"exit {done.returncode}:\n{done.stderr[-3000:] or done.stdout[-3000:]}"
+    folder = Path(head["folder"])
+    return seconds, {"jobs": int(head["jobs"]), "earlier": int(head["earlier"]),
+                     "folder": str(folder.relative_to(ROOT) if folder.is_absolute() else folder)}, ""
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--json", type=Path, required=True, help="the file to write (and to resume from)")
+    parser.add_argument("--profile", default="full", choices=("full", "quick"), help="the sweeps' size (default: full)")
+    parser.add_argument("--groups", nargs="+", default=list(GROUPS), choices=GROUPS, help="which sweeps (default: all)")
+    parser.add_argument("--report", type=Path, default=None, help="write `airl report --out REPORT` from the sweeps at the end")
+    args = parser.parse_args()
+    record = provenance(sys.argv)
+    old = json.loads(args.json.read_text()) if args.json.is_file() else {}
+    if old.get("commit") == record["commit"] and old.get("profile") == args.profile and not record["commit"].endswith("+changes"):
+        record["sweeps"] = old.get("sweeps", {})
+    else:
+        record["sweeps"] = {}
+    record["profile"] = args.profile
+    items = plan(tuple(args.groups))
+    for n, item in enumerate(items, 1):
+        key = " ".join((item["experiment"], *item["overrides"]))
+        kept = record["sweeps"].get(key)
+        if kept and kept["whole"]:
+            print(f"[{n}/{len(items)}] {key}: whole at this commit, kept", flush=True)
+            continue
+        print(f"[{n}/{len(items)}] airl sweep {key}", flush=True)
+        seconds, head, error = sweep(item, args.profile)
+        entry = {**item, "whole": head is not None, "seconds": (kept["seconds"] if kept else 0.0) + seconds,
+                 "attempts": (kept["attempts"] if kept else 0) + 1}
+        if head is not None:
+            entry |= {"jobs": head["jobs"], "folder": head["folder"], "jobs_before": kept.get("jobs_before", head["earlier"]) if kept else head["earlier"]}
+        record["sweeps"][key] = entry
+        args.json.write_text(json.dumps(record, indent=1) + "\n")
+        if head is None:
+            sys.exit(f"airl sweep {key}: {error}\n(its time so far is kept in {args.json}; run this script again to resume)")
+        print(f"    {head['jobs']} jobs in {seconds / 60:.1f} minutes ({head['folder']})", flush=True)
+    args.json.write_text(json.dumps(record, indent=1) + "\n")
+    if args.report is not None:
+        report = [sys.executable, "-m", "airl_cli", "report", "results/sweeps", "--out", str(args.report.resolve()), "--profile", args.profile]
+        subprocess.run(report, cwd=ROOT, check=True)
+
+
+if __name__ == "__main__":
+    main()
