@@ -12,10 +12,11 @@ cores), as a user runs them from the repository's root:
   study, the windy gridworld's and the cross-problem transfer).
 
 Each sweep writes ``results/sweeps/<study>-<profile>[-<overrides>]/`` (the folder `airl sweep`
-names) and its wall time, jobs and attempts go to FILE as soon as it ends, with the commit and the
-machine. Run again, the script skips the sweeps FILE records as whole at this commit and resumes
-the others (`airl sweep` keeps a sweep's finished jobs; an attempt's seconds add up): a
-three-hour run may be stopped and continued. FILE written at another commit is started afresh.
+names) and its wall time, jobs, attempts and each method's median fit seconds go to FILE as soon as it ends, with the commit and the
+machine. Run again, the script skips the sweeps FILE records as whole with this code (the
+package, the configs and pyproject.toml as at FILE's commit) and resumes the others (`airl sweep`
+keeps a sweep's finished jobs; an attempt's seconds add up): a run of hours may be stopped and
+continued. FILE written with other code is started afresh.
 With ``--report DIR`` the report (`airl report --out DIR`: experiments/README.md's claims table,
 results.md and the figures) is written from the sweeps at the end. ``--profile quick`` runs the
 same list at a small size (minutes; the pages quote the full size only). Nothing else should run
@@ -91,6 +92,28 @@ def sweep(item: dict, profile: str) -> tuple[float, dict | None, str]:
                      "folder": str(folder.relative_to(ROOT) if folder.is_absolute() else folder)}, ""
 
 
+def code(commit: str) -> tuple[str, ...] | None:
+    """The git trees of what a sweep's results depend on (the package, the configs, the
+    dependencies' pins) at ``commit``; None for an unknown commit. Two commits with the same trees
+    make the same sweeps, whatever else (a page, a benchmark script) changed between them."""
+    parts = [f"{commit}:{path}" for path in ("airl_cli", "conf", "pyproject.toml")]
+    done = subprocess.run(["git", "rev-parse", *parts], cwd=ROOT, capture_output=True, text=True, check=False)
+    return tuple(done.stdout.split()) if commit and done.returncode == 0 else None
+
+
+def median_fit_seconds(folder: Path) -> dict[str, float]:
+    """method -> the median over the sweep's jobs of a fit's seconds (results.csv: a job's rows, one
+    per dynamics, repeat its seconds); {} for a table without them (fig02_03's)."""
+    import pandas as pd
+
+    table = pd.read_csv(folder / "results.csv")
+    if not {"method", "seconds"} <= set(table.columns):
+        return {}
+    keys = [c for c in ("method", "x", "seed") if c in table.columns]
+    jobs = table.drop_duplicates(keys)
+    return {str(m): float(g["seconds"].median()) for m, g in jobs.groupby("method")}
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--json", type=Path, required=True, help="the file to write (and to resume from)")
@@ -100,8 +123,8 @@ def main() -> None:
     args = parser.parse_args()
     record = provenance(sys.argv)
     old = json.loads(args.json.read_text()) if args.json.is_file() else {}
-    if old.get("commit") == record["commit"] and old.get("profile") == args.profile and not record["commit"].endswith("+changes"):
-        record["sweeps"] = old.get("sweeps", {})
+    if old.get("profile") == args.profile and not record["commit"].endswith("+changes") and code(old.get("commit", "")) == code("HEAD"):
+        record["commit"], record["sweeps"] = old["commit"], old.get("sweeps", {})  # the same code: its sweeps stand
     else:
         record["sweeps"] = {}
     record["profile"] = args.profile
@@ -110,14 +133,17 @@ def main() -> None:
         key = " ".join((item["experiment"], *item["overrides"]))
         kept = record["sweeps"].get(key)
         if kept and kept["whole"]:
-            print(f"[{n}/{len(items)}] {key}: whole at this commit, kept", flush=True)
+            if "median_fit_seconds" not in kept:  # recorded by an earlier version of this script
+                kept["median_fit_seconds"] = median_fit_seconds(ROOT / kept["folder"])
+            print(f"[{n}/{len(items)}] {key}: whole with this code, kept", flush=True)
             continue
         print(f"[{n}/{len(items)}] airl sweep {key}", flush=True)
         seconds, head, error = sweep(item, args.profile)
         entry = {**item, "whole": head is not None, "seconds": (kept["seconds"] if kept else 0.0) + seconds,
                  "attempts": (kept["attempts"] if kept else 0) + 1}
         if head is not None:
-            entry |= {"jobs": head["jobs"], "folder": head["folder"], "jobs_before": kept.get("jobs_before", head["earlier"]) if kept else head["earlier"]}
+            entry |= {"jobs": head["jobs"], "folder": head["folder"], "jobs_before": kept.get("jobs_before", head["earlier"]) if kept else head["earlier"],
+                      "median_fit_seconds": median_fit_seconds(ROOT / head["folder"])}
         record["sweeps"][key] = entry
         args.json.write_text(json.dumps(record, indent=1) + "\n")
         if head is None:
