@@ -112,6 +112,7 @@ def test_the_sweeps_wall_time_table_from_a_record():
     assert t["wall"].splitlines()[2:] == ["| fig04 | 500 | 1.1 | | fig14 + fig15 | 1,350 | 0.6 |", "| fig05 | 350 | 7.7 | | | | |"]
     assert (round(t["thesis_minutes"], 2), t["variants_minutes"], t["beyond_minutes"]) == (9.37, 2.0, 0.6)
     assert t["minutes"]["size"] == 0.6 and t["n_variants"] == 1
+    assert t["sizes_minutes"] == 0.6 and t["viano_minutes"] == 0.0  # the pages' sums of experiments beyond the thesis
     assert "size ran in more than one attempt" in t["note"]
     assert page_numbers.TABLES["sweeps"]({"sweeps": {"fig04": _sweep("thesis", "fig04", 5, 6.0)}})["note"] == ""
 

@@ -338,8 +338,10 @@ def _sweep_tables(values: dict) -> dict:
     note = (f" ({', '.join(odd)} ran in more than one attempt or resumed jobs of an earlier run: their minutes are the attempts' sum)"
             if odd else "")
     totals = {g: sum(s["seconds"] for s in sweeps.values() if s["group"] == g) / 60 for g in ("thesis", "variants", "beyond")}
+    sets = {"sizes": ("size", "size_random", "size_random_scaled", "size_random_markov"), "environments": ("frozenlake", "cliffworld"),
+            "viano": ("viano_gridworld", "viano_finite")}  # the experiments beyond the thesis that the pages time together
     return {"wall": "\n".join(lines), "minutes": minutes, "note": note, "n_variants": sum(s["group"] == "variants" for s in sweeps.values()),
-            **{f"{g}_minutes": m for g, m in totals.items()}}
+            **{f"{g}_minutes": m for g, m in totals.items()}, **{f"{k}_minutes": sum(minutes.get(e, 0.0) for e in v) for k, v in sets.items()}}
 
 
 TABLES = {"sweeps": _sweep_tables, "default_fit": _default_fit_tables, "first_fit": _first_fit_excerpts, "test_suite": _suite_minutes, "environments": _environment_tables, "mmdp": _mmdp_tables}
