@@ -22,6 +22,7 @@ from airl_cli.errors import ConfigError
 from airl_cli.io.files import writable_problem, write_json
 from airl_cli.io.results_table import TABLE
 from airl_cli.io.run_folder import EXPERIMENT_FILE, INCOMPLETE
+from airl_cli.readings.summaries import summary_of
 from airl_cli.sweep.spec import ROWS, SweepPlan  # noqa: F401 (ROWS: part of the interface)
 
 SETTINGS = "sweep.json"
@@ -184,7 +185,8 @@ def check_not_foreign(sweep: SweepPlan) -> None:
     """
     if not sweep.folder.is_dir():
         return
-    foreign = sorted(p.name for p in sweep.folder.iterdir() if p.name not in SWEEP_FILES and (not p.is_dir() or p.name == ".hydra"))
+    own = SWEEP_FILES | set(summary_of(sweep.experiment).sweep_files)  # fig02_03's alphas.npz: what its figure draws
+    foreign = sorted(p.name for p in sweep.folder.iterdir() if p.name not in own and (not p.is_dir() or p.name == ".hydra"))
     if foreign:
         shown = ", ".join(foreign[:4]) + (f" and {len(foreign) - 4} more" if len(foreign) > 4 else "")
         raise ConfigError(

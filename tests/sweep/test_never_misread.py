@@ -40,6 +40,16 @@ def test_the_same_sweep_again_is_accepted(copy):
     assert result.exit_code == 0 and "4 finished earlier" in result.output, result.output
 
 
+def test_a_finished_sweep_that_keeps_its_figures_data_is_accepted_again(tmp_path):
+    """fig02_03's sweep copies alphas.npz (what its figure draws) beside its table: the same command
+    again was refused as if another run had left the file there."""
+    folder = tmp_path / "fig02_03"
+    line = ["sweep", "experiment=fig02_03", "profile=quick", f"hydra.sweep.dir={folder}"]
+    assert runner.invoke(app, line).exit_code == 0 and (folder / "alphas.npz").is_file()
+    again = runner.invoke(app, line)
+    assert again.exit_code == 0 and "1 finished earlier" in again.output, again.output
+
+
 def test_a_sweep_of_fewer_jobs_into_a_finished_sweep_is_refused_and_changes_nothing(copy):
     """Issue 72 item 3: seed=0 into a sweep of seeds 0-1 (or seed=5) ran, and its table of its own
     jobs replaced the folder's larger one, experiment.json and the figures, with exit 0."""
