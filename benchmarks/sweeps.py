@@ -114,6 +114,51 @@ def median_fit_seconds(folder: Path) -> dict[str, float]:
     return {str(m): float(g["seconds"].median()) for m, g in jobs.groupby("method")}
 
 
+def fig02_03_reading(folder: Path) -> dict:
+    """The exact alpha-vectors, those on the envelope, PBVI's and the largest value gap (its one row)."""
+    import pandas as pd
+
+    row = pd.read_csv(folder / "results.csv").iloc[0]
+    return {k: float(row[k]) for k in ("n_exact", "n_envelope", "n_pbvi", "max_value_gap")}
+
+
+def fig09_reading(folder: Path) -> dict:
+    """The thesis's method's fits flagged degenerate per noise sigma, and the smallest sigma from
+    which every fit is (None if at no sigma)."""
+    import pandas as pd
+
+    table = pd.read_csv(folder / "results.csv")
+    fits = table[table["method"] == "airl"].drop_duplicates(["x", "seed"])
+    share = fits.groupby("x")["degenerate"].apply(lambda d: float(d.astype(str).str.lower().eq("true").mean()))
+    xs = sorted(share.index)
+    tail = [x for i, x in enumerate(xs) if all(share[y] == 1.0 for y in xs[i:])]
+    return {"flagged_share": {f"{x:g}": float(share[x]) for x in xs}, "all_flagged_from": float(tail[0]) if tail else None}
+
+
+def degeneracy_reading(folder: Path) -> dict:
+    """The certified fits of the thesis's method (every variant) by the degenerate verdict's kind
+    (``airl_cli.jobs.fit.degenerate_sentence``): "below" (w = 0, or B(w) within the tolerance),
+    "f0" (flagged by the bound on f(0) alone), "none" (not flagged); per kind the number of fits and
+    the median and quartiles of cos(w, w*)."""
+    import numpy as np
+
+    kinds: dict[str, list[float]] = {"below": [], "f0": [], "none": []}
+    for metrics_file in sorted(folder.glob("*/metrics.json")):
+        m = json.loads(metrics_file.read_text())
+        if m.get("method") != "airl" or not m.get("converged"):
+            continue
+        below = m.get("zero_answer") or m["reward_effect"] <= m["tol"] * max(1.0, abs(m["objective"]))
+        kind = "below" if m.get("degenerate") and below else "f0" if m.get("degenerate") else "none"
+        kinds[kind].append(float(m["dynamics"][0]["cosine_similarity"]))
+    return {"fits": sum(map(len, kinds.values())),
+            **{k: {"n": len(c), **({"median": float(np.median(c)), "q1": float(np.quantile(c, 0.25)), "q3": float(np.quantile(c, 0.75))} if c else {})}
+               for k, c in kinds.items()}}
+
+
+#: experiment -> what the pages read from its sweep beyond the report (recorded as the sweep's ``reading``)
+READ = {"fig02_03": fig02_03_reading, "fig09": fig09_reading, "degeneracy": degeneracy_reading}
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--json", type=Path, required=True, help="the file to write (and to resume from)")
@@ -135,6 +180,8 @@ def main() -> None:
         if kept and kept["whole"]:
             if "median_fit_seconds" not in kept:  # recorded by an earlier version of this script
                 kept["median_fit_seconds"] = median_fit_seconds(ROOT / kept["folder"])
+            if item["experiment"] in READ and not item["overrides"] and "reading" not in kept:
+                kept["reading"] = READ[item["experiment"]](ROOT / kept["folder"])
             print(f"[{n}/{len(items)}] {key}: whole with this code, kept", flush=True)
             continue
         print(f"[{n}/{len(items)}] airl sweep {key}", flush=True)
@@ -144,6 +191,8 @@ def main() -> None:
         if head is not None:
             entry |= {"jobs": head["jobs"], "folder": head["folder"], "jobs_before": kept.get("jobs_before", head["earlier"]) if kept else head["earlier"],
                       "median_fit_seconds": median_fit_seconds(ROOT / head["folder"])}
+            if item["experiment"] in READ and not item["overrides"]:
+                entry["reading"] = READ[item["experiment"]](ROOT / head["folder"])
         record["sweeps"][key] = entry
         args.json.write_text(json.dumps(record, indent=1) + "\n")
         if head is None:

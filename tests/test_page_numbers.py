@@ -132,3 +132,26 @@ def test_the_sweeps_script_runs_every_reading_the_claims_table_reads():
     assert {item["experiment"] for item in sweeps.plan(("thesis", "beyond"))} | {"fig15", "fig18"} == {
         p.stem for p in (ROOT / "conf" / "experiment").glob("*.yaml") if not p.stem.startswith("_")}
     assert set(READINGS) == {r for _, r in wanted}
+
+
+def test_the_degeneracy_reading_sorts_fits_by_the_verdict_s_kind(tmp_path):
+    """benchmarks/sweeps.py's reading of the degeneracy sweep: w = 0 or B(w) within the tolerance,
+    flagged by the bound on f(0) alone, or not flagged; MCE IRL's and uncertified fits left out."""
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    import sweeps
+
+    def job(name, cos, **m):
+        (tmp_path / name).mkdir()
+        metrics = {"method": "airl", "converged": True, "tol": 1e-3, "objective": 5.0, "reward_effect": 1.0,
+                   "degenerate": False, "zero_answer": False, "dynamics": [{"cosine_similarity": cos}], **m}
+        (tmp_path / name / "metrics.json").write_text(json.dumps(metrics))
+
+    job("a", 0.1, degenerate=True, zero_answer=True)
+    job("b", 0.3, degenerate=True, reward_effect=0.004)  # B(w) <= 1e-3 * 5
+    job("c", 0.8, degenerate=True, reward_effect=0.2)
+    job("d", 0.9)
+    job("e", 0.5, method="mce")
+    job("f", 0.5, converged=False)
+    r = sweeps.degeneracy_reading(tmp_path)
+    assert r["fits"] == 4 and (r["below"]["n"], r["f0"]["n"], r["none"]["n"]) == (2, 1, 1)
+    assert r["below"]["median"] == pytest.approx(0.2) and r["f0"]["median"] == 0.8
