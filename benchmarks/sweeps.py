@@ -18,7 +18,8 @@ package, the configs and pyproject.toml as at FILE's commit) and resumes the oth
 keeps a sweep's finished jobs; an attempt's seconds add up): a run of hours may be stopped and
 continued. FILE written with other code is started afresh.
 With ``--report DIR`` the report (`airl report --out DIR`: experiments/README.md's claims table,
-results.md and the figures) is written from the sweeps at the end. ``--profile quick`` runs the
+results.md and the figures) is written from the sweeps at the end, and results.md's sections go
+to FILE too (``sections``: what the experiment pages show of it). ``--profile quick`` runs the
 same list at a small size (minutes; the pages quote the full size only). Nothing else should run
 on the machine meanwhile: the times are the pages' (docs/hooks/page_numbers.py renders them).
 """
@@ -155,6 +156,21 @@ def degeneracy_reading(folder: Path) -> dict:
                for k, c in kinds.items()}}
 
 
+def sections(results: Path) -> dict[str, str]:
+    """The report's results.md by section: heading (up to its first colon: "fig05", "degeneracy",
+    "fig05 with mdp.transition=sparse,method=airl") -> its text without the heading and the figures
+    (a page that shows a section draws its own), for the experiment pages to show as rendered."""
+    out: dict[str, list[str]] = {}
+    key = None
+    for line in results.read_text().splitlines():
+        if line.startswith("## "):
+            key = line[3:].split(":", 1)[0].strip()
+            out[key] = []
+        elif key is not None and not line.startswith("!["):
+            out[key].append(line)
+    return {k: re.sub(r"\n{3,}", "\n\n", "\n".join(v).strip("\n")) for k, v in out.items()}
+
+
 #: experiment -> what the pages read from its sweep beyond the report (recorded as the sweep's ``reading``)
 READ = {"fig02_03": fig02_03_reading, "fig09": fig09_reading, "degeneracy": degeneracy_reading}
 
@@ -202,6 +218,8 @@ def main() -> None:
     if args.report is not None:
         report = [sys.executable, "-m", "airl_cli", "report", "results/sweeps", "--out", str(args.report.resolve()), "--profile", args.profile]
         subprocess.run(report, cwd=ROOT, check=True)
+        record["sections"] = sections(args.report / "results.md")  # what the experiment pages show of it
+        args.json.write_text(json.dumps(record, indent=1) + "\n")
 
 
 if __name__ == "__main__":

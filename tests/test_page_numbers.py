@@ -155,3 +155,14 @@ def test_the_degeneracy_reading_sorts_fits_by_the_verdict_s_kind(tmp_path):
     r = sweeps.degeneracy_reading(tmp_path)
     assert r["fits"] == 4 and (r["below"]["n"], r["f0"]["n"], r["none"]["n"]) == (2, 1, 1)
     assert r["below"]["median"] == pytest.approx(0.2) and r["f0"]["median"] == 0.8
+
+
+def test_the_report_s_sections_for_the_experiment_pages(tmp_path):
+    """benchmarks/sweeps.py keeps results.md's sections by heading, without their figures."""
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    import sweeps
+
+    results = tmp_path / "results.md"
+    results.write_text("# Results\n\nintro\n\n## size: Objectworld\n\nThesis: none.\n\n| a |\n|---|\n| 1 |\n\n"
+                       "![size_curves](figures/size_curves.png)\n\n## fig05 with mdp.transition=sparse,method=airl\n\n| b |\n")
+    assert sweeps.sections(results) == {"size": "Thesis: none.\n\n| a |\n|---|\n| 1 |", "fig05 with mdp.transition=sparse,method=airl": "| b |"}
