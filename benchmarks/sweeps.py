@@ -171,6 +171,22 @@ def sections(results: Path) -> dict[str, str]:
     return {k: re.sub(r"\n{3,}", "\n\n", "\n".join(v).strip("\n")) for k, v in out.items()}
 
 
+def certificates_reading(folders: dict[str, Path]) -> dict:
+    """Over the thesis's method's certified fits of the given sweeps (key -> folder): how many, how
+    many closed their bracket to ``optim.tol`` (``converged``), and the widest bracket with its
+    sweep and x (``airl_cli.readings.certificates``: one row per fit, its row under tau)."""
+    import pandas as pd
+
+    from airl_cli.readings.certificates import fits_of_the_method
+
+    fits = pd.concat([fits_of_the_method(pd.read_csv(f / "results.csv")).assign(sweep=key) for key, f in folders.items()], ignore_index=True)
+    closed = fits["converged"].astype(str).eq("True")
+    width = pd.to_numeric(fits["bracket_width"], errors="coerce")
+    widest = fits.loc[width.idxmax()] if width.notna().any() else None
+    return {"fits": len(fits), "closed": int(closed.sum()),
+            "widest": None if widest is None else {"width": float(width.max()), "sweep": widest["sweep"], "x": float(widest["x"])}}
+
+
 #: experiment -> what the pages read from its sweep beyond the report (recorded as the sweep's ``reading``)
 READ = {"fig02_03": fig02_03_reading, "fig09": fig09_reading, "degeneracy": degeneracy_reading}
 
@@ -214,6 +230,8 @@ def main() -> None:
         if head is None:
             sys.exit(f"airl sweep {key}: {error}\n(its time so far is kept in {args.json}; run this script again to resume)")
         print(f"    {head['jobs']} jobs in {seconds / 60:.1f} minutes ({head['folder']})", flush=True)
+    thesis_and_variants = {k: ROOT / e["folder"] for k, e in record["sweeps"].items() if e["group"] in ("thesis", "variants") and e["whole"]}
+    record["certificates"] = certificates_reading(thesis_and_variants) if thesis_and_variants else None
     args.json.write_text(json.dumps(record, indent=1) + "\n")
     if args.report is not None:
         report = [sys.executable, "-m", "airl_cli", "report", "results/sweeps", "--out", str(args.report.resolve()), "--profile", args.profile]

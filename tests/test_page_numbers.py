@@ -166,3 +166,18 @@ def test_the_report_s_sections_for_the_experiment_pages(tmp_path):
     results.write_text("# Results\n\nintro\n\n## size: Objectworld\n\nThesis: none.\n\n| a |\n|---|\n| 1 |\n\n"
                        "![size_curves](figures/size_curves.png)\n\n## fig05 with mdp.transition=sparse,method=airl\n\n| b |\n")
     assert sweeps.sections(results) == {"size": "Thesis: none.\n\n| a |\n|---|\n| 1 |", "fig05 with mdp.transition=sparse,method=airl": "| b |"}
+
+
+def test_the_certificates_reading_counts_closed_brackets_over_sweeps(tmp_path):
+    """benchmarks/sweeps.py: the thesis's method's certified fits (one row per fit, under tau), the
+    closed ones, and the widest bracket with its sweep and x; other methods and gradient fits left out."""
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    import sweeps
+
+    head = "method,optimizer,dynamics,x,converged,bracket_width,degenerate\n"
+    for name, body in {"a": "airl,exact,tau,1,True,1e-4,False\nairl,exact,tau_1,1,True,1e-4,False\nairl,exact,tau,3,False,0.07,False\n",
+                       "b": "airl,exact,tau,10,True,5e-4,False\nmce,,tau,10,,,\nairl,gradient,tau,10,False,,False\n"}.items():
+        (tmp_path / name).mkdir()
+        (tmp_path / name / "results.csv").write_text(head + body)
+    r = sweeps.certificates_reading({"fig05": tmp_path / "a", "fig07": tmp_path / "b"})
+    assert r == {"fits": 3, "closed": 2, "widest": {"width": 0.07, "sweep": "fig05", "x": 3.0}}
