@@ -73,6 +73,21 @@ def plan(groups: tuple[str, ...]) -> list[dict]:
     return out
 
 
+#: the package's extras that the experiments beyond the thesis import (gymnasium's and seals' environments)
+EXTRAS = {"envs": ("gymnasium", "seals")}
+
+
+def missing_extras(groups: tuple[str, ...]) -> str | None:
+    """One sentence naming the extra the chosen sweeps need and this environment lacks (None: all there):
+    without it every job of frozenlake, cliffworld and transfer stops on bad input."""
+    import importlib.util
+
+    if "beyond" not in groups:
+        return None
+    missing = [extra for extra, modules in EXTRAS.items() if any(importlib.util.find_spec(m) is None for m in modules)]
+    return f"the experiments beyond the thesis need the extra {missing[0]}: pip install '.[{missing[0]}]'" if missing else None
+
+
 def sweep(item: dict, profile: str) -> tuple[float, dict | None, str]:
     """Run one sweep (resuming its finished jobs): (wall seconds, what its first line said — jobs,
     finished earlier, folder — or None if it failed or was stopped, and its error output's tail)."""
@@ -198,6 +213,8 @@ def main() -> None:
     parser.add_argument("--groups", nargs="+", default=list(GROUPS), choices=GROUPS, help="which sweeps (default: all)")
     parser.add_argument("--report", type=Path, default=None, help="write `airl report --out REPORT` from the sweeps at the end")
     args = parser.parse_args()
+    if sentence := missing_extras(tuple(args.groups)):
+        sys.exit(f"error: {sentence}")
     record = provenance(sys.argv)
     old = json.loads(args.json.read_text()) if args.json.is_file() else {}
     if old.get("profile") == args.profile and not record["commit"].endswith("+changes") and code(old.get("commit", "")) == code("HEAD"):

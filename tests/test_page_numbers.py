@@ -181,3 +181,17 @@ def test_the_certificates_reading_counts_closed_brackets_over_sweeps(tmp_path):
         (tmp_path / name / "results.csv").write_text(head + body)
     r = sweeps.certificates_reading({"fig05": tmp_path / "a", "fig07": tmp_path / "b"})
     assert r == {"fits": 3, "closed": 2, "widest": {"width": 0.07, "sweep": "fig05", "x": 3.0}}
+
+
+def test_the_sweeps_script_names_a_missing_extra_before_running_anything(monkeypatch):
+    """Without gymnasium and seals every job of frozenlake, cliffworld and transfer stops on bad input
+    (a full run found it 41 sweeps in): the script says so first, in one sentence."""
+    import importlib.util
+
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    import sweeps
+
+    assert sweeps.missing_extras(("thesis", "variants")) is None
+    real = importlib.util.find_spec
+    monkeypatch.setattr(importlib.util, "find_spec", lambda name, *a: None if name == "seals" else real(name, *a))
+    assert sweeps.missing_extras(("thesis", "beyond")) == "the experiments beyond the thesis need the extra envs: pip install '.[envs]'"
