@@ -152,16 +152,19 @@ def fig09_reading(folder: Path) -> dict:
 
 
 def degeneracy_reading(folder: Path) -> dict:
-    """The certified fits of the thesis's method (every variant) by the degenerate verdict's kind
-    (``airl_cli.jobs.fit.degenerate_sentence``): "below" (w = 0, or B(w) within the tolerance),
-    "f0" (flagged by the bound on f(0) alone), "none" (not flagged); per kind the number of fits and
-    the median and quartiles of cos(w, w*)."""
+    """The certified fits of the thesis's method (every variant; certified: stopped by its
+    certificate, not by a cap — the Markov variants' brackets are not closed, so ``converged`` would
+    leave them out) by the degenerate verdict's kind (``airl_cli.jobs.fit.degenerate_sentence``):
+    "below" (w = 0, or B(w) within the tolerance), "f0" (flagged by the bound on f(0) alone), "none"
+    (not flagged); per kind the number of fits and the median and quartiles of cos(w, w*)."""
     import numpy as np
+
+    from airl_cli.core.irl.certified_answer import CAPS
 
     kinds: dict[str, list[float]] = {"below": [], "f0": [], "none": []}
     for metrics_file in sorted(folder.glob("*/metrics.json")):
         m = json.loads(metrics_file.read_text())
-        if m.get("method") != "airl" or not m.get("converged"):
+        if m.get("method") != "airl" or m.get("optimizer", "exact") != "exact" or m.get("stopped") in CAPS:
             continue
         below = m.get("zero_answer") or m["reward_effect"] <= m["tol"] * max(1.0, abs(m["objective"]))
         kind = "below" if m.get("degenerate") and below else "f0" if m.get("degenerate") else "none"
@@ -229,7 +232,7 @@ def main() -> None:
         if kept and kept["whole"]:
             if "median_fit_seconds" not in kept:  # recorded by an earlier version of this script
                 kept["median_fit_seconds"] = median_fit_seconds(ROOT / kept["folder"])
-            if item["experiment"] in READ and not item["overrides"] and "reading" not in kept:
+            if item["experiment"] in READ and not item["overrides"]:  # (again: a reading's rule may have changed since)
                 kept["reading"] = READ[item["experiment"]](ROOT / kept["folder"])
             print(f"[{n}/{len(items)}] {key}: whole with this code, kept", flush=True)
             continue

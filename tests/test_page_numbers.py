@@ -136,13 +136,13 @@ def test_the_sweeps_script_runs_every_reading_the_claims_table_reads():
 
 def test_the_degeneracy_reading_sorts_fits_by_the_verdict_s_kind(tmp_path):
     """benchmarks/sweeps.py's reading of the degeneracy sweep: w = 0 or B(w) within the tolerance,
-    flagged by the bound on f(0) alone, or not flagged; MCE IRL's and uncertified fits left out."""
+    flagged by the bound on f(0) alone, or not flagged; MCE IRL's fits and capped ones left out."""
     sys.path.insert(0, str(ROOT / "benchmarks"))
     import sweeps
 
     def job(name, cos, **m):
         (tmp_path / name).mkdir()
-        metrics = {"method": "airl", "converged": True, "tol": 1e-3, "objective": 5.0, "reward_effect": 1.0,
+        metrics = {"method": "airl", "converged": True, "stopped": "tolerance", "tol": 1e-3, "objective": 5.0, "reward_effect": 1.0,
                    "degenerate": False, "zero_answer": False, "dynamics": [{"cosine_similarity": cos}], **m}
         (tmp_path / name / "metrics.json").write_text(json.dumps(metrics))
 
@@ -151,9 +151,10 @@ def test_the_degeneracy_reading_sorts_fits_by_the_verdict_s_kind(tmp_path):
     job("c", 0.8, degenerate=True, reward_effect=0.2)
     job("d", 0.9)
     job("e", 0.5, method="mce")
-    job("f", 0.5, converged=False)
+    job("f", 0.5, stopped="max_iterations")
+    job("g", 0.95, converged=False, stopped="tolerance")  # a Markov variant's: certified, its bracket not closed
     r = sweeps.degeneracy_reading(tmp_path)
-    assert r["fits"] == 4 and (r["below"]["n"], r["f0"]["n"], r["none"]["n"]) == (2, 1, 1)
+    assert r["fits"] == 5 and (r["below"]["n"], r["f0"]["n"], r["none"]["n"]) == (2, 1, 2)
     assert r["below"]["median"] == pytest.approx(0.2) and r["f0"]["median"] == 0.8
 
 
