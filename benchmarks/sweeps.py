@@ -209,6 +209,15 @@ def certificates_reading(folders: dict[str, Path]) -> dict:
 READ = {"fig02_03": fig02_03_reading, "fig09": fig09_reading, "degeneracy": degeneracy_reading}
 
 
+def readings(item: dict, folder: Path) -> dict:
+    """What the record keeps of a whole sweep's folder: each method's median fit seconds, and the
+    pages' reading of it where ``READ`` has one (the experiment's own sweep, not a variant's)."""
+    out: dict = {"median_fit_seconds": median_fit_seconds(folder)}
+    if item["experiment"] in READ and not item["overrides"]:
+        out["reading"] = READ[item["experiment"]](folder)
+    return out
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--json", type=Path, required=True, help="the file to write (and to resume from)")
@@ -230,10 +239,7 @@ def main() -> None:
         key = " ".join((item["experiment"], *item["overrides"]))
         kept = record["sweeps"].get(key)
         if kept and kept["whole"]:
-            if "median_fit_seconds" not in kept:  # recorded by an earlier version of this script
-                kept["median_fit_seconds"] = median_fit_seconds(ROOT / kept["folder"])
-            if item["experiment"] in READ and not item["overrides"]:  # (again: a reading's rule may have changed since)
-                kept["reading"] = READ[item["experiment"]](ROOT / kept["folder"])
+            kept |= readings(item, ROOT / kept["folder"])  # again: a rule may have changed since it was recorded
             print(f"[{n}/{len(items)}] {key}: whole with this code, kept", flush=True)
             continue
         print(f"[{n}/{len(items)}] airl sweep {key}", flush=True)
@@ -242,9 +248,7 @@ def main() -> None:
                  "attempts": (kept["attempts"] if kept else 0) + 1}
         if head is not None:
             entry |= {"jobs": head["jobs"], "folder": head["folder"], "jobs_before": kept.get("jobs_before", head["earlier"]) if kept else head["earlier"],
-                      "median_fit_seconds": median_fit_seconds(ROOT / head["folder"])}
-            if item["experiment"] in READ and not item["overrides"]:
-                entry["reading"] = READ[item["experiment"]](ROOT / head["folder"])
+                      **readings(item, ROOT / head["folder"])}
         record["sweeps"][key] = entry
         args.json.write_text(json.dumps(record, indent=1) + "\n")
         if head is None:
