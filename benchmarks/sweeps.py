@@ -205,8 +205,71 @@ def certificates_reading(folders: dict[str, Path]) -> dict:
             "widest": None if widest is None else {"width": float(width.max()), "sweep": widest["sweep"], "x": float(widest["x"])}}
 
 
+def _number(value) -> float | None:
+    """A table's value as a JSON number (None for NaN)."""
+    value = float(value)
+    return None if value != value else value
+
+
+def _fits(jobs) -> dict:
+    """The thesis's method's fits among ``jobs`` (one row per job): how many, how many closed their
+    bracket (``converged``), how many were flagged degenerate, their seconds (min, median, max) and
+    relative gaps (min, max; a negative gap: the adversary's side missed a better strategy)."""
+    fits = jobs[jobs["method"] == "airl"]
+    true = lambda column: int(fits[column].astype(str).str.lower().eq("true").sum())  # noqa: E731
+    gap = fits["relative_gap"].astype(float) if "relative_gap" in fits else fits["seconds"] * float("nan")
+    return {"n": len(fits), "converged": true("converged"), "degenerate": true("degenerate"),
+            "seconds": {k: _number(getattr(fits["seconds"], k)()) for k in ("min", "median", "max")},
+            "gap": {k: _number(getattr(gap, k)()) for k in ("min", "max")}}
+
+
+def transfer_reading(folder: Path) -> dict:
+    """What the transfer pages read, per group and method: a group is a (problem, expert model) pair —
+    "CliffWorld own" — and, where the sweep has several N, each N ("windy grid own N10"). Per method
+    (``airl_cli.readings.transfer.transfer_summary``): the medians held out, demonstrated and in tau,
+    the pairs (run, held-out dynamics) more than 0.01 above / below the thesis's method's, the median
+    cos(w, w*) and |w| (min, max over runs); per group the demonstrator's held-out and demonstrated medians, each
+    held-out dynamics' medians (method or "demonstrator" -> median) and the thesis's method's fits
+    (``_fits``); over all groups each method's pairs above / below and the thesis's method's fits;
+    each method's label in tables."""
+    import pandas as pd
+
+    from airl_cli.methods import REGISTRY
+    from airl_cli.readings.transfer import problem_names, transfer_summary
+
+    table = pd.read_csv(folder / "results.csv")
+    expert = table["demos.expert"].fillna("tau") if "demos.expert" in table else "tau"
+    several = table["x"].nunique() > 1
+    table = table.assign(_group=problem_names(table) + " " + expert + (table["x"].map(lambda x: f" N{x:g}") if several else ""))
+    jobs = table[table["dynamics"] == "tau"]  # one row per job
+    out: dict = {"groups": {}, "pairs": {}, "fits": _fits(jobs),
+                 "labels": {m: method.label for m, method in REGISTRY.items() if m in set(table["method"])}}
+    for key, rows in table.groupby("_group", sort=False):
+        held = rows[rows["dynamics"].astype(str).str.startswith("test_")]
+        group_jobs = jobs[jobs["_group"] == key]
+        methods = {}
+        for r in transfer_summary({}, rows).itertuples():
+            mine = group_jobs[group_jobs["method"] == r.method]
+            methods[r.method] = {**{k: _number(getattr(r, k)) for k in ("held_out", "demonstrated", "tau")},
+                                 **{k: int(getattr(r, k)) for k in ("above_airl", "below_airl", "pairs")},
+                                 "cos": _number(mine["cosine_similarity"].median()),
+                                 "w": {k: _number(getattr(mine["weight_scale"], k)()) for k in ("min", "max")}}
+            totals = out["pairs"].setdefault(r.method, {"above_airl": 0, "below_airl": 0, "pairs": 0})
+            for k in totals:
+                totals[k] += int(getattr(r, k))
+        per_dynamics = {str(d): {**{str(m): _number(s) for m, s in g.groupby("method")["learner_score"].median().items()},
+                                 "demonstrator": _number(g["demonstrator_score"].median())}
+                        for d, g in held.groupby("dynamics")}
+        demonstrated = rows[rows["dynamics"].astype(str).str.fullmatch(r"tau_\d+")]
+        out["groups"][key] = {"methods": methods, "demonstrator_held_out": _number(held["demonstrator_score"].median()),
+                              "demonstrator_demonstrated": _number(demonstrated["demonstrator_score"].median()),
+                              "held_out": per_dynamics, "fits": _fits(group_jobs)}
+    return out
+
+
 #: experiment -> what the pages read from its sweep beyond the report (recorded as the sweep's ``reading``)
-READ = {"fig02_03": fig02_03_reading, "fig09": fig09_reading, "degeneracy": degeneracy_reading}
+READ = {"fig02_03": fig02_03_reading, "fig09": fig09_reading, "degeneracy": degeneracy_reading,
+        "windy_transfer": transfer_reading, "transfer": transfer_reading}
 
 
 def readings(item: dict, folder: Path) -> dict:

@@ -196,3 +196,43 @@ def test_the_sweeps_script_names_a_missing_extra_before_running_anything(monkeyp
     real = importlib.util.find_spec
     monkeypatch.setattr(importlib.util, "find_spec", lambda name, *a: None if name == "seals" else real(name, *a))
     assert sweeps.missing_extras(("thesis", "beyond")) == "the experiments beyond the thesis need the extra envs: pip install '.[envs]'"
+
+
+def test_the_transfer_reading_per_group_against_hand_computed_medians_and_pairs(tmp_path):
+    """benchmarks/sweeps.py's reading of a transfer sweep: per (problem, expert model, N) the held-out
+    medians, the pairs more than 0.01 above / below the thesis's method's, each held-out dynamics'
+    medians and the thesis's method's fits, checked against values worked out by hand."""
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    import sweeps
+
+    head = "method,mdp,demos.expert,x,seed,dynamics,learner_score,demonstrator_score,cosine_similarity,weight_scale,seconds,converged,degenerate,relative_gap\n"
+    rows = []
+    for seed, (a1, a2, m1, m2) in enumerate([(0.90, 0.80, 0.95, 0.80), (0.70, 0.60, 0.60, 0.65)]):
+        for method, s1, s2, sec in (("airl", a1, a2, 10.0 + seed), ("mce", m1, m2, 0.1)):
+            for dyn, score in (("tau", 0.5), ("tau_1", 1.0), ("test_1", s1), ("test_2", s2)):
+                rows.append(f"{method},windy,own,10,{seed},{dyn},{score},0.9,0.5,{2 + seed},{sec},True,False,{1e-4 if seed else -2e-3}")
+    (tmp_path / "results.csv").write_text(head + "\n".join(rows) + "\n")
+    r = sweeps.transfer_reading(tmp_path)
+    group = r["groups"]["windy grid own"]  # one N: no N in the key
+    assert group["methods"]["airl"]["held_out"] == pytest.approx(0.75)  # median of 0.9, 0.8, 0.7, 0.6
+    assert group["methods"]["mce"]["held_out"] == pytest.approx(0.725)  # of 0.95, 0.8, 0.6, 0.65
+    # mce - airl per (seed, dynamics): +0.05, 0, -0.10, +0.05 -> 2 above, 1 below
+    assert (group["methods"]["mce"]["above_airl"], group["methods"]["mce"]["below_airl"], group["methods"]["mce"]["pairs"]) == (2, 1, 4)
+    assert r["pairs"]["mce"] == {"above_airl": 2, "below_airl": 1, "pairs": 4}
+    assert group["held_out"]["test_1"] == pytest.approx({"airl": 0.8, "mce": 0.775, "demonstrator": 0.9})
+    assert group["methods"]["mce"]["w"] == {"min": 2.0, "max": 3.0}
+    assert r["fits"] == {"n": 2, "converged": 2, "degenerate": 0, "seconds": {"min": 10.0, "median": 10.5, "max": 11.0},
+                         "gap": {"min": -2e-3, "max": 1e-4}}
+    (tmp_path / "results.csv").write_text(head + "\n".join(rows + [row.replace(",10,", ",100,", 1) for row in rows]) + "\n")
+    assert set(sweeps.transfer_reading(tmp_path)["groups"]) == {"windy grid own N10", "windy grid own N100"}
+
+
+def test_a_transfer_reading_as_a_table_of_demonstrated_then_held_out_medians():
+    reading = {"labels": {"airl": "AIRL (this thesis)", "mce": "MCE IRL"}, "groups": {
+        f"windy grid own N{n}": {"methods": {"airl": {"demonstrated": d, "held_out": h}, "mce": {"demonstrated": 1.0, "held_out": 0.5}},
+                                 "demonstrator_demonstrated": 0.9, "demonstrator_held_out": 0.8}
+        for n, d, h in ((10, 0.91, 0.61), (100, 0.95, None))}}
+    assert page_numbers._held_out_table(reading).splitlines() == [
+        "| N | AIRL (this thesis) | MCE IRL | demonstrator |", "| ---: | ---: | ---: | ---: |",
+        "| demonstrated τ_j: 10 | 0.910 | 1.000 | 0.900 |", "| 100 | 0.950 | 1.000 | 0.900 |",
+        "| held out: 10 | 0.610 | 0.500 | 0.800 |", "| 100 | — | 0.500 | 0.800 |"]

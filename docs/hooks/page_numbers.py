@@ -322,6 +322,26 @@ def _mmdp_tables(values: dict) -> dict:
     }
 
 
+def _held_out_table(reading: dict) -> str:
+    """A transfer sweep's reading as a table: per group (its key without the words every key shares:
+    "10" for "windy grid own N10") the medians in the demonstrated tau_j, then per group those in the
+    held-out dynamics; a column per method (its label) and the demonstrator's."""
+    keys = list(reading["groups"])
+    shared = 0
+    while all(len(k.split()) > shared + 1 for k in keys) and len({tuple(k.split()[: shared + 1]) for k in keys}) == 1:
+        shared += 1
+    label = {k: " ".join(k.split()[shared:]) for k in keys}
+    methods = reading["labels"]
+    by_n = all(k.split()[shared:][0].startswith("N") for k in keys)  # the groups are the sweep's N
+    lines = [f"| {' | '.join(['N' if by_n else '', *methods.values(), 'demonstrator'])} |", "|" + " ---: |" * (len(methods) + 2)]
+    for where, name in (("demonstrated", "demonstrated τ_j"), ("held_out", "held out")):
+        for n, k in enumerate(keys):
+            group = reading["groups"][k]
+            cells = [_cell(group["methods"].get(m, {}).get(where), ".3f") for m in methods]
+            lines.append(f"| {name + ': ' if n == 0 else ''}{label[k].removeprefix('N') if by_n else label[k]} | {' | '.join(cells)} | {_cell(group[f'demonstrator_{where}'], '.3f')} |")
+    return "\n".join(lines)
+
+
 def _sweep_tables(values: dict) -> dict:
     """The experiments' wall times (benchmarks/sweeps.py's record): the table of chapter 7's sweeps in
     two columns, each group's minutes, each sweep's minutes by its key, and a note on any sweep that
@@ -340,7 +360,8 @@ def _sweep_tables(values: dict) -> dict:
     totals = {g: sum(s["seconds"] for s in sweeps.values() if s["group"] == g) / 60 for g in ("thesis", "variants", "beyond")}
     sets = {"sizes": ("size", "size_random", "size_random_scaled", "size_random_markov"), "environments": ("frozenlake", "cliffworld"),
             "viano": ("viano_gridworld", "viano_finite")}  # the experiments beyond the thesis that the pages time together
-    return {"wall": "\n".join(lines), "minutes": minutes, "note": note, "n_variants": sum(s["group"] == "variants" for s in sweeps.values()),
+    held_out = {key: _held_out_table(s["reading"]) for key, s in sweeps.items() if "groups" in s.get("reading", {})}
+    return {"wall": "\n".join(lines), "minutes": minutes, "note": note, "held_out": held_out, "n_variants": sum(s["group"] == "variants" for s in sweeps.values()),
             **{f"{g}_minutes": m for g, m in totals.items()}, **{f"{k}_minutes": sum(minutes.get(e, 0.0) for e in v) for k, v in sets.items()}}
 
 
