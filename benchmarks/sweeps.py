@@ -156,12 +156,21 @@ def degeneracy_reading(folder: Path) -> dict:
     certificate, not by a cap — the Markov variants' brackets are not closed, so ``converged`` would
     leave them out) by the degenerate verdict's kind (``airl_cli.jobs.fit.degenerate_sentence``):
     "below" (w = 0, or B(w) within the tolerance), "f0" (flagged by the bound on f(0) alone), "none"
-    (not flagged); per kind the number of fits and the median and quartiles of cos(w, w*)."""
+    (not flagged); per kind the number of fits and the median and quartiles of cos(w, w*). And
+    ``table``: per swept value and variant (``airl_cli.readings.variants.variants_summary``, in the
+    experiment's order; MCE IRL as the variant "mce") its label in tables, the runs, whether it is the certified learner's,
+    the fits flagged and of them those
+    flagged by the bound on f(0) alone, the median cos(w, w*), the (run, tau_j) pairs at or above
+    the demonstrator and how many, and the demonstrator's median."""
     import numpy as np
+    import pandas as pd
 
     from airl_cli.core.irl.certified_answer import CAPS
+    from airl_cli.methods import REGISTRY
+    from airl_cli.readings.variants import variants_summary
 
     kinds: dict[str, list[float]] = {"below": [], "f0": [], "none": []}
+    f0_alone: dict[tuple[float, str], int] = {}
     for metrics_file in sorted(folder.glob("*/metrics.json")):
         m = json.loads(metrics_file.read_text())
         if m.get("method") != "airl" or m.get("optimizer", "exact") != "exact" or m.get("stopped") in CAPS:
@@ -169,9 +178,20 @@ def degeneracy_reading(folder: Path) -> dict:
         below = m.get("zero_answer") or m["reward_effect"] <= m["tol"] * max(1.0, abs(m["objective"]))
         kind = "below" if m.get("degenerate") and below else "f0" if m.get("degenerate") else "none"
         kinds[kind].append(float(m["dynamics"][0]["cosine_similarity"]))
+        job = dict(part.split("=", 1) for part in metrics_file.parent.name.split(",") if "=" in part)  # the job's overrides
+        where = (float(job.get("mdp.n_states", "nan")), job.get("variant", "thesis"))
+        f0_alone[where] = f0_alone.get(where, 0) + (kind == "f0")
+    experiment = json.loads((folder / "experiment.json").read_text())
+    summary = variants_summary(experiment, pd.read_csv(folder / "results.csv"))
+    label = lambda v: REGISTRY[v].label if v in REGISTRY else v if v == "thesis" else f"`{v}`"  # noqa: E731
+    table = [{"x": float(r.x), "variant": str(r.variant), "label": label(str(r.variant)), "runs": int(r.runs), "certified": bool(r.certified), "flagged": int(r.flagged),
+              "f0_alone": f0_alone.get((float(r.x), str(r.variant)), 0), "cos": _number(r.cos_median),
+              "above": int(r.above), "pairs": int(r.pairs), "demonstrator": _number(r.demonstrator_median)}
+             for r in summary.itertuples()]
     return {"fits": sum(map(len, kinds.values())),
             **{k: {"n": len(c), **({"median": float(np.median(c)), "q1": float(np.quantile(c, 0.25)), "q3": float(np.quantile(c, 0.75))} if c else {})}
-               for k, c in kinds.items()}}
+               for k, c in kinds.items()},
+            "table": table}
 
 
 def sections(results: Path) -> dict[str, str]:
@@ -274,9 +294,9 @@ READ = {"fig02_03": fig02_03_reading, "fig09": fig09_reading, "degeneracy": dege
 
 def readings(item: dict, folder: Path) -> dict:
     """What the record keeps of a whole sweep's folder: each method's median fit seconds, and the
-    pages' reading of it where ``READ`` has one (the experiment's own sweep, not a variant's)."""
+    pages' reading of it where ``READ`` has one for its experiment (a variant's too)."""
     out: dict = {"median_fit_seconds": median_fit_seconds(folder)}
-    if item["experiment"] in READ and not item["overrides"]:
+    if item["experiment"] in READ:
         out["reading"] = READ[item["experiment"]](folder)
     return out
 

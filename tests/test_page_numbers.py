@@ -153,9 +153,21 @@ def test_the_degeneracy_reading_sorts_fits_by_the_verdict_s_kind(tmp_path):
     job("e", 0.5, method="mce")
     job("f", 0.5, stopped="max_iterations")
     job("g", 0.95, converged=False, stopped="tolerance")  # a Markov variant's: certified, its bracket not closed
+    (tmp_path / "experiment.json").write_text(json.dumps({"dynamics": ["tau_1"], "variants": ["thesis", "markov", "mce"]}))
+    head = "method,x,seed,dynamics,degenerate,weight_sharing,game.adversary,game.matching,loss.kind,cosine_similarity,learner_score,demonstrator_score,weight_scale,equilibrium_score\n"
+    (tmp_path / "results.csv").write_text(head + "".join(
+        f"{m},50,{seed},{d},{flag},True,{adv},total,auto,0.5,{score},0.8,1.0,0.9\n"
+        for m, adv, seed, flag, score in (("airl", "history", 0, True, 0.7), ("airl", "history", 1, False, 0.9), ("mce", "", 0, "", 0.85),
+                                          ("airl", "markov", 0, False, 0.95))
+        for d in ("tau", "tau_1")))
+    (tmp_path / "c").rename(tmp_path / "mdp.n_states=50,seed=0,variant=thesis")  # its job folder's name: where it ran
     r = sweeps.degeneracy_reading(tmp_path)
     assert r["fits"] == 5 and (r["below"]["n"], r["f0"]["n"], r["none"]["n"]) == (2, 1, 2)
     assert r["below"]["median"] == pytest.approx(0.2) and r["f0"]["median"] == 0.8
+    rows = {row["variant"]: row for row in r["table"]}
+    assert list(rows) == ["thesis", "markov", "mce"]  # the experiment's order
+    assert (rows["thesis"]["runs"], rows["thesis"]["flagged"], rows["thesis"]["f0_alone"], rows["thesis"]["above"], rows["thesis"]["pairs"]) == (2, 1, 1, 1, 2)
+    assert rows["mce"]["certified"] is False and rows["markov"]["above"] == 1 and rows["thesis"]["demonstrator"] == 0.8
 
 
 def test_the_report_s_sections_for_the_experiment_pages(tmp_path):
@@ -236,3 +248,16 @@ def test_a_transfer_reading_as_a_table_of_demonstrated_then_held_out_medians():
         "| N | AIRL (this thesis) | MCE IRL | demonstrator |", "| ---: | ---: | ---: | ---: |",
         "| demonstrated τ_j: 10 | 0.910 | 1.000 | 0.900 |", "| 100 | 0.950 | 1.000 | 0.900 |",
         "| held out: 10 | 0.610 | 0.500 | 0.800 |", "| 100 | — | 0.500 | 0.800 |"]
+
+
+def test_the_degeneracy_reading_as_the_method_page_s_table():
+    """Flagged fits in bold, a * where most were flagged by the bound on f(0) alone; MCE IRL without a flag."""
+    def row(x, variant, label, flagged, f0, cos, above, certified=True):
+        return {"x": x, "variant": variant, "label": label, "runs": 6, "certified": certified, "flagged": flagged, "f0_alone": f0,
+                "cos": cos, "above": above, "pairs": 18, "demonstrator": 0.787}
+
+    reading = {"table": [row(50.0, "thesis", "thesis", 6, 0, 0.94, 18), row(50.0, "per_step", "`per_step`", 3, 2, 0.971, 17),
+                         row(50.0, "markov", "`markov`", 0, 0, 0.98, 18), row(50.0, "mce", "MCE IRL", 0, 0, 0.975, 18, certified=False)]}
+    assert page_numbers._degeneracy_table(reading).splitlines() == [
+        "| S | demonstrator (median) | thesis | `per_step` | `markov` | MCE IRL |", "| ---: | --- | --- | --- | --- | --- |",
+        "| 50 | 0.787 | **6/6**, 0.94, 18 | **3/6**\\*, 0.97, 17 | 0/6, 0.98, 18 | 0.97, 18 |"]

@@ -342,6 +342,30 @@ def _held_out_table(reading: dict) -> str:
     return "\n".join(lines)
 
 
+def _degeneracy_table(reading: dict) -> str:
+    """The degeneracy sweep's reading as docs/method.md's table: per S the demonstrator's median and
+    per variant the fits flagged (bold when any; * when most of them by the bound on f(0) alone), the
+    median cos(w, w*) and the (run, tau_j) pairs at or above the demonstrator; another method's
+    cos and pairs."""
+    xs = list(dict.fromkeys(r["x"] for r in reading["table"]))
+    variants = {r["variant"]: r["label"] for r in reading["table"]}
+    lines = [f"| S | demonstrator (median) | {' | '.join(variants.values())} |", "| ---: |" + " --- |" * (len(variants) + 1)]
+    for x in xs:
+        rows = {r["variant"]: r for r in reading["table"] if r["x"] == x}
+        cells = []
+        for v in variants:
+            r = rows.get(v)
+            if r is None:
+                cells.append("—")
+                continue
+            flagged = f"{r['flagged']}/{r['runs']}"
+            flagged = (f"**{flagged}**" + ("\\*" if 2 * r["f0_alone"] > r["flagged"] else "")) if r["flagged"] else flagged
+            cells.append(f"{flagged + ', ' if r['certified'] else ''}{_cell(r['cos'], '.2f')}, {r['above']}")
+        demonstrator = next(iter(rows.values()))["demonstrator"]
+        lines.append(f"| {x:g} | {_cell(demonstrator, '.3f')} | {' | '.join(cells)} |")
+    return "\n".join(lines)
+
+
 def _sweep_tables(values: dict) -> dict:
     """The experiments' wall times (benchmarks/sweeps.py's record): the table of chapter 7's sweeps in
     two columns, each group's minutes, each sweep's minutes by its key, and a note on any sweep that
@@ -361,7 +385,8 @@ def _sweep_tables(values: dict) -> dict:
     sets = {"sizes": ("size", "size_random", "size_random_scaled", "size_random_markov"), "environments": ("frozenlake", "cliffworld"),
             "viano": ("viano_gridworld", "viano_finite")}  # the experiments beyond the thesis that the pages time together
     held_out = {key: _held_out_table(s["reading"]) for key, s in sweeps.items() if "groups" in s.get("reading", {})}
-    return {"wall": "\n".join(lines), "minutes": minutes, "note": note, "held_out": held_out, "n_variants": sum(s["group"] == "variants" for s in sweeps.values()),
+    degeneracy = {key: _degeneracy_table(s["reading"]) for key, s in sweeps.items() if "table" in s.get("reading", {})}
+    return {"wall": "\n".join(lines), "minutes": minutes, "note": note, "held_out": held_out, "degeneracy": degeneracy, "n_variants": sum(s["group"] == "variants" for s in sweeps.values()),
             **{f"{g}_minutes": m for g, m in totals.items()}, **{f"{k}_minutes": sum(minutes.get(e, 0.0) for e in v) for k, v in sets.items()}}
 
 
