@@ -151,6 +151,24 @@ def fig09_reading(folder: Path) -> dict:
     return {"flagged_share": {f"{x:g}": float(share[x]) for x in xs}, "all_flagged_from": float(tail[0]) if tail else None}
 
 
+def verdicts(folder: Path) -> list[tuple[dict, dict, str]]:
+    """The certified fits of the thesis's method in a sweep's folder (certified: stopped by its
+    certificate, not by a cap), each as (its job's overrides, its metrics.json, the degenerate
+    verdict's kind: "below" — w = 0, or B(w) within the tolerance —, "f0" — flagged by the bound on
+    f(0) alone — or "none"), the rule of ``airl_cli.jobs.fit.degenerate_sentence``."""
+    from airl_cli.core.irl.certified_answer import CAPS
+
+    out = []
+    for metrics_file in sorted(folder.glob("*/metrics.json")):
+        m = json.loads(metrics_file.read_text())
+        if m.get("method") != "airl" or m.get("optimizer", "exact") != "exact" or m.get("stopped") in CAPS:
+            continue
+        below = m.get("zero_answer") or m["reward_effect"] <= m["tol"] * max(1.0, abs(m["objective"]))
+        kind = "below" if m.get("degenerate") and below else "f0" if m.get("degenerate") else "none"
+        out.append((dict(part.split("=", 1) for part in metrics_file.parent.name.split(",") if "=" in part), m, kind))
+    return out
+
+
 def degeneracy_reading(folder: Path) -> dict:
     """The certified fits of the thesis's method (every variant; certified: stopped by its
     certificate, not by a cap — the Markov variants' brackets are not closed, so ``converged`` would
@@ -160,25 +178,18 @@ def degeneracy_reading(folder: Path) -> dict:
     ``table``: per swept value and variant (``airl_cli.readings.variants.variants_summary``, in the
     experiment's order; MCE IRL as the variant "mce") its label in tables, the runs, whether it is the certified learner's,
     the fits flagged and of them those
-    flagged by the bound on f(0) alone, the median cos(w, w*), the (run, tau_j) pairs at or above
+    flagged by the bound on f(0) alone, the median cos(w, w*), max |w| (median, min, max over runs), the (run, tau_j) pairs at or above
     the demonstrator and how many, and the demonstrator's median."""
     import numpy as np
     import pandas as pd
 
-    from airl_cli.core.irl.certified_answer import CAPS
     from airl_cli.methods import REGISTRY
     from airl_cli.readings.variants import variants_summary
 
     kinds: dict[str, list[float]] = {"below": [], "f0": [], "none": []}
     f0_alone: dict[tuple[float, str], int] = {}
-    for metrics_file in sorted(folder.glob("*/metrics.json")):
-        m = json.loads(metrics_file.read_text())
-        if m.get("method") != "airl" or m.get("optimizer", "exact") != "exact" or m.get("stopped") in CAPS:
-            continue
-        below = m.get("zero_answer") or m["reward_effect"] <= m["tol"] * max(1.0, abs(m["objective"]))
-        kind = "below" if m.get("degenerate") and below else "f0" if m.get("degenerate") else "none"
+    for job, m, kind in verdicts(folder):
         kinds[kind].append(float(m["dynamics"][0]["cosine_similarity"]))
-        job = dict(part.split("=", 1) for part in metrics_file.parent.name.split(",") if "=" in part)  # the job's overrides
         where = (float(job.get("mdp.n_states", "nan")), job.get("variant", "thesis"))
         f0_alone[where] = f0_alone.get(where, 0) + (kind == "f0")
     experiment = json.loads((folder / "experiment.json").read_text())
@@ -186,6 +197,7 @@ def degeneracy_reading(folder: Path) -> dict:
     label = lambda v: REGISTRY[v].label if v in REGISTRY else v if v == "thesis" else f"`{v}`"  # noqa: E731
     table = [{"x": float(r.x), "variant": str(r.variant), "label": label(str(r.variant)), "runs": int(r.runs), "certified": bool(r.certified), "flagged": int(r.flagged),
               "f0_alone": f0_alone.get((float(r.x), str(r.variant)), 0), "cos": _number(r.cos_median),
+              "w": {"median": _number(r.w_median), "min": _number(r.w_min), "max": _number(r.w_max)},
               "above": int(r.above), "pairs": int(r.pairs), "demonstrator": _number(r.demonstrator_median)}
              for r in summary.itertuples()]
     return {"fits": sum(map(len, kinds.values())),
@@ -287,8 +299,41 @@ def transfer_reading(folder: Path) -> dict:
     return out
 
 
+def size_reading(folder: Path) -> dict:
+    """The size sweeps, per swept size ("S20"; Objectworld's: its side) and method: the fits, those
+    that closed their bracket (``converged``), those flagged degenerate and of them those flagged by
+    the bound on f(0) alone (``verdicts``), the median cos(w, w*)
+    and fit seconds, the median score in the demonstrated tau_j and the demonstrator's, the (run,
+    tau_j) pairs at or above the demonstrator; on the random MDP with the zero-one loss, how far the
+    certified objective lies below the game's value at w = 0, f(0) = T (1 - 1/S) (min, max)."""
+    import pandas as pd
+
+    table = pd.read_csv(folder / "results.csv")
+    demonstrated = table[table["dynamics"].astype(str).str.fullmatch(r"tau_\d+")]
+    jobs = table[table["dynamics"] == "tau"]
+    x_key = json.loads((folder / "experiment.json").read_text())["x_key"]
+    f0_alone: dict[float, int] = {}
+    for job, _, kind in verdicts(folder):
+        f0_alone[float(job[x_key])] = f0_alone.get(float(job[x_key]), 0) + (kind == "f0")
+    out: dict = {}
+    for (x, method), g in demonstrated.groupby(["x", "method"], sort=True):
+        fits = jobs[(jobs["x"] == x) & (jobs["method"] == method)]
+        true = lambda column: int(fits[column].astype(str).str.lower().eq("true").sum())  # noqa: E731
+        entry = {"fits": len(fits), "converged": true("converged"), "flagged": true("degenerate"),
+                 "f0_alone": f0_alone.get(float(x), 0) if method == "airl" else 0,
+                 "cos": _number(fits["cosine_similarity"].median()), "seconds": _number(fits["seconds"].median()),
+                 "learner": _number(g["learner_score"].median()), "demonstrator": _number(g["demonstrator_score"].median()),
+                 "above": int((g["learner_score"] >= g["demonstrator_score"] - 1e-12).sum()), "pairs": len(g)}
+        if (fits["mdp"] == "random").all() and (fits["loss"] == "zero_one").all() and fits["objective"].notna().any():
+            below = fits["mdp.horizon"] * (1 - 1 / fits["mdp.n_states"]) - fits["objective"]
+            entry["below_f0"] = {"min": _number(below.min()), "max": _number(below.max())}
+        out.setdefault(f"S{x:g}", {})[str(method)] = entry
+    return out
+
+
 #: experiment -> what the pages read from its sweep beyond the report (recorded as the sweep's ``reading``)
 READ = {"fig02_03": fig02_03_reading, "fig09": fig09_reading, "degeneracy": degeneracy_reading,
+        **dict.fromkeys(("size", "size_random", "size_random_scaled", "size_random_markov"), size_reading),
         "windy_transfer": transfer_reading, "transfer": transfer_reading}
 
 
