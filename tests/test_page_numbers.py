@@ -261,3 +261,28 @@ def test_the_degeneracy_reading_as_the_method_page_s_table():
     assert page_numbers._degeneracy_table(reading).splitlines() == [
         "| S | demonstrator (median) | thesis | `per_step` | `markov` | MCE IRL |", "| ---: | --- | --- | --- | --- | --- |",
         "| 50 | 0.787 | **6/6**, 0.94, 18 | **3/6**\\*, 0.97, 17 | 0/6, 0.98, 18 | 0.97, 18 |"]
+
+
+def test_the_size_reading_per_size_and_method(tmp_path):
+    """benchmarks/sweeps.py's reading of a size sweep: per size and method the fits, flagged (and by
+    the bound on f(0) alone), pairs at or above the demonstrator, and the objective's distance below
+    f(0) = T (1 - 1/S) on the random MDP with the zero-one loss, against hand-worked values."""
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    import sweeps
+
+    (tmp_path / "experiment.json").write_text(json.dumps({"x_key": "mdp.n_states"}))
+    head = "method,x,seed,dynamics,mdp,loss,mdp.horizon,mdp.n_states,objective,converged,degenerate,cosine_similarity,seconds,learner_score,demonstrator_score\n"
+    rows = []
+    for seed, objective, flagged, cos in ((0, 9.5, False, 0.9), (1, 9.8, True, 0.7)):
+        for d, score in (("tau", 0.5), ("tau_1", 0.95 - 0.1 * seed), ("tau_2", 0.9)):
+            rows.append(f"airl,20,{seed},{d},random,zero_one,10,20,{objective},True,{flagged},{cos},2.0,{score},0.9")
+            rows.append(f"mce,20,{seed},{d},random,zero_one,10,20,,,,0.8,0.1,0.91,0.9")
+    (tmp_path / "results.csv").write_text(head + "\n".join(rows) + "\n")
+    job = tmp_path / "mdp.n_states=20,method=airl,seed=1"
+    job.mkdir()
+    job.joinpath("metrics.json").write_text(json.dumps({"method": "airl", "stopped": "tolerance", "tol": 1e-3, "objective": 9.8, "reward_effect": 1.0,
+                                                        "degenerate": True, "zero_answer": False, "dynamics": [{"cosine_similarity": 0.7}]}))
+    r = sweeps.size_reading(tmp_path)["S20"]
+    assert (r["airl"]["fits"], r["airl"]["flagged"], r["airl"]["f0_alone"], r["airl"]["above"], r["airl"]["pairs"]) == (2, 1, 1, 3, 4)
+    assert r["airl"]["below_f0"] == pytest.approx({"min": 9.5 - 9.8, "max": 0.0})  # f(0) = 10 (1 - 1/20) = 9.5
+    assert r["airl"]["cos"] == pytest.approx(0.8) and (r["mce"]["above"], r["mce"]["flagged"]) == (4, 0) and "below_f0" not in r["mce"]
