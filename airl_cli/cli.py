@@ -280,7 +280,7 @@ def plot(
 @app.command(cls=_OneSentenceCommand)
 def report(
     folder: str = typer.Argument("results/sweeps", help="The folder holding the sweep folders (<experiment>-full/ ...)."),
-    out: str = typer.Option("results/report", "--out", "-o", help="Where to write results.md, claims.md and figures/."),
+    out: str = typer.Option("results/report", "--out", "-o", help="Where to write results.md, claims.md, claims.json and figures/."),
     profile: str = typer.Option("full", "--profile", help="Report the sweeps of this profile: full or quick."),
     replace: bool = typer.Option(False, "--replace", help="Write the report even if it drops experiments or claims that OUT reports."),
 ) -> None:
@@ -290,8 +290,8 @@ def report(
     computes each experiment's numbers, the method x experiment table and the claims table (each claim of
     the thesis with its verdict under each reading), and copies the sweeps' PNG figures. The claims
     table goes between the marker lines of OUT/README.md if it has them (experiments/README.md does),
-    else into OUT/claims.md. A report from fewer sweeps than OUT reports is refused, naming what it
-    would drop, unless --replace.
+    else into OUT/claims.md; the claims' numbers, one by one, into OUT/claims.json. A report from fewer
+    sweeps than OUT reports is refused, naming what it would drop, unless --replace.
     """
     from airl_cli.io.files import describe_os_error
     from airl_cli.jobs.common import err_console, out_console
@@ -303,9 +303,9 @@ def report(
         refuse(err, err_console)
     except OSError as err:
         refuse(f"cannot write the report ({describe_os_error(err)})", err_console)
-    # make_report writes the figures, then results.md, then the claims table
-    n = len(paths) - 2
-    out_console.print(f"wrote {paths[-2]}, {paths[-1]} and {n} figure{'' if n == 1 else 's'}", soft_wrap=True)
+    # make_report writes the figures, then results.md, claims.json and the claims table
+    n = len(paths) - 3
+    out_console.print(f"wrote {paths[-3]}, {paths[-1]}, the claims' numbers {paths[-2]} and {n} figure{'' if n == 1 else 's'}", soft_wrap=True)
 
 
 @app.command(cls=_OneSentenceCommand)

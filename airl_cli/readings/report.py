@@ -10,6 +10,7 @@ file is written atomically.
 
 from __future__ import annotations
 
+import json
 import re
 from dataclasses import dataclass
 from pathlib import Path
@@ -22,7 +23,7 @@ from airl_cli.io.files import atomic_write, write_text
 from airl_cli.io.results_table import read_results_table
 from airl_cli.methods import NAMES
 from airl_cli.readings.certificates import certificates
-from airl_cli.readings.claims import claims_table, reading_of
+from airl_cli.readings.claims import claims_numbers, claims_table, measure_claims, reading_of
 from airl_cli.readings.summaries import summary_of
 from airl_cli.readings.summaries.base import demonstrated, methods
 from airl_cli.settings.paths import conf_dir
@@ -153,11 +154,14 @@ class Report:
         results: the text of results.md.
         claims: the claims table (markdown).
         figures: (source PNG, file name under figures/) pairs.
+        numbers: the claims table's numbers (``claims.claims_numbers``: claim -> reading -> verdict,
+            text and each number), written to claims.json for the pages that quote them.
     """
 
     results: str
     claims: str
     figures: list[tuple[Path, str]]
+    numbers: dict
 
 
 def build(sweeps: Path, profile: str = "full") -> Report:
@@ -208,7 +212,8 @@ def build(sweeps: Path, profile: str = "full") -> Report:
             target = f"{meta['slug']}_{png.name}"
             figures.append((png, target))
             parts += ["", f"![{target}](figures/{target})"]
-    return Report("\n".join(parts) + "\n", claims_table(experiments, readings), figures)
+    measured = measure_claims(experiments, readings)
+    return Report("\n".join(parts) + "\n", claims_table(measured), figures, claims_numbers(measured))
 
 
 def sections(results: str) -> list[str]:
@@ -245,8 +250,9 @@ def dropped(report: Report, out: Path) -> list[str]:
 
 
 def write(report: Report, out: Path, *, replace: bool = False) -> list[Path]:
-    """Write ``out/results.md``, ``out/figures/`` and the claims table: between the marker lines of
-    ``out/README.md`` if it has them (experiments/README.md does), else into ``out/claims.md``.
+    """Write ``out/results.md``, ``out/figures/``, the claims' numbers (``out/claims.json``) and the
+    claims table: between the marker lines of ``out/README.md`` if it has them (experiments/README.md
+    does), else into ``out/claims.md``.
 
     Raises:
         AirlError: before writing anything, if the report would drop experiments or claims that the
@@ -266,6 +272,7 @@ def write(report: Report, out: Path, *, replace: bool = False) -> list[Path]:
         data = source.read_bytes()
         written.append(atomic_write(out / "figures" / target, lambda handle, data=data: handle.write(data)))
     written.append(write_text(out / "results.md", report.results))
+    written.append(write_text(out / "claims.json", json.dumps(report.numbers, indent=1) + "\n"))
     if START in text and END in text.split(START, 1)[1]:
         head, rest = text.split(START, 1)
         written.append(write_text(readme, head + START + "\n" + report.claims + "\n" + END + rest.split(END, 1)[1]))
@@ -278,7 +285,7 @@ def make_report(sweeps: str | Path, out: str | Path, profile: str = "full", *, r
     """Build the report of the sweeps under ``sweeps`` and write it into ``out`` (``write``: it
     refuses to drop what ``out`` reports unless ``replace``).
 
-    Returns the files written: the figures, then results.md, then the file holding the claims table.
+    Returns the files written: the figures, then results.md, claims.json and the file holding the claims table.
     """
     if profile not in PROFILES:
         raise AirlError(f"--profile must be one of {', '.join(PROFILES)}, got {profile!r}.")

@@ -3,6 +3,7 @@ experiments/make_report.py, which runs the same code into experiments/."""
 
 from __future__ import annotations
 
+import json
 import shutil
 import subprocess
 import sys
@@ -53,6 +54,9 @@ def test_airl_report_writes_the_claims_table_results_and_figures(sweeps, tmp_pat
     assert (out / "figures" / "fig04_histogram.png").read_bytes() == b"\x89PNG fig04-full"
     assert (out / "figures" / "mdp.transition_uniform_fig04_histogram.png").is_file()
     assert f"wrote {out / 'results.md'}" in result.output.replace("\n", "")
+    numbers = json.loads((out / "claims.json").read_text())  # the claims table's numbers, one by one
+    assert numbers["fig04"]["uniform rows"]["verdict"] == "does not hold"
+    assert numbers["fig04"]["uniform rows"]["min"] == 0.5 and "min 0.500" in numbers["fig04"]["uniform rows"]["text"]
     assert not [p for p in out.rglob(".*")]  # no temporary files left
 
 
