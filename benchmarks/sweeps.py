@@ -16,10 +16,13 @@ names) and its wall time, jobs, attempts and each method's median fit seconds go
 machine. Run again, the script skips the sweeps FILE records as whole with this code (the
 package, the configs and pyproject.toml as at FILE's commit) and resumes the others (`airl sweep`
 keeps a sweep's finished jobs; an attempt's seconds add up): a run of hours may be stopped and
-continued. FILE written with other code is started afresh.
+continued. FILE written with other code is started afresh; ``--reread`` runs no sweep and reads
+FILE's whole sweeps again with this code (readings, certificates, report: analysis of results that
+do not change), recording the commit that read them as ``read_at``.
 With ``--report DIR`` the report (`airl report --out DIR`: experiments/README.md's claims table,
 results.md and the figures) is written from the sweeps at the end, and results.md's sections go
-to FILE too (``sections``: what the experiment pages show of it). ``--profile quick`` runs the
+to FILE too (``sections``: what the experiment pages show of it), with the claims table's numbers
+(``claims``: the report's claims.json). ``--profile quick`` runs the
 same list at a small size (minutes; the pages quote the full size only). Nothing else should run
 on the machine meanwhile: the times are the pages' (docs/hooks/page_numbers.py renders them).
 """
@@ -352,12 +355,22 @@ def main() -> None:
     parser.add_argument("--profile", default="full", choices=("full", "quick"), help="the sweeps' size (default: full)")
     parser.add_argument("--groups", nargs="+", default=list(GROUPS), choices=GROUPS, help="which sweeps (default: all)")
     parser.add_argument("--report", type=Path, default=None, help="write `airl report --out REPORT` from the sweeps at the end")
+    parser.add_argument("--reread", action="store_true",
+                        help="run no sweep: read FILE's whole sweeps again with this code (their readings, the certificates, the report); "
+                             "their times, machine and commit stay those of the run that measured them")
     args = parser.parse_args()
     if sentence := missing_extras(tuple(args.groups)):
         sys.exit(f"error: {sentence}")
     record = provenance(sys.argv)
     old = json.loads(args.json.read_text()) if args.json.is_file() else {}
-    if old.get("profile") == args.profile and not record["commit"].endswith("+changes") and code(old.get("commit", "")) == code("HEAD"):
+    if args.reread:
+        if not old.get("sweeps") or old.get("profile") != args.profile:
+            sys.exit(f"error: {args.json} holds no {args.profile} sweeps to read again")
+        missing = [k for k, e in old["sweeps"].items() if e["whole"] and not (ROOT / e["folder"] / "results.csv").is_file()]
+        if missing:
+            sys.exit(f"error: the folders of {len(missing)} recorded sweep(s) are not here ({missing[0]}: {old['sweeps'][missing[0]]['folder']})")
+        record = {**old, "read_at": record["commit"]}  # measured at old["commit"]; read with this code
+    elif old.get("profile") == args.profile and not record["commit"].endswith("+changes") and code(old.get("commit", "")) == code("HEAD"):
         record["commit"], record["sweeps"] = old["commit"], old.get("sweeps", {})  # the same code: its sweeps stand
     else:
         record["sweeps"] = {}
@@ -368,7 +381,10 @@ def main() -> None:
         kept = record["sweeps"].get(key)
         if kept and kept["whole"]:
             kept |= readings(item, ROOT / kept["folder"])  # again: a rule may have changed since it was recorded
-            print(f"[{n}/{len(items)}] {key}: whole with this code, kept", flush=True)
+            print(f"[{n}/{len(items)}] {key}: whole with {'that' if args.reread else 'this'} code, kept", flush=True)
+            continue
+        if args.reread:
+            print(f"[{n}/{len(items)}] {key}: not recorded whole in {args.json}, left out", flush=True)
             continue
         print(f"[{n}/{len(items)}] airl sweep {key}", flush=True)
         seconds, head, error = sweep(item, args.profile)
@@ -389,6 +405,7 @@ def main() -> None:
         report = [sys.executable, "-m", "airl_cli", "report", "results/sweeps", "--out", str(args.report.resolve()), "--profile", args.profile]
         subprocess.run(report, cwd=ROOT, check=True)
         record["sections"] = sections(args.report / "results.md")  # what the experiment pages show of it
+        record["claims"] = json.loads((args.report / "claims.json").read_text())  # the claims table's numbers, one by one
         args.json.write_text(json.dumps(record, indent=1) + "\n")
 
 

@@ -286,3 +286,32 @@ def test_the_size_reading_per_size_and_method(tmp_path):
     assert (r["airl"]["fits"], r["airl"]["flagged"], r["airl"]["f0_alone"], r["airl"]["above"], r["airl"]["pairs"]) == (2, 1, 1, 3, 4)
     assert r["airl"]["below_f0"] == pytest.approx({"min": 9.5 - 9.8, "max": 0.0})  # f(0) = 10 (1 - 1/20) = 9.5
     assert r["airl"]["cos"] == pytest.approx(0.8) and (r["mce"]["above"], r["mce"]["flagged"]) == (4, 0) and "below_f0" not in r["mce"]
+
+
+def test_reading_a_record_again_runs_no_sweep_and_keeps_what_was_measured(tmp_path, monkeypatch):
+    """benchmarks/sweeps.py --reread: the recorded sweeps' readings computed again with this code, the
+    times, machine and commit as measured, the reading commit beside them; no sweep runs."""
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    import sweeps
+
+    folder = tmp_path / "fig09-full"
+    folder.mkdir()
+    (folder / "results.csv").write_text("method,optimizer,x,seed,dynamics,degenerate,seconds,converged,bracket_width\n"
+                                        + "".join(f"airl,exact,{x},{s},tau,{x > 0.1},3.0,True,1e-4\n" for x in (0.1, 0.2) for s in (0, 1)))
+    entry = {"group": "thesis", "label": "fig09", "experiment": "fig09", "overrides": [], "whole": True, "seconds": 90.0, "attempts": 1,
+             "jobs": 4, "folder": str(folder), "jobs_before": 0}
+    record = tmp_path / "sweeps.json"
+    record.write_text(json.dumps({"commit": "abc1234", "machine": "a machine", "command": "c", "profile": "full",
+                                  "sweeps": {"fig09": entry, "fig05": {**entry, "whole": False, "folder": "nowhere"}}}))
+    monkeypatch.setattr(sweeps, "sweep", lambda *a: pytest.fail("--reread ran a sweep"))
+    monkeypatch.setattr(sys, "argv", ["sweeps.py", "--json", str(record), "--groups", "thesis", "--reread"])
+    sweeps.main()
+    out = json.loads(record.read_text())
+    assert (out["commit"], out["machine"], out["sweeps"]["fig09"]["seconds"]) == ("abc1234", "a machine", 90.0)
+    assert out["read_at"] and out["sweeps"]["fig09"]["reading"]["all_flagged_from"] == 0.2
+    assert out["sweeps"]["fig09"]["median_fit_seconds"] == {"airl": 3.0} and out["sweeps"]["fig05"]["whole"] is False
+    assert out["certificates"]["fits"] == 4
+    entry["folder"] = str(tmp_path / "gone")
+    record.write_text(json.dumps({"commit": "abc1234", "profile": "full", "sweeps": {"fig09": entry}}))
+    with pytest.raises(SystemExit, match="not here"):
+        sweeps.main()
