@@ -22,7 +22,8 @@ do not change), recording the commit that read them as ``read_at``.
 With ``--report DIR`` the report (`airl report --out DIR`: experiments/README.md's claims table,
 results.md and the figures) is written from the sweeps at the end, and results.md's sections go
 to FILE too (``sections``: what the experiment pages show of it), with the claims table's numbers
-(``claims``: the report's claims.json). ``--profile quick`` runs the
+(``claims``: the report's claims.json) and the table as it stood before the fit closed its bracket
+(``claims_before``). ``--profile quick`` runs the
 same list at a small size (minutes; the pages quote the full size only). Nothing else should run
 on the machine meanwhile: the times are the pages' (docs/hooks/page_numbers.py renders them).
 """
@@ -133,6 +134,17 @@ def median_fit_seconds(folder: Path) -> dict[str, float]:
     return {str(m): float(g["seconds"].median()) for m, g in jobs.groupby("method")}
 
 
+def weight_scale(folder: Path) -> dict | None:
+    """The thesis's method's max |w| over the sweep's fits: min, median, max (None without them)."""
+    import pandas as pd
+
+    table = pd.read_csv(folder / "results.csv")
+    if not {"method", "weight_scale"} <= set(table.columns):
+        return None
+    w = table[table["method"] == "airl"].drop_duplicates([c for c in ("x", "seed") if c in table.columns])["weight_scale"].dropna()
+    return {"min": float(w.min()), "median": float(w.median()), "max": float(w.max())} if len(w) else None
+
+
 def fig02_03_reading(folder: Path) -> dict:
     """The exact alpha-vectors, those on the envelope, PBVI's and the largest value gap (its one row)."""
     import pandas as pd
@@ -143,15 +155,42 @@ def fig02_03_reading(folder: Path) -> dict:
 
 def fig09_reading(folder: Path) -> dict:
     """The thesis's method's fits flagged degenerate per noise sigma, and the smallest sigma from
-    which every fit is (None if at no sigma)."""
+    which every fit is (None if at no sigma); per sigma its fits' max |w| (min, max); and from that
+    sigma on, the lowest and highest score of a (run, tau_j) pair."""
     import pandas as pd
 
     table = pd.read_csv(folder / "results.csv")
-    fits = table[table["method"] == "airl"].drop_duplicates(["x", "seed"])
+    airl = table[table["method"] == "airl"]
+    fits = airl.drop_duplicates(["x", "seed"])
     share = fits.groupby("x")["degenerate"].apply(lambda d: float(d.astype(str).str.lower().eq("true").mean()))
     xs = sorted(share.index)
     tail = [x for i, x in enumerate(xs) if all(share[y] == 1.0 for y in xs[i:])]
-    return {"flagged_share": {f"{x:g}": float(share[x]) for x in xs}, "all_flagged_from": float(tail[0]) if tail else None}
+    w = fits.groupby("x")["weight_scale"].agg(["min", "max"]) if "weight_scale" in fits else None
+    pairs = airl[airl["dynamics"].astype(str).str.fullmatch(r"tau_\d+")]
+    noisy = pairs[pairs["x"] >= tail[0]]["learner_score"] if tail else pairs["learner_score"].iloc[:0]
+    return {"flagged_share": {f"{x:g}": float(share[x]) for x in xs}, "all_flagged_from": float(tail[0]) if tail else None,
+            "w": {f"{x:g}": {"min": _number(w.at[x, "min"]), "max": _number(w.at[x, "max"])} for x in xs} if w is not None else {},
+            "flagged_scores": {"min": _number(noisy.min()), "max": _number(noisy.max())} if len(noisy) else None}
+
+
+def fig14_reading(folder: Path) -> dict:
+    """Per number of demonstrations N, the thesis's method's runs whose lowest score over the
+    demonstrated tau_j is at most 0.99 (a path other than the safe one), as a share of the runs,
+    and the range of those runs' scores; over N the smallest and largest share."""
+    import pandas as pd
+
+    table = pd.read_csv(folder / "results.csv")
+    pairs = table[(table["method"] == "airl") & table["dynamics"].astype(str).str.fullmatch(r"tau_\d+")]
+    runs = pairs.groupby(["x", "seed"])["learner_score"].min()
+    per_n = {}
+    for x, r in runs.groupby(level="x"):
+        off = r[r <= 0.99]
+        per_n[f"N{x:g}"] = {"runs": len(r), "off": len(off), "share": len(off) / len(r),
+                            "min": _number(off.min()) if len(off) else None, "max": _number(off.max()) if len(off) else None}
+    shares = [v["share"] for v in per_n.values()]
+    scores = runs[runs <= 0.99]
+    return {"per_n": per_n, "share_min": min(shares), "share_max": max(shares),
+            "off_min": _number(scores.min()) if len(scores) else None, "off_max": _number(scores.max()) if len(scores) else None}
 
 
 def verdicts(folder: Path) -> list[tuple[dict, dict, str]]:
@@ -334,16 +373,48 @@ def size_reading(folder: Path) -> dict:
     return out
 
 
+#: the last commit whose claims table came from fits certified against PBVI's best responses alone
+#: (before the fit closed its bracket on eq. 5.9's minimum by default): the pages compare with it
+BEFORE_CLOSING = "f5b9295"
+
+
+def claims_cells(markdown: str) -> dict[str, dict[str, dict[str, str]]]:
+    """A claims table (experiments/README.md's, between its marker lines) as claim -> reading ->
+    {"verdict", "text"}; a reading that does not apply ("–") or did not run is left out."""
+    lines = [line for line in markdown.splitlines() if line.startswith("| ")]
+    head = [c.strip() for c in lines[0].strip("|").split("|")]
+    out: dict[str, dict[str, dict[str, str]]] = {}
+    for line in lines[1:]:
+        cells = [c.strip() for c in line.strip("|").split("|")]
+        out[cells[0]] = {}
+        for reading, cell in zip(head[2:], cells[2:]):
+            if cell.startswith("**") and "**: " in cell:
+                verdict, text = cell[2:].split("**: ", 1)
+                out[cells[0]][reading] = {"verdict": verdict, "text": text}
+    return out
+
+
+def claims_before(commit: str = BEFORE_CLOSING) -> dict | None:
+    """The claims table as experiments/README.md stood at ``commit`` (``claims_cells``), with the
+    commit; None where git does not have it (a shallow clone)."""
+    done = subprocess.run(["git", "show", f"{commit}:experiments/README.md"], cwd=ROOT, capture_output=True, text=True, check=False)
+    if done.returncode != 0 or "<!-- claims table" not in done.stdout:
+        return None
+    table = done.stdout.split("<!-- claims table", 1)[1].split("-->", 1)[1].split("<!-- end of the claims table", 1)[0]
+    return {"commit": commit, "claims": claims_cells(table)}
+
+
 #: experiment -> what the pages read from its sweep beyond the report (recorded as the sweep's ``reading``)
-READ = {"fig02_03": fig02_03_reading, "fig09": fig09_reading, "degeneracy": degeneracy_reading,
+READ = {"fig02_03": fig02_03_reading, "fig09": fig09_reading, "fig14": fig14_reading, "degeneracy": degeneracy_reading,
         **dict.fromkeys(("size", "size_random", "size_random_scaled", "size_random_markov"), size_reading),
         "windy_transfer": transfer_reading, "transfer": transfer_reading}
 
 
 def readings(item: dict, folder: Path) -> dict:
-    """What the record keeps of a whole sweep's folder: each method's median fit seconds, and the
-    pages' reading of it where ``READ`` has one for its experiment (a variant's too)."""
-    out: dict = {"median_fit_seconds": median_fit_seconds(folder)}
+    """What the record keeps of a whole sweep's folder: each method's median fit seconds and the
+    thesis's method's max |w| (``weight_scale``), and the pages' reading of it where ``READ`` has
+    one for its experiment (a variant's too)."""
+    out: dict = {"median_fit_seconds": median_fit_seconds(folder), "w": weight_scale(folder)}
     if item["experiment"] in READ:
         out["reading"] = READ[item["experiment"]](folder)
     return out
@@ -406,6 +477,7 @@ def main() -> None:
         subprocess.run(report, cwd=ROOT, check=True)
         record["sections"] = sections(args.report / "results.md")  # what the experiment pages show of it
         record["claims"] = json.loads((args.report / "claims.json").read_text())  # the claims table's numbers, one by one
+        record["claims_before"] = claims_before()  # the same table from the fits of PBVI's gap alone
         args.json.write_text(json.dumps(record, indent=1) + "\n")
 
 

@@ -1,7 +1,7 @@
 """Why the optimum of eq. 5.9 degenerates on the random MDP as S grows: five measures per size.
 
     python experiments/degeneracy_measures.py [--sizes 20 50 100 200] [--seeds 0 1 2 3 4 5]
-                                              [--sigma-states S0] [--loss auto]
+                                              [--sigma-states S0] [--loss auto] [--json FILE]
 
 For the random MDP of ``experiment=degeneracy`` (eq. 7.3's sigma = 0.1, D = 3, T = 10), averaged
 over the seeds:
@@ -26,12 +26,18 @@ over the seeds:
   their state marginals evenly (measured by the fits; printed here as T (1 - 1/S) for that loss);
   the expert's term is exact (the learner's best response by backward induction).
 
-Prints a markdown table; nothing is written.
+Prints a markdown table. With ``--json FILE`` it also writes the measures per size ("S20") to FILE,
+with the commit and the machine (the docs pages' source ``degeneracy_measures``), and the row total
+variation with sigma scaled as 1/S (``dynamics.sigma_states=20``) beside them (``scaled_tv``), and
+at S = 20 the row total variation for each sigma of fig09 (``sigma_tv``).
 """
 
 from __future__ import annotations
 
 import argparse
+import json
+import sys
+from pathlib import Path
 
 import airl_cli  # noqa: F401  (first, before numpy: it pins OpenBLAS's kernels, as the commands do)
 import numpy as np
@@ -41,6 +47,13 @@ from airl_cli.core.irl.game import learner_best_response
 from airl_cli.core.irl.game_problem import GameProblem
 from airl_cli.core.mdp.planning import backward_induction, state_marginals
 from airl_cli.core.mdp.scores import return_bounds
+
+
+def fig09_sigmas() -> list[float]:
+    """Eq. 7.3's noise sigma at the values fig09 sweeps (its config, conf/experiment/fig09.yaml)."""
+    import yaml
+
+    return yaml.safe_load((Path(__file__).resolve().parents[1] / "conf" / "experiment" / "fig09.yaml").read_text())["experiment"]["values"]
 
 
 def measures(S: int, seed: int, extra: list[str]) -> tuple[float, float, float, float, float]:
@@ -67,6 +80,7 @@ def main() -> None:
     parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2, 3, 4, 5])
     parser.add_argument("--sigma-states", type=int, default=None, help="dynamics.sigma_states (default: sigma unscaled)")
     parser.add_argument("--loss", default="auto", help="the loss group (auto: zero-one on the random MDP)")
+    parser.add_argument("--json", type=Path, default=None, help="also write the measures (and the scaled sigma's row total variation) to FILE")
     args = parser.parse_args()
     extra = [f"loss={args.loss}"] + ([] if args.sigma_states is None else [f"dynamics.sigma_states={args.sigma_states}"])
     zero_one = args.loss in ("auto", "zero_one")
@@ -75,12 +89,26 @@ def main() -> None:
         "| expert's largest state probability | expert as adversary: min_p loss | f(0) = T(1 − 1/S) | price of imitation Δ |"
     )
     print("|---|---|---|---|---|---|---|---|")
+    rows = {}
     for S in args.sizes:
         tv, shared, ratio, top, expert_loss = np.mean([measures(S, seed, extra) for seed in args.seeds], axis=0)
         T = api.make_dataset(f"mdp.n_states={S}", "demos.n=1").horizon
         f0 = T * (1 - 1 / S) if zero_one else float("nan")
         delta = f"{f0 - expert_loss:.3f}" if zero_one else "-"
         print(f"| {S} | {tv:.2f} | {shared:.2f} | {ratio:.2f} | {top:.3f} | {expert_loss:.3f} | {f0:.3f} | {delta} |", flush=True)
+        rows[f"S{S}"] = {"tv": tv, "overlap": shared, "return_range": ratio, "top": top, "expert_loss": expert_loss,
+                         "f0": f0 if zero_one else None, "delta": f0 - expert_loss if zero_one else None}
+    if args.json is not None:
+        scaled = [f"loss={args.loss}", "dynamics.sigma_states=20"]
+        for S in args.sizes:
+            rows[f"S{S}"]["scaled_tv"] = float(np.mean([measures(S, seed, scaled)[0] for seed in args.seeds]))
+        sigma_tv = {f"{sigma:g}": float(np.mean([measures(20, seed, [f"loss={args.loss}", f"dynamics.sigma={sigma}"])[0] for seed in args.seeds]))
+                    for sigma in fig09_sigmas()}
+        sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+        from _runs import provenance
+
+        record = {**provenance(sys.argv), "seeds": args.seeds, "sigma_tv": sigma_tv, "rows": {k: {m: float(v) if v is not None else None for m, v in r.items()} for k, r in rows.items()}}
+        args.json.write_text(json.dumps(record, indent=1) + "\n")
 
 
 if __name__ == "__main__":

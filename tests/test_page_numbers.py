@@ -94,7 +94,7 @@ def test_every_source_names_its_commit_machine_and_command():
         values = json.loads(path.read_text())
         assert path.stem in page_numbers.SOURCES
         assert re.fullmatch(r"[0-9a-f]{7,}", values["commit"]), f"{path.name} was measured on uncommitted code"
-        assert values["machine"] and values["command"].startswith("python benchmarks/")
+        assert values["machine"] and values["command"].startswith(f"python {page_numbers.SOURCES[path.stem][0]}")
 
 
 def _sweep(group: str, label: str, jobs: int, seconds: float, attempts: int = 1, before: int = 0) -> dict:
@@ -296,8 +296,9 @@ def test_reading_a_record_again_runs_no_sweep_and_keeps_what_was_measured(tmp_pa
 
     folder = tmp_path / "fig09-full"
     folder.mkdir()
-    (folder / "results.csv").write_text("method,optimizer,x,seed,dynamics,degenerate,seconds,converged,bracket_width\n"
-                                        + "".join(f"airl,exact,{x},{s},tau,{x > 0.1},3.0,True,1e-4\n" for x in (0.1, 0.2) for s in (0, 1)))
+    (folder / "results.csv").write_text("method,optimizer,x,seed,dynamics,degenerate,seconds,converged,bracket_width,learner_score,weight_scale\n"
+                                        + "".join(f"airl,exact,{x},{s},{d},{x > 0.1},3.0,True,1e-4,0.9,1.0\n" for x in (0.1, 0.2) for s in (0, 1)
+                                                  for d in ("tau", "tau_1")))
     entry = {"group": "thesis", "label": "fig09", "experiment": "fig09", "overrides": [], "whole": True, "seconds": 90.0, "attempts": 1,
              "jobs": 4, "folder": str(folder), "jobs_before": 0}
     record = tmp_path / "sweeps.json"

@@ -41,6 +41,7 @@ SOURCES: dict[str, list[str]] = {
     "page_runs": ["benchmarks/page_runs.py", "--json", "docs/numbers/page_runs.json"],
     "mmdp": ["benchmarks/mmdp.py", "--json", "docs/numbers/mmdp.json"],
     "sweeps": ["benchmarks/sweeps.py", "--json", "docs/numbers/sweeps.json", "--report", "experiments"],
+    "degeneracy_measures": ["experiments/degeneracy_measures.py", "--json", "docs/numbers/degeneracy_measures.json"],
 }
 
 BLOCK = re.compile(r"<!-- numbers (?P<source>[\w-]+)\n(?P<template>.*?)\n-->\n(?P<text>.*?)<!-- /numbers -->", re.DOTALL)
@@ -366,10 +367,41 @@ def _degeneracy_table(reading: dict) -> str:
     return "\n".join(lines)
 
 
+def _claims_changed(values: dict) -> dict:
+    """The claims table before the fit closed its bracket (``claims_before``: the table at that
+    commit) against today's (``claims``), cell by cell: the table of the cells that differ, with
+    "number" where the verdict stands or **verdict** where it changed; how many cells are the same;
+    the verdicts changed under the default readings and under the others, and those listed."""
+    before, after = (values.get("claims_before") or {}).get("claims"), values.get("claims")
+    if not before or not after:
+        return {}
+    lines = ["| claim | reading | before (PBVI-certified) | after (closed bracket) | changed |", "|---|---|---|---|---|"]
+    same, changed = 0, []
+    for claim, readings in after.items():
+        for reading, now in readings.items():
+            then = before.get(claim, {}).get(reading)
+            if then is None:
+                continue
+            if (then["verdict"], then["text"]) == (now["verdict"], now["text"]):
+                same += 1
+                continue
+            verdict = then["verdict"] != now["verdict"]
+            lines.append(f"| {claim} | {reading} | **{then['verdict']}**: {then['text']} | **{now['verdict']}**: {now['text']} | "
+                         f"{'**verdict**' if verdict else 'number'} |")
+            if verdict:
+                changed.append((claim, reading, then["verdict"], now["verdict"]))
+    listed = "; ".join(f"{c} ({r}) {a} → {b}" for c, r, a, b in changed)
+    return {"table": "\n".join(lines), "same": same, "listed": listed or "none",
+            "default_verdicts": sum(r == "default readings" for _, r, _, _ in changed),
+            "other_verdicts": sum(r != "default readings" for _, r, _, _ in changed)}
+
+
 def _sweep_tables(values: dict) -> dict:
     """The experiments' wall times (benchmarks/sweeps.py's record): the table of chapter 7's sweeps in
     two columns, each group's minutes, each sweep's minutes by its key, and a note on any sweep that
-    did not run whole in one attempt."""
+    did not run whole in one attempt; per sweep with such a reading the demonstrated / held-out
+    table (``held_out``), the degeneracy table (``degeneracy``) and its rows by "VARIANT S<x>"
+    (``cells``: "markov S200")."""
     sweeps = values["sweeps"]
     minutes = {key: s["seconds"] / 60 for key, s in sweeps.items()}
     thesis = [s for s in sweeps.values() if s["group"] == "thesis"]
@@ -386,7 +418,15 @@ def _sweep_tables(values: dict) -> dict:
             "viano": ("viano_gridworld", "viano_finite")}  # the experiments beyond the thesis that the pages time together
     held_out = {key: _held_out_table(s["reading"]) for key, s in sweeps.items() if "groups" in s.get("reading", {})}
     degeneracy = {key: _degeneracy_table(s["reading"]) for key, s in sweeps.items() if "table" in s.get("reading", {})}
-    return {"wall": "\n".join(lines), "minutes": minutes, "note": note, "held_out": held_out, "degeneracy": degeneracy, "n_variants": sum(s["group"] == "variants" for s in sweeps.values()),
+    cells = {key: {f"{r['variant']} S{r['x']:g}": r for r in s["reading"]["table"]} for key, s in sweeps.items() if "table" in s.get("reading", {})}
+    spread = {key: {f"S{x:g}": {"cos_min": min(r["cos"] for r in rows), "cos_max": max(r["cos"] for r in rows),
+                                "above_min": min(r["above"] for r in rows), "pairs": max(r["pairs"] for r in rows)}
+                    for x in dict.fromkeys(r["x"] for r in s["reading"]["table"])
+                    for rows in [[r for r in s["reading"]["table"] if r["x"] == x and r["certified"]]] if rows}
+              for key, s in sweeps.items() if "table" in s.get("reading", {})}
+    slowest = {g: ", ".join(f"{s['label']} ({s['seconds'] / 60:.1f})" for s in sorted((s for s in sweeps.values() if s["group"] == g),
+                                                                                  key=lambda s: -s["seconds"])[:3]) for g in ("thesis", "variants", "beyond")}
+    return {"claims_changed": _claims_changed(values), "slowest": slowest, "wall": "\n".join(lines), "minutes": minutes, "note": note, "held_out": held_out, "degeneracy": degeneracy, "cells": cells, "spread": spread, "n_variants": sum(s["group"] == "variants" for s in sweeps.values()),
             **{f"{g}_minutes": m for g, m in totals.items()}, **{f"{k}_minutes": sum(minutes.get(e, 0.0) for e in v) for k, v in sets.items()}}
 
 
