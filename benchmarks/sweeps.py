@@ -304,8 +304,8 @@ def transfer_reading(folder: Path) -> dict:
     the pairs (run, held-out dynamics) more than 0.01 above / below the thesis's method's, the median
     cos(w, w*) and |w| (min, max over runs); per group the demonstrator's held-out and demonstrated medians, each
     held-out dynamics' medians (method or "demonstrator" -> median) and the thesis's method's fits
-    (``_fits``); over all groups each method's pairs above / below and the thesis's method's fits;
-    each method's label in tables."""
+    (``_fits``); over all groups each method's pairs above / below, the thesis's method's fits and
+    the range of the methods' median cos(w, w*); each method's label in tables."""
     import pandas as pd
 
     from airl_cli.methods import REGISTRY
@@ -338,6 +338,8 @@ def transfer_reading(folder: Path) -> dict:
         out["groups"][key] = {"methods": methods, "demonstrator_held_out": _number(held["demonstrator_score"].median()),
                               "demonstrator_demonstrated": _number(demonstrated["demonstrator_score"].median()),
                               "held_out": per_dynamics, "fits": _fits(group_jobs)}
+    cosines = [m["cos"] for g in out["groups"].values() for m in g["methods"].values() if m["cos"] is not None]
+    out["cos"] = {"min": min(cosines), "max": max(cosines)} if cosines else None
     return out
 
 
