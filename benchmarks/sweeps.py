@@ -344,12 +344,13 @@ def transfer_reading(folder: Path) -> dict:
 
 
 def size_reading(folder: Path) -> dict:
-    """The size sweeps, per swept size ("S20"; Objectworld's: its side) and method: the fits, those
+    """The size sweeps, per swept size (``by_size``: "S20"; Objectworld's: its side) and method: the fits, those
     that closed their bracket (``converged``), those flagged degenerate and of them those flagged by
     the bound on f(0) alone (``verdicts``), the median cos(w, w*)
     and fit seconds, the median score in the demonstrated tau_j and the demonstrator's, the (run,
     tau_j) pairs at or above the demonstrator; on the random MDP with the zero-one loss, how far the
-    certified objective lies below the game's value at w = 0, f(0) = T (1 - 1/S) (min, max)."""
+    certified objective lies below the game's value at w = 0, f(0) = T (1 - 1/S) (min, max). With
+    the swept setting (``x_key``) and each method's label in tables (``labels``)."""
     import pandas as pd
 
     table = pd.read_csv(folder / "results.csv")
@@ -360,6 +361,8 @@ def size_reading(folder: Path) -> dict:
     for job, _, kind in verdicts(folder):
         f0_alone[float(job[x_key])] = f0_alone.get(float(job[x_key]), 0) + (kind == "f0")
     out: dict = {}
+    from airl_cli.methods import REGISTRY
+
     for (x, method), g in demonstrated.groupby(["x", "method"], sort=True):
         fits = jobs[(jobs["x"] == x) & (jobs["method"] == method)]
         true = lambda column: int(fits[column].astype(str).str.lower().eq("true").sum())  # noqa: E731
@@ -372,7 +375,8 @@ def size_reading(folder: Path) -> dict:
             below = fits["mdp.horizon"] * (1 - 1 / fits["mdp.n_states"]) - fits["objective"]
             entry["below_f0"] = {"min": _number(below.min()), "max": _number(below.max())}
         out.setdefault(f"S{x:g}", {})[str(method)] = entry
-    return out
+    labels = {m: method.label for m, method in REGISTRY.items() if m in set(table["method"])}
+    return {"x_key": x_key, "labels": labels, "by_size": out}
 
 
 #: the last commit whose claims table came from fits certified against PBVI's best responses alone

@@ -282,7 +282,7 @@ def test_the_size_reading_per_size_and_method(tmp_path):
     job.mkdir()
     job.joinpath("metrics.json").write_text(json.dumps({"method": "airl", "stopped": "tolerance", "tol": 1e-3, "objective": 9.8, "reward_effect": 1.0,
                                                         "degenerate": True, "zero_answer": False, "dynamics": [{"cosine_similarity": 0.7}]}))
-    r = sweeps.size_reading(tmp_path)["S20"]
+    r = sweeps.size_reading(tmp_path)["by_size"]["S20"]
     assert (r["airl"]["fits"], r["airl"]["flagged"], r["airl"]["f0_alone"], r["airl"]["above"], r["airl"]["pairs"]) == (2, 1, 1, 3, 4)
     assert r["airl"]["below_f0"] == pytest.approx({"min": 9.5 - 9.8, "max": 0.0})  # f(0) = 10 (1 - 1/20) = 9.5
     assert r["airl"]["cos"] == pytest.approx(0.8) and (r["mce"]["above"], r["mce"]["flagged"]) == (4, 0) and "below_f0" not in r["mce"]
@@ -316,3 +316,12 @@ def test_reading_a_record_again_runs_no_sweep_and_keeps_what_was_measured(tmp_pa
     record.write_text(json.dumps({"commit": "abc1234", "profile": "full", "sweeps": {"fig09": entry}}))
     with pytest.raises(SystemExit, match="not here"):
         sweeps.main()
+
+
+def test_a_size_reading_as_the_growth_page_s_table():
+    row = lambda learner, cos, seconds: {"learner": learner, "demonstrator": 0.9, "cos": cos, "seconds": seconds}  # noqa: E731
+    reading = {"x_key": "mdp.size", "labels": {"airl": "AIRL (this thesis)", "mce": "MCE IRL", "bc": "BC"},
+               "by_size": {"S8": {"airl": row(0.99, 0.91, 0.63), "mce": row(0.98, 0.9, 0.04), "bc": row(0.95, None, 0.0)}}}
+    assert page_numbers._size_table(reading).splitlines() == [
+        "|  | AIRL | MCE IRL | BC | demonstrator | AIRL cos | MCE IRL cos | AIRL s | MCE IRL s |", "|---|---|---|---|---|---|---|---|---|",
+        "| 8×8 | 0.990 | 0.980 | 0.950 | 0.900 | 0.91 | 0.90 | 0.63 | 0.04 |"]

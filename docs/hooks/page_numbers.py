@@ -396,6 +396,27 @@ def _claims_changed(values: dict) -> dict:
             "other_verdicts": sum(r != "default readings" for _, r, _, _ in changed)}
 
 
+def _size_table(reading: dict) -> str:
+    """A size sweep's reading as a table: per size (Objectworld's "8×8", the random MDP's "S = 20")
+    each method's median score over runs and tau_j, the demonstrator's, the median cos(w, w*) of the
+    thesis's method and MCE IRL, and each method's median fit seconds (BC's, a count, left out)."""
+    sizes = reading["by_size"]
+    labels = {m: label.split(" (")[0] for m, label in reading["labels"].items()}  # "AIRL (this thesis)": "AIRL"
+    rewards = [m for m in ("airl", "mce") if m in labels]
+    timed = [m for m in labels if m != "bc"]
+    head = ["", *labels.values(), "demonstrator", *(f"{labels[m]} cos" for m in rewards), *(f"{labels[m]} s" for m in timed)]
+    lines = ["| " + " | ".join(head) + " |", "|---" * len(head) + "|"]
+    for key, row in sizes.items():
+        x = key[1:]
+        name = f"{x}×{x}" if reading["x_key"] == "mdp.size" else f"S = {x}"
+        demonstrator = next(iter(row.values()))["demonstrator"]
+        cells = [_cell(row.get(m, {}).get("learner"), ".3f") for m in labels] + [_cell(demonstrator, ".3f")]
+        cells += [_cell(row.get(m, {}).get("cos"), ".2f") for m in rewards]
+        cells += [_cell(row.get(m, {}).get("seconds"), ".2f" if (row.get(m, {}).get("seconds") or 0) < 1 else ".1f") for m in timed]
+        lines.append(f"| {name} | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
 def _sweep_tables(values: dict) -> dict:
     """The experiments' wall times (benchmarks/sweeps.py's record): the table of chapter 7's sweeps in
     two columns, each group's minutes, each sweep's minutes by its key, and a note on any sweep that
@@ -426,7 +447,8 @@ def _sweep_tables(values: dict) -> dict:
               for key, s in sweeps.items() if "table" in s.get("reading", {})}
     slowest = {g: ", ".join(f"{s['label']} ({s['seconds'] / 60:.1f})" for s in sorted((s for s in sweeps.values() if s["group"] == g),
                                                                                   key=lambda s: -s["seconds"])[:3]) for g in ("thesis", "variants", "beyond")}
-    return {"claims_changed": _claims_changed(values), "slowest": slowest, "wall": "\n".join(lines), "minutes": minutes, "note": note, "held_out": held_out, "degeneracy": degeneracy, "cells": cells, "spread": spread, "n_variants": sum(s["group"] == "variants" for s in sweeps.values()),
+    sizes = {key: _size_table(s["reading"]) for key, s in sweeps.items() if "by_size" in s.get("reading", {})}
+    return {"claims_changed": _claims_changed(values), "slowest": slowest, "sizes": sizes, "wall": "\n".join(lines), "minutes": minutes, "note": note, "held_out": held_out, "degeneracy": degeneracy, "cells": cells, "spread": spread, "n_variants": sum(s["group"] == "variants" for s in sweeps.values()),
             **{f"{g}_minutes": m for g, m in totals.items()}, **{f"{k}_minutes": sum(minutes.get(e, 0.0) for e in v) for k, v in sets.items()}}
 
 
