@@ -350,7 +350,8 @@ def size_reading(folder: Path) -> dict:
     and fit seconds, the median score in the demonstrated tau_j and the demonstrator's, the (run,
     tau_j) pairs at or above the demonstrator; on the random MDP with the zero-one loss, how far the
     certified objective lies below the game's value at w = 0, f(0) = T (1 - 1/S) (min, max). With
-    the swept setting (``x_key``) and each method's label in tables (``labels``)."""
+    the swept setting (``x_key``), each method's label in tables (``labels``) and the thesis's
+    method's counts summed over sizes (``totals``)."""
     import pandas as pd
 
     table = pd.read_csv(folder / "results.csv")
@@ -376,7 +377,9 @@ def size_reading(folder: Path) -> dict:
             entry["below_f0"] = {"min": _number(below.min()), "max": _number(below.max())}
         out.setdefault(f"S{x:g}", {})[str(method)] = entry
     labels = {m: method.label for m, method in REGISTRY.items() if m in set(table["method"])}
-    return {"x_key": x_key, "labels": labels, "by_size": out}
+    mine = [row["airl"] for row in out.values() if "airl" in row]
+    totals = {k: sum(r[k] for r in mine) for k in ("fits", "converged", "flagged", "f0_alone", "above", "pairs")}
+    return {"x_key": x_key, "labels": labels, "by_size": out, "totals": totals}
 
 
 #: the last commit whose claims table came from fits certified against PBVI's best responses alone
