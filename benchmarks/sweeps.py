@@ -220,7 +220,8 @@ def degeneracy_reading(folder: Path) -> dict:
     ``table``: per swept value and variant (``airl_cli.readings.variants.variants_summary``, in the
     experiment's order; MCE IRL as the variant "mce") its label in tables, the runs, whether it is the certified learner's,
     the fits flagged and of them those
-    flagged by the bound on f(0) alone, the median cos(w, w*), max |w| (median, min, max over runs), the (run, tau_j) pairs at or above
+    flagged by the bound on f(0) alone, the median cos(w, w*), max |w| (median, min, max over runs),
+    the median scores of the learner and of the game's own mixture p, the (run, tau_j) pairs at or above
     the demonstrator and how many, and the demonstrator's median."""
     import numpy as np
     import pandas as pd
@@ -240,6 +241,7 @@ def degeneracy_reading(folder: Path) -> dict:
     table = [{"x": float(r.x), "variant": str(r.variant), "label": label(str(r.variant)), "runs": int(r.runs), "certified": bool(r.certified), "flagged": int(r.flagged),
               "f0_alone": f0_alone.get((float(r.x), str(r.variant)), 0), "cos": _number(r.cos_median),
               "w": {"median": _number(r.w_median), "min": _number(r.w_min), "max": _number(r.w_max)},
+              "learner": _number(r.learner_median), "game_p": _number(r.game_p_median),
               "above": int(r.above), "pairs": int(r.pairs), "demonstrator": _number(r.demonstrator_median)}
              for r in summary.itertuples()]
     return {"fits": sum(map(len, kinds.values())),

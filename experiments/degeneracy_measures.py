@@ -28,7 +28,8 @@ over the seeds:
 
 Prints a markdown table. With ``--json FILE`` it also writes the measures per size ("S20") to FILE,
 with the commit and the machine (the docs pages' source ``degeneracy_measures``), and the row total
-variation with sigma scaled as 1/S (``dynamics.sigma_states=20``) beside them (``scaled_tv``), and
+variation, the expert's state overlap and the return range with sigma scaled as 1/S
+(``dynamics.sigma_states=20``) beside them (``scaled_tv``, ``scaled_overlap``, ``scaled_return_range``), and
 at S = 20 the row total variation for each sigma of fig09 (``sigma_tv``).
 """
 
@@ -101,7 +102,8 @@ def main() -> None:
     if args.json is not None:
         scaled = [f"loss={args.loss}", "dynamics.sigma_states=20"]
         for S in args.sizes:
-            rows[f"S{S}"]["scaled_tv"] = float(np.mean([measures(S, seed, scaled)[0] for seed in args.seeds]))
+            tv, shared, ratio, _, _ = np.mean([measures(S, seed, scaled) for seed in args.seeds], axis=0)
+            rows[f"S{S}"] |= {"scaled_tv": tv, "scaled_overlap": shared, "scaled_return_range": ratio}
         sigma_tv = {f"{sigma:g}": float(np.mean([measures(20, seed, [f"loss={args.loss}", f"dynamics.sigma={sigma}"])[0] for seed in args.seeds]))
                     for sigma in fig09_sigmas()}
         sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
