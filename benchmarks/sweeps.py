@@ -9,7 +9,8 @@ cores), as a user runs them from the repository's root:
   ``airl_cli.readings.claims``: the random MDP's uniform and sparse rows, the grid's grid-distance
   loss, Table I's gradient steps, with `optim.certify=false` on fig05-fig09);
 - the experiments beyond the thesis (sizes, environments, Viano et al.'s GridWorld, the degeneracy
-  study, the windy gridworld's and the cross-problem transfer).
+  study, the windy gridworld's and the cross-problem transfer), and FrozenLake with a feature per
+  state (``BEYOND_VARIANTS``).
 
 Each sweep writes ``results/sweeps/<study>-<profile>[-<overrides>]/`` (the folder `airl sweep`
 names) and its wall time, jobs, attempts and each method's median fit seconds go to FILE as soon as it ends, with the commit and the
@@ -60,6 +61,8 @@ VARIANTS = [
 #: the experiments beyond the thesis
 BEYOND = ("size", "size_random", "size_random_scaled", "size_random_markov", "frozenlake", "cliffworld",
           "viano_gridworld", "viano_finite", "degeneracy", "windy_transfer", "transfer")
+#: the experiments beyond the thesis run again with one setting changed, as their pages show them
+BEYOND_VARIANTS = [("frozenlake", ("mdp=gymnasium", "mdp.features=state"))]  # a feature per state (K = 16)
 GROUPS = ("thesis", "variants", "beyond")
 
 HEAD = re.compile(r"sweep (?P<name>\S+): (?P<jobs>\d+) jobs, (?P<earlier>\d+) finished earlier; folder (?P<folder>.+)")
@@ -74,6 +77,7 @@ def plan(groups: tuple[str, ...]) -> list[dict]:
         out += [{"group": "variants", "label": " ".join((e, *o[1:])), "experiment": e, "overrides": list(o)} for e, o in VARIANTS]
     if "beyond" in groups:
         out += [{"group": "beyond", "label": e, "experiment": e, "overrides": []} for e in BEYOND]
+        out += [{"group": "beyond", "label": " ".join((e, *o)), "experiment": e, "overrides": list(o)} for e, o in BEYOND_VARIANTS]
     return out
 
 
@@ -384,6 +388,45 @@ def size_reading(folder: Path) -> dict:
     return {"x_key": x_key, "labels": labels, "by_size": out, "totals": totals}
 
 
+def environment_reading(folder: Path) -> dict:
+    """An environment sweep (frozenlake, cliffworld: demonstrations under tau_1..tau_D, tau held out)
+    per method — and "demonstrator" — : the median and mean score in tau per N (``tau``: "N10"), the
+    median in each tau_j at the largest N (``tau_j``), the median cos(w, w*) there, the median fit
+    seconds, and per N the runs whose policy reaches the goal with probability at least 1/2 in the
+    last, calmest tau_j (``goal_runs``); the environment's setting per tau_j (``values``) and the
+    thesis's method's fits (``_fits``)."""
+    import pandas as pd
+
+    from airl_cli.methods import REGISTRY
+
+    table = pd.read_csv(folder / "results.csv")
+    top = table["x"].max()
+    demonstrated = sorted(d for d in table["dynamics"].astype(str).unique() if re.fullmatch(r"tau_\d+", d))
+    last = demonstrated[-1]
+
+    def entry(g, score: str, goal: str) -> dict:
+        tau = g[g["dynamics"] == "tau"]
+        at_top = g[g["x"] == top]
+        out = {"tau": {f"N{x:g}": {"median": _number(t[score].median()), "mean": _number(t[score].mean())} for x, t in tau.groupby("x")},
+               "tau_j": {d: _number(at_top.loc[at_top["dynamics"] == d, score].median()) for d in demonstrated}}
+        if goal in g:
+            calm = g[g["dynamics"] == last]
+            out["goal_runs"] = {f"N{x:g}": int((t[goal] >= 0.5).sum()) for x, t in calm.groupby("x")}
+        return out
+
+    methods = {}
+    for method, g in table.groupby("method", sort=False):
+        jobs = g[g["dynamics"] == "tau"]
+        methods[str(method)] = {**entry(g, "learner_score", "learner_goal"),
+                                "cos": _number(jobs.loc[jobs["x"] == top, "cosine_similarity"].median()),
+                                "seconds": _number(jobs["seconds"].median())}
+    demonstrator = entry(table[table["method"] == table["method"].iloc[0]], "demonstrator_score", "demonstrator_goal")
+    values = json.loads(table["dynamics.values"].iloc[0]) if "dynamics.values" in table else []
+    return {"values": values, "n": [f"N{x:g}" for x in sorted(table["x"].unique())], "top": f"N{top:g}",
+            "labels": {m: method.label for m, method in REGISTRY.items() if m in methods},
+            "methods": methods, "demonstrator": demonstrator, "fits": _fits(table[table["dynamics"] == "tau"])}
+
+
 #: the last commit whose claims table came from fits certified against PBVI's best responses alone
 #: (before the fit closed its bracket on eq. 5.9's minimum by default): the pages compare with it
 BEFORE_CLOSING = "f5b9295"
@@ -418,6 +461,7 @@ def claims_before(commit: str = BEFORE_CLOSING) -> dict | None:
 #: experiment -> what the pages read from its sweep beyond the report (recorded as the sweep's ``reading``)
 READ = {"fig02_03": fig02_03_reading, "fig09": fig09_reading, "fig14": fig14_reading, "degeneracy": degeneracy_reading,
         **dict.fromkeys(("size", "size_random", "size_random_scaled", "size_random_markov"), size_reading),
+        **dict.fromkeys(("frozenlake", "cliffworld"), environment_reading),
         "windy_transfer": transfer_reading, "transfer": transfer_reading}
 
 

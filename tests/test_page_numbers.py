@@ -325,3 +325,22 @@ def test_a_size_reading_as_the_growth_page_s_table():
     assert page_numbers._size_table(reading).splitlines() == [
         "|  | AIRL | MCE IRL | BC | demonstrator | AIRL cos | MCE IRL cos | AIRL s | MCE IRL s |", "|---|---|---|---|---|---|---|---|---|",
         "| 8×8 | 0.990 | 0.980 | 0.950 | 0.900 | 0.91 | 0.90 | 0.63 | 0.04 |"]
+
+
+def test_the_environment_reading_and_its_table(tmp_path):
+    """benchmarks/sweeps.py's reading of an environment sweep (tau held out) against a hand-made
+    table, and the page's table from it: the mean in brackets where it is more than 0.05 off."""
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    import sweeps
+
+    head = "method,x,seed,dynamics,learner_score,demonstrator_score,learner_goal,demonstrator_goal,cosine_similarity,seconds,converged,degenerate,relative_gap,dynamics.values\n"
+    rows = []
+    for seed, (tau, calm) in enumerate([(0.0, 1.0), (1.0, 1.0), (0.0, 0.0)]):
+        for d, score, goal in (("tau", tau, tau), ("tau_1", 0.5, 0.2), ("tau_2", calm, calm)):
+            rows.append(f'airl,10,{seed},{d},{score},1.0,{goal},0.1,0.3,0.2,True,False,1e-4,"[0.5, 1.0]"')
+    (tmp_path / "results.csv").write_text(head + "\n".join(rows) + "\n")
+    r = sweeps.environment_reading(tmp_path)
+    airl = r["methods"]["airl"]
+    assert airl["tau"]["N10"] == pytest.approx({"median": 0.0, "mean": 1 / 3}) and airl["goal_runs"] == {"N10": 2}
+    assert airl["tau_j"] == {"tau_1": 0.5, "tau_2": 1.0} and r["values"] == [0.5, 1.0] and r["fits"]["converged"] == 3
+    assert page_numbers._environment_table(r, "lake").splitlines()[2] == "| AIRL (this thesis) | 0.000 (0.33) | 0.500 | 1.000 | 0.30 | 0.20 |"

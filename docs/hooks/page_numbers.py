@@ -417,6 +417,33 @@ def _size_table(reading: dict) -> str:
     return "\n".join(lines)
 
 
+def _environment_table(reading: dict, name: str) -> str:
+    """An environment sweep's reading as a table: per method (its label) and the demonstrator the
+    median score in the held-out tau per N (the mean in brackets where it differs by more than
+    0.05: a score of 0 or 1 per run), in each tau_j at the largest N, cos(w, w*) there and the
+    median fit seconds."""
+    top = reading["top"]
+    demonstrated = list(reading["demonstrator"]["tau_j"])
+    head = [name, *(f"τ (held out), {n.replace('N', 'N=')}" for n in reading["n"]),
+            *(f"{d.replace('tau_', 'τ_')} ({v:g}), {top.replace('N', 'N=')}" for d, v in zip(demonstrated, reading["values"])),
+            f"cos(w, w*), {top.replace('N', 'N=')}", "fit s"]
+    lines = ["| " + " | ".join(head) + " |", "|---" * len(head) + "|"]
+
+    def tau(cell: dict | None) -> str:
+        if not cell:
+            return "—"
+        median, mean = cell["median"], cell["mean"]
+        return _cell(median, ".3f") + (f" ({mean:.2f})" if mean is not None and abs(mean - median) > 0.05 else "")
+
+    order = [*reading["labels"], *(m for m in reading["methods"] if m not in reading["labels"])]  # the registry's order
+    rows = [(reading["labels"].get(m, m), reading["methods"][m]) for m in order] + [("demonstrator", reading["demonstrator"])]
+    for label, r in rows:
+        cells = [tau(r["tau"].get(n)) for n in reading["n"]] + [_cell(r["tau_j"].get(d), ".3f") for d in demonstrated]
+        cells += [_cell(r.get("cos"), ".2f"), _cell(r.get("seconds"), ".2f")]
+        lines.append(f"| {label} | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
 def _sweep_tables(values: dict) -> dict:
     """The experiments' wall times (benchmarks/sweeps.py's record): the table of chapter 7's sweeps in
     two columns, each group's minutes, each sweep's minutes by its key, and a note on any sweep that
@@ -448,7 +475,8 @@ def _sweep_tables(values: dict) -> dict:
     slowest = {g: ", ".join(f"{s['label']} ({s['seconds'] / 60:.1f})" for s in sorted((s for s in sweeps.values() if s["group"] == g),
                                                                                   key=lambda s: -s["seconds"])[:3]) for g in ("thesis", "variants", "beyond")}
     sizes = {key: _size_table(s["reading"]) for key, s in sweeps.items() if "by_size" in s.get("reading", {})}
-    return {"claims_changed": _claims_changed(values), "slowest": slowest, "sizes": sizes, "wall": "\n".join(lines), "minutes": minutes, "note": note, "held_out": held_out, "degeneracy": degeneracy, "cells": cells, "spread": spread, "n_variants": sum(s["group"] == "variants" for s in sweeps.values()),
+    environments = {key: _environment_table(s["reading"], s["label"]) for key, s in sweeps.items() if "tau_j" in s.get("reading", {}).get("demonstrator", {})}
+    return {"claims_changed": _claims_changed(values), "slowest": slowest, "sizes": sizes, "environments": environments, "wall": "\n".join(lines), "minutes": minutes, "note": note, "held_out": held_out, "degeneracy": degeneracy, "cells": cells, "spread": spread, "n_variants": sum(s["group"] == "variants" for s in sweeps.values()),
             **{f"{g}_minutes": m for g, m in totals.items()}, **{f"{k}_minutes": sum(minutes.get(e, 0.0) for e in v) for k, v in sets.items()}}
 
 
