@@ -393,8 +393,8 @@ def environment_reading(folder: Path) -> dict:
     per method — and "demonstrator" — : the median and mean score in tau per N (``tau``: "N10"), the
     median in each tau_j at the largest N (``tau_j``), the median cos(w, w*) there, the median fit
     seconds, and per N the runs whose policy reaches the goal with probability at least 1/2 in the
-    last, calmest tau_j (``goal_runs``); the environment's setting per tau_j (``values``) and the
-    thesis's method's fits (``_fits``)."""
+    last, calmest tau_j (``goal_runs``); the environment's setting per tau_j (``values``), the
+    thesis's method's fits (``_fits``) and its w (under tau_1) of seed 0 at the largest N (``w_seed0``)."""
     import pandas as pd
 
     from airl_cli.methods import REGISTRY
@@ -422,7 +422,10 @@ def environment_reading(folder: Path) -> dict:
                                 "seconds": _number(jobs["seconds"].median())}
     demonstrator = entry(table[table["method"] == table["method"].iloc[0]], "demonstrator_score", "demonstrator_goal")
     values = json.loads(table["dynamics.values"].iloc[0]) if "dynamics.values" in table else []
-    return {"values": values, "n": [f"N{x:g}" for x in sorted(table["x"].unique())], "top": f"N{top:g}",
+    x_key = json.loads((folder / "experiment.json").read_text())["x_key"] if (folder / "experiment.json").is_file() else "demos.n"
+    example = next(iter(folder.glob(f"*{x_key}={top:g},method=airl,seed=0*/weights.json")), None)  # overrides sort: any before x_key
+    w = [round(v, 2) for v in json.loads(example.read_text())["weights"][0]] if example else None
+    return {"values": values, "w_seed0": w, "n": [f"N{x:g}" for x in sorted(table["x"].unique())], "top": f"N{top:g}",
             "labels": {m: method.label for m, method in REGISTRY.items() if m in methods},
             "methods": methods, "demonstrator": demonstrator, "fits": _fits(table[table["dynamics"] == "tau"])}
 
