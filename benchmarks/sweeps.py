@@ -430,6 +430,23 @@ def environment_reading(folder: Path) -> dict:
             "methods": methods, "demonstrator": demonstrator, "fits": _fits(table[table["dynamics"] == "tau"])}
 
 
+def viano_reading(folder: Path) -> dict:
+    """Viano et al.'s GridWorld sweeps: per method (robust MCE IRL per alpha: "robust_mce 0.8") the
+    total return, its fit seconds and the relative difference from the published number (None where
+    none is); the expert's return; the largest relative difference."""
+    import pandas as pd
+
+    table = pd.read_csv(folder / "results.csv")
+    rows = {}
+    for r in table.itertuples():
+        key = str(r.method) if r.method != "robust_mce" else f"robust_mce {r.alpha:g}"
+        rows[key] = {"total_return": _number(r.total_return), "seconds": _number(r.seconds),
+                     "relative_difference": _number(r.relative_difference) if "relative_difference" in table else None}
+    differences = table["relative_difference"].abs().dropna() if "relative_difference" in table else []
+    return {"rows": rows, "expert": _number(table["expert_return"].iloc[0]), "fits": len(table),
+            "max_relative_difference": _number(max(differences)) if len(differences) else None}
+
+
 #: the last commit whose claims table came from fits certified against PBVI's best responses alone
 #: (before the fit closed its bracket on eq. 5.9's minimum by default): the pages compare with it
 BEFORE_CLOSING = "f5b9295"
@@ -465,6 +482,7 @@ def claims_before(commit: str = BEFORE_CLOSING) -> dict | None:
 READ = {"fig02_03": fig02_03_reading, "fig09": fig09_reading, "fig14": fig14_reading, "degeneracy": degeneracy_reading,
         **dict.fromkeys(("size", "size_random", "size_random_scaled", "size_random_markov"), size_reading),
         **dict.fromkeys(("frozenlake", "cliffworld"), environment_reading),
+        **dict.fromkeys(("viano_gridworld", "viano_finite"), viano_reading),
         "windy_transfer": transfer_reading, "transfer": transfer_reading}
 
 

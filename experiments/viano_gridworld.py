@@ -1,4 +1,4 @@
-"""Viano et al.'s GridWorld table, reproduced: `python experiments/viano_gridworld.py [--learner-epsilon 0|0.05|0.1] [--corner lost|stay] [--all-actions]`.
+"""Viano et al.'s GridWorld table, reproduced: `python experiments/viano_gridworld.py [--learner-epsilon 0|0.05|0.1] [--corner lost|stay] [--all-actions] [--json FILE]`.
 
 Robust MCE IRL (Viano, Huang, Kamalaruban, Weller & Cevher, NeurIPS 2021), their GridWorld
 "mode 1" (10 x 10, reward -1, -100 inside, goal (0, 0)), in their setting: the expert soft-optimal
@@ -12,13 +12,18 @@ alpha = 1 is MCE IRL. The published numbers are read from ``conf/experiment/vian
 
 --corner: what happens to the noise mass their code drops in three corners (see
 ``airl_cli.core.mdp.viano_grid``); --all-actions: let every action exist everywhere (a move off the
-grid stays), instead of their action sets.
+grid stays), instead of their action sets. --json FILE: run the page's five tables instead (eps_L =
+0, 0.05, 0.1 in their conventions; corner=stay and every action at eps_L = 0) and write them, with
+the published numbers, the seconds and the commit, to FILE (the docs pages' source ``viano``).
 """
 
 from __future__ import annotations
 
 import argparse
+import json
+import sys
 import time
+from pathlib import Path
 
 import numpy as np
 
@@ -75,28 +80,55 @@ def expert_return(*, corner: str, all_actions: bool, eps_L: float = 0.0) -> floa
     return viano_expert(P_L, _actions(allowed, all_actions), phi @ w_star, w_star, GAMMA, P_eval=_run_in(P_L, eps_L, all_actions))
 
 
+def table(*, eps_L: float, corner: str, all_actions: bool) -> dict:
+    """One table: ours per alpha (rows: alpha -> the return per eps_E), the published rows and the
+    expert line at eps_L (where published), the expert's return, and the seconds it took."""
+    rows, expert_published = published(eps_L)
+    start = time.perf_counter()
+    ours = {f"{a:g}": [learn_and_score(e, a, corner=corner, all_actions=all_actions, eps_L=eps_L) for e in EPSILONS] for a in ALPHAS}
+    expert = expert_return(corner=corner, all_actions=all_actions, eps_L=eps_L)
+    return {"eps_L": eps_L, "corner": corner, "all_actions": all_actions, "epsilons": list(EPSILONS), "rows": ours,
+            "published": {f"{a:g}": rows[a] for a in ALPHAS if a in rows}, "expert": expert,
+            "expert_published": None if expert_published != expert_published else expert_published,
+            "seconds": time.perf_counter() - start}
+
+
+#: the page's tables: name -> (eps_L, corner, all_actions)
+TABLES = {"eps0": (0.0, "lost", False), "eps0.05": (0.05, "lost", False), "eps0.1": (0.1, "lost", False),
+          "stay": (0.0, "stay", False), "all_actions": (0.0, "lost", True)}
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--learner-epsilon", type=float, default=0.0, help="eps_L (published: 0, 0.05, 0.1)")
     parser.add_argument("--corner", choices=("lost", "stay"), default="lost")
     parser.add_argument("--all-actions", action="store_true")
+    parser.add_argument("--json", type=Path, default=None, help="run the page's five tables and write them to FILE")
     args = parser.parse_args()
+    if args.json is not None:
+        sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+        from _runs import provenance
+
+        tables = {}
+        for name, (eps_L, corner, all_actions) in TABLES.items():
+            tables[name] = table(eps_L=eps_L, corner=corner, all_actions=all_actions)
+            print(f"{name}: {tables[name]['seconds']:.1f} s", flush=True)
+        args.json.write_text(json.dumps({**provenance(sys.argv), "tables": tables}, indent=1) + "\n")
+        return
     eps_L = args.learner_epsilon
-    rows, expert_published = published(eps_L)
-    start = time.perf_counter()
+    t = table(eps_L=eps_L, corner=args.corner, all_actions=args.all_actions)
     print(f"eps_L={eps_L:g} corner={args.corner} all_actions={args.all_actions}; columns eps_E = {', '.join(map(str, EPSILONS))}")
     print("| learner | " + " | ".join(f"eps_E = {e:g}" for e in EPSILONS) + " |")
     print("| --- |" + " --- |" * len(EPSILONS))
-    for alpha in ALPHAS:
-        ours = [learn_and_score(e, alpha, corner=args.corner, all_actions=args.all_actions, eps_L=eps_L) for e in EPSILONS]
-        pub = rows.get(alpha)
+    for alpha, ours in t["rows"].items():
+        pub = t["published"].get(alpha)
         cells = [f"{v:.1f}" if pub is None else f"{v:.1f} ({pub[j]:.1f}, {100 * (v - pub[j]) / abs(pub[j]):+.1f}%)" for j, v in enumerate(ours)]
-        name = "MCE IRL (alpha = 1)" if alpha == 1.0 else f"alpha = {alpha:g}"
+        name = "MCE IRL (alpha = 1)" if alpha == "1" else f"alpha = {alpha}"
         print(f"| {name} | " + " | ".join(cells) + " |", flush=True)
-    e = expert_return(corner=args.corner, all_actions=args.all_actions, eps_L=eps_L)
-    theirs = "" if expert_published != expert_published else f" ({expert_published:.1f}, {100 * (e - expert_published) / abs(expert_published):+.1f}%)"
+    e, theirs = t["expert"], t["expert_published"]
+    theirs = "" if theirs is None else f" ({theirs:.1f}, {100 * (e - theirs) / abs(theirs):+.1f}%)"
     print(f"| expert (optimal in eps_L = {eps_L:g}) | {e:.1f}{theirs} |")
-    print(f"({time.perf_counter() - start:.1f} s)")
+    print(f"({t['seconds']:.1f} s)")
 
 
 if __name__ == "__main__":

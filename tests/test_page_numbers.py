@@ -344,3 +344,18 @@ def test_the_environment_reading_and_its_table(tmp_path):
     assert airl["tau"]["N10"] == pytest.approx({"median": 0.0, "mean": 1 / 3}) and airl["goal_runs"] == {"N10": 2}
     assert airl["tau_j"] == {"tau_1": 0.5, "tau_2": 1.0} and r["values"] == [0.5, 1.0] and r["fits"]["converged"] == 3
     assert page_numbers._environment_table(r, "lake").splitlines()[2] == "| AIRL (this thesis) | 0.000 (0.33) | 0.500 | 1.000 | 0.30 | 0.20 |"
+
+
+def test_viano_s_tables_as_the_page_prints_them():
+    """Ours, the published number and the relative difference; the prose's largest differences."""
+    def t(rows, published=None, expert=-128.8, expert_published=None):
+        return {"epsilons": [0.0, 0.1], "rows": rows, "published": published or {}, "expert": expert, "expert_published": expert_published, "seconds": 1.0}
+
+    tables = {"eps0": t({"1": [-130.7, -208.3], "0.8": [-145.4, -149.2]}, {"1": [-131.6, -207.1], "0.8": [-147.8, -149.2]}, -128.8, -128.8),
+              "stay": t({"1": [-130.7, -164.0], "0.8": [-145.4, -148.5]}), "all_actions": t({"1": [-131.0, -200.0], "0.8": [-140.3, -144.9]})}
+    out = page_numbers._viano_tables({"tables": tables})
+    assert out["eps0"].splitlines()[2] == "| MCE IRL (α = 1) | −130.7 (−131.6, +0.7%) | −208.3 (−207.1, −0.6%) |"
+    assert out["eps0"].splitlines()[3] == "| α = 0.8 | −145.4 (−147.8, +1.6%) | −149.2 (−149.2, 0.0%) |"
+    assert out["entries"] == 4 and out["max_relative"] == pytest.approx(100 * 2.4 / 147.8) and out["max_expert"] == 0.0
+    assert out["stay"]["mce"] == "−130.7, −164.0" and out["stay"]["mce_vs_published_min"] == pytest.approx(100 * (207.1 - 164.0) / 207.1)
+    assert out["all_actions"]["a08_vs_default"] == pytest.approx(100 * (145.4 - 140.3) / 145.4)

@@ -42,6 +42,7 @@ SOURCES: dict[str, list[str]] = {
     "mmdp": ["benchmarks/mmdp.py", "--json", "docs/numbers/mmdp.json"],
     "sweeps": ["benchmarks/sweeps.py", "--json", "docs/numbers/sweeps.json", "--report", "experiments"],
     "degeneracy_measures": ["experiments/degeneracy_measures.py", "--json", "docs/numbers/degeneracy_measures.json"],
+    "viano": ["experiments/viano_gridworld.py", "--json", "docs/numbers/viano.json"],
 }
 
 BLOCK = re.compile(r"<!-- numbers (?P<source>[\w-]+)\n(?P<template>.*?)\n-->\n(?P<text>.*?)<!-- /numbers -->", re.DOTALL)
@@ -480,7 +481,51 @@ def _sweep_tables(values: dict) -> dict:
             **{f"{g}_minutes": m for g, m in totals.items()}, **{f"{k}_minutes": sum(minutes.get(e, 0.0) for e in v) for k, v in sets.items()}}
 
 
-TABLES = {"sweeps": _sweep_tables, "default_fit": _default_fit_tables, "first_fit": _first_fit_excerpts, "test_suite": _suite_minutes, "environments": _environment_tables, "mmdp": _mmdp_tables}
+def _signed(value: float, spec: str) -> str:
+    """A number with a true minus sign (−128.8), as the pages print returns."""
+    return format(value, spec).replace("-", "−")
+
+
+def _percent(value: float) -> str:
+    return "0.0%" if abs(value) < 0.05 else _signed(value, "+.1f") + "%"
+
+
+def _viano_tables(values: dict) -> dict:
+    """experiments/viano_gridworld.py's tables (``tables``: eps0, eps0.05, eps0.1, stay, all_actions)
+    as the page prints them — ours, and in brackets the published number and our relative
+    difference — with what its prose reads: over the three published tables the entries and the
+    largest relative difference, the expert lines' largest; MCE IRL's row (alpha = 1) and alpha =
+    0.8's of the variants, their differences from the published and from the default table."""
+    out: dict = {}
+    relative = lambda ours, theirs: 100 * (ours - theirs) / abs(theirs)  # noqa: E731
+    for name, t in values["tables"].items():
+        lines = ["| learner | " + " | ".join(f"ε_E = {e:g}" for e in t["epsilons"]) + " |", "| --- |" + " --- |" * len(t["epsilons"])]
+        for alpha, ours in t["rows"].items():
+            pub = t["published"].get(alpha)
+            cells = [_signed(v, ".1f") + ("" if pub is None else f" ({_signed(pub[j], '.1f')}, {_percent(relative(v, pub[j]))})") for j, v in enumerate(ours)]
+            lines.append(f"| {'MCE IRL (α = 1)' if alpha == '1' else f'α = {alpha}'} | " + " | ".join(cells) + " |")
+        e, theirs = t["expert"], t["expert_published"]
+        cell = _signed(e, ".1f") + ("" if theirs is None else f" ({_signed(theirs, '.1f')}, {_percent(relative(e, theirs))})")
+        lines.append(f"| expert (optimal policy) | {cell} |" + " |" * (len(t["epsilons"]) - 1))
+        out[name] = "\n".join(lines)
+    published = [t for name, t in values["tables"].items() if name.startswith("eps")]
+    diffs = [abs(relative(v, t["published"][a][j])) for t in published for a, r in t["rows"].items() if a in t["published"] for j, v in enumerate(r)]
+    out["entries"], out["max_relative"] = len(diffs), max(diffs)
+    out["max_expert"] = max(abs(relative(t["expert"], t["expert_published"])) for t in published if t["expert_published"] is not None)
+    base, pub0 = values["tables"]["eps0"], values["tables"]["eps0"]["published"]
+    for name in ("stay", "all_actions"):
+        t = values["tables"][name]
+        mce_vs = [relative(v, pub0["1"][j]) for j, v in enumerate(t["rows"]["1"])]
+        out[name] = {"table": out[name], "mce": ", ".join(_signed(v, ".1f") for v in t["rows"]["1"]),
+                     "a08": ", ".join(_signed(v, ".1f") for v in t["rows"]["0.8"]),
+                     "mce_vs_published_min": min(mce_vs[1:]), "mce_vs_published_max": max(mce_vs[1:]),
+                     "mce_vs_published_abs": max(map(abs, mce_vs)),
+                     "a08_vs_default": max(abs(relative(v, base["rows"]["0.8"][j])) for j, v in enumerate(t["rows"]["0.8"]))}
+    out["seconds"] = sum(t["seconds"] for t in values["tables"].values())
+    return out
+
+
+TABLES = {"sweeps": _sweep_tables, "default_fit": _default_fit_tables, "first_fit": _first_fit_excerpts, "test_suite": _suite_minutes, "environments": _environment_tables, "mmdp": _mmdp_tables, "viano": _viano_tables}
 
 
 # --------------------------------------------------------------------------- the MkDocs hook
