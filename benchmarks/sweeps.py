@@ -433,7 +433,8 @@ def environment_reading(folder: Path) -> dict:
 def viano_reading(folder: Path) -> dict:
     """Viano et al.'s GridWorld sweeps: per method (robust MCE IRL per alpha: "robust_mce 0.8") the
     total return, its fit seconds and the relative difference from the published number (None where
-    none is); the expert's return; the largest relative difference."""
+    none is); the expert's return and what each method loses to it (``loss``); the largest
+    relative difference.""" 
     import pandas as pd
 
     table = pd.read_csv(folder / "results.csv")
@@ -443,7 +444,8 @@ def viano_reading(folder: Path) -> dict:
         rows[key] = {"total_return": _number(r.total_return), "seconds": _number(r.seconds),
                      "relative_difference": _number(r.relative_difference) if "relative_difference" in table else None}
     differences = table["relative_difference"].abs().dropna() if "relative_difference" in table else []
-    return {"rows": rows, "expert": _number(table["expert_return"].iloc[0]), "fits": len(table),
+    expert = _number(table["expert_return"].iloc[0])
+    return {"rows": rows, "expert": expert, "fits": len(table), "loss": {k: expert - r["total_return"] for k, r in rows.items()},
             "max_relative_difference": _number(max(differences)) if len(differences) else None}
 
 
