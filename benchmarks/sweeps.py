@@ -308,7 +308,8 @@ def transfer_reading(folder: Path) -> dict:
     "CliffWorld own" — and, where the sweep has several N, each N ("windy grid own N10"). Per method
     (``airl_cli.readings.transfer.transfer_summary``): the medians held out, demonstrated and in tau,
     the pairs (run, held-out dynamics) more than 0.01 above / below the thesis's method's, the median
-    cos(w, w*) and |w| (min, max over runs); per group the demonstrator's held-out and demonstrated medians, each
+    cos(w, w*) and |w| (min, max over runs); per group the demonstrator's held-out and demonstrated
+    medians, the range of the reward learners' held-out medians (``learners``), each
     held-out dynamics' medians (method or "demonstrator" -> median) and the thesis's method's fits
     (``_fits``); over all groups each method's pairs above / below, the thesis's method's fits and
     the range of the methods' median cos(w, w*); each method's label in tables."""
@@ -341,7 +342,9 @@ def transfer_reading(folder: Path) -> dict:
                                  "demonstrator": _number(g["demonstrator_score"].median())}
                         for d, g in held.groupby("dynamics")}
         demonstrated = rows[rows["dynamics"].astype(str).str.fullmatch(r"tau_\d+")]
+        learners = [m["held_out"] for name, m in methods.items() if name in REGISTRY and REGISTRY[name].learns_reward and m["held_out"] is not None]
         out["groups"][key] = {"methods": methods, "demonstrator_held_out": _number(held["demonstrator_score"].median()),
+                              "learners": {"min": min(learners), "max": max(learners)} if learners else None,
                               "demonstrator_demonstrated": _number(demonstrated["demonstrator_score"].median()),
                               "held_out": per_dynamics, "fits": _fits(group_jobs)}
     cosines = [m["cos"] for g in out["groups"].values() for m in g["methods"].values() if m["cos"] is not None]
