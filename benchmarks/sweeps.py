@@ -555,7 +555,8 @@ def main() -> None:
     args.json.write_text(json.dumps(record, indent=1) + "\n")
     if args.report is not None:
         report = [sys.executable, "-m", "airl_cli", "report", "results/sweeps", "--out", str(args.report.resolve()), "--profile", args.profile]
-        subprocess.run(report, cwd=ROOT, check=True)
+        if subprocess.run(report, cwd=ROOT, check=False).returncode != 0:
+            sys.exit(f"the report was not written (airl report said why, above); {args.json} keeps the sweeps: run this script again")
         record["sections"] = sections(args.report / "results.md")  # what the experiment pages show of it
         record["claims"] = json.loads((args.report / "claims.json").read_text())  # the claims table's numbers, one by one
         record["claims_before"] = claims_before()  # the same table from the fits of PBVI's gap alone
