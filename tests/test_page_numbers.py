@@ -343,7 +343,7 @@ def test_the_environment_reading_and_its_table(tmp_path):
     airl = r["methods"]["airl"]
     assert airl["tau"]["N10"] == pytest.approx({"median": 0.0, "mean": 1 / 3}) and airl["goal_runs"] == {"N10": 2}
     assert airl["tau_j"] == {"tau_1": 0.5, "tau_2": 1.0} and r["values"] == [0.5, 1.0] and r["fits"]["converged"] == 3
-    assert page_numbers._environment_table(r, "lake").splitlines()[2] == "| AIRL (this thesis) | 0.000 (0.33) | 0.500 | 1.000 | 0.30 | 0.20 |"
+    assert page_numbers._environment_table(r).splitlines()[2] == "| AIRL (this thesis) | 0.000 (0.33) | 0.500 | 1.000 | 0.30 | 0.20 |"
 
 
 def test_viano_s_tables_as_the_page_prints_them():

@@ -418,14 +418,14 @@ def _size_table(reading: dict) -> str:
     return "\n".join(lines)
 
 
-def _environment_table(reading: dict, name: str) -> str:
+def _environment_table(reading: dict) -> str:
     """An environment sweep's reading as a table: per method (its label) and the demonstrator the
     median score in the held-out tau per N (the mean in brackets where it differs by more than
     0.05: a score of 0 or 1 per run), in each tau_j at the largest N, cos(w, w*) there and the
     median fit seconds."""
     top = reading["top"]
     demonstrated = list(reading["demonstrator"]["tau_j"])
-    head = [name, *(f"τ (held out), {n.replace('N', 'N=')}" for n in reading["n"]),
+    head = ["method", *(f"τ (held out), {n.replace('N', 'N=')}" for n in reading["n"]),
             *(f"{d.replace('tau_', 'τ_')} ({v:g}), {top.replace('N', 'N=')}" for d, v in zip(demonstrated, reading["values"])),
             f"cos(w, w*), {top.replace('N', 'N=')}", "fit s"]
     lines = ["| " + " | ".join(head) + " |", "|---" * len(head) + "|"]
@@ -454,7 +454,7 @@ def _sweep_tables(values: dict) -> dict:
     sweeps = values["sweeps"]
     minutes = {key: s["seconds"] / 60 for key, s in sweeps.items()}
     thesis = [s for s in sweeps.values() if s["group"] == "thesis"]
-    cells = [f"{s['label']} | {s['jobs']:,} | {_cell(s['seconds'] / 60, '.1f')}" for s in thesis]
+    cells = [f"{s['label']} | {s['jobs']:,} | {_cell(s['seconds'] / 60, '.1f') if s['seconds'] >= 3 else '< 0.1'}" for s in thesis]
     half = (len(cells) + 1) // 2
     left, right = cells[:half], cells[half:] + ["| |"] * (2 * half - len(cells))
     lines = ["| experiment | jobs | minutes | | experiment | jobs | minutes |", "|---|---|---|---|---|---|---|"]
@@ -476,7 +476,7 @@ def _sweep_tables(values: dict) -> dict:
     slowest = {g: ", ".join(f"{s['label']} ({s['seconds'] / 60:.1f})" for s in sorted((s for s in sweeps.values() if s["group"] == g),
                                                                                   key=lambda s: -s["seconds"])[:3]) for g in ("thesis", "variants", "beyond")}
     sizes = {key: _size_table(s["reading"]) for key, s in sweeps.items() if "by_size" in s.get("reading", {})}
-    environments = {key: _environment_table(s["reading"], s["label"]) for key, s in sweeps.items() if "tau_j" in s.get("reading", {}).get("demonstrator", {})}
+    environments = {key: _environment_table(s["reading"]) for key, s in sweeps.items() if "tau_j" in s.get("reading", {}).get("demonstrator", {})}
     return {"claims_changed": _claims_changed(values), "slowest": slowest, "sizes": sizes, "environments": environments, "wall": "\n".join(lines), "minutes": minutes, "note": note, "held_out": held_out, "degeneracy": degeneracy, "cells": cells, "spread": spread, "n_variants": sum(s["group"] == "variants" for s in sweeps.values()),
             **{f"{g}_minutes": m for g, m in totals.items()}, **{f"{k}_minutes": sum(minutes.get(e, 0.0) for e in v) for k, v in sets.items()}}
 
