@@ -41,6 +41,8 @@ from pathlib import Path
 
 from _runs import provenance
 
+from airl_cli.methods import THESIS as METHOD  # the thesis's method's config name (the registry's)
+
 ROOT = Path(__file__).resolve().parents[1]
 
 #: chapter 7's sweeps: table label -> experiment
@@ -125,6 +127,12 @@ def code(commit: str) -> tuple[str, ...] | None:
     return tuple(done.stdout.split()) if commit and done.returncode == 0 else None
 
 
+def _true(column):
+    """A results table's flag column (``converged``, ``degenerate``) as booleans: read back from
+    results.csv it holds True/False, "True"/"False" or NaN (a method without the flag)."""
+    return column.astype(str).str.lower().eq("true")
+
+
 def median_fit_seconds(folder: Path) -> dict[str, float]:
     """method -> the median over the sweep's jobs of a fit's seconds (results.csv: a job's rows, one
     per dynamics, repeat its seconds); {} for a table without them (fig02_03's)."""
@@ -145,7 +153,7 @@ def weight_scale(folder: Path) -> dict | None:
     table = pd.read_csv(folder / "results.csv")
     if not {"method", "weight_scale"} <= set(table.columns):
         return None
-    w = table[table["method"] == "airl"].drop_duplicates([c for c in ("x", "seed") if c in table.columns])["weight_scale"].dropna()
+    w = table[table["method"] == METHOD].drop_duplicates([c for c in ("x", "seed") if c in table.columns])["weight_scale"].dropna()
     return {"min": float(w.min()), "median": float(w.median()), "max": float(w.max())} if len(w) else None
 
 
@@ -164,9 +172,9 @@ def fig09_reading(folder: Path) -> dict:
     import pandas as pd
 
     table = pd.read_csv(folder / "results.csv")
-    airl = table[table["method"] == "airl"]
+    airl = table[table["method"] == METHOD]
     fits = airl.drop_duplicates(["x", "seed"])
-    share = fits.groupby("x")["degenerate"].apply(lambda d: float(d.astype(str).str.lower().eq("true").mean()))
+    share = fits.groupby("x")["degenerate"].apply(lambda d: float(_true(d).mean()))
     xs = sorted(share.index)
     tail = [x for i, x in enumerate(xs) if all(share[y] == 1.0 for y in xs[i:])]
     w = fits.groupby("x")["weight_scale"].agg(["min", "max"]) if "weight_scale" in fits else None
@@ -184,7 +192,7 @@ def fig14_reading(folder: Path) -> dict:
     import pandas as pd
 
     table = pd.read_csv(folder / "results.csv")
-    pairs = table[(table["method"] == "airl") & table["dynamics"].astype(str).str.fullmatch(r"tau_\d+")]
+    pairs = table[(table["method"] == METHOD) & table["dynamics"].astype(str).str.fullmatch(r"tau_\d+")]
     runs = pairs.groupby(["x", "seed"])["learner_score"].min()
     per_n = {}
     for x, r in runs.groupby(level="x"):
@@ -207,7 +215,7 @@ def verdicts(folder: Path) -> list[tuple[dict, dict, str]]:
     out = []
     for metrics_file in sorted(folder.glob("*/metrics.json")):
         m = json.loads(metrics_file.read_text())
-        if m.get("method") != "airl" or m.get("optimizer", "exact") != "exact" or m.get("stopped") in CAPS:
+        if m.get("method") != METHOD or m.get("optimizer", "exact") != "exact" or m.get("stopped") in CAPS:
             continue
         below = m.get("zero_answer") or m["reward_effect"] <= m["tol"] * max(1.0, abs(m["objective"]))
         kind = "below" if m.get("degenerate") and below else "f0" if m.get("degenerate") else "none"
@@ -278,7 +286,7 @@ def certificates_reading(folders: dict[str, Path]) -> dict:
     from airl_cli.readings.certificates import fits_of_the_method
 
     fits = pd.concat([fits_of_the_method(pd.read_csv(f / "results.csv")).assign(sweep=key) for key, f in folders.items()], ignore_index=True)
-    closed = fits["converged"].astype(str).eq("True")
+    closed = _true(fits["converged"])
     width = pd.to_numeric(fits["bracket_width"], errors="coerce")
     widest = fits.loc[width.idxmax()] if width.notna().any() else None
     return {"fits": len(fits), "closed": int(closed.sum()),
@@ -295,8 +303,8 @@ def _fits(jobs) -> dict:
     """The thesis's method's fits among ``jobs`` (one row per job): how many, how many closed their
     bracket (``converged``), how many were flagged degenerate, their seconds (min, median, max) and
     relative gaps (min, max; a negative gap: the adversary's side missed a better strategy)."""
-    fits = jobs[jobs["method"] == "airl"]
-    true = lambda column: int(fits[column].astype(str).str.lower().eq("true").sum())  # noqa: E731
+    fits = jobs[jobs["method"] == METHOD]
+    true = lambda column: int(_true(fits[column]).sum())  # noqa: E731
     gap = fits["relative_gap"].astype(float) if "relative_gap" in fits else fits["seconds"] * float("nan")
     return {"n": len(fits), "converged": true("converged"), "degenerate": true("degenerate"),
             "seconds": {k: _number(getattr(fits["seconds"], k)()) for k in ("min", "median", "max")},
@@ -375,9 +383,9 @@ def size_reading(folder: Path) -> dict:
 
     for (x, method), g in demonstrated.groupby(["x", "method"], sort=True):
         fits = jobs[(jobs["x"] == x) & (jobs["method"] == method)]
-        true = lambda column: int(fits[column].astype(str).str.lower().eq("true").sum())  # noqa: E731
+        true = lambda column: int(_true(fits[column]).sum())  # noqa: E731
         entry = {"fits": len(fits), "converged": true("converged"), "flagged": true("degenerate"),
-                 "f0_alone": f0_alone.get(float(x), 0) if method == "airl" else 0,
+                 "f0_alone": f0_alone.get(float(x), 0) if method == METHOD else 0,
                  "cos": _number(fits["cosine_similarity"].median()), "seconds": _number(fits["seconds"].median()),
                  "learner": _number(g["learner_score"].median()), "demonstrator": _number(g["demonstrator_score"].median()),
                  "above": int((g["learner_score"] >= g["demonstrator_score"] - 1e-12).sum()), "pairs": len(g)}
@@ -386,7 +394,7 @@ def size_reading(folder: Path) -> dict:
             entry["below_f0"] = {"min": _number(below.min()), "max": _number(below.max())}
         out.setdefault(f"S{x:g}", {})[str(method)] = entry
     labels = {m: method.label for m, method in REGISTRY.items() if m in set(table["method"])}
-    mine = [row["airl"] for row in out.values() if "airl" in row]
+    mine = [row[METHOD] for row in out.values() if METHOD in row]
     totals = {k: sum(r[k] for r in mine) for k in ("fits", "converged", "flagged", "f0_alone", "above", "pairs")}
     return {"x_key": x_key, "labels": labels, "by_size": out, "totals": totals}
 
