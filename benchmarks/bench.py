@@ -1,23 +1,30 @@
-"""Benchmarks of airl: `python benchmarks/bench.py [SECTION ...]` prints a table per section.
+"""Benchmarks of airl: `python benchmarks/bench.py [SECTION ...] [--json FILE]` prints a table per section.
 
 Sections: sampling, planner, backup, fit, certified (the multi-model MDP benchmark of Su & Petrik 2023
 is `python benchmarks/mmdp.py`). Each measurement is the
 median of several repeats on one core: the script sets OMP_NUM_THREADS=1 etc. and NUMBA_NUM_THREADS=1
-unless they are set already. The backup section compares one and all cores itself; run it with
-NUMBA_NUM_THREADS set to the number of cores.
+unless they are set already. The backup section compares one and all cores itself: with it alone,
+NUMBA_NUM_THREADS defaults to the number of cores. ``--json FILE`` (with ``backup`` alone) writes
+its two tables with the commit, the machine and the command (the planner page's source,
+docs/hooks/page_numbers.py).
 """
 
 from __future__ import annotations
 
 import os
+import sys
 
+if sys.argv[1:2] == ["backup"]:
+    os.environ.setdefault("NUMBA_NUM_THREADS", str(os.cpu_count()))
 for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMBA_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 
 import argparse  # noqa: E402
+import json  # noqa: E402
 import statistics  # noqa: E402
 import time  # noqa: E402
 from collections.abc import Callable  # noqa: E402
+from pathlib import Path  # noqa: E402
 
 import airl_cli  # noqa: E402,F401  (first, before numpy: it pins OpenBLAS's kernels, as the commands do)
 import numpy as np  # noqa: E402
@@ -135,20 +142,25 @@ def _solve_row(S, A, T, M, iterations, threads):  # runs in a fresh process: its
     return len(B), int(sol.graph.n_nodes.sum()), expand, seconds, (peak - base) / 1024, peak / 1024
 
 
-def bench_backup() -> None:
-    """The planner's backup against the numpy yardstick, and how a solve grows (time, memory)."""
+def bench_backup() -> dict:
+    """The planner's backup against the numpy yardstick, and how a solve grows (time, memory):
+    ``{"threads", "backup": [{S, M, iterations, beliefs, numpy_ms, compiled_ms}], "solve": [{S, A,
+    T, M, iterations, beliefs, nodes, expand_s, solve_s, extra_mb, peak_mb}]}``, ``compiled_ms`` and
+    ``solve_s`` one per thread count."""
     import multiprocessing
 
     import numba
 
     cores = numba.config.NUMBA_NUM_THREADS
     threads = (1, cores) if cores > 1 else (1,)
+    record = {"threads": list(threads), "backup": [], "solve": []}
     table = Table(title="PBVI backup at one belief set, all time steps (A=5, T=10): plain numpy vs compiled")
     for col in ("S", "M", "iters", "beliefs", "numpy ms", *(f"compiled, {n} thread{'s' * (n > 1)} ms" for n in threads), *(f"speed-up {n}t" for n in threads)):
         table.add_column(col, justify="right")
     for S, M, iterations in [(20, 4, 8), (20, 4, 7), (20, 2, 8), (50, 4, 8)]:
         nb, times = _backup_times(S, 5, 10, M, iterations, threads)
         table.add_row(str(S), str(M), str(iterations), str(nb), *(f"{1e3 * t:.1f}" for t in times), *(f"{times[0] / t:.1f}x" for t in times[1:]))
+        record["backup"].append({"S": S, "M": M, "iterations": iterations, "beliefs": nb, "numpy_ms": 1e3 * times[0], "compiled_ms": [1e3 * t for t in times[1:]]})
     console.print(table)
 
     table = Table(title="one solve at a given belief set (backups + exact marginals), growth; memory = peak RSS of a fresh process")
@@ -166,7 +178,9 @@ def bench_backup() -> None:
                 results.append(pool.apply(_solve_row, (*row, n)))
         nb, nodes, expand, _, extra, peak = results[0]
         table.add_row(*map(str, row), str(nb), f"{nodes:,}", f"{expand:.2f}", *(f"{r[3]:.2f}" for r in results), f"{extra:.0f}", f"{peak:.0f}")
+        record["solve"].append(dict(zip(("S", "A", "T", "M", "iterations"), row), beliefs=nb, nodes=nodes, expand_s=expand, solve_s=[r[3] for r in results], extra_mb=extra, peak_mb=max(r[5] for r in results)))
     console.print(table)
+    return record
 
 
 def adversary_problem(seed: int = 0, *, S: int = 20, A: int = 5, K: int = 5, D: int = 3, T: int = 10):
@@ -322,12 +336,19 @@ SECTIONS = {"sampling": bench_sampling, "planner": bench_planner, "backup": benc
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("sections", nargs="*", metavar="SECTION", help=f"any of: {', '.join(SECTIONS)} (default: all)")
+    parser.add_argument("--json", type=Path, help="with the backup section alone: write its tables to this file")
     args = parser.parse_args()
     unknown = [s for s in args.sections if s not in SECTIONS]
     if unknown:
         parser.error(f"unknown section {unknown[0]!r}; choose from {', '.join(SECTIONS)}")
+    if args.json and args.sections != ["backup"]:
+        parser.error("--json writes the backup section's tables: run it as `bench.py backup --json FILE`")
     for name in args.sections or SECTIONS:
-        SECTIONS[name]()
+        record = SECTIONS[name]()
+    if args.json:
+        from _runs import provenance
+
+        args.json.write_text(json.dumps({**provenance(["benchmarks/bench.py", *sys.argv[1:]]), **record}, indent=1) + "\n")
 
 
 if __name__ == "__main__":

@@ -8,6 +8,8 @@ Runs, each in a fresh process as a user runs it:
   peak memory (riverswim as airl plans it by default is benchmarks/mmdp.py's, with the other methods);
 - `airl fit demos.expert=own demos.beta=0.3 dynamics.n_test=3`, the thesis's learner and MCE IRL
   (Your own problem's soft experts): the degenerate verdict, the size of w, cos(w, w*), the scores;
+- `airl fit problem=cliffworld method=robust_mce` at three lambdas and three alphas (robust MCE
+  IRL's page): the learned w (ground, cliff, goal), lambda * w and the scores;
 - the fit against PBVI alone (`pbvi.method=pbvi pbvi.bracket_beliefs=0 optim.tol=1e-4`, the method
   page) on the default problem, with PBVI's default and a finer belief set, and on the 16 x 16
   Objectworld file with squared features (`airl generate mdp=objectworld dynamics=slip demos.n=200
@@ -15,6 +17,8 @@ Runs, each in a fresh process as a user runs it:
   beliefs, the bracket and the planner that closed it;
 - Your own problem's Python example with slippery FrozenLake as tau (`api.dataset_from_env`), both
   methods: the scores under tau and tau_1;
+- the planner's refinement (`refine`, two rounds) on riverswim and hiv against PBVI at 8 and 9
+  iterations (the planner's page);
 - `airl generate mdp=objectworld dynamics=slip mdp.size=64` (Performance: Objectworld is built
   sparse): seconds, peak memory, the file's size;
 - sampling 1,000 demonstrations under each of 3 dynamics at S = 20, T = 10 (`benchmarks/bench.py
@@ -47,6 +51,11 @@ FITS = {
     "soft_airl": ["demos.expert=own", "demos.beta=0.3", "dynamics.n_test=3"],
     "soft_mce": ["demos.expert=own", "demos.beta=0.3", "dynamics.n_test=3", "method=mce"],
 }
+#: robust MCE IRL on the transfer sweep's CliffWorld problem (the method's page): name -> overrides
+ROBUST = {
+    "lam_1e-3": ["method.lam=1e-3"], "lam_1e-2": ["method.lam=1e-2"], "lam_1e-1": ["method.lam=1e-1"],
+    "alpha_1": ["method.alpha=1"], "alpha_0.95": ["method.alpha=0.95"], "alpha_0.9": ["method.alpha=0.9"],
+}
 #: name -> (`airl generate` overrides or None for the default problem's fit without a file, `airl fit`
 #: overrides): the certificate against PBVI alone and the default fit's closed bracket, on the same data
 PBVI_ALONE = ("optim.tol=1e-4", "pbvi.method=pbvi", "pbvi.bracket_beliefs=0")
@@ -72,6 +81,33 @@ SAMPLING = textwrap.dedent(
     policy, _ = backward_induction(P[0], phi @ w, horizon=10)
     rng = np.random.default_rng(0)
     print(1e3 * bench.median_seconds(lambda: sample_trajectories(rng, P[1:], policy, p0, 1000)))
+    """
+)
+#: The planner page's refinement on the benchmark domains: PBVI at 8 iterations, two rounds of
+#: `refine` from its belief set, and PBVI at 9 iterations; values per model (the objective of `airl plan`).
+REFINE = textwrap.dedent(
+    """
+    import json, sys
+    import airl_cli
+    import numpy as np
+    from airl_cli.io.mmdp_files import BENCHMARKS, read_csv_folder
+    from airl_cli.multimodel import expand_beliefs, refine, solve
+
+    out = {}
+    for domain in ("riverswim", "hiv"):
+        pr = read_csv_folder(BENCHMARKS / domain)
+        M = pr.transitions.shape[0]
+        form = {"horizon": 50, "discount": pr.discount}
+        B = expand_beliefs(pr.transitions, iterations=8, rng=np.random.default_rng(0))
+        base = solve(pr.transitions, pr.rewards, pr.initial, beliefs=B, **form)
+        more = expand_beliefs(pr.transitions, iterations=9, rng=np.random.default_rng(0))
+        deeper = solve(pr.transitions, pr.rewards, pr.initial, beliefs=more, **form)
+        sol, grown = refine(pr.transitions, pr.rewards, pr.initial, B, rounds=2, **form)
+        out[domain] = {"M": M, "T": 50, "discount": pr.discount, "pbvi": base.value / M, "beliefs": len(B),
+                       "refined": sol.value / M, "refined_beliefs": len(grown),
+                       "one_more_iteration": deeper.value / M, "one_more_beliefs": len(more),
+                       "relative_change": max(abs(sol.value - base.value), abs(deeper.value - base.value)) / abs(base.value)}
+    json.dump(out, sys.stdout)
     """
 )
 #: Your own problem's example, with the slippery lake as tau (its scores for each method, by dynamics).
@@ -108,6 +144,16 @@ def fit_record(folder: Path, seconds: float) -> dict:
     scores = [r["learner_score"] for r in rows]
     return {"degenerate": bool(metrics.get("degenerate", False)), "w_norm": float(np.linalg.norm(weights[0])),
             "cosine": rows[0]["cosine_similarity"], "score_low": min(scores), "score_high": max(scores), "seconds": seconds}
+
+
+def robust_record(folder: Path, overrides: list[str]) -> dict:
+    """A finished robust MCE fit's w (one weight per feature), lambda * w and its scores over every dynamics but tau."""
+    metrics = json.loads((folder / "metrics.json").read_text())
+    weights = np.asarray(json.loads((folder / "weights.json").read_text())["weights"], dtype=float)[0]
+    lam = next((float(o.split("=", 1)[1]) for o in overrides if o.startswith("method.lam=")), None)
+    scores = [r["learner_score"] for r in metrics["dynamics"][1:]]
+    return {"w": weights.tolist(), "lam": lam, "lam_w": None if lam is None else (lam * weights).tolist(),
+            "score_low": min(scores), "score_high": max(scores)}
 
 
 def certificate_record(folder: Path) -> dict:
@@ -150,12 +196,19 @@ def main() -> None:
             folder = Path(tmp) / name
             seconds, _ = run(["fit", *overrides, f"hydra.run.dir={folder}"])
             out["fits"][name] = fit_record(folder, seconds)
+        out["robust_cliffworld"] = {}
+        for name, overrides in ROBUST.items():
+            folder = Path(tmp) / f"robust_{name}"
+            run(["fit", "problem=cliffworld", "method=robust_mce", *overrides, f"hydra.run.dir={folder}"])
+            out["robust_cliffworld"][name] = robust_record(folder, overrides)
         out["certificates"] = certificates(Path(tmp))
         folder = Path(tmp) / "objectworld64"
         seconds, peak = run(["generate", "mdp=objectworld", "dynamics=slip", "mdp.size=64", f"hydra.run.dir={folder}"])
         out["generate_ow64"] = {"seconds": seconds, "peak_gb": peak / 2**30, "file_mb": (folder / "dataset.npz").stat().st_size / 2**20}
     lake = subprocess.run([sys.executable, "-c", FROZENLAKE], capture_output=True, text=True, check=True)
     out["frozenlake_api"] = json.loads(lake.stdout)
+    refined = subprocess.run([sys.executable, "-c", REFINE], capture_output=True, text=True, check=True)
+    out["refine"] = json.loads(refined.stdout)
     root = Path(__file__).resolve().parents[1]
     sampling = subprocess.run([sys.executable, "-c", SAMPLING], capture_output=True, text=True, check=True, cwd=root)
     out["sampling_ms"] = float(sampling.stdout.strip().splitlines()[-1])

@@ -1,6 +1,6 @@
-"""How fast a whole `airl sweep` runs on each launcher: `python benchmarks/sweep_speed.py [EXPERIMENT]`.
+"""How fast a whole `airl sweep` runs on each launcher: `python benchmarks/sweep_speed.py [EXPERIMENT ...] [OVERRIDE ...] [--json FILE]`.
 
-Runs the experiment's full sweep (default fig12) into fresh temporary folders with
+Runs each experiment's full sweep (default fig12) into fresh temporary folders with
 hydra/launcher=airl, joblib and basic, interleaved, `--repeats` times each, and prints per run the
 wall time of the command, its job phase (from the first job's start, its `.hydra/` folder, to the
 last job's `rows.csv`) and the rest (imports, planning, table and figures), with the ratio to
@@ -10,15 +10,19 @@ minus the one-thread settings of `bench.py`.
 It first measures the machine's own ceiling: how much more Python work two processes get done
 than one in the same time (2.0 on two free cores; less where the cores share a physical core or
 a busy host). No launcher can run a sweep's jobs faster than that against one process.
+``--json FILE`` writes every run with the commit, the machine and the command (the cluster page's
+source, docs/hooks/page_numbers.py).
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import multiprocessing
 import os
 import statistics
 import subprocess
+import sys
 import tempfile
 import time
 from pathlib import Path
@@ -56,8 +60,8 @@ def ceiling(repeats: int = 5, n: int = 10_000_000) -> float:
     return statistics.median(ratios)
 
 
-def run_once(experiment: str, launcher: str, extra: list[str]) -> tuple[float, float]:
-    """(wall seconds, job-phase seconds) of one full sweep in a fresh folder."""
+def run_once(experiment: str, launcher: str, extra: list[str]) -> tuple[float, float, int]:
+    """(wall seconds, job-phase seconds, jobs) of one full sweep in a fresh folder."""
     env = {k: v for k, v in os.environ.items() if k not in ONE_THREAD}
     with tempfile.TemporaryDirectory(prefix="airl-sweep-speed-") as tmp:
         folder = Path(tmp) / "sweep"
@@ -69,31 +73,41 @@ def run_once(experiment: str, launcher: str, extra: list[str]) -> tuple[float, f
             raise SystemExit(f"{' '.join(cmd)} failed: {done.stderr.strip().splitlines()[-1:]}")
         first = min(p.stat().st_mtime for p in folder.glob("*/.hydra"))
         last = max(p.stat().st_mtime for p in folder.glob("*/rows.csv"))
-        return wall, last - first
+        return wall, last - first, len(list(folder.glob("*/rows.csv")))
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("experiment", nargs="?", default="fig12")
+    parser.add_argument("words", nargs="*", metavar="EXPERIMENT|OVERRIDE", help="experiments (default fig12), then overrides for every sweep (say profile=quick)")
     parser.add_argument("--repeats", type=int, default=2)
-    parser.add_argument("overrides", nargs="*", help="more overrides for every sweep (say profile=quick)")
+    parser.add_argument("--json", type=Path, help="write every run to this file")
     args = parser.parse_args()
+    experiments = [w for w in args.words if "=" not in w] or ["fig12"]
+    overrides = [w for w in args.words if "=" in w]
     bound = ceiling()
-    runs: dict[str, list[tuple[float, float]]] = {name: [] for name in LAUNCHERS}
-    for _ in range(args.repeats):
-        for name in LAUNCHERS:
-            runs[name].append(run_once(args.experiment, name, args.overrides))
-    basic = statistics.median(wall for wall, _ in runs["basic"])
-    basic_jobs = statistics.median(jobs for _, jobs in runs["basic"])
-    table = Table(title=f"airl sweep experiment={args.experiment} {' '.join(args.overrides)}: {os.cpu_count()} cores")
-    for col in ("launcher", "run", "wall s", "jobs s", "rest s", "basic / this, wall", "basic / this, jobs"):
-        table.add_column(col, justify="right")
-    for name in LAUNCHERS:
-        for i, (wall, jobs) in enumerate(runs[name], 1):
-            table.add_row(name, str(i), f"{wall:.1f}", f"{jobs:.1f}", f"{wall - jobs:.1f}", f"{basic / wall:.2f}x", f"{basic_jobs / jobs:.2f}x")
     console = Console()
     console.print(f"this machine: two processes do {bound:.2f}x the Python work of one (2.00 on two free cores)")
-    console.print(table)
+    record = {"ceiling": bound, "repeats": args.repeats, "overrides": overrides, "sweeps": {}}
+    for experiment in experiments:
+        runs: dict[str, list[tuple[float, float, int]]] = {name: [] for name in LAUNCHERS}
+        for _ in range(args.repeats):
+            for name in LAUNCHERS:
+                runs[name].append(run_once(experiment, name, overrides))
+        basic = statistics.median(wall for wall, _, _ in runs["basic"])
+        basic_jobs = statistics.median(jobs for _, jobs, _ in runs["basic"])
+        table = Table(title=f"airl sweep experiment={experiment} {' '.join(overrides)}: {os.cpu_count()} cores")
+        for col in ("launcher", "run", "wall s", "jobs s", "rest s", "basic / this, wall", "basic / this, jobs"):
+            table.add_column(col, justify="right")
+        for name in LAUNCHERS:
+            for i, (wall, jobs, _) in enumerate(runs[name], 1):
+                table.add_row(name, str(i), f"{wall:.1f}", f"{jobs:.1f}", f"{wall - jobs:.1f}", f"{basic / wall:.2f}x", f"{basic_jobs / jobs:.2f}x")
+        console.print(table)
+        record["sweeps"][experiment] = {"jobs": runs["basic"][0][2],
+                                        "runs": {name: [{"wall": w, "jobs": j} for w, j, _ in rs] for name, rs in runs.items()}}
+    if args.json:
+        from _runs import provenance
+
+        args.json.write_text(json.dumps({**provenance(["benchmarks/sweep_speed.py", *sys.argv[1:]]), **record}, indent=1) + "\n")
 
 
 if __name__ == "__main__":
