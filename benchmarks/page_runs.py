@@ -8,6 +8,8 @@ Runs, each in a fresh process as a user runs it:
   peak memory (riverswim as airl plans it by default is benchmarks/mmdp.py's, with the other methods);
 - `airl fit demos.expert=own demos.beta=0.3 dynamics.n_test=3`, the thesis's learner and MCE IRL
   (Your own problem's soft experts): the degenerate verdict, the size of w, cos(w, w*), the scores;
+- `airl fit mdp=grid dynamics=grid_suboptimal demos=exact optim=gradient` (the method page): f at
+  the last step's w, the certified optimum and how far above it the steps stopped;
 - `airl fit problem=cliffworld method=robust_mce` at three lambdas and three alphas (robust MCE
   IRL's page): the learned w (ground, cliff, goal), lambda * w and the scores;
 - the fit against PBVI alone (`pbvi.method=pbvi pbvi.bracket_beliefs=0 optim.tol=1e-4`, the method
@@ -51,6 +53,8 @@ FITS = {
     "soft_airl": ["demos.expert=own", "demos.beta=0.3", "dynamics.n_test=3"],
     "soft_mce": ["demos.expert=own", "demos.beta=0.3", "dynamics.n_test=3", "method=mce"],
 }
+#: the thesis's gradient steps on Fig. 12's data (the method page), against the certified optimum
+GRADIENT = ["mdp=grid", "dynamics=grid_suboptimal", "demos=exact", "optim=gradient"]
 #: robust MCE IRL on the transfer sweep's CliffWorld problem (the method's page): name -> overrides
 ROBUST = {
     "lam_1e-3": ["method.lam=1e-3"], "lam_1e-2": ["method.lam=1e-2"], "lam_1e-1": ["method.lam=1e-1"],
@@ -196,6 +200,10 @@ def main() -> None:
             folder = Path(tmp) / name
             seconds, _ = run(["fit", *overrides, f"hydra.run.dir={folder}"])
             out["fits"][name] = fit_record(folder, seconds)
+        folder = Path(tmp) / "gradient"
+        run(["fit", *GRADIENT, f"hydra.run.dir={folder}"])
+        metrics = json.loads((folder / "metrics.json").read_text())
+        out["gradient_fig12"] = {k: metrics[k] for k in ("objective_at_weights", "certified_optimum", "relative_above_optimum", "above_optimum")}
         out["robust_cliffworld"] = {}
         for name, overrides in ROBUST.items():
             folder = Path(tmp) / f"robust_{name}"
