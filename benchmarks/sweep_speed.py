@@ -1,6 +1,7 @@
 """How fast a whole `airl sweep` runs on each launcher: `python benchmarks/sweep_speed.py [EXPERIMENT ...] [OVERRIDE ...] [--json FILE]`.
 
-Runs each experiment's full sweep (default fig12) into fresh temporary folders with
+Runs each experiment's full sweep (default fig12), after one untimed quick sweep of it that
+compiles and caches numba's kernels, into fresh temporary folders with
 hydra/launcher=airl, joblib and basic, interleaved, `--repeats` times each, and prints per run the
 wall time of the command, its job phase (from the first job's start, its `.hydra/` folder, to the
 last job's `rows.csv`) and the rest (imports, planning, table and figures), with the ratio to
@@ -89,6 +90,7 @@ def main() -> None:
     console.print(f"this machine: two processes do {bound:.2f}x the Python work of one (2.00 on two free cores)")
     record = {"ceiling": bound, "repeats": args.repeats, "overrides": overrides, "sweeps": {}}
     for experiment in experiments:
+        run_once(experiment, "basic", [*overrides, "profile=quick"])  # untimed: numba's kernels compiled and cached first
         runs: dict[str, list[tuple[float, float, int]]] = {name: [] for name in LAUNCHERS}
         for _ in range(args.repeats):
             for name in LAUNCHERS:
