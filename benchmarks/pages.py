@@ -4,8 +4,8 @@ Runs each source's script (docs/hooks/page_numbers.py: SOURCES), each writing do
 at this commit on this machine, then renders every marked passage of the pages again from those
 files. ``--render-only`` skips the measurements and renders from the files as they are (after a
 page's template was edited); ``--only`` measures the named sources alone; ``--stale`` lists each
-source's commit and whether the package (airl_cli/, conf/, pyproject.toml) has changed since,
-and measures nothing. The whole run measures
+source's commit (and the commit its record was read again at, the sweeps' ``--reread``) and
+whether the package (airl_cli/, conf/, pyproject.toml) has changed since, and measures nothing. The whole run measures
 on every core for hours (the experiments' sweeps, ``sweeps``; the other sources about three
 quarters of an hour): run it on a quiet machine, then commit the files and the pages together.
 """
@@ -50,13 +50,18 @@ def stale() -> dict[str, str]:
         if not path.exists():
             out[name] = "not measured"
             continue
-        commit = json.loads(path.read_text())["commit"].removesuffix("+changes")
-        diff = subprocess.run(["git", "diff", "--stat", commit, "--", "airl_cli", "conf", "pyproject.toml"],
-                              cwd=ROOT, capture_output=True, text=True, check=False)
-        lines = diff.stdout.strip().splitlines()
-        out[name] = (f"{commit}: unknown commit" if diff.returncode else f"{commit}: current" if not lines
-                     else f"{commit}: {lines[-1].strip()} since")
+        values = json.loads(path.read_text())
+        out[name] = "; ".join(f"{label}{_changed_since(values[key].removesuffix('+changes'))}"
+                              for key, label in (("commit", ""), ("read_at", "read again at ")) if key in values)
     return out
+
+
+def _changed_since(commit: str) -> str:
+    """"<commit>: current", or which of the package's files changed since ``commit``."""
+    diff = subprocess.run(["git", "diff", "--stat", commit, "--", "airl_cli", "conf", "pyproject.toml"],
+                          cwd=ROOT, capture_output=True, text=True, check=False)
+    lines = diff.stdout.strip().splitlines()
+    return f"{commit}: unknown commit" if diff.returncode else f"{commit}: current" if not lines else f"{commit}: {lines[-1].strip()} since"
 
 
 def render_all() -> None:

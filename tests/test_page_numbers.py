@@ -359,3 +359,81 @@ def test_viano_s_tables_as_the_page_prints_them():
     assert out["entries"] == 4 and out["max_relative"] == pytest.approx(100 * 2.4 / 147.8) and out["max_expert"] == 0.0
     assert out["stay"]["mce"] == "−130.7, −164.0" and out["stay"]["mce_vs_published_min"] == pytest.approx(100 * (207.1 - 164.0) / 207.1)
     assert out["all_actions"]["a08_vs_default"] == pytest.approx(100 * (145.4 - 140.3) / 145.4)
+
+
+@pytest.mark.parametrize("page", PAGES, ids=_name)
+def test_no_page_quotes_a_measurement_outside_its_passages(page):
+    """A time, a memory size, a speed-up or a "measured at <commit>" on a user's page comes from a source."""
+    found = page_numbers.hand_typed(page.read_text(), _name(page))
+    assert not found, f"{_name(page)} quotes measurements typed by hand: {found} (render them from a source, or move them to docs/development.md's Log)"
+
+
+def test_a_hand_typed_measurement_is_found_and_a_rendered_one_or_a_size_is_not():
+    text = (
+        "A fit took 12.3 s and 1.4 GB, 9.6× faster (measured at 1ab8348).\n"
+        "<!-- numbers default_fit\n{x} s\n-->\n12.3 s<!-- /numbers -->\n"
+        "An 8 × 8 grid, 8 × `pbvi.bracket_grid` posteriors, `took 5 s` in code, 2.7–3.5 s for 500 jobs.\n"
+        "```text\nfit 4.2 s\n```\n"
+        "A median 0.992, min 0.99; the default 400 s.\n"
+    )
+    assert page_numbers.hand_typed(text) == ["line 1: 12.3 s", "line 1: 1.4 GB", "line 1: 9.6×", "line 1: measured at 1ab8348",
+                                             "line 6: 3.5 s", "line 10: 400 s"]
+    assert page_numbers.hand_typed(text.replace("400 s", "400 s"), "docs/performance.md")[-1] == "line 6: 3.5 s"
+    assert page_numbers.hand_typed(text, "experiments/results.md") == []
+
+
+def _record_sections() -> dict:
+    every = ("| method | fig05 | fig07 | fig09 | fig12 | fig13 | fig17 |\n|---|---|---|---|---|---|---|\n"
+             "| airl | 0.971 [0.94, 0.99] 5.53s | 0.985 [0.97, 0.99] 4.97s | 0.989 [0.95, 1.00] 1.96s | 0.996 [1.00, 1.00] 0.31s | 0.992 [0.99, 0.99] 0.23s | 0.926 [0.93, 0.93] 1.09s |\n"
+             "| mce | 0.972 [0.94, 0.99] 0.01s | 0.988 x | 0.993 x | 0.992 x | 0.983 x | 0.997 x |\n"
+             "| projection | 0.968 x | 0.980 x | 0.991 x | 0.980 x | 0.983 x | 0.987 x |\n"
+             "| mmp | 0.969 x | 0.978 x | 0.986 x |  | 0.999 x |  |\n"
+             "| bc | 0.922 x | 0.923 x | 0.957 x |  | 0.914 x |  |\n")
+    grid = "| method | median | min | share > 99% | demonstrator (median) | fit seconds (median) |\n|---|---|---|---|---|---|\n| airl | 0.9 | 0.9 | {share} | {demo} | 1 |\n"
+    return {"Every method on every experiment": "Median learner score ...\n\n" + every,
+            "fig12": grid.format(share="100%", demo="0.970"), "fig13": grid.format(share="0%", demo="0.970"), "fig17": grid.format(share="0%", demo="0.797")}
+
+
+def test_the_methods_comparison_from_the_report_s_table():
+    seconds = {"fig05": (5.53, 0.0125), "fig07": (4.97, 0.01), "fig09": (1.96, 0.02), "fig12": (0.31, 0.004), "fig13": (0.23, 0.01), "fig17": (1.09, 0.01)}
+    values = {"sections": _record_sections(), "sweeps": {e: {"median_fit_seconds": {"airl": a, "mce": m}} for e, (a, m) in seconds.items()}}
+    out = page_numbers._methods_table(values)
+    lines = out["table"].splitlines()
+    assert lines[2] == "| fig05 (random MDP, D = 3, N swept) | 0.971, 5.53 s | **0.972**, 0.01 s | 0.968 | 0.969 | 0.922 |"
+    assert lines[5] == "| fig12 (grid, exact expectations) | **0.996**, 0.31 s | 0.992, < 0.01 s | 0.980 | – | – |"
+    assert lines[6].endswith("| **0.999** | 0.914 |")
+    assert out["mce_faster_min"] == pytest.approx(1.96 / 0.02) and out["mce_faster_max"] == pytest.approx(4.97 / 0.01)
+    assert out["demonstrator"]["fig17"] == 0.797 and out["above_99"]["fig12"] == "100%" and out["scores"]["mce"]["fig17"] == 0.997
+
+
+def test_the_planner_speed_tables_and_growth_ratios():
+    def row(S, T=10, M=4, it=8, one=1.0, peak=400.0):
+        return {"S": S, "A": 5, "T": T, "M": M, "iterations": it, "beliefs": 2 ** (it - 1) + 1, "nodes": 1000 * S, "expand_s": 0.0,
+                "solve_s": [one, one / 2], "extra_mb": 0.0, "peak_mb": peak}
+
+    solves = [row(100, one=0.3), row(300, one=2.7, peak=500.0), row(20, one=0.01), row(20, T=50, one=0.05), row(100, it=10, one=1.2), row(100, it=12, one=19.2)]
+    out = page_numbers._planner_speed_tables({"threads": [1, 2], "backup": [{"beliefs": 65, "numpy_ms": 80.0, "compiled_ms": [10.0, 5.0]}], "solve": solves})
+    assert out["thesis"]["one_x"] == "8.0×" and out["thesis"]["all_x"] == "16.0×" and out["base_mb"] == 400.0
+    assert out["s_ratio"] == "9.0×" and out["s_power"] == pytest.approx(2.0) and out["t_ratio"] == "5.0×"
+    assert out["b4"] == "4.0×" and out["b16"] == "64.0×"
+    assert out["solve"].splitlines()[3] == "| 300 | 10 | 4 | 8 (129) | 300,000 | 2.70 | 1.35 | 100 |"
+
+
+def test_the_launchers_table_and_speed_ups():
+    runs = {"airl": [{"wall": 10.0, "jobs": 7.0}, {"wall": 12.0, "jobs": 8.0}, {"wall": 11.0, "jobs": 7.5}],
+            "joblib": [{"wall": 14.0, "jobs": 12.0}] * 3, "basic": [{"wall": 16.5, "jobs": 15.0}] * 3}
+    out = page_numbers._launcher_tables({"repeats": 3, "sweeps": {"fig12": {"jobs": 90, "runs": runs}}})
+    assert out["runs"].splitlines()[2] == "| fig12: 90 jobs (3 runs) | 10.0, 12.0, 11.0 s (jobs 7.0–8.0 s) | 14.0, 14.0, 14.0 s | 16.5, 16.5, 16.5 s (jobs 15.0–15.0 s) |"
+    assert out["faster"]["fig12"] == {"wall": "1.5×", "jobs": "2.0×", "rest": 3.5}
+
+
+def test_robust_mce_s_weights_as_triples_and_the_loss_ranges():
+    fits = {"lam_1e-3": {"w": [-5723.3, -5725.7, 11449.1], "lam_w": [-5.7233, -5.7257, 11.4491], "score_low": 0.95, "score_high": 1.0},
+            "alpha_1": {"w": [0.13, -4.98, 4.85], "lam_w": None, "score_low": 0.97, "score_high": 0.99}}
+    out = page_numbers._page_runs_tables({"robust_cliffworld": fits})["robust"]
+    assert out["w"] == {"lam_1e-3": "(−5723.3, −5725.7, 11449.1)", "alpha_1": "(0.13, −4.98, 4.85)"}
+    assert out["lam_w"] == {"lam_1e-3": "(−5.7, −5.7, 11.4)"} and (out["score_low"], out["score_high"]) == (0.95, 1.0)
+    rows = [{"case": c, "process / MCE": r, "iterations": i} for c, r, i in (("ow8-sq", 1.7, 25), ("ow8-01", 1.2, 21), ("ow64-sq", 40.0, 110), ("ow64-01", 33.0, 94))]
+    ranges = page_numbers._loss_ranges(rows)
+    assert ranges == {"zero_one_ratio_low": "1.2×", "zero_one_ratio_high": "33.0×", "zero_one_sizes": "8×8 to 64×64",
+                      "squared_iterations_low": 25, "squared_iterations_high": 110}

@@ -22,6 +22,7 @@ template comment itself never reaches the site).
 from __future__ import annotations
 
 import json
+import math
 import re
 import string
 from dataclasses import dataclass
@@ -43,6 +44,8 @@ SOURCES: dict[str, list[str]] = {
     "sweeps": ["benchmarks/sweeps.py", "--json", "docs/numbers/sweeps.json", "--report", "experiments"],
     "degeneracy_measures": ["experiments/degeneracy_measures.py", "--json", "docs/numbers/degeneracy_measures.json"],
     "viano": ["experiments/viano_gridworld.py", "--json", "docs/numbers/viano.json"],
+    "planner_speed": ["benchmarks/bench.py", "backup", "--json", "docs/numbers/planner_speed.json"],
+    "launchers": ["benchmarks/sweep_speed.py", "fig12", "fig17", "--repeats", "3", "--json", "docs/numbers/launchers.json"],
 }
 
 BLOCK = re.compile(r"<!-- numbers (?P<source>[\w-]+)\n(?P<template>.*?)\n-->\n(?P<text>.*?)<!-- /numbers -->", re.DOTALL)
@@ -125,6 +128,45 @@ def render_page(markdown: str, folder: Path = NUMBERS, *, keep_templates: bool =
         at = p.end
     out.append(markdown[at:])
     return "".join(out)
+
+
+#: what ``hand_typed`` skips: the passages, HTML comments, code blocks and inline code
+_NOT_PROSE = re.compile(r"<!-- numbers .*?<!-- /numbers -->|<!--.*?-->|```.*?```", re.DOTALL)
+_CODE = re.compile(r"`[^`]*`")
+#: a measurement as a page would quote one: a time, a memory size or a speed-up ("12.3 s",
+#: "2.7–3.5 s", "1.4 GB", "9.6×"; not a grid's "8 × 8" nor a multiple of a setting, "8 × `key`"),
+#: or a commit it was measured at
+_MEASUREMENT = re.compile(r"(?<![\w.])\d[\d.,]*(?:\s|&nbsp;)?(?:s|ms|seconds|minutes|hours|KB|MB|GB)(?![\w])"
+                          r"|(?<![\w.])\d[\d.,]*\s?×(?!\s?[\d⟨])|measured at [0-9a-f]{7}\b")
+#: pages a script writes whole (``airl report``), and the development page, which keeps history
+_WRITTEN_WHOLE = ("experiments/results.md", "docs/development.md")
+#: quantities that are not measurements, as the pages say them: settings, file sizes of what
+#: ships, the memory estimate's constants, arithmetic on stated sizes (page -> phrases)
+NOT_MEASURED = {
+    "docs/commands/generate.md": ("64 MB", "0.4 MB of probabilities instead of 168 MB"),
+    "docs/own-problem.md": ("64 MB", "0.4 MB of probabilities instead of 168 MB"),
+    "docs/commands/index.md": ("(600 MB in all)", "with 23 GB free", "over 1 GB", "every 5 s", "first 5 s"),
+    "docs/commands/plan.md": ("1.7 MB", "68 KB"),
+    "docs/performance.md": ("400 s",),
+}
+
+
+def hand_typed(markdown: str, page: str = "") -> list[str]:
+    """The measurements a page quotes outside its passages (each as "line N: text"): a time, a memory
+    size, a speed-up or a "measured at <commit>" typed by hand, which no source renders. ``page``
+    (its path from the repository's root) names the phrases ``NOT_MEASURED`` lets pass."""
+    if page in _WRITTEN_WHOLE:
+        return []
+    prose = _NOT_PROSE.sub(lambda m: "\n" * m.group(0).count("\n"), markdown)
+    prose = _CODE.sub(lambda m: "⟨" + "\n" * m.group(0).count("\n") + "⟩", prose)
+    allowed = NOT_MEASURED.get(page, ())
+    found = []
+    for number, line in enumerate(prose.splitlines(), 1):
+        kept = line
+        for phrase in allowed:
+            kept = kept.replace(phrase, "")
+        found += [f"line {number}: {m.group(0)}" for m in _MEASUREMENT.finditer(kept)]
+    return found
 
 
 def check(markdown: str, folder: Path = NUMBERS) -> list[str]:
@@ -231,7 +273,20 @@ def _default_fit_tables(values: dict) -> dict:
         "growth_timeouts": f"; {words.get(len(timeouts), len(timeouts))} ran past {timeouts[0]['process s'][2:]} s"
         f" ({', '.join(CASE_NAMES[r['case']] for r in timeouts)})" if timeouts else "",
         "growth_peak_gb": max(r["peak MB"] for r in growth if r["peak MB"] is not None) / 1024,
+        **_loss_ranges([r for r in growth if r["process / MCE"] is not None]),
     }
+
+
+def _loss_ranges(grids: list[dict]) -> dict:
+    """Over the Objectworld rows: the zero-one fits' process time against MCE IRL's (least, most, and
+    the grids' sizes they span) and the squared-feature fits' iterations (least, most)."""
+    zero_one = [r for r in grids if r["case"].endswith("-01")]
+    squared = [r for r in grids if r["case"].endswith("-sq")]
+    size = lambda r: CASE_NAMES[r["case"]].split(",")[0].removeprefix("OW ")  # noqa: E731
+    return {"zero_one_ratio_low": _cell(min(r["process / MCE"] for r in zero_one), "x1"),
+            "zero_one_ratio_high": _cell(max(r["process / MCE"] for r in zero_one), "x1"),
+            "zero_one_sizes": f"{size(zero_one[0])} to {size(zero_one[-1])}",
+            "squared_iterations_low": min(r["iterations"] for r in squared), "squared_iterations_high": max(r["iterations"] for r in squared)}
 
 
 def _first_fit_excerpts(values: dict) -> dict:
@@ -445,6 +500,51 @@ def _environment_table(reading: dict) -> str:
     return "\n".join(lines)
 
 
+def _section_rows(section: str) -> dict[str, dict[str, str]]:
+    """A results.md section's first table read back: its first column -> header -> cell text."""
+    rows = [[c.strip() for c in line.strip().strip("|").split("|")] for line in section.splitlines() if line.startswith("|")]
+    return {row[0]: dict(zip(rows[0][1:], row[1:])) for row in rows[2:]}
+
+
+def _method_scores(section: str) -> dict[str, dict[str, float]]:
+    """The report's "every method on every experiment" table read back: method -> experiment -> the
+    median score its cell shows ("0.971 [0.94, 0.99] 5.53s" -> 0.971; an empty cell is left out)."""
+    return {m: {e: float(cell.split()[0]) for e, cell in row.items() if cell} for m, row in _section_rows(section).items()}
+
+
+#: the methods page's comparison: experiment -> its row's label
+METHODS_ROWS = {"fig05": "fig05 (random MDP, D = 3, N swept)", "fig07": "fig07 (N = 1000, K swept)", "fig09": "fig09 ($\\sigma$ swept)",
+                "fig12": "fig12 (grid, exact expectations)", "fig13": "fig13 (grid, one optimal path)",
+                "fig17": "fig17 (grid, highly sub-optimal layouts)"}
+
+
+def _methods_table(values: dict) -> dict:
+    """The methods page's comparison on chapter 7's sweeps: per experiment each method's median score
+    (the best in bold), the thesis's method's and MCE IRL's median fit seconds; and how many times
+    faster MCE IRL fits on the random MDP (fig05, fig07, fig09), least and most."""
+    scores = _method_scores(values["sections"]["Every method on every experiment"])
+    order = ("airl", "mce", "projection", "mmp", "bc")
+    lines = ["| experiment | this thesis's method | MCE IRL | projection | MMP | BC |", "| --- | --- | --- | --- | --- | --- |"]
+    for experiment, label in METHODS_ROWS.items():
+        row = {m: scores[m].get(experiment) for m in order}
+        best = max(v for v in row.values() if v is not None)
+        seconds = values["sweeps"][experiment]["median_fit_seconds"]
+        cells = []
+        for m in order:
+            if row[m] is None:
+                cells.append("–")
+                continue
+            cell = f"**{row[m]:.3f}**" if row[m] == best else f"{row[m]:.3f}"
+            cells.append(cell + (f", {_seconds(seconds[m])}" if m in ("airl", "mce") else ""))
+        lines.append(f"| {label} | " + " | ".join(cells) + " |")
+    ratios = [values["sweeps"][e]["median_fit_seconds"]["airl"] / values["sweeps"][e]["median_fit_seconds"]["mce"] for e in ("fig05", "fig07", "fig09")]
+    rows = {e: _section_rows(values["sections"][e]) for e in ("fig12", "fig13", "fig17")}  # the grids' tables: a row per method
+    demonstrator = {e: float(r["airl"]["demonstrator (median)"]) for e, r in rows.items()}
+    above_99 = {e: r["airl"]["share > 99%"] for e, r in rows.items()}
+    return {"table": "\n".join(lines), "mce_faster_min": min(ratios), "mce_faster_max": max(ratios), "scores": scores,
+            "demonstrator": demonstrator, "above_99": above_99}
+
+
 def _sweep_tables(values: dict) -> dict:
     """The experiments' wall times (benchmarks/sweeps.py's record): the table of chapter 7's sweeps in
     two columns, each group's minutes, each sweep's minutes by its key, and a note on any sweep that
@@ -477,7 +577,8 @@ def _sweep_tables(values: dict) -> dict:
                                                                                   key=lambda s: -s["seconds"])[:3]) for g in ("thesis", "variants", "beyond")}
     sizes = {key: _size_table(s["reading"]) for key, s in sweeps.items() if "by_size" in s.get("reading", {})}
     environments = {key: _environment_table(s["reading"]) for key, s in sweeps.items() if "tau_j" in s.get("reading", {}).get("demonstrator", {})}
-    return {"claims_changed": _claims_changed(values), "slowest": slowest, "sizes": sizes, "environments": environments, "wall": "\n".join(lines), "minutes": minutes, "note": note, "held_out": held_out, "degeneracy": degeneracy, "cells": cells, "spread": spread, "n_variants": sum(s["group"] == "variants" for s in sweeps.values()),
+    methods = _methods_table(values) if "Every method on every experiment" in values.get("sections", {}) else {}  # a report was written
+    return {"methods": methods, "claims_changed": _claims_changed(values), "slowest": slowest, "sizes": sizes, "environments": environments, "wall": "\n".join(lines), "minutes": minutes, "note": note, "held_out": held_out, "degeneracy": degeneracy, "cells": cells, "spread": spread, "n_variants": sum(s["group"] == "variants" for s in sweeps.values()),
             **{f"{g}_minutes": m for g, m in totals.items()}, **{f"{k}_minutes": sum(minutes.get(e, 0.0) for e in v) for k, v in sets.items()}}
 
 
@@ -525,7 +626,71 @@ def _viano_tables(values: dict) -> dict:
     return out
 
 
-TABLES = {"sweeps": _sweep_tables, "default_fit": _default_fit_tables, "first_fit": _first_fit_excerpts, "test_suite": _suite_minutes, "environments": _environment_tables, "mmdp": _mmdp_tables, "viano": _viano_tables}
+def _planner_speed_tables(values: dict) -> dict:
+    """The planner page's speed (benchmarks/bench.py backup): the backup at the thesis's scale against
+    plain numpy (``thesis``: numpy and compiled milliseconds on 1 and all threads, the speed-ups), the
+    solve table (a row per size, solve seconds per thread count, memory beyond the process's own
+    ``base_mb``) and how the one-thread time grows: from S = 100 to 300 (``s_ratio``, its exponent
+    ``s_power``), from T = 10 to 50 at S = 20 (``t_ratio``), and with 4 and 16 times the beliefs at
+    S = 100 (``b4``, ``b16``)."""
+    backup, solves, threads = values["backup"][0], values["solve"], values["threads"]
+    base = min(r["peak_mb"] for r in solves)
+    lines = ["| S | T | M | iterations (beliefs) | graph nodes | " + " | ".join(f"{n} thread{'s' * (n > 1)} s" for n in threads) + " | memory beyond the process MB |",
+             "| ---: | ---: | ---: | ---: | ---: | " + " | ".join("---:" for _ in threads) + " | ---: |"]
+    for r in solves:
+        lines.append(f"| {r['S']} | {r['T']} | {r['M']} | {r['iterations']} ({r['beliefs']:,}) | {r['nodes']:,} | "
+                     + " | ".join(f"{s:.2f}" for s in r["solve_s"]) + f" | {r['peak_mb'] - base:,.0f} |")
+    find = lambda S, T=10, M=4, it=8: next(r["solve_s"][0] for r in solves if (r["S"], r["T"], r["M"], r["iterations"]) == (S, T, M, it))  # noqa: E731
+    s_ratio = find(300) / find(100)
+    return {"solve": "\n".join(lines), "base_mb": base, "threads": threads[-1],
+            "thesis": {"numpy_ms": backup["numpy_ms"], "one_ms": backup["compiled_ms"][0], "all_ms": backup["compiled_ms"][-1],
+                       "one_x": _cell(backup["numpy_ms"] / backup["compiled_ms"][0], "x1"), "all_x": _cell(backup["numpy_ms"] / backup["compiled_ms"][-1], "x1"),
+                       "beliefs": backup["beliefs"]},
+            "s_ratio": _cell(s_ratio, "x1"), "s_power": math.log(s_ratio) / math.log(3), "t_ratio": _cell(find(20, T=50) / find(20), "x1"),
+            "b4": _cell(find(100, it=10) / find(100), "x1"), "b16": _cell(find(100, it=12) / find(100), "x1")}
+
+
+def _launcher_tables(values: dict) -> dict:
+    """The cluster page's launchers (benchmarks/sweep_speed.py): a row per sweep with each launcher's
+    runs (wall seconds, and the job phase's range for `airl` and `basic`), and per sweep how many
+    times faster than `basic` the `airl` launcher's median runs the jobs and the whole command
+    (``faster[SWEEP]``: ``jobs``, ``wall``)."""
+    from statistics import median
+
+    lines = ["| sweep | `airl` | `joblib` | `basic` |", "| --- | --- | --- | --- |"]
+    faster = {}
+    for sweep, s in values["sweeps"].items():
+        cells = []
+        for name in ("airl", "joblib", "basic"):
+            runs = s["runs"][name]
+            cell = ", ".join(f"{r['wall']:.1f}" for r in runs) + " s"
+            if name != "joblib":
+                jobs = [r["jobs"] for r in runs]
+                cell += f" (jobs {min(jobs):.1f}–{max(jobs):.1f} s)"
+            cells.append(cell)
+        lines.append(f"| {sweep}: {s['jobs']} jobs ({values['repeats']} runs) | " + " | ".join(cells) + " |")
+        m = {name: (median(r["wall"] for r in rs), median(r["jobs"] for r in rs)) for name, rs in s["runs"].items()}
+        faster[sweep] = {"wall": _cell(m["basic"][0] / m["airl"][0], "x1"), "jobs": _cell(m["basic"][1] / m["airl"][1], "x1"),
+                         "rest": m["airl"][0] - m["airl"][1]}
+    return {"runs": "\n".join(lines), "faster": faster}
+
+
+def _page_runs_tables(values: dict) -> dict:
+    """benchmarks/page_runs.py's robust MCE IRL fits on CliffWorld as the method's page prints them:
+    per setting w (two decimals below 10) and lambda * w as triples with true minus signs (``robust``:
+    ``w``, ``lam_w``), and
+    the scores' range over every fit."""
+    fits = values.get("robust_cliffworld", {})
+    def triple(xs: list[float], small: str = ".2f") -> str:  # one decimal from 10 on, ``small`` below
+        return "(" + ", ".join(_signed(x, ".1f" if abs(x) >= 10 else small) for x in xs) + ")"
+
+    return {"robust": {"w": {k: triple(f["w"]) for k, f in fits.items()},
+                       "lam_w": {k: triple(f["lam_w"], ".1f") for k, f in fits.items() if f["lam_w"] is not None},
+                       "score_low": min((f["score_low"] for f in fits.values()), default=None),
+                       "score_high": max((f["score_high"] for f in fits.values()), default=None)}}
+
+
+TABLES = {"sweeps": _sweep_tables, "default_fit": _default_fit_tables, "first_fit": _first_fit_excerpts, "test_suite": _suite_minutes, "environments": _environment_tables, "mmdp": _mmdp_tables, "viano": _viano_tables, "planner_speed": _planner_speed_tables, "launchers": _launcher_tables, "page_runs": _page_runs_tables}
 
 
 # --------------------------------------------------------------------------- the MkDocs hook
