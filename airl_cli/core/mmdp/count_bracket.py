@@ -17,8 +17,14 @@ whatever t0: up to t0 every posterior reachable is a node. The bracket closes as
 terminal values are discounted by gamma^t0, and they meet as the posterior concentrates on one
 model (riverswim, gamma = 0.9: relative width 3.1e-3 over 11 layers, 3.7e-4 over 19, 3.8e-5 over 27).
 
+The lower side is a policy's value: exact up to t0 (the program's actions), then at each node of
+layer t0 the chosen model's optimal Markov policy. ``cut_response`` returns that policy's value,
+each model's return and its state marginals (a forward pass over the nodes it reaches, then each
+candidate policy pushed on from the masses its nodes hold), beside the upper side: a best response
+for a game whose payoff is linear in the marginals, with the distance to the best one bounded.
+
 Shapes: dynamics ``SparseDynamics`` (M models, S states); rewards ``LayeredRewards`` (step
-(M, T-1, S, A), last (M, S)); p0 (S,); prior (M,).
+(M, T-1, S, A), last (M, S)); p0 (S,); prior (M,); marginals (M, T, S).
 """
 
 from __future__ import annotations
@@ -94,8 +100,100 @@ def count_bracket(dyn: SparseDynamics, L: LayeredRewards, p0: np.ndarray, prior:
     if t0 == T - 1:  # the whole program: its terminal is the last layer's reward, both values are the optimum
         return CountBracket(upper, upper, layers, program.n_nodes)
     follow = np.stack([_policy_value(dyn, L, t0, policies[k]) for k in range(M)])  # (K = M, M, S): policy k's value in each model
-    lower = _root(program, step, _best_candidates(b, follow), p0) * scale
+    lower = _root(program, step, _best_candidates(b, follow)[0], p0) * scale
     return CountBracket(min(lower, upper), upper, layers, program.n_nodes)
+
+
+@dataclass(frozen=True)
+class CutResponse:
+    """The cut program's policy (``cut_response``).
+
+    Attributes:
+        value: its objective, sum_j values[j] (or prior . values): the bracket's lower side.
+        upper: the bracket's upper side: no policy's objective exceeds it.
+        values: (M,) each model's expected return under the policy.
+        marginals: (M, T, S) each model's state distribution at each layer under it.
+        layers: the count program's exact layers (T: the policy is optimal, value = upper).
+        nodes: the program's (t, s, c) nodes.
+    """
+
+    value: float
+    upper: float
+    values: np.ndarray
+    marginals: np.ndarray
+    layers: int
+    nodes: int
+
+
+def cut_response(dyn: SparseDynamics, L: LayeredRewards, p0: np.ndarray, prior: np.ndarray | None = None, *, layers: int,
+                 program: CountProgram | None = None) -> CutResponse:
+    """The policy of the count program cut after ``layers`` layers (2 <= layers <= T; module docstring):
+    its exact value, per-model returns and marginals, and the cut's upper bound on the optimum of
+    eq. 6.1 (the prior-weighted sum of the models' returns; the plain sum when ``prior`` is None).
+    ``program``: the cut program, built once for these dynamics, layers and prior (it does not
+    depend on the rewards); built here when None.
+
+    Raises:
+        ValueError: where the moves are of too many kinds for a count program.
+    """
+    T, M, S = L.horizon, dyn.probs.shape[0], dyn.probs.shape[1]
+    if not 2 <= layers <= T:
+        raise ValueError(f"a cut program has 2 to T = {T} layers, not {layers}")
+    weights = np.full(M, 1.0 / M) if prior is None else np.asarray(prior, dtype=np.float64)
+    if program is None:
+        kinds = move_kinds(dyn)
+        if kinds is None:
+            raise ValueError("the moves are of too many kinds for a count program")
+        program = CountProgram(dyn, kinds, layers, weights)
+    p0 = np.asarray(p0, dtype=np.float64)
+    objective = (lambda v: float(v.sum())) if prior is None else (lambda v: float(weights @ v))  # noqa: E731
+    if layers == T:  # the whole program: its policy is optimal
+        values, marginals, _ = program.forward(program.backward(L.step, np.ascontiguousarray(program.last_beliefs @ L.last).T)[1], p0, L)
+        return CutResponse(objective(values), objective(values), values, marginals, layers, program.n_nodes)
+    t0, scale = layers - 1, float(M) if prior is None else 1.0
+    own, policies = _own_optimum(dyn, L, t0)  # (M, S), (M, T-1-t0, S)
+    b = program.last_beliefs  # (C, M)
+    step = L.step[:, :t0]
+    upper = _root(program, step, (b @ own).T, p0) * scale
+    follow = np.stack([_policy_value(dyn, L, t0, policies[k]) for k in range(M)])  # (K = M, M, S)
+    W, choice = _best_candidates(b, follow)
+    _, actions = program.backward(step, W)
+    before = LayeredRewards(np.ascontiguousarray(step), np.zeros((M, S)))
+    values, head, (states, index, mass) = program.forward(actions, p0, before)  # up to layer t0
+    marginals = np.zeros((M, T, S))
+    marginals[:, : t0 + 1] = head
+    chosen = choice[states, index]  # (n,) each reached node's candidate
+    for k in np.unique(chosen):
+        start = np.zeros((M, S))
+        np.add.at(start.T, states[chosen == k], mass[chosen == k])
+        earned, tail = _policy_marginals(dyn, L, t0, policies[k], start)
+        values = values + earned
+        marginals[:, t0 + 1 :] += tail[:, 1:]
+    value = objective(values)
+    return CutResponse(min(value, upper), max(value, upper), values, marginals, layers, program.n_nodes)
+
+
+def _policy_marginals(dyn: SparseDynamics, L: LayeredRewards, t0: int, policy: np.ndarray, start: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The Markov ``policy`` (T-1-t0, S) followed from layer t0 in each model from the (unnormalised)
+    state masses ``start`` (M, S): (each model's reward earned from t0 on (M,), its state masses at
+    layers t0..T-1 (M, T-t0, S))."""
+    M, S = start.shape
+    T = L.horizon
+    out = np.zeros((M, T - t0, S))
+    out[:, 0] = start
+    earned = np.zeros(M)
+    rows = np.arange(S)
+    nxt = dyn.next_states  # (S, R), -1 past a state's last successor
+    valid = nxt >= 0
+    for t in range(t0, T - 1):
+        a = policy[t - t0]
+        d = out[:, t - t0]
+        earned += np.einsum("js,js->j", d, L.step[:, t, rows, a])
+        moved = d[:, :, None] * dyn.probs[:, rows, a]  # (M, S, R)
+        for j in range(M):
+            np.add.at(out[j, t - t0 + 1], nxt[valid], moved[j][valid])
+    earned += np.einsum("js,js->j", out[:, -1], L.last)
+    return earned, out
 
 
 def _root(program: CountProgram, step: np.ndarray, W: np.ndarray, p0: np.ndarray) -> float:
@@ -104,16 +202,21 @@ def _root(program: CountProgram, step: np.ndarray, W: np.ndarray, p0: np.ndarray
     return float(np.asarray(p0, dtype=np.float64) @ W0[:, 0])
 
 
-def _best_candidates(b: np.ndarray, follow: np.ndarray) -> np.ndarray:
+def _best_candidates(b: np.ndarray, follow: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(S, C) at each node of the cut layer, max over the ``CANDIDATES`` most likely models k of
-    b . follow[k, :, s]: the value of following model k's optimal policy from there."""
+    b . follow[k, :, s]: the value of following model k's optimal policy from there; and (S, C) the
+    k that attains it."""
     K = min(CANDIDATES, b.shape[1])
     top = np.argpartition(-b, K - 1, axis=1)[:, :K] if K < b.shape[1] else np.broadcast_to(np.arange(K), b.shape)  # (C, K)
     best = np.full((follow.shape[2], b.shape[0]), -np.inf)
+    choice = np.zeros(best.shape, dtype=np.int64)
     for k in np.unique(top):  # each candidate policy at the nodes that try it: (n, M) @ (M, S)
         nodes = np.flatnonzero((top == k).any(axis=1))
-        best[:, nodes] = np.maximum(best[:, nodes], (b[nodes] @ follow[k]).T)
-    return best
+        value = (b[nodes] @ follow[k]).T
+        better = value > best[:, nodes]
+        best[:, nodes] = np.where(better, value, best[:, nodes])
+        choice[:, nodes] = np.where(better, k, choice[:, nodes])
+    return best, choice
 
 
 def _own_optimum(dyn: SparseDynamics, L: LayeredRewards, t0: int) -> tuple[np.ndarray, np.ndarray]:

@@ -154,6 +154,13 @@ class CountProgram:
             W, actions[t] = _backup(self.reach, self.scale, self.kind, self.beliefs_T[t], np.ascontiguousarray(step[:, t]), Wk)
         return W, actions
 
+    def forward(self, actions: list[np.ndarray], p0: np.ndarray, L: LayeredRewards):
+        """The policy ``actions`` (per layer t < L.horizon - 1, (S, C_t)) pushed forward from p0 over
+        the layers of ``L`` (at most the program's): (each model's return (M,), marginals (M, T, S), the
+        last layer's nodes reached as (states, count-vector indices, masses (n, M)))."""
+        return forward_nodes(self.reach, self.probs, self.kinds.kind, self.successor, actions, np.asarray(p0, dtype=np.float64), L,
+                             *self._forward_scratch())
+
     def solve(self, L: LayeredRewards, p0: np.ndarray) -> CountSolution:
         """The optimal policy for the rewards ``L`` (its horizon the program's) from p0 (S,)."""
         T, kind = self.horizon, self.kinds.kind
@@ -282,6 +289,14 @@ def _forward(reach, probs, kind, successor, actions, p0, L: LayeredRewards, seen
     the policy, pushed forward over the nodes it reaches (``_push``): a few percent of the (t, s, c)
     nodes (the 16 x 16 zero-one file: 74,000 of 2.3 million), the fit 14% faster than a pass over
     every node. ``seen`` (S * max C_t,) and ``acc`` (S * max C_t, M): scratch, zero on entry and return."""
+    values, out, _ = forward_nodes(reach, probs, kind, successor, actions, p0, L, seen, acc)
+    return values, out
+
+
+def forward_nodes(reach, probs, kind, successor, actions, p0, L: LayeredRewards, seen, acc):
+    """``_forward``'s pass, and the last layer's nodes it reaches: (values (M,), marginals (M, T, S),
+    (states (n,), count-vector indices (n,), masses (n, M))), T = ``L.horizon`` (a count program cut
+    at layer T - 1 pushes its nodes on with other policies: ``count_bracket.cut_response``)."""
     M, S = probs.shape[0], probs.shape[1]
     T = L.horizon
     out = np.zeros((M, T, S))
@@ -294,7 +309,7 @@ def _forward(reach, probs, kind, successor, actions, p0, L: LayeredRewards, seen
         earned, states, index, mass = _push(reach, probs, kind, successor[t], actions[t], states, index, mass, step, int(successor[t].max(initial=-1)) + 1, seen, acc, out[:, t + 1, :])
         values += earned
     values += np.einsum("js,js->j", L.last, out[:, T - 1, :])
-    return values, out
+    return values, out, (states, index, mass)
 
 
 @numba.njit(cache=True, nogil=True)

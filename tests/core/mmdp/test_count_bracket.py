@@ -70,3 +70,92 @@ def test_a_memory_budget_cuts_the_program_earlier():
     assert cut_layers(dyn, 30, max_nodes=10**9, max_bytes=program_bytes(3, 5, n, 7)) == 7
     assert cut_layers(dyn, 30, max_nodes=10**9, max_bytes=program_bytes(3, 5, n, 2) - 1) is None
     assert program_bytes(100, 20, 6, 27) > 8e8  # riverswim's cut: its posteriors alone are 0.7 GB
+
+
+def _enumerated(P, L, p0, prior):
+    values = exact_graph(P, L, prior).values(p0)  # every history enumerated
+    return float(values.sum()) if prior is None else float(prior @ values)
+
+
+def test_the_cut_policy_s_value_is_the_bracket_s_lower_side_below_the_enumerated_optimum():
+    from airl_cli.core.mmdp.count_bracket import cut_response
+
+    rng = np.random.default_rng(5)
+    P = slip_ring()
+    M, S = P.shape[:2]
+    T = 6
+    rewards = rng.normal(size=(M, T, S))
+    p0 = rng.dirichlet(np.ones(S))
+    dyn = sparse_dynamics(P)
+    n = move_kinds(dyn).n_kinds
+    for prior in (None, np.array([0.5, 0.3, 0.2])):
+        for discount in (1.0, 0.8):
+            L = layered_rewards(dyn, rewards, discount=discount)
+            optimum = _enumerated(P, L, p0, prior)
+            for layers in range(2, T + 1):
+                cut = cut_response(dyn, L, p0, prior, layers=layers)
+                br = count_bracket(dyn, L, p0, prior, max_nodes=n_nodes(S, n, layers))
+                assert cut.value == pytest.approx(br.lower, abs=1e-9) and cut.upper == pytest.approx(br.upper, abs=1e-9)
+                assert cut.value - 1e-9 <= optimum <= cut.upper + 1e-9
+                assert cut.value == pytest.approx(float(cut.values.sum()) if prior is None else float(prior @ cut.values), abs=1e-12)
+                assert np.allclose(cut.marginals.sum(axis=2), 1.0, atol=1e-12) and (cut.marginals >= 0).all()
+            assert cut.value == pytest.approx(optimum, abs=1e-9) and cut.upper == pytest.approx(optimum, abs=1e-9)
+            whole = solve_counts(P, rewards, p0, discount=discount, prior=prior)
+            assert np.allclose(cut.marginals, whole.marginals, atol=1e-12) and np.allclose(cut.values, whole.values, atol=1e-9)
+
+
+def test_the_cut_policy_s_returns_and_marginals_are_a_policy_s_by_simulation():
+    """Each model's return and state marginals under the cut policy, against the same policy played
+    out: the program's actions up to the cut (by the count vector each history reaches), then the
+    chosen model's optimal policy; every history of the ring enumerated with its probability."""
+    from itertools import product
+
+    from airl_cli.core.mmdp.count_bracket import _best_candidates, _own_optimum, _policy_value, cut_response
+    from airl_cli.core.mmdp.counts import CountProgram
+
+    rng = np.random.default_rng(11)
+    P = slip_ring(S=4)
+    M, S, A = P.shape[:3]
+    T, layers = 5, 3
+    rewards = rng.normal(size=(M, T, S))
+    p0 = rng.dirichlet(np.ones(S))
+    dyn = sparse_dynamics(P)
+    L = layered_rewards(dyn, rewards)
+    kinds = move_kinds(dyn)
+    program = CountProgram(dyn, kinds, layers, np.full(M, 1.0 / M))
+    cut = cut_response(dyn, L, p0, layers=layers, program=program)
+    # the same policy, rebuilt from the program's pieces and played along every history
+    t0 = layers - 1
+    own, policies = _own_optimum(dyn, L, t0)
+    follow = np.stack([_policy_value(dyn, L, t0, policies[k]) for k in range(M)])
+    W, choice = _best_candidates(program.last_beliefs, follow)
+    _, actions = program.backward(L.step[:, :t0], W)
+    values, marginals = np.zeros(M), np.zeros((M, T, S))
+    for s0 in range(S):
+        for path in product(range(S), repeat=T - 1):
+            states = (s0, *path)
+            count = 0  # index of the count vector reached (layer 0: the one vector)
+            prob = np.full(M, p0[s0])
+            ret = np.zeros(M)
+            for t in range(T - 1):
+                s = states[t]
+                if t < t0:
+                    a = int(actions[t][s, count])
+                else:
+                    a = int(policies[choice[states[t0], count]][t - t0, s])  # count: the cut layer's vector from t0 on
+                ret += L.step[:, t, s, a]
+                nxt = states[t + 1]
+                r = int(np.flatnonzero(dyn.next_states[s] == nxt)[0]) if nxt in dyn.next_states[s] else -1
+                p = dyn.probs[:, s, a, r] if r >= 0 else np.zeros(M)
+                if t < t0 and p.any():
+                    count = int(program.successor[t][count, kinds.kind[s, a, r]])
+                prob = prob * p
+                if not prob.any():
+                    break
+            else:
+                ret += L.last[:, states[-1]]
+                values += prob * ret
+                for t in range(T):
+                    marginals[:, t, states[t]] += prob
+    assert np.allclose(cut.values, values, atol=1e-10)
+    assert np.allclose(cut.marginals, marginals, atol=1e-12)
