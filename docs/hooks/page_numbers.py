@@ -304,8 +304,7 @@ def _suite_minutes(values: dict) -> dict:
 
 def _environment_tables(values: dict) -> dict:
     """The environments' table (benchmarks/environments.py's rows): one row per environment and method."""
-    head = ["environment", "S, A, T, D", "method", "process s", "peak MB", "bracket width", "score τ", "score $\\tau_j$",
-            "return $\\tau_j$ (demo)", "goal $\\tau_j$ (demo)"]
+    head = ["environment", "S, A, T, D", "method", "s", "MB", "bracket", "score τ", "score $\\tau_j$", "return (demo)", "goal (demo)"]
     lines = ["| " + " | ".join(head) + " |", "| --- | --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: |"]
     for r in values["rows"]:
         size = f"{r['S']:,}, {r['A']}, {r['T']}, {r['D']}"
