@@ -23,18 +23,21 @@ from _runs import provenance
 
 ROOT = Path(__file__).resolve().parents[1]
 SUMMARY = re.compile(r"(\d+) passed(?:, (\d+) skipped)?.* in ([\d.]+)s")
+WORKERS = re.compile(r"created: (\d+)/\d+ workers")
 
 
 def suite(args: list[str], cache: str) -> dict:
-    """Run pytest with ``args``: the tests passed and skipped and pytest's seconds."""
+    """Run pytest with ``args``: the tests passed and skipped, pytest's seconds and its worker processes."""
     env = {**os.environ, "NUMBA_CACHE_DIR": cache}
-    out = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", *args], cwd=ROOT, env=env,
+    out = subprocess.run([sys.executable, "-m", "pytest", "-p", "no:cacheprovider", *args], cwd=ROOT, env=env,
                          capture_output=True, text=True)
     last = out.stdout.strip().splitlines()[-1] if out.stdout.strip() else ""
     found = SUMMARY.search(last)
     if out.returncode != 0 or found is None:
         raise SystemExit(f"pytest {' '.join(args)} did not pass: {last or out.stderr[-400:]}")
-    return {"passed": int(found[1]), "skipped": int(found[2] or 0), "seconds": float(found[3])}
+    workers = WORKERS.search(out.stdout)
+    return {"passed": int(found[1]), "skipped": int(found[2] or 0), "seconds": float(found[3]),
+            "workers": int(workers[1]) if workers else 1}
 
 
 def main() -> None:
