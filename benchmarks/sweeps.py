@@ -127,6 +127,14 @@ def code(commit: str) -> tuple[str, ...] | None:
     return tuple(done.stdout.split()) if commit and done.returncode == 0 else None
 
 
+def sweeps_stand(old: dict, record: dict, profile: str) -> bool:
+    """Whether the sweeps of the record ``old`` are this run's to keep: the same profile, made by the
+    same code as HEAD (``code``; no uncommitted change in ``record``, this run's provenance) and on
+    the same versions of the numerical libraries (a reinstall can move a number rounding decides)."""
+    return (old.get("profile") == profile and not record["commit"].endswith("+changes")
+            and code(old.get("commit", "")) == code("HEAD") and old.get("libraries") == record["libraries"])
+
+
 def _true(column):
     """A results table's flag column (``converged``, ``degenerate``) as booleans: read back from
     results.csv it holds True/False, "True"/"False" or NaN (a method without the flag)."""
@@ -530,8 +538,8 @@ def main() -> None:
         if missing:
             sys.exit(f"error: the folders of {len(missing)} recorded sweep(s) are not here ({missing[0]}: {old['sweeps'][missing[0]]['folder']})")
         record = {**old, "read_at": record["commit"]}  # measured at old["commit"]; read with this code
-    elif old.get("profile") == args.profile and not record["commit"].endswith("+changes") and code(old.get("commit", "")) == code("HEAD"):
-        record["commit"], record["sweeps"] = old["commit"], old.get("sweeps", {})  # the same code: its sweeps stand
+    elif sweeps_stand(old, record, args.profile):
+        record["commit"], record["sweeps"] = old["commit"], old.get("sweeps", {})
     else:
         record["sweeps"] = {}
     record["profile"] = args.profile
