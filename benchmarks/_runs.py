@@ -14,8 +14,9 @@ from pathlib import Path
 def provenance(command: list[str]) -> dict:
     """Where a measurement comes from, for the pages that quote it (docs/hooks/page_numbers.py): the
     commit (with ``+changes`` if the package differs from it), the machine (its cores, processor and
-    memory), the command that made it and the versions of the numerical libraries (``libraries``):
-    a reinstall can move a number that rounding decides (robust MCE IRL's intermediate α on Viano
+    memory), the command that made it and the sweep jobs' ``code`` fingerprint (airl's sources, the
+    numerical libraries' versions, OpenBLAS's kernels; ``airl_cli.sweep.code``): a reinstall can move
+    a number that rounding decides (robust MCE IRL's intermediate α on Viano
     et al.'s grid moved by up to 1.4% between two installs of the same commit)."""
     root = Path(__file__).resolve().parents[1]
 
@@ -32,24 +33,9 @@ def provenance(command: list[str]) -> dict:
         pass
     memory = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES") / 2**30
     machine = f"a {os.cpu_count()}-core {model.replace('(R)', '')} with {memory:.0f} GB"
-    return {"commit": commit, "machine": machine, "command": "python " + " ".join(command), "libraries": libraries()}
+    from airl_cli.sweep.code import fingerprint
 
-
-#: the distributions whose builds decide the numbers: the arrays, the solvers and the compiler
-LIBRARIES = ("numpy", "scipy", "numba", "llvmlite", "highspy", "clarabel")
-
-
-def libraries() -> dict[str, str]:
-    """The installed version of each of ``LIBRARIES`` (absent ones left out) and Python's."""
-    from importlib.metadata import PackageNotFoundError, version
-
-    found = {"python": sys.version.split()[0]}
-    for name in LIBRARIES:
-        try:
-            found[name] = version(name)
-        except PackageNotFoundError:
-            pass
-    return found
+    return {"commit": commit, "machine": machine, "command": "python " + " ".join(command), "code": fingerprint()}
 
 
 class TimedOut(Exception):

@@ -129,10 +129,11 @@ def code(commit: str) -> tuple[str, ...] | None:
 
 def sweeps_stand(old: dict, record: dict, profile: str) -> bool:
     """Whether the sweeps of the record ``old`` are this run's to keep: the same profile, made by the
-    same code as HEAD (``code``; no uncommitted change in ``record``, this run's provenance) and on
-    the same versions of the numerical libraries (a reinstall can move a number rounding decides)."""
+    same code as HEAD (``code``; no uncommitted change in ``record``, this run's provenance) and with
+    the same fingerprint (the numerical libraries' versions among it: a reinstall can move a number
+    that rounding decides)."""
     return (old.get("profile") == profile and not record["commit"].endswith("+changes")
-            and code(old.get("commit", "")) == code("HEAD") and old.get("libraries") == record["libraries"])
+            and code(old.get("commit", "")) == code("HEAD") and old.get("code") == record["code"])
 
 
 def _true(column):

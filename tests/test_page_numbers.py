@@ -439,9 +439,9 @@ def test_robust_mce_s_weights_as_triples_and_the_loss_ranges():
                       "squared_iterations_low": 25, "squared_iterations_high": 110}
 
 
-def test_a_record_names_its_libraries_and_sweeps_on_other_libraries_are_not_kept(monkeypatch):
-    """benchmarks/_runs.provenance records the numerical libraries' versions; sweeps.py keeps an old
-    record's sweeps only when its code and its libraries are this run's."""
+def test_a_record_names_its_code_and_sweeps_on_other_libraries_are_not_kept(monkeypatch):
+    """benchmarks/_runs.provenance records the sweep jobs' code fingerprint (the numerical libraries'
+    versions among it); sweeps.py keeps an old record's sweeps only when its code and fingerprint are this run's."""
     import numpy
 
     sys.path.insert(0, str(ROOT / "benchmarks"))
@@ -449,14 +449,14 @@ def test_a_record_names_its_libraries_and_sweeps_on_other_libraries_are_not_kept
     import sweeps
 
     made = _runs.provenance(["benchmarks/x.py"])
-    assert made["libraries"]["numpy"] == numpy.__version__ and made["libraries"]["python"] == sys.version.split()[0]
+    assert f"numpy {numpy.__version__}" in made["code"]
     monkeypatch.setattr(sweeps, "code", lambda commit: ("trees",))
-    now = {"commit": "abc1234", "libraries": made["libraries"]}
-    old = {"profile": "full", "commit": "abc1234", "libraries": dict(made["libraries"])}
+    now = {"commit": "abc1234", "code": made["code"]}
+    old = {"profile": "full", "commit": "abc1234", "code": made["code"]}
     assert sweeps.sweeps_stand(old, now, "full")
     assert not sweeps.sweeps_stand(old, now, "quick")
     assert not sweeps.sweeps_stand(old, {**now, "commit": "abc1234+changes"}, "full")
-    assert not sweeps.sweeps_stand({**old, "libraries": {**old["libraries"], "numpy": "0.1"}}, now, "full")
-    assert not sweeps.sweeps_stand({k: v for k, v in old.items() if k != "libraries"}, now, "full")
+    assert not sweeps.sweeps_stand({**old, "code": made["code"].replace(f"numpy {numpy.__version__}", "numpy 0.1")}, now, "full")
+    assert not sweeps.sweeps_stand({k: v for k, v in old.items() if k != "code"}, now, "full")
     monkeypatch.setattr(sweeps, "code", lambda commit: (commit,))
     assert not sweeps.sweeps_stand({**old, "commit": "def5678"}, now, "full")
