@@ -69,7 +69,8 @@ def test_every_method_fits_features_of_a_state_and_an_action_and_is_scored(data,
 def test_the_certified_fit_certifies_on_features_of_a_state_and_an_action(data):
     learned = api.fit(data[0])
     info = learned.info  # the certificate is the bracket on eq. 5.9's minimum, within optim.tol; the fit's own gap within its share of it
-    assert info["converged"] and info["bracket_relative_gap"] <= info["tol"] and info["relative_gap"] <= info["gap_tol"] < info["tol"]
+    assert info["converged"] and info["bracket_relative_gap"] <= info["tol"] and info["gap_tol"] < info["tol"]
+    assert info["relative_gap"] <= (info["tol"] if info["closed_early"] else info["gap_tol"])  # its own gap, or the bracket closed first
 
 
 def test_the_demonstrations_feature_targets_are_sums_over_their_actions(data):

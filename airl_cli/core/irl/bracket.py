@@ -54,6 +54,12 @@ TARGET_SHARE = 0.5
 #: wanted width (and than the tolerance): below it, the fit's answer is within the width anyway.
 CLOSE_SHARE = 0.25
 
+#: An early closing step (``close_due``) is tried once the run's gap plus the last bracket's excess
+#: is within this share of the wanted width, and again after a try that did not close only once the
+#: run's gap is below ``EARLY_RETRY`` times the last try's.
+EARLY_SHARE = 0.95
+EARLY_RETRY = 0.8
+
 #: The fit's best responses on the grid (``Closer.answers``) use a grid of at most this share of the
 #: bracket's posteriors (``Closer``'s ``grid_work``, ``grid_bound.WORK`` by default), doubled up to
 #: the bracket's own after each bracket whose policy
@@ -281,12 +287,50 @@ def closed(sets: StrategySets, close: Close, run: Run, C: np.ndarray, lam: float
     value, marginals, upper = close(run.upper_rewards, TARGET_SHARE * width * scale)
     reg = penalty(run.best_w, C, lam)
     run.bracket_upper = min(run.bracket_upper, upper + reg)
+    run.close_excess = max(0.0, upper + reg - run.upper) / scale
+    if run.closed_at is None or upper + reg < run.closed_at[3]:  # the bracketed point with the smallest upper side
+        run.closed_at = (run.best_w.copy(), run.upper, run.upper_rewards, upper + reg)
     bound = value + reg
     if bound - run.upper <= max(tol, CLOSE_SHARE * width) * scale or run.close_steps >= MAX_CLOSE_STEPS or relative_width(run.lower, run.bracket_upper) <= width:
         return False
     sets.add_adversary(marginals)
     run.upper, run.last_full, run.close_steps = bound, it, run.close_steps + 1
     return True
+
+
+def close_due(run: Run, gap: float, width: float) -> bool:
+    """Whether a closing fit tries its bracket before its own gap reaches ``CLOSE_SHARE`` of the
+    wanted ``width`` (relative): [L, U] is about the run's relative ``gap`` plus what the bracket adds
+    at the run's best bound (``run.close_excess``), so it can close as soon as their sum is within the
+    width. Tried when that sum is within ``EARLY_SHARE`` of the width (before the first bracket, when
+    the gap is within ``1 - CLOSE_SHARE`` of it), and again only once the gap has shrunk to
+    ``EARLY_RETRY`` of the last try's."""
+    if gap > run.close_next_gap:
+        return False
+    if run.close_excess is None:
+        return gap <= (1.0 - CLOSE_SHARE) * width
+    return gap + run.close_excess <= EARLY_SHARE * width
+
+
+def closed_early(sets: StrategySets, close: Close, run: Run, C: np.ndarray, lam: float, tol: float, width: float, it: int, gap: float) -> tuple[bool, bool]:
+    """Whether a closing fit is done before its own gap reaches its tolerance: (whether an early
+    closing step (``close_due``) added a strategy, the fit going on; whether the bracketed point with
+    the smallest upper side (``run.closed_at``) and the run's lower bound are within ``width``, the
+    fit done). The second is checked at every iteration, at no cost: the lower bound rises after the
+    bracket was taken. Neither: the next closing step waits for a smaller gap."""
+    if not _within(run, width):
+        if not close_due(run, gap, width):
+            return False, False
+        added = closed(sets, close, run, C, lam, tol, width, it)
+        run.close_next_gap = EARLY_RETRY * gap
+        if added:
+            return True, False
+    return False, _within(run, width)
+
+
+def _within(run: Run, width: float) -> bool:
+    """Whether the lower bound and the smallest upper side bracketed at a point (``run.closed_at``) are within ``width``."""
+    return run.closed_at is not None and relative_width(run.lower, run.closed_at[3]) <= width
 
 
 def relative_width(lower: float, upper: float) -> float:

@@ -71,7 +71,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from airl_cli.core.irl.bracket import CLOSE_SHARE, Close, closed
+from airl_cli.core.irl.bracket import CLOSE_SHARE, Close, closed, closed_early
 from airl_cli.core.irl.certified_answer import CAPS, HISTORY_COLUMNS, CertifiedResult, finish, history_row, upper_at
 from airl_cli.core.irl.game_problem import AdversaryOracle, GameProblem
 from airl_cli.core.irl.options import CertifiedOptions
@@ -178,6 +178,12 @@ def minimize(
         if done:
             stopped = "tolerance" if rows[-1]["relative_gap"] <= options.tol else "no_improvement"
             break
+        if close is not None and (sharpen is None or run.sharpen_asked):
+            added, bracketed = closed_early(sets, close, run, C, options.lam, options.tol, width, it, rows[-1]["relative_gap"])
+            if bracketed:
+                stopped, run.closed_early = "tolerance", True
+                break
+            added_a = added_a or added
         # a loose solve whose point neither oracle improves on is tightened, else the gap sets it
         accuracy = TIGHT if not (added_l or added_a) else accuracy_for(ACCURACY_SHARE * rows[-1]["relative_gap"])
         born_l, born_a = born_l + [it] * (qp.n - len(born_l)), born_a + [it] * (qp.m - len(born_a))

@@ -67,6 +67,9 @@ class CertifiedResult:
             ``close``): f(weights) lies in [lower, answer_upper], which ``bracket_upper`` may undercut.
         tol: the relative gap the run drove ``relative_gap`` to (``stop_tol``): ``options.tol``, or
             ``bracket.CLOSE_SHARE`` of it where it closed a bracket (whose width ``options.tol`` then is).
+        closed_early: the run stopped at an early closing step (``bracket.closed_early``): the bracket
+            was within ``options.tol`` before ``relative_gap`` reached ``tol`` (it is then within
+            ``options.tol`` only, and the answer is the point that bracket was taken at).
     """
 
     weights: np.ndarray
@@ -89,6 +92,7 @@ class CertifiedResult:
     close_steps: int = 0
     tol: float = 1e-4
     answer_upper: float = float("inf")
+    closed_early: bool = False
 
     @property
     def bracket_relative_gap(self) -> float:
@@ -103,10 +107,21 @@ def finish(sets: StrategySets, oracle, close, per_dynamics, targets: np.ndarray,
     rows[-1] = history_row(len(rows), run, final, sets.qp, rows[-1]["qp_seconds"] + polished, start)
     if stopped in CAPS and rows[-1]["relative_gap"] <= options.tol:
         stopped = "tolerance"
-    answer, upper, rewards = _answer(final, (final_upper, final_rewards), run, options.tol)
-    # the answer's own bracket: min f <= f(answer) <= its upper side
-    answer_upper = _bracket_answer(close, rewards, upper, penalty(answer, C, options.lam), width, run) if close is not None else np.inf
+    if _bracketed_early(run, width):  # the point an early closing step bracketed within the width: its bracket is the answer's
+        answer, upper, rewards, answer_upper = run.closed_at
+        upper = min(upper, answer_upper)
+    else:
+        answer, upper, rewards = _answer(final, (final_upper, final_rewards), run, width if run.closed_early else options.tol)
+        # the answer's own bracket: min f <= f(answer) <= its upper side
+        answer_upper = _bracket_answer(close, rewards, upper, penalty(answer, C, options.lam), width, run) if close is not None else np.inf
     return replace(_result(per_dynamics(answer), upper, rewards, run, rows, stopped, final, sets), tol=options.tol, answer_upper=float(answer_upper))
+
+
+def _bracketed_early(run: Run, width: float) -> bool:
+    """Whether the run stopped at an early closing step (``bracket.closed_early``) whose point's own
+    bracket is within ``width`` (relative to L): that point is the answer, certified by it, and the run's
+    gap, wider than the run's own tolerance there, does not decide between the answers (``_answer``)."""
+    return run.closed_early and run.closed_at is not None and relative_width(run.lower, run.closed_at[3]) <= width
 
 
 def polish(sets: StrategySets, oracle: AdversaryOracle, per_dynamics, C: np.ndarray, lam: float, run: Run, targets: np.ndarray) -> tuple[MasterSolution, float, float, np.ndarray | None]:
@@ -182,6 +197,7 @@ def _result(weights: np.ndarray, upper: float, rewards: np.ndarray | None, run: 
         sharpen_steps=run.sharpen_steps,
         bracket_upper=float(run.bracket_upper),
         close_steps=run.close_steps,
+        closed_early=run.closed_early,
     )
 
 

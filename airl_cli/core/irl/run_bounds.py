@@ -42,6 +42,14 @@ class Run:
     sharpen_asked: bool = False  # whether ``sharpened`` has asked (``sharpened_early`` asks only before that)
     bracket_upper: float = np.inf  # the smallest upper bound on min f that holds whatever the planner (``bracket``)
     close_steps: int = 0  # how often the bracket's policy raised the certified bound (``bracket.closed``)
+    #: the last bracket's upper side above the fit's own bound at the same point, relative (``bracket.closed``;
+    #: None before the first): what the bracket adds to the run's gap, so where an early one can close (``bracket.close_due``)
+    close_excess: float | None = None
+    close_next_gap: float = np.inf  # the run's relative gap below which an early closing step is next tried (``bracket.close_due``)
+    #: the last bracket's point: (w (d,), the fit's bound there, its rewards (M, T, S), the bracket's upper
+    #: side plus the penalty), None before the first (``bracket.closed``): the answer where an early step closed it
+    closed_at: tuple | None = None
+    closed_early: bool = False  # the run stopped where an early closing step put [L, U] within the width
 
 def penalty(w: np.ndarray, C: np.ndarray, lam: float) -> float:
     """-w . C + (lambda/2)|w|^2, the part of f(w) (eq. 5.9) outside the game: a bound on the game's

@@ -209,6 +209,7 @@ def _certified(problem: GameProblem, targets: np.ndarray, settings: Airl, rng: n
         "relative_gap": res.relative_gap,
         "tol": tol,
         "gap_tol": res.tol,
+        "closed_early": res.closed_early,  # the bracket within optim.tol before the fit's own gap reached gap_tol
         "max_iterations": settings.certified.max_iterations,
         **({"max_seconds": settings.certified.max_seconds} if settings.certified.max_seconds is not None else {}),
         "planner": planner.method,
