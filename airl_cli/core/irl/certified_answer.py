@@ -107,21 +107,14 @@ def finish(sets: StrategySets, oracle, close, per_dynamics, targets: np.ndarray,
     rows[-1] = history_row(len(rows), run, final, sets.qp, rows[-1]["qp_seconds"] + polished, start)
     if stopped in CAPS and rows[-1]["relative_gap"] <= options.tol:
         stopped = "tolerance"
-    if _bracketed_early(run, width):  # the point an early closing step bracketed within the width: its bracket is the answer's
+    if run.closed_early:  # the point bracketed within the width (``bracket.closed_early``): its bracket is the answer's
         answer, upper, rewards, answer_upper = run.closed_at
         upper = min(upper, answer_upper)
     else:
-        answer, upper, rewards = _answer(final, (final_upper, final_rewards), run, width if run.closed_early else options.tol)
+        answer, upper, rewards = _answer(final, (final_upper, final_rewards), run, options.tol)
         # the answer's own bracket: min f <= f(answer) <= its upper side
         answer_upper = _bracket_answer(close, rewards, upper, penalty(answer, C, options.lam), width, run) if close is not None else np.inf
     return replace(_result(per_dynamics(answer), upper, rewards, run, rows, stopped, final, sets), tol=options.tol, answer_upper=float(answer_upper))
-
-
-def _bracketed_early(run: Run, width: float) -> bool:
-    """Whether the run stopped at an early closing step (``bracket.closed_early``) whose point's own
-    bracket is within ``width`` (relative to L): that point is the answer, certified by it, and the run's
-    gap, wider than the run's own tolerance there, does not decide between the answers (``_answer``)."""
-    return run.closed_early and run.closed_at is not None and relative_width(run.lower, run.closed_at[3]) <= width
 
 
 def polish(sets: StrategySets, oracle: AdversaryOracle, per_dynamics, C: np.ndarray, lam: float, run: Run, targets: np.ndarray) -> tuple[MasterSolution, float, float, np.ndarray | None]:

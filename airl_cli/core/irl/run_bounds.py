@@ -46,10 +46,11 @@ class Run:
     #: None before the first): what the bracket adds to the run's gap, so where an early one can close (``bracket.close_due``)
     close_excess: float | None = None
     close_next_gap: float = np.inf  # the run's relative gap below which an early closing step is next tried (``bracket.close_due``)
-    #: the last bracket's point: (w (d,), the fit's bound there, its rewards (M, T, S), the bracket's upper
-    #: side plus the penalty), None before the first (``bracket.closed``): the answer where an early step closed it
+    #: the bracketed point with the smallest upper side: (w (d,), the fit's bound there, its rewards (M, T, S),
+    #: the bracket's upper side plus the penalty), None before the first (``bracket.closed``): the answer where
+    #: it and the lower bound came within the width before the run's own gap reached its tolerance
     closed_at: tuple | None = None
-    closed_early: bool = False  # the run stopped where an early closing step put [L, U] within the width
+    closed_early: bool = False  # the run stopped there (``bracket.closed_early``): ``closed_at`` and the lower bound within the width
 
 def penalty(w: np.ndarray, C: np.ndarray, lam: float) -> float:
     """-w . C + (lambda/2)|w|^2, the part of f(w) (eq. 5.9) outside the game: a bound on the game's
