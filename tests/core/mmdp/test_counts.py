@@ -271,3 +271,31 @@ def test_the_program_s_size_counts_its_nodes_and_bounds_the_arrays_a_solve_holds
     held = sum(a.nbytes for group in (built.counts, built.beliefs_T, built.along_T, built.successor_T, built.successor, sol.action) for a in group)
     held += built.last_beliefs.nbytes + 8 * n * S * widest + 2 * 8 * S * widest + sum(a.nbytes for a in built._forward_scratch())
     assert held <= size.bytes <= 3 * held, (held, size.bytes)
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_absorbing_states_held_per_model_give_the_optimum_and_the_marginals_of_every_node(seed):
+    """States that every model keeps whatever the action (a gymnasium episode's end) hold their mass per
+    model in the forward pass, not per node, where their rewards do not depend on the action: the
+    optimum is enumeration's, and the marginals and values those of a pass over every node (to rounding:
+    the held mass is summed apart). With rewards of (s, a) there, nothing is held and both are as before."""
+    rng = np.random.default_rng(seed)
+    M, S, A, T = int(rng.integers(2, 4)), 4, 2, int(rng.integers(3, 6))
+    P = rng.dirichlet(np.full(S, 0.5), size=(M, S, A))
+    ends = rng.choice(S, size=int(rng.integers(1, 3)), replace=False)
+    P[:, ends] = 0.0
+    P[:, ends, :, ends] = 1.0
+    action_rewards = seed % 3 == 0
+    R = rng.normal(size=(M, T, S, A) if action_rewards else (M, T, S))
+    p0 = rng.dirichlet(np.ones(S))
+    L = layered_rewards(P, R)  # rewards of (s, a): T decisions and a last layer
+    program = counts.program(sparse_dynamics(P), L.horizon, max_kinds=S * A * S)
+    assert set(np.flatnonzero(program.absorbing)) == set(ends)
+    assert counts.action_free(L)[ends].all() != action_rewards
+    sol = program.solve(L, p0)
+    value, values = exact_value(P, R, p0)
+    assert sol.value == pytest.approx(value, abs=1e-9 * (1 + abs(value)))
+    every_values, every_marginals = _every_node_forward(program, sol.action, p0, L)
+    assert np.allclose(sol.marginals, every_marginals, rtol=1e-13, atol=1e-14)
+    assert np.allclose(sol.values, every_values, rtol=1e-12, atol=1e-12)
+    assert np.allclose(sol.values, values, atol=1e-9)
