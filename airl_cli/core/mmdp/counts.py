@@ -23,6 +23,11 @@ with). The answer is the optimum of eq. 6.1, not a bound: every posterior reacha
 Where the moves point in more directions (a dense random MDP: every (s, a, s') its own), the
 count space grows as t^(n-1) and ``program`` returns None; PBVI is the planner there.
 
+The policy's values and marginals come from a forward pass over the nodes it reaches. A state that
+every model keeps whatever the action (an episode's end: FrozenLake's holes and goal) and whose
+rewards do not depend on the action holds its mass per model there, not per node: whatever the
+posterior, the mass stays and earns the same (``absorbing_states``, ``action_free``).
+
 Kinds are found (``count_layers``) by normalising every likelihood vector to sum 1 and grouping vectors equal to
 ``KIND_TOL``; the backup uses each move's own probabilities, so the values are those of the policy
 found, exactly, and only its optimality rests on the grouping.
