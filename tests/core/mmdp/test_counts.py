@@ -299,3 +299,25 @@ def test_absorbing_states_held_per_model_give_the_optimum_and_the_marginals_of_e
     assert np.allclose(sol.marginals, every_marginals, rtol=1e-13, atol=1e-14)
     assert np.allclose(sol.values, every_values, rtol=1e-12, atol=1e-12)
     assert np.allclose(sol.values, values, atol=1e-9)
+
+
+@pytest.mark.parametrize("horizon", [4, 12])
+def test_the_layers_backed_up_in_chunks_give_the_bits_of_whole_layers(monkeypatch, horizon):
+    """``_layer`` (a layer's next values through each kind of move computed a chunk of count vectors at a
+    time, in parallel) against ``_shifted`` then ``_backup`` over the whole layer: the same values, actions
+    and marginals to the last bit, over layers of one chunk and of many with a shorter last one."""
+    dyn = slip_sparse(3, [0.0, 0.1, 0.2, 0.3])
+    R = np.random.default_rng(3).normal(size=(4, horizon, 9))
+    L = layered_rewards(dyn, R)
+    program = counts.program(dyn, horizon)
+    sizes = [s.shape[1] for s in program.successor_T]  # C_t of the layers backed up
+    chunks = [counts._chunk(9, s.shape) for s in program.successor_T]
+    several = [-(-c // k) > 1 and c % k > 0 for c, k in zip(sizes, chunks)]  # several chunks, a shorter last one
+    assert all(chunks) and any(several) == (horizon == 12)
+    chunked = program.solve(L, uniform_initial(3))
+    monkeypatch.setattr(counts, "MIN_CHUNK", 10**9)  # every layer whole
+    assert not any(counts._chunk(9, s.shape) for s in program.successor_T)
+    whole = program.solve(L, uniform_initial(3))
+    assert chunked.value == whole.value and np.array_equal(chunked.values, whole.values)
+    assert np.array_equal(chunked.marginals, whole.marginals)
+    assert all(np.array_equal(a, b) for a, b in zip(chunked.action, whole.action))
