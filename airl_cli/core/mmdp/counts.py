@@ -322,7 +322,9 @@ def _layer(reach, scale, kind, B, step, one, succ, along, W_next, chunk):  # pra
     vectors at a time (each chunk's next-layer values seen through each kind of move, (n, S, chunk),
     stay in the core's cache instead of a (n, S, C_t) array written and read again: FrozenLake-v1 by
     id, 2 GB a pass). Every value is computed as those two compute it (the same bits); the chunks run
-    in parallel. Arguments as theirs; returns W (S, C_t) and the actions (S, C_t)."""
+    in parallel. Arguments as theirs; returns W (S, C_t) and the actions (S, C_t). Its per-state loop is
+    ``_backup``'s written out again: as one compiled function that both call, with offsets into the
+    count vectors, FrozenLake-v1's solves took a third longer (the loops no longer vectorised)."""
     M, S, A = step.shape
     R = reach.shape[1]
     n, C = succ.shape
