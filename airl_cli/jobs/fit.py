@@ -103,6 +103,9 @@ def summary_text(dataset: Dataset, settings: FitSettings, learned: Learned, rows
             how += "Markov adversary (" + ("every Markov policy enumerated" if o.planner.method == "exact" else "CADP best responses") + ")"
         elif info.get("planner", o.planner.method) in PLANNER_WORDS:
             how += PLANNER_WORDS[info.get("planner", o.planner.method)]
+        elif info.get("best_responses") == "counts_cut":  # a closing fit answered and bracketed by count programs cut at a layer
+            how += (f"best responses from the count program exact over {info['response_cut_layers']} layers (the likeliest models' "
+                    f"own policies after them), bracketed by one over {info['bracket_cut_layers']}")
         else:
             grown = f", grown to {info['sharpened_beliefs']} where its policy goes" if info.get("sharpened_beliefs", info["n_beliefs"]) > info["n_beliefs"] else ""
             how += f"PBVI {o.planner.iterations} iterations ({info['n_beliefs']} beliefs{grown})"

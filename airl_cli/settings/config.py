@@ -14,7 +14,7 @@ from typing import Any
 
 from omegaconf import DictConfig
 
-from airl_cli.core.irl.options import BRACKET_BELIEFS, GRID_WORK, PBVI_MAX_ITERATIONS, SCHEDULES, CertifiedOptions, FitOptions, PlannerOptions
+from airl_cli.core.irl.options import BRACKET_BELIEFS, BRACKET_NODES, GRID_WORK, PBVI_MAX_ITERATIONS, SCHEDULES, CertifiedOptions, FitOptions, PlannerOptions
 from airl_cli.core.mdp.windy import WINDS
 from airl_cli.errors import ConfigError
 from airl_cli.methods import NAMES, REGISTRY
@@ -263,6 +263,7 @@ def _planner(node: Any) -> PlannerOptions:
         sharpen_rounds=r.int("sharpen_rounds", lo=0, hi=20, default=0),
         bracket_beliefs=r.int("bracket_beliefs", lo=0, default=BRACKET_BELIEFS),
         bracket_grid=r.int("bracket_grid", lo=0, default=GRID_WORK),
+        bracket_nodes=r.int("bracket_nodes", lo=0, default=BRACKET_NODES),
     )
 
 

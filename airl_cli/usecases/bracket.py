@@ -9,10 +9,12 @@ import numpy as np
 
 from airl_cli.core.irl.bracket import MAX_CLOSE_STEPS, TARGET_SHARE, Closer, relative_width
 from airl_cli.core.irl.certified import stop_tol
+from airl_cli.core.irl.cut_closer import CutCloser, cut_closer
 from airl_cli.core.irl.game_problem import GameProblem
 from airl_cli.core.irl.options import BRACKET_MAX_BELIEFS, EXACT_PLANNERS, CertifiedOptions, FitOptions, closes_bracket
 from airl_cli.core.irl.run_bounds import answer_penalty
 from airl_cli.core.mdp.sparse import sparse_dynamics
+from airl_cli.usecases.memory import available_memory
 
 
 class LearnerSettings(Protocol):
@@ -23,15 +25,22 @@ class LearnerSettings(Protocol):
     certified: CertifiedOptions
 
 
-def closer(problem: GameProblem, oracle, settings: LearnerSettings) -> Closer | None:
+def closer(problem: GameProblem, oracle, settings: LearnerSettings) -> Closer | CutCloser | None:
     """The bracket's planner for a certified fit, or None: ``pbvi.bracket_beliefs`` = 0 turns it off,
     and ``pbvi.method=exact`` or ``counts`` needs none (their best responses are exact, so the
-    certificate already holds for eq. 5.9 itself). It plans PBVI at the fit's belief set (if the fit reuses one)."""
+    certificate already holds for eq. 5.9 itself). Where the moves are of a few kinds (the whole
+    count program too large for the horizon: else the fit plans with it), the count program cut
+    after as many layers as ``pbvi.bracket_nodes`` nodes and half the free memory allow
+    (``core.irl.cut_closer``); elsewhere PBVI at the fit's belief set (if the fit reuses one),
+    its beliefs backed up where the bounds differ (``core.irl.bracket``)."""
     if not _brackets(settings):
         return None
     planner = settings.options.planner
     P = getattr(oracle, "P", None)
     P = P if P is not None and not isinstance(P, np.ndarray) else sparse_dynamics(problem.transitions)
+    cut = cut_closer(P, problem.initial, problem.horizon, planner.bracket_nodes, max_bytes=available_memory() // 2) if planner.bracket_nodes else None
+    if cut is not None:
+        return cut
     budget = min(planner.bracket_beliefs * P.shape[1] * max(1, problem.horizon - 2), BRACKET_MAX_BELIEFS)
     return Closer(P, problem.initial, getattr(oracle, "beliefs", None), budget, planner.bracket_grid)
 
@@ -55,7 +64,7 @@ def closes(settings: LearnerSettings) -> bool:
     return closes_bracket(settings.options.planner)
 
 
-def bracket_info(res, settings: LearnerSettings, targets: np.ndarray, close: Closer | None, exact=None) -> dict:
+def bracket_info(res, settings: LearnerSettings, targets: np.ndarray, close: Closer | CutCloser | None, exact=None) -> dict:
     """The metrics of the bracket [L, U] on min f: ``minimum_bracket``, ``bracket_relative_gap``,
     ``answer_upper`` (f at the learned w is at most it, whatever the adversary's policy; U, the
     smallest such bound found at any w, may be lower), the beliefs its last call backed up and the strategies it added; and ``planner_resolution``, how
@@ -90,9 +99,7 @@ def bracket_info(res, settings: LearnerSettings, targets: np.ndarray, close: Clo
         return info  # the fit's own check (pbvi.check_rounds) measures PBVI's resolution
     checked = max(res.objective, close.last.lower + answer_penalty(targets, res, settings.certified)) if res.upper_rewards is not None else res.objective
     return info | {
-        "bracket_beliefs": int(close.last.beliefs),
-        "bracket_grid_resolution": close.resolution,
-        "bracket_calls": int(close.calls),
+        **close.metrics(),
         "close_steps": int(res.close_steps),
         "checked_objective": float(checked),
         "checked_relative_gap": relative_width(res.lower, checked),
@@ -122,8 +129,9 @@ def certificate_line(info: dict, tol: float) -> str:
 def narrower(info: dict) -> str:
     """What narrows a fit's bracket (its metrics ``info``), in a phrase: the budget the fit stopped
     at (its iteration cap, its time); closing it where the fit did not (a Markov adversary's game,
-    the bracket turned off); else the grid's budget where the bracket had a grid of beliefs (its
-    resolution limits both sides there: the bound and the responses), else the bracket's beliefs."""
+    the bracket turned off); else the cut count program's nodes where it closed the bracket, the
+    grid's budget where the bracket had a grid of beliefs (its resolution limits both sides there:
+    the bound and the responses), else the bracket's beliefs."""
     if info.get("stopped") == "max_seconds":
         return f"the fit stopped at its time limit, optim.max_seconds = {info.get('max_seconds', 0):g}; a longer one narrows it"
     if info.get("stopped") == "max_iterations":
@@ -132,8 +140,11 @@ def narrower(info: dict) -> str:
         return "the Markov adversary's game is bracketed at its answer, not closed"
     if "minimum_bracket" not in info:
         return "pbvi.bracket_beliefs=0 turns the bracket off" if info.get("planner") == "pbvi" else "the fit stopped before its exact part"
+    setting = "pbvi.bracket_nodes" if "bracket_cut_layers" in info else "pbvi.bracket_grid" if info.get("bracket_grid_resolution") else "pbvi.bracket_beliefs"
     if info.get("close_steps", 0) >= MAX_CLOSE_STEPS:
-        return f"the fit took its {MAX_CLOSE_STEPS} closing steps; a larger pbvi.bracket_grid narrows it" if info.get("bracket_grid_resolution") else f"the fit took its {MAX_CLOSE_STEPS} closing steps; a larger pbvi.bracket_beliefs narrows it"
+        return f"the fit took its {MAX_CLOSE_STEPS} closing steps; a larger {setting} narrows it"
+    if "bracket_cut_layers" in info:
+        return f"a larger pbvi.bracket_nodes narrows it (the count program ran exactly over {info['bracket_cut_layers']} of its layers, {info['bracket_cut_nodes']:,} nodes)"
     if info.get("bracket_grid_resolution"):
         return f"a larger pbvi.bracket_grid narrows it (its grid of beliefs had resolution {info['bracket_grid_resolution']})"
     return "a larger pbvi.bracket_beliefs narrows it"

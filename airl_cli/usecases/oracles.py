@@ -113,6 +113,8 @@ def certificate(relative_gap: float, tol: float, converged: bool, oracle: str, c
         text = f"NOT converged: the iteration cap was reached with relative gap {relative_gap:.2g} (tolerance {tol:g})"
     elif oracle == "grid":  # a closing fit (optim.bracket_tol) answered with the bracket's belief grid's policy
         text = f"optimal to {tol:g} against the best responses of the bracket's belief grid (relative gap {relative_gap:.2g})"
+    elif oracle == "counts_cut":  # a closing fit answered by the count program cut at a layer (``core.irl.cut_closer``)
+        text = f"optimal to {tol:g} against the best responses of the count program cut at a layer (relative gap {relative_gap:.2g})"
     elif oracle == "pbvi":
         text = f"optimal to {tol:g} against PBVI's best responses (relative gap {relative_gap:.2g})"
         if relative_gap < -1e-9:

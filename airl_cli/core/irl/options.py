@@ -21,6 +21,10 @@ BRACKET_BELIEFS = 20
 #: ... and in all at most (a large grid's bracket stays a few seconds and a few hundred MB).
 BRACKET_MAX_BELIEFS = 200_000
 
+#: The count program that closes the bracket where the moves are of a few kinds holds at most this
+#: many (t, s, count) nodes by default (``PlannerOptions.bracket_nodes``; the exact program's own limit, ``counts.MAX_NODES``).
+BRACKET_NODES = 100_000_000
+
 #: The most PBVI iterations a configuration may ask for: up to 2^(iterations-1) belief points each.
 PBVI_MAX_ITERATIONS = 20
 
@@ -51,6 +55,9 @@ class PlannerOptions:
     bracket_grid: the bracket's grid of beliefs (``core.mmdp.grid_bound``, on MDPs whose moves are not
         of a few kinds) holds at most this many posteriors (S * A * R per grid point), which sets
         its resolution; a closing fit's responses start on a quarter of it. 0: no grid.
+    bracket_nodes: where the moves are of a few kinds but the whole count program is too large for
+        the horizon, the bracket is the count program cut after as many layers as fit in this many
+        (t, s, count) nodes (``core.irl.cut_closer``; more: narrower, slower); 0: the belief bracket there too.
     sharpen_rounds: when > 0, each time the certified learner's gap meets the tolerance, the fit's
         belief set grows by this many such rounds at the best bound's rewards, and the fit goes on
         while that raises the bound (``certified.minimize``'s ``sharpen``); 0 keeps the set fixed.
@@ -70,6 +77,7 @@ class PlannerOptions:
     sharpen_rounds: int = 0
     bracket_beliefs: int = BRACKET_BELIEFS
     bracket_grid: int = GRID_WORK
+    bracket_nodes: int = BRACKET_NODES
 
 
 #: The planners whose best responses are exact (``PlannerOptions.method``): enumeration of the

@@ -194,7 +194,7 @@ def _certified(problem: GameProblem, targets: np.ndarray, settings: Airl, rng: n
     h = res.history
     planner = settings.options.planner
     zero = bool(res.converged and not np.any(res.weights))  # certified by the exact bound on f(0)
-    name = "exact" if zero else "grid" if close is not None and close.answered_on_grid else oracle_name(planner)
+    name = "exact" if zero else (close.response_name() if close is not None else None) or oracle_name(planner)
     bracketed = bracket_info(res, settings, targets, bracketer, oracle.exact if isinstance(oracle, PBVIThenExact) and oracle.switched else None)
     check = {} if "planner_resolution" in bracketed else _planner_check(problem, targets, res, settings, rng, oracle, grown=sharpen is not None)
     tol = settings.certified.tol

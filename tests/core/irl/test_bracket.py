@@ -274,6 +274,16 @@ def test_without_a_grid_budget_the_closer_builds_no_grid():
     assert without.last.lower <= with_grid.last.upper + 1e-9 and with_grid.last.lower <= without.last.upper + 1e-9
 
 
+class _Sets:
+    """The strategy sets as ``bracket.closed`` sees them: the adversary strategies added."""
+
+    def __init__(self):
+        self.added = []
+
+    def add_adversary(self, marginals):
+        self.added.append(marginals)
+
+
 def test_a_closing_step_stops_the_fit_once_the_bracket_is_as_narrow_as_asked():
     """``bracket.closed``: a bracket's policy that beats the fit's bound at its w by more than the
     closing share goes into the game (the fit goes on) while [L, U] is wider than ``bracket_tol``,
@@ -281,24 +291,37 @@ def test_a_closing_step_stops_the_fit_once_the_bracket_is_as_narrow_as_asked():
     from airl_cli.core.irl.bracket import closed
     from airl_cli.core.irl.run_bounds import Run
 
-    class Sets:
-        def __init__(self):
-            self.added = []
-
-        def add_adversary(self, marginals):
-            self.added.append(marginals)
-
     C, lam, w = np.array([1.0, -1.0]), 0.1, np.array([0.5, 0.5])
     reg = penalty(w, C, lam)  # -0 + 0.025
     marginals = np.ones((2, 3, 4))
     for lower, goes_on in ((9.0, True), (9.995, False)):
         run = Run(best_w=w, upper=10.0, lower=lower, upper_rewards=np.zeros((2, 3, 4)))
-        sets = Sets()
+        sets = _Sets()
         # the bracket's policy: 10.004 at w (0.4 of the wanted width above the fit's bound), its upper side 10.005
         out = closed(sets, lambda R, target: (10.004 - reg, marginals, 10.005 - reg), run, C, lam, 1e-6, 1e-3, 7)
         assert out is goes_on and len(sets.added) == int(goes_on)
         assert run.bracket_upper == pytest.approx(10.005)
         assert run.upper == (pytest.approx(10.004) if goes_on else 10.0)  # raised only where the policy joins the game
+
+
+def test_a_closing_step_whose_own_bracket_is_wider_than_asked_adds_its_policy_only_where_it_gains_more_than_that_width():
+    """``bracket.closed``: where the planner's own bracket at the point (its upper side minus its
+    policy's value) is wider than the wanted width, no closing step can close [L, U]; its policy still
+    joins the game where it beats the fit's bound by more than that bracket's width (the fit's answer
+    is then worse than the planner can tell), and the fit stops where it gains less."""
+    from airl_cli.core.irl.bracket import closed
+    from airl_cli.core.irl.run_bounds import Run
+
+    C, lam, w = np.array([1.0, -1.0]), 0.1, np.array([0.5, 0.5])
+    reg = penalty(w, C, lam)
+    marginals = np.ones((2, 3, 4))
+    # the wanted width is 1e-3 of 10: the planner's bracket at w is [value, 10.5], 0.5 wide or less
+    for value, goes_on in ((10.3, True), (10.1, False), (10.2 - 1e-9, False)):
+        run = Run(best_w=w, upper=10.0, lower=9.0, upper_rewards=np.zeros((2, 3, 4)))
+        sets = _Sets()
+        out = closed(sets, lambda R, target: (value - reg, marginals, 10.5 - reg), run, C, lam, 1e-6, 1e-3, 7)
+        assert out is goes_on and len(sets.added) == int(goes_on)
+        assert run.bracket_upper == pytest.approx(10.5)  # the upper side is kept either way
 
 
 def test_a_closing_step_brackets_nothing_where_an_earlier_bracket_is_already_narrow_enough():
