@@ -106,7 +106,7 @@ class CutCloser:
                 self._respond_program = None  # the smaller program freed before the next is built
                 self._respond_program = self._built(layers)
             program = self._respond_program
-        cut = cut_response(self._dyn, L, self._p0, layers=program.horizon, program=program)
+        cut = cut_response(self._dyn, L, self._p0, layers=program.horizon, program=program, upper=False)  # the policy alone
         return cut.value, cut.marginals
 
     def metrics(self) -> dict:

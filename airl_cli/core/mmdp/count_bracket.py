@@ -35,7 +35,7 @@ from math import comb
 import numpy as np
 
 from airl_cli.core.mdp.sparse import SparseDynamics
-from airl_cli.core.mmdp.counts import MAX_NODES, CountProgram, move_kinds, n_nodes
+from airl_cli.core.mmdp.counts import MAX_NODES, CountProgram, action_free, move_kinds, n_nodes
 from airl_cli.core.mmdp.policy_graph import LayeredRewards
 
 #: At each node of layer t0, the lower terminal value tries the optimal policies of this many of
@@ -126,12 +126,13 @@ class CutResponse:
 
 
 def cut_response(dyn: SparseDynamics, L: LayeredRewards, p0: np.ndarray, prior: np.ndarray | None = None, *, layers: int,
-                 program: CountProgram | None = None) -> CutResponse:
+                 program: CountProgram | None = None, upper: bool = True) -> CutResponse:
     """The policy of the count program cut after ``layers`` layers (2 <= layers <= T; module docstring):
     its exact value, per-model returns and marginals, and the cut's upper bound on the optimum of
     eq. 6.1 (the prior-weighted sum of the models' returns; the plain sum when ``prior`` is None).
     ``program``: the cut program, built once for these dynamics, layers and prior (it does not
-    depend on the rewards); built here when None.
+    depend on the rewards); built here when None. ``upper`` False: the policy alone, its upper side
+    +inf (one backward pass instead of two: a fit's best responses, ``core.irl.cut_closer``).
 
     Raises:
         ValueError: where the moves are of too many kinds for a count program.
@@ -154,23 +155,26 @@ def cut_response(dyn: SparseDynamics, L: LayeredRewards, p0: np.ndarray, prior: 
     own, policies = _own_optimum(dyn, L, t0)  # (M, S), (M, T-1-t0, S)
     b = program.last_beliefs  # (C, M)
     step = L.step[:, :t0]
-    upper = _root(program, step, (b @ own).T, p0) * scale
+    bound = _root(program, step, (b @ own).T, p0) * scale if upper else np.inf
     follow = np.stack([_policy_value(dyn, L, t0, policies[k]) for k in range(M)])  # (K = M, M, S)
     W, choice = _best_candidates(b, follow)
     _, actions = program.backward(step, W)
     before = LayeredRewards(np.ascontiguousarray(step), np.zeros((M, S)))
-    values, head, (states, index, mass) = program.forward(actions, p0, before)  # up to layer t0
+    held = program.absorbing & action_free(before)  # an episode's end: its mass held per model up to t0 (``counts._forward``)
+    values, head, (states, index, mass) = program.forward(actions, p0, before, collapse=held)  # up to layer t0
     marginals = np.zeros((M, T, S))
     marginals[:, : t0 + 1] = head
     chosen = choice[states, index]  # (n,) each reached node's candidate
-    for k in np.unique(chosen):
-        start = np.zeros((M, S))
+    kept = np.where(held[None, :], head[:, t0], 0.0)  # (M, S) the held mass at t0: it stays whatever the policy
+    candidates = np.unique(chosen) if chosen.size or not kept.any() else np.zeros(1, np.int64)
+    for k in candidates:
+        start = kept.copy() if k == candidates[0] else np.zeros((M, S))
         np.add.at(start.T, states[chosen == k], mass[chosen == k])
         earned, tail = _policy_marginals(dyn, L, t0, policies[k], start)
         values = values + earned
         marginals[:, t0 + 1 :] += tail[:, 1:]
     value = objective(values)
-    return CutResponse(min(value, upper), max(value, upper), values, marginals, layers, program.n_nodes)
+    return CutResponse(min(value, bound), max(value, bound), values, marginals, layers, program.n_nodes)
 
 
 def _policy_marginals(dyn: SparseDynamics, L: LayeredRewards, t0: int, policy: np.ndarray, start: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -183,12 +183,14 @@ class CountProgram:
                 W, actions[t] = _backup(self.reach, self.scale, self.kind, self.beliefs_T[t], at, Wk, one)
         return W, actions
 
-    def forward(self, actions: list[np.ndarray], p0: np.ndarray, L: LayeredRewards):
+    def forward(self, actions: list[np.ndarray], p0: np.ndarray, L: LayeredRewards, collapse: np.ndarray | None = None):
         """The policy ``actions`` (per layer t < L.horizon - 1, (S, C_t)) pushed forward from p0 over
         the layers of ``L`` (at most the program's): (each model's return (M,), marginals (M, T, S), the
-        last layer's nodes reached as (states, count-vector indices, masses (n, M)))."""
+        last layer's nodes reached as (states, count-vector indices, masses (n, M))). ``collapse``
+        (S,) bool or None: states whose mass is held per model (``_forward``); the last layer's nodes
+        then leave them out, and their mass there is the marginals'."""
         return forward_nodes(self.reach, self.probs, self.kinds.kind, self.successor, actions, np.asarray(p0, dtype=np.float64), L,
-                             *self._forward_scratch())
+                             *self._forward_scratch(), collapse)
 
     def solve(self, L: LayeredRewards, p0: np.ndarray) -> CountSolution:
         """The optimal policy for the rewards ``L`` (its horizon the program's) from p0 (S,)."""
@@ -269,8 +271,8 @@ def _forward(reach, probs, kind, successor, actions, p0, L: LayeredRewards, seen
 def forward_nodes(reach, probs, kind, successor, actions, p0, L: LayeredRewards, seen, acc, collapse=None):
     """``_forward``'s pass, and the last layer's nodes it reaches: (values (M,), marginals (M, T, S),
     (states (n,), count-vector indices (n,), masses (n, M))), T = ``L.horizon`` (a count program cut
-    at layer T - 1 pushes its nodes on with other policies: ``count_bracket.cut_response``; that
-    caller passes no ``collapse``: the last layer's nodes are then every node reached)."""
+    at layer T - 1 pushes its nodes on with other policies: ``count_bracket.cut_response``, which
+    adds the mass held in the collapsed states at the last layer, the marginals', to them)."""
     M, S = probs.shape[0], probs.shape[1]
     T = L.horizon
     kept = np.zeros(S, np.bool_) if collapse is None else np.asarray(collapse, dtype=np.bool_)

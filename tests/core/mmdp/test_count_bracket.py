@@ -159,3 +159,37 @@ def test_the_cut_policy_s_returns_and_marginals_are_a_policy_s_by_simulation():
                     marginals[:, t, states[t]] += prob
     assert np.allclose(cut.values, values, atol=1e-10)
     assert np.allclose(cut.marginals, marginals, atol=1e-12)
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_the_cut_s_policy_holds_an_episode_s_end_per_model_with_the_values_and_marginals_of_every_node(seed, monkeypatch):
+    """``cut_response`` pushes its policy forward holding the mass of absorbing states with rewards of
+    states per model, not per node (``counts._forward``), and hands that mass to the policies after the
+    cut: its value and marginals are those of a pass over every node (to rounding), and its value is
+    its marginals' (the lower side is a policy's value)."""
+    from airl_cli.core.mmdp import count_bracket, counts
+    from airl_cli.core.mmdp.count_bracket import cut_response
+
+    rng = np.random.default_rng(seed)
+    M, S, A, T = 3, 4, 2, 6
+    P = rng.dirichlet(np.full(S, 0.5), size=(M, S, A))
+    ends = rng.choice(S, size=int(rng.integers(1, 3)), replace=False)
+    P[:, ends] = 0.0
+    P[:, ends, :, ends] = 1.0
+    R = rng.normal(size=(M, T, S))
+    p0 = rng.dirichlet(np.ones(S))
+    dyn = sparse_dynamics(P)
+    L = layered_rewards(dyn, R)
+    kinds = move_kinds(dyn, S * A * S)
+    for layers in (2, 3, 5):
+        program = counts.CountProgram(dyn, kinds, layers, np.full(M, 1.0 / M))
+        assert set(np.flatnonzero(program.absorbing)) == set(ends)
+        held = cut_response(dyn, L, p0, layers=layers, program=program)
+        with monkeypatch.context() as m:
+            m.setattr(count_bracket, "action_free", lambda L: np.zeros(L.step.shape[2], dtype=bool))  # every node pushed
+            every = cut_response(dyn, L, p0, layers=layers, program=program)
+        assert np.allclose(held.values, every.values, rtol=1e-12, atol=1e-12)
+        assert np.allclose(held.marginals, every.marginals, rtol=1e-12, atol=1e-13)
+        assert held.upper == every.upper
+        assert held.value == pytest.approx(np.einsum("jts,jts->", R, held.marginals), abs=1e-12)
+        assert held.value <= solve_counts(dyn, R, p0, max_kinds=S * A * S).value + 1e-9 <= held.upper + 2e-9
