@@ -100,7 +100,7 @@ def oracle_name(planner: PlannerOptions) -> str:
     return "cadp" if planner.adversary == "markov" and planner.method != "exact" else planner.method
 
 
-def certificate(relative_gap: float, tol: float, converged: bool, oracle: str, check: dict | None = None, *, sharpened: bool = False) -> str:
+def certificate(relative_gap: float, tol: float, converged: bool, oracle: str, check: dict | None = None, *, sharpened: bool = False, stopped: str = "max_iterations") -> str:
     """One phrase for the summary: how far from the minimum the fit is proven to be.
 
     The bounds are exact when the adversary's oracle is (pbvi.method=exact, counts). PBVI's best response
@@ -108,9 +108,11 @@ def certificate(relative_gap: float, tol: float, converged: bool, oracle: str, c
     and a negative gap shows that PBVI missed better adversary strategies. ``check``
     (``_planner_check``) says what a finer PBVI's bound at the answer makes of the gap, and, unless
     the fit ``sharpened`` its own belief set already, how to make the certificate hold against it.
+    ``stopped`` names the cap that ended a fit that did not converge (``core.irl.certified_answer.CAPS``).
     """
     if not converged:
-        text = f"NOT converged: the iteration cap was reached with relative gap {relative_gap:.2g} (tolerance {tol:g})"
+        cap = "the time limit (optim.max_seconds)" if stopped == "max_seconds" else "the iteration cap"
+        text = f"NOT converged: {cap} was reached with relative gap {relative_gap:.2g} (tolerance {tol:g})"
     elif oracle == "grid":  # a closing fit (optim.bracket_tol) answered with the bracket's belief grid's policy
         text = f"optimal to {tol:g} against the best responses of the bracket's belief grid (relative gap {relative_gap:.2g})"
     elif oracle == "counts_cut":  # a closing fit answered by the count program cut at a layer (``core.irl.cut_closer``)

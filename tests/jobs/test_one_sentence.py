@@ -157,6 +157,13 @@ def test_the_certificate_never_says_nothing_better_when_the_checked_gap_is_above
     assert "finds nothing better at the answer" in text
 
 
+def test_the_certificate_of_an_unfinished_fit_names_the_cap_that_stopped_it():
+    from airl_cli.usecases.oracles import certificate
+
+    assert "the time limit (optim.max_seconds) was reached" in certificate(5.8e-3, 2.5e-4, False, "pbvi", stopped="max_seconds")
+    assert "the iteration cap was reached" in certificate(5.8e-3, 2.5e-4, False, "pbvi", stopped="max_iterations")
+
+
 def test_sweep_help_shows_no_unresolved_interpolation():
     result = runner.invoke(app, ["sweep", "--help"])
     assert result.exit_code == 0 and "${" not in result.output and "eps_L = 0.0" in result.output

@@ -216,7 +216,7 @@ def _certified(problem: GameProblem, targets: np.ndarray, settings: Airl, rng: n
         "planner_reason": reason,
         "oracle": oracle_name(planner),
         "adversary": planner.adversary, "best_responses": name,
-        "planner_certificate": certificate(res.relative_gap, res.tol, res.converged, name, check, sharpened=sharpen is not None),
+        "planner_certificate": certificate(res.relative_gap, res.tol, res.converged, name, check, sharpened=sharpen is not None, stopped=res.stopped),
         "zero_answer": zero,
         "iterations": int(h["iteration"][-1]),
         "planner_calls": int(h["planner_calls"][-1]),
