@@ -190,7 +190,8 @@ def _certified(problem: GameProblem, targets: np.ndarray, settings: Airl, rng: n
     bracketer = closer(problem, oracle, settings)
     close = bracketer if closes(settings) else None
     fit_oracle = oracle if close is None else closing_oracle(oracle, close)
-    res = minimize(problem, targets, fit_oracle, screen=screen, options=settings.certified, callback=callback, sharpen=sharpen, sharpen_within=sharpen_within, close=close)
+    fit_screen = screen if close is None else close.screen(oracle, screen)
+    res = minimize(problem, targets, fit_oracle, screen=fit_screen, options=settings.certified, callback=callback, sharpen=sharpen, sharpen_within=sharpen_within, close=close)
     h = res.history
     planner = settings.options.planner
     zero = bool(res.converged and not np.any(res.weights))  # certified by the exact bound on f(0)

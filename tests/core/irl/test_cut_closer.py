@@ -51,6 +51,7 @@ def test_a_fit_closed_by_a_cut_program_brackets_the_minimum_the_exact_planner_ce
     assert lo <= up_x + 1e-9 and lo_x <= up + 1e-9  # both brackets hold the minimum
     assert cut.info["bracket_cut_layers"] == 2 and cut.info["bracket_calls"] >= 1 and cut.info["best_responses"] == "counts_cut"
     assert "bracket_beliefs" not in cut.info
+    assert cut.info["screen_calls"] > 0  # PBVI screened the cut program's responses (``CutCloser.screen``)
 
 
 def test_the_responses_program_grows_where_a_closing_step_s_policy_beats_theirs_by_the_wanted_width():
