@@ -108,9 +108,7 @@ class CutCloser:
         L = layered_rewards(self._dyn, R)
         layers = min(self.respond_layers, L.horizon)
         if layers == min(self.layers, L.horizon):  # the bracket's own program
-            if self.program is None:
-                self.program = self._built(layers)
-            program = self.program
+            program = self._bracket_program(L.horizon)
         else:
             if self._respond_program is None or self._respond_program.horizon != layers:
                 self._respond_program = None  # the smaller program freed before the next is built
@@ -124,6 +122,12 @@ class CutCloser:
         calls, and the exact layers of the responses' last program."""
         return {"bracket_cut_layers": int(self.layers if self.program is None else self.program.horizon), "bracket_cut_nodes": self.nodes,
                 "bracket_calls": self.calls, "response_cut_layers": int(self.respond_layers)}
+
+    def _bracket_program(self, horizon: int) -> CountProgram:
+        """The bracket's program over ``layers`` layers (at most ``horizon``), built at its first call."""
+        if self.program is None:
+            self.program = self._built(min(self.layers, horizon))
+        return self.program
 
     def _built(self, layers: int) -> CountProgram:
         """The count program of the fit's dynamics over ``layers`` layers, the models weighed alike."""
@@ -142,9 +146,8 @@ class CutCloser:
         """The bracket on the adversary's best value at rewards R (M, T, S) (``target`` is not used:
         the cut's width is set by its layers)."""
         L = layered_rewards(self._dyn, R)
-        if self.program is None:
-            self.program = self._built(min(self.layers, L.horizon))
-        cut = cut_response(self._dyn, L, self._p0, layers=self.program.horizon, program=self.program)
+        program = self._bracket_program(L.horizon)
+        cut = cut_response(self._dyn, L, self._p0, layers=program.horizon, program=program)
         self.last = CutBracket(cut.value, cut.upper, cut.marginals)  # no prior: the sum over the models, as the fit's
         self.calls += 1
         return self.last
