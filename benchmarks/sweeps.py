@@ -302,6 +302,62 @@ def certificates_reading(folders: dict[str, Path]) -> dict:
             "widest": None if widest is None else {"width": float(width.max()), "sweep": widest["sweep"], "x": float(widest["x"])}}
 
 
+def weight_region(folder: Path) -> list[dict]:
+    """Where the bracket puts eq. 5.9's minimiser w*, for each certified fit of the thesis's method in
+    the sweep's folder that has a bracket (``answer_upper``): f is lambda-strongly convex, so
+    lambda/2 |w - w*|^2 <= f(w) - f* <= answer_upper - L at the learned w, and w* lies within
+    delta = sqrt(2 (answer_upper - L) / lambda) of it (the QP's own w: one row with weight sharing,
+    every row otherwise). One dict per fit: delta, |w| and the job's folder name."""
+    import yaml
+
+    out = []
+    for job in sorted(p for p in folder.iterdir() if (p / "metrics.json").is_file() and (p / "weights.json").is_file()):
+        metrics = json.loads((job / "metrics.json").read_text())
+        if metrics.get("optimizer") != "exact" or "answer_upper" not in metrics:
+            continue
+        config = yaml.safe_load((job / "config.yaml").read_text())
+        if config["method"]["name"] != METHOD:
+            continue
+        stored = json.loads((job / "weights.json").read_text())
+        rows = stored["weights"][:1] if stored.get("shared") else stored["weights"]
+        norm = sum(x * x for row in rows for x in row) ** 0.5
+        width = max(float(metrics["answer_upper"]) - float(metrics["lower_bound"]), 0.0)
+        out.append({"job": job.name, "delta": (2.0 * width / float(config["optim"]["lam"])) ** 0.5, "norm": norm})
+    return out
+
+
+def weight_region_reading(folders: dict[str, Path], default: tuple[str, ...] = ()) -> dict:
+    """Over the certified fits of the given sweeps (``weight_region``): how many, the median of
+    delta / |w| (delta, how far from the learned w the bracket allows the minimiser), how many fits
+    have delta < |w| (the bracket bounds the minimiser's direction: within arcsin(delta / |w|) of
+    w's) and delta < sin(10 degrees) |w| (within 10 degrees), per sweep the median ratio, and the
+    sweeps among ``default`` (the default readings') with the smallest and the largest median."""
+    import math
+    import statistics
+
+    per = {key: weight_region(f) for key, f in folders.items()}
+    ratios = {key: [r["delta"] / r["norm"] if r["norm"] > 0 else math.inf for r in fits] for key, fits in per.items()}
+    every = [x for xs in ratios.values() for x in xs]
+    if not every:
+        return {"fits": 0}
+    return {"fits": len(every), "median_ratio": statistics.median(every),
+            "bounded": sum(x < 1.0 for x in every), "within_10": sum(x < math.sin(math.radians(10.0)) for x in every),
+            "sweeps": {key: {"fits": len(xs), "median_ratio": statistics.median(xs), "bounded": sum(x < 1.0 for x in xs)}
+                       for key, xs in ratios.items() if xs},
+            "least": _extreme(ratios, default, min), "most": _extreme(ratios, default, max)}
+
+
+def _extreme(ratios: dict[str, list[float]], keys: tuple[str, ...], pick) -> dict | None:
+    """The sweep among ``keys`` whose median ratio ``pick`` (min or max) chooses: its key and median."""
+    import statistics
+
+    medians = {k: statistics.median(ratios[k]) for k in keys if ratios.get(k)}
+    if not medians:
+        return None
+    key = pick(medians, key=medians.get)
+    return {"sweep": key, "median_ratio": medians[key]}
+
+
 def _number(value) -> float | None:
     """A table's value as a JSON number (None for NaN)."""
     value = float(value)
@@ -569,6 +625,8 @@ def main() -> None:
         print(f"    {head['jobs']} jobs in {seconds / 60:.1f} minutes ({head['folder']})", flush=True)
     thesis_and_variants = {k: ROOT / e["folder"] for k, e in record["sweeps"].items() if e["group"] in ("thesis", "variants") and e["whole"]}
     record["certificates"] = certificates_reading(thesis_and_variants) if thesis_and_variants else None
+    thesis = tuple(k for k, e in record["sweeps"].items() if e["group"] == "thesis")
+    record["weight_region"] = weight_region_reading(thesis_and_variants, thesis) if thesis_and_variants else None
     args.json.write_text(json.dumps(record, indent=1) + "\n")
     if args.report is not None:
         report = [sys.executable, "-m", "airl_cli", "report", "results/sweeps", "--out", str(args.report.resolve()), "--profile", args.profile]

@@ -196,6 +196,40 @@ def test_the_certificates_reading_counts_closed_brackets_over_sweeps(tmp_path):
     assert r == {"fits": 3, "closed": 2, "widest": {"width": 0.07, "sweep": "fig05", "x": 3.0}}
 
 
+def test_the_weight_region_reading_against_hand_computed_radii(tmp_path):
+    """benchmarks/sweeps.py: delta = sqrt(2 (answer_upper - L) / lambda) against |w| (one row of w
+    with weight sharing, every row without), per fit with a bracket; gradient fits, fits without a
+    bracket and other methods left out; the default readings' extremes by their median ratio."""
+    import json
+    import math
+
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    import sweeps
+
+    def job(folder, name, method="airl", optimizer="exact", lam=0.01, shared=True, weights=((3.0, 4.0), (3.0, 4.0)), bracket=(1.0, 1.0005)):
+        path = folder / name
+        path.mkdir(parents=True)
+        metrics = {"optimizer": optimizer, **({"lower_bound": bracket[0], "answer_upper": bracket[1]} if bracket else {"lower_bound": 1.0})}
+        (path / "metrics.json").write_text(json.dumps(metrics))
+        (path / "weights.json").write_text(json.dumps({"shared": shared, "weights": [list(r) for r in weights]}))
+        (path / "config.yaml").write_text(f"method:\n  name: {method}\noptim:\n  lam: {lam}\n")
+
+    a, b = tmp_path / "a", tmp_path / "b"
+    job(a, "s0")  # delta = sqrt(2 * 5e-4 / 0.01) = sqrt(0.1), |w| = 5
+    job(a, "s1", shared=False, weights=((3.0, 4.0), (0.0, 0.0)), bracket=(2.0, 2.125), lam=0.05)  # delta = sqrt(5), |w| = 5
+    job(a, "gradient", optimizer="gradient")
+    job(a, "open", bracket=None)
+    job(b, "mce", method="mce")
+    job(b, "s0", weights=((0.3, 0.4), (0.3, 0.4)), bracket=(1.0, 1.08))  # delta = 4, |w| = 0.5
+    assert [round(r["delta"] ** 2, 12) for r in sweeps.weight_region(a)] == [0.1, 5.0]
+    r = sweeps.weight_region_reading({"fig05": a, "fig07": b}, ("fig05", "fig07"))
+    ratios = sorted([math.sqrt(0.1) / 5, math.sqrt(5) / 5, 8.0])
+    assert r["fits"] == 3 and r["bounded"] == 2 and r["within_10"] == 1
+    assert math.isclose(r["median_ratio"], ratios[1])
+    assert r["least"] == {"sweep": "fig05", "median_ratio": sweeps.weight_region_reading({"x": a})["median_ratio"]}
+    assert r["most"]["sweep"] == "fig07" and math.isclose(r["most"]["median_ratio"], 8.0)
+
+
 def test_the_sweeps_script_names_a_missing_extra_before_running_anything(monkeypatch):
     """Without gymnasium and seals every job of frozenlake, cliffworld and transfer stops on bad input
     (a full run found it 41 sweeps in): the script says so first, in one sentence."""

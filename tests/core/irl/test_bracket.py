@@ -40,6 +40,27 @@ def test_the_minimum_lies_in_the_bracket_with_the_default_planner(seed, S, share
     w = res.weights[0] if shared else res.weights.reshape(-1)
     assert f_star - 1e-7 <= f_brute(w, L, Phi, C, lam) <= res.answer_upper + 1e-7
     assert res.bracket_upper <= res.answer_upper
+    # what the bracket says of the minimiser (docs/method.md, "What the bracket does not fix: w"):
+    # f is lambda-strongly convex, so w* lies within sqrt(2 (answer_upper - L) / lambda) of w
+    w_star = brute_minimum(L, Phi, C, lam)[0]
+    assert np.linalg.norm(w - w_star) <= np.sqrt(2.0 * max(res.answer_upper - res.lower, 0.0) / lam) + 1e-5
+
+
+def test_a_loosely_closed_bracket_places_the_minimiser_within_its_radius():
+    """docs/method.md, "What the bracket does not fix: w": at a loose tolerance the learned w lies
+    well away from the enumerated minimiser w*, and still within sqrt(2 (answer_upper - L) / lambda)
+    of it; on this game f grows only quadratically away from w*, so the radius from f(w) - f* itself
+    is the distance: the bound is reached up to the bracket's width."""
+    problem, targets = tiny(1, S=3, loss="zero_one")
+    lam = 0.005
+    L, Phi, C = enumerated_game(problem, targets, False)
+    w_star, f_star = brute_minimum(L, Phi, C, lam)
+    oracle = make_oracle(problem, PlannerOptions(), np.random.default_rng(0))[0]
+    res = minimize(problem, targets, oracle, options=CertifiedOptions(weight_sharing=False, lam=lam, tol=1e-2), close=_closer(problem))
+    w = res.weights.reshape(-1)
+    distance, delta = np.linalg.norm(w - w_star), np.sqrt(2.0 * max(res.answer_upper - res.lower, 0.0) / lam)
+    assert 1.0 < distance <= delta  # measured: 1.77 and 3.71, |w*| = 69.7
+    assert np.isclose(np.sqrt(2.0 * (f_brute(w, L, Phi, C, lam) - f_star) / lam), distance, rtol=1e-3)
 
 
 def _single_belief_oracle(problem):
