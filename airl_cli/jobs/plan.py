@@ -89,6 +89,7 @@ def main(cfg: DictConfig, plan: PlanInput) -> dict:
         "each_model_known": None if br is None else br.corner,
         "bracket_beliefs": None if br is None else br.beliefs,
         "bracket_count_layers": None if br is None else br.count_layers,
+        "bracket_tol": settings.bracket_tol,
     }
     save_policy(folder / "policy.npz", result)
     write_json(folder / "plan.json", record)
@@ -106,7 +107,10 @@ def main(cfg: DictConfig, plan: PlanInput) -> dict:
         how += [f"the count program exact over {br.count_layers} of {settings.horizon + 1} layers"] if br.count_layers else []
         how += [f"with each model known: {br.corner:.4f}"] if br.corner is not None else []
         width = max(0.0, br.upper - br.lower) / max(1.0, abs(br.upper))  # a closed bracket's sides may cross by rounding
-        lines.append(f"  the optimum on the training models lies in [{br.lower:.4f}, {br.upper:.4f}] whatever the planner (relative width {width:.2g}; {'; '.join(how)})")
+        within = f"within plan.bracket_tol = {settings.bracket_tol:g}" if width <= settings.bracket_tol else f"wider than plan.bracket_tol = {settings.bracket_tol:g}"
+        lines.append(f"  the optimum on the training models lies in [{br.lower:.4f}, {br.upper:.4f}] whatever the planner (relative width {width:.2g}, {within}; {'; '.join(how)})")
+        if width > settings.bracket_tol and settings.bracket_beliefs > 0:
+            lines.append(f"  the bracket stopped at its budget of beliefs (plan.bracket_beliefs = {settings.bracket_beliefs:,} per state and decision): a larger plan.bracket_beliefs narrows it")
     out_console.print("\n".join(lines), soft_wrap=True)
     out_console.print(f"wrote {folder / 'plan.json'} and {folder / 'policy.npz'}", soft_wrap=True)
     return record

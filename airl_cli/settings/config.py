@@ -346,6 +346,8 @@ def fit_settings(cfg: DictConfig | Mapping) -> FitSettings:
 
 #: ``plan.bracket_nodes`` by default: the cut count program's nodes (riverswim: 26 of its 51 layers).
 PLAN_BRACKET_NODES = 20_000_000
+#: ``plan.bracket_tol`` by default: the relative width at which the bracket on the optimum stops.
+PLAN_BRACKET_TOL = 1e-4
 
 
 @dataclass(frozen=True)
@@ -362,6 +364,7 @@ class PlanSettings:
     bracket_beliefs: int = BRACKET_BELIEFS
     bracket_grid: int = GRID_WORK
     bracket_nodes: int = PLAN_BRACKET_NODES
+    bracket_tol: float = PLAN_BRACKET_TOL
 
 
 def plan_settings(cfg: DictConfig | Mapping) -> PlanSettings:
@@ -384,6 +387,7 @@ def plan_settings(cfg: DictConfig | Mapping) -> PlanSettings:
         bracket_beliefs=p.int("bracket_beliefs", lo=0, default=BRACKET_BELIEFS),
         bracket_grid=p.int("bracket_grid", lo=0, default=GRID_WORK),
         bracket_nodes=p.int("bracket_nodes", lo=0, default=PLAN_BRACKET_NODES),
+        bracket_tol=p.float("bracket_tol", lo=0.0, default=PLAN_BRACKET_TOL),
         expansion=p.choice("expansion", EXPANSIONS),
         discount=None if discount is None else p.float("discount", lo=0.0, hi=1.0, open_lo=True),
         seed=top.int("seed", lo=0),

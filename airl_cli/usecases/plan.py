@@ -9,7 +9,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from airl_cli.core.irl.options import BRACKET_MAX_BELIEFS
 from airl_cli.core.mmdp.baselines import Plan, graph_returns, plan
 from airl_cli.core.mdp.sparse import sparse_dynamics
 from airl_cli.core.mmdp.bounds import bracket
@@ -64,27 +63,46 @@ class OptimumBracket:
     count_layers: int | None
 
 
+#: ``airl plan``'s bracket: rounds of exploration at most (each looks twice as deep as the last; the
+#: bracket stops sooner at ``plan.bracket_tol`` or its budget of beliefs).
+PLAN_ROUNDS = 40
+#: ... and beliefs backed up in all at most (hiv, M = 50: about 840,000 for a width of 1e-4; ~0.9 KB each there).
+PLAN_MAX_BELIEFS = 2_000_000
+
+
+def belief_budget(settings: PlanSettings, M: int, S: int, n_next: int) -> int:
+    """The beliefs the sawtooth may back up: ``plan.bracket_beliefs`` per state and decision, at most
+    ``PLAN_MAX_BELIEFS`` and what half the free memory holds (a point of M + 1 numbers and a node of
+    M numbers and ``n_next`` successors each, ~8 bytes a number, twice for the work arrays)."""
+    per_belief = 16 * (2 * M + n_next + 4)
+    return int(min(settings.bracket_beliefs * S * max(1, settings.horizon - 1), PLAN_MAX_BELIEFS, available_memory() // 2 // per_belief))
+
+
 def bracket_optimum(problem: MMDPProblem, settings: PlanSettings, result: Plan, discount: float) -> OptimumBracket | None:
     """The optimum on the training models bracketed whatever the planner, in the plan's objective
     (the prior-weighted, or uniform, mean return): by the sawtooth and the grid of beliefs
     (``core.mmdp.bounds``; its lower side starts from the plan's own policy when it is PBVI's, else
-    from PBVI's; ``plan.bracket_beliefs`` 0: off), and where the moves are of a few kinds by the
-    count program cut where ``plan.bracket_nodes`` allows (``core.mmdp.count_bracket``; 0: off); the
-    tighter side of each. None when both are off, and for plan.method=counts, whose plan is the optimum itself."""
+    from PBVI's; ``plan.bracket_beliefs`` 0: off), rounds of it until its relative width is within
+    ``plan.bracket_tol`` or its budget (``belief_budget``) is spent, and, where that left it wider
+    and the moves are of a few kinds, by the count program cut where ``plan.bracket_nodes`` allows
+    (``core.mmdp.count_bracket``; 0: off); the tighter side of each. None when both are off, and
+    for plan.method=counts, whose plan is the optimum itself."""
     if settings.method == "counts":
         return None
     M, S, _ = problem.shape
     prior = problem.prior if problem.prior is not None else np.full(M, 1.0 / M)
+    target = settings.bracket_tol * max(1.0, abs(result.objective))  # the objective is a lower side: a relative width within the tolerance
     sides: list[tuple[float, float]] = []
     br = None
+    dyn = sparse_dynamics(problem.transitions)
     if settings.bracket_beliefs > 0:
         graph = result.graph if settings.method == "pbvi" else None
-        budget = min(settings.bracket_beliefs * S * max(1, settings.horizon - 1), BRACKET_MAX_BELIEFS)
-        br = bracket(problem.transitions, problem.rewards, problem.initial, graph=graph, prior=prior, horizon=settings.horizon, discount=discount, max_beliefs=budget, grid_work=settings.bracket_grid)
+        budget = belief_budget(settings, M, S, dyn.next_states.shape[1])
+        br = bracket(dyn, problem.rewards, problem.initial, graph=graph, prior=prior, horizon=settings.horizon, discount=discount,
+                     max_beliefs=budget, grid_work=settings.bracket_grid, target=target, rounds=PLAN_ROUNDS)
         sides.append((br.lower, br.upper))
     cut = None
-    if settings.bracket_nodes > 0:
-        dyn = sparse_dynamics(problem.transitions)
+    if settings.bracket_nodes > 0 and (br is None or br.upper - br.lower > target):
         L = layered_rewards(dyn, problem.rewards, horizon=settings.horizon, discount=discount)
         # the program in half the memory free now (its beliefs grow with the models: riverswim's M = 100, 0.9 GB)
         cut = count_bracket(dyn, L, problem.initial, prior, max_nodes=settings.bracket_nodes, max_bytes=available_memory() // 2)

@@ -372,7 +372,7 @@ def _mmdp_tables(values: dict) -> dict:
         "pbvi_gap": (upper - rows[("pbvi", 8)]["objective"]) / upper, "cadp_gap": (upper - rows[("cadp", None)]["objective"]) / upper,
         "known_gap": (default["each_model_known"] - upper) / upper, "pbvi8": rows[("pbvi", 8)]["objective"],
         "cadp": rows[("cadp", None)]["objective"], "pbvi_above_from": min(above) if above else None,
-        "hiv_gap": (plans["hiv_1000"]["upper"] - max(hiv_objectives)) / plans["hiv_1000"]["upper"],
+        "hiv_gap": (plans["hiv_5000"]["upper"] - max(hiv_objectives)) / plans["hiv_5000"]["upper"],
         "hiv_objective": max(hiv_objectives) if hiv_same else None,
         "it": iterations, "beyond_8": max(r["objective"] for r in values["iterations"]) - iterations[8]["objective"],
     }

@@ -256,6 +256,29 @@ def test_the_plan_states_a_bracket_on_the_optimum_that_the_heuristics_lie_below(
     assert json.loads((tmp_path / "off" / "plan.json").read_text())["optimum_bracket"] is None
 
 
+def test_the_plan_s_bracket_stops_at_plan_bracket_tol_and_says_where_its_budget_left_it(tmp_path):
+    """plan.bracket_tol: on hiv (28 kinds of move: the sawtooth alone) the default budget leaves the
+    bracket about 2.4% wide, wider than the default 1e-4, and the plan says so with the setting that
+    narrows it; with a tolerance of 3% the rounds stop as soon as the width is within it, having
+    backed up fewer beliefs; a negative tolerance is refused in one sentence, with no folder."""
+    runs = {}
+    for name, tol in (("default", None), ("loose", "0.03")):
+        out = tmp_path / name
+        result = runner.invoke(app, ["plan", "plan.input=benchmark:hiv", *([f"plan.bracket_tol={tol}"] if tol else []), f"hydra.run.dir={out}"])
+        assert result.exit_code == 0, result.output
+        runs[name] = (result.output, json.loads((out / "plan.json").read_text()))
+    output, record = runs["default"]
+    lower, upper = record["optimum_bracket"]
+    assert (upper - lower) / upper > 1e-4 and record["bracket_tol"] == 1e-4
+    assert "wider than plan.bracket_tol = 0.0001" in output and "a larger plan.bracket_beliefs narrows it" in output
+    output, loose = runs["loose"]
+    lower, upper = loose["optimum_bracket"]
+    assert (upper - lower) / upper <= 0.03 and "within plan.bracket_tol = 0.03" in output and "narrows it" not in output
+    assert loose["bracket_beliefs"] < record["bracket_beliefs"]
+    bad = runner.invoke(app, ["plan", "plan.input=benchmark:hiv", "plan.bracket_tol=-1", f"hydra.run.dir={tmp_path / 'bad'}"])
+    assert bad.exit_code != 0 and "'plan.bracket_tol' must be" in bad.output and not (tmp_path / "bad").exists()
+
+
 def test_plan_brackets_the_optimum_with_the_count_program_cut_where_its_nodes_run_out(tmp_path):
     """The two-state problem's moves are of a few kinds: with room for 4 of its 11 layers
     (plan.bracket_nodes) the count program is cut there, bounded after, and its bracket holds the
@@ -284,8 +307,9 @@ def test_plan_brackets_the_optimum_with_the_count_program_cut_where_its_nodes_ru
 
 def test_a_closed_brackets_width_is_never_printed_negative(tmp_path):
     """riverswim at T = 10: the count program exact over all 11 layers gives the optimum twice, its
-    two sides 1e-13 apart the wrong way round; the command said "relative width -1.1e-15"."""
-    result = runner.invoke(app, ["plan", "plan.input=benchmark:riverswim", "plan.horizon=10", f"hydra.run.dir={tmp_path / 'r'}"])
+    two sides 1e-13 apart the wrong way round; the command said "relative width -1.1e-15"
+    (the program alone, plan.bracket_beliefs=0: the sawtooth closes this one too, and the program would not run)."""
+    result = runner.invoke(app, ["plan", "plan.input=benchmark:riverswim", "plan.horizon=10", "plan.bracket_beliefs=0", f"hydra.run.dir={tmp_path / 'r'}"])
     assert result.exit_code == 0, result.output
     assert "the count program exact over 11 of 11 layers" in result.output
-    assert "(relative width 0;" in result.output
+    assert "(relative width 0, within plan.bracket_tol = 0.0001;" in result.output
