@@ -337,25 +337,16 @@ def weight_region_reading(folders: dict[str, Path], default: tuple[str, ...] = (
 
     per = {key: weight_region(f) for key, f in folders.items()}
     ratios = {key: [r["delta"] / r["norm"] if r["norm"] > 0 else math.inf for r in fits] for key, fits in per.items()}
+    ratios = {key: xs for key, xs in ratios.items() if xs}
     every = [x for xs in ratios.values() for x in xs]
     if not every:
         return {"fits": 0}
+    sweeps = {key: {"fits": len(xs), "median_ratio": statistics.median(xs), "bounded": sum(x < 1.0 for x in xs)} for key, xs in ratios.items()}
+    ends = [k for k in default if k in sweeps]
+    extreme = lambda pick: {"sweep": (k := pick(ends, key=lambda e: sweeps[e]["median_ratio"])), "median_ratio": sweeps[k]["median_ratio"]} if ends else None  # noqa: E731
     return {"fits": len(every), "median_ratio": statistics.median(every),
             "bounded": sum(x < 1.0 for x in every), "within_10": sum(x < math.sin(math.radians(10.0)) for x in every),
-            "sweeps": {key: {"fits": len(xs), "median_ratio": statistics.median(xs), "bounded": sum(x < 1.0 for x in xs)}
-                       for key, xs in ratios.items() if xs},
-            "least": _extreme(ratios, default, min), "most": _extreme(ratios, default, max)}
-
-
-def _extreme(ratios: dict[str, list[float]], keys: tuple[str, ...], pick) -> dict | None:
-    """The sweep among ``keys`` whose median ratio ``pick`` (min or max) chooses: its key and median."""
-    import statistics
-
-    medians = {k: statistics.median(ratios[k]) for k in keys if ratios.get(k)}
-    if not medians:
-        return None
-    key = pick(medians, key=medians.get)
-    return {"sweep": key, "median_ratio": medians[key]}
+            "sweeps": sweeps, "least": extreme(min), "most": extreme(max)}
 
 
 def _number(value) -> float | None:

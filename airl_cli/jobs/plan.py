@@ -106,10 +106,9 @@ def main(cfg: DictConfig, plan: PlanInput) -> dict:
         how = [f"{br.beliefs:,} beliefs backed up"] if br.beliefs else []
         how += [f"the count program exact over {br.count_layers} of {settings.horizon + 1} layers"] if br.count_layers else []
         how += [f"with each model known: {br.corner:.4f}"] if br.corner is not None else []
-        width = max(0.0, br.upper - br.lower) / max(1.0, abs(br.upper))  # a closed bracket's sides may cross by rounding
-        within = f"within plan.bracket_tol = {settings.bracket_tol:g}" if width <= settings.bracket_tol else f"wider than plan.bracket_tol = {settings.bracket_tol:g}"
-        lines.append(f"  the optimum on the training models lies in [{br.lower:.4f}, {br.upper:.4f}] whatever the planner (relative width {width:.2g}, {within}; {'; '.join(how)})")
-        if width > settings.bracket_tol and settings.bracket_beliefs > 0:
+        within = f"within plan.bracket_tol = {settings.bracket_tol:g}" if br.width <= settings.bracket_tol else f"wider than plan.bracket_tol = {settings.bracket_tol:g}"
+        lines.append(f"  the optimum on the training models lies in [{br.lower:.4f}, {br.upper:.4f}] whatever the planner (relative width {br.width:.2g}, {within}; {'; '.join(how)})")
+        if br.width > settings.bracket_tol and br.spent:
             lines.append(f"  the bracket stopped at its budget of beliefs (plan.bracket_beliefs = {settings.bracket_beliefs:,} per state and decision): a larger plan.bracket_beliefs narrows it")
     out_console.print("\n".join(lines), soft_wrap=True)
     out_console.print(f"wrote {folder / 'plan.json'} and {folder / 'policy.npz'}", soft_wrap=True)

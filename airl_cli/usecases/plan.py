@@ -9,6 +9,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from airl_cli.core.irl.bracket import relative_width
 from airl_cli.core.mmdp.baselines import Plan, graph_returns, plan
 from airl_cli.core.mdp.sparse import sparse_dynamics
 from airl_cli.core.mmdp.bounds import bracket
@@ -54,6 +55,7 @@ class OptimumBracket:
         corner: the bound with each model known from the start (None without that bracket);
         count_layers: the layers the count program ran exactly before its bounds took over
             (``core.mmdp.count_bracket``; None where the moves are of too many kinds, or it is off).
+        spent: the sawtooth stopped at its budget of beliefs (or rounds) short of ``plan.bracket_tol``.
     """
 
     lower: float
@@ -61,6 +63,12 @@ class OptimumBracket:
     beliefs: int
     corner: float | None
     count_layers: int | None
+    spent: bool = False
+
+    @property
+    def width(self) -> float:
+        """(U - L) / max(1, |U|), at least 0 (a closed bracket's sides may cross by rounding)."""
+        return max(0.0, relative_width(self.lower, self.upper))
 
 
 #: ``airl plan``'s bracket: rounds of exploration at most (each looks twice as deep as the last; the
@@ -113,4 +121,5 @@ def bracket_optimum(problem: MMDPProblem, settings: PlanSettings, result: Plan, 
     return OptimumBracket(
         max(lo for lo, _ in sides), min(up for _, up in sides), 0 if br is None else br.beliefs,
         None if br is None else br.corner, None if cut is None else cut.layers,
+        spent=br is not None and br.upper - br.lower > target,
     )
