@@ -42,8 +42,11 @@ def main() -> None:
     parser.add_argument("--envs", nargs="+", default=list(ENVS), help=f"environment ids (default: {', '.join(ENVS)})")
     parser.add_argument("--methods", nargs="+", default=list(METHODS), help=f"methods (default: {', '.join(METHODS)})")
     parser.add_argument("--timeout", type=float, default=600.0, help="seconds a fit may take (its row then says so)")
+    parser.add_argument("--budget", type=float, default=None, help="the thesis's method's time limit in seconds (optim.max_seconds; default: none)")
     parser.add_argument("--json", type=Path, default=None, help="also write the rows to this file")
     args = parser.parse_args()
+    if args.budget is not None and not 0 < args.budget < args.timeout:
+        parser.error(f"--budget must be positive and below --timeout ({args.timeout:g} s), so that the fit stops before it is killed")
     os.environ.pop("NUMBA_NUM_THREADS", None)
     made_by = provenance(sys.argv)
     rows = []
@@ -59,7 +62,7 @@ def main() -> None:
             folder = root / env.replace("/", "_")
             run(["generate", "mdp=gymnasium", f"mdp.env={env}", f"hydra.run.dir={folder / 'gen'}"])
             for method in args.methods:
-                rows.append(measure(env, method, folder / "gen" / "dataset.npz", folder / method, args.timeout))
+                rows.append(measure(env, method, folder / "gen" / "dataset.npz", folder / method, args.timeout, args.budget if method == "airl" else None))
     table = Table(title="the environments by id at their own horizon, every method (whole processes, all cores)")
     for col in COLUMNS:
         table.add_column(col, justify="right")
@@ -67,14 +70,16 @@ def main() -> None:
         table.add_row(*(_cell(row.get(c)) for c in COLUMNS))
     console.print(table)
     if args.json is not None:
-        args.json.write_text(json.dumps({**made_by, "rows": rows}, indent=1) + "\n")
+        args.json.write_text(json.dumps({**made_by, "budget": args.budget, "rows": rows}, indent=1) + "\n")
 
 
-def measure(env: str, method: str, file: Path, folder: Path, timeout: float) -> dict:
-    """One fit of ``file`` by ``method`` in a fresh process: its row (``COLUMNS``)."""
+def measure(env: str, method: str, file: Path, folder: Path, timeout: float, budget: float | None = None) -> dict:
+    """One fit of ``file`` by ``method`` in a fresh process: its row (``COLUMNS``, and "stopped at budget"
+    when a ``budget``, ``optim.max_seconds``, stopped the fit)."""
     row: dict = {"env": env, "method": method, **_sizes(file)}
+    limit = [] if budget is None else [f"optim.max_seconds={budget:g}"]
     try:
-        wall, peak = run(["fit", f"data={file}", f"method={method}", f"hydra.run.dir={folder}"], timeout)
+        wall, peak = run(["fit", f"data={file}", f"method={method}", f"hydra.run.dir={folder}", *limit], timeout)
     except TimedOut:
         row["process s"] = f"> {timeout:g}"
         console.print(f"done {env} {method}: past {timeout:g} s")
@@ -97,6 +102,7 @@ def measure(env: str, method: str, file: Path, folder: Path, timeout: float) -> 
         "score tau": by["tau"]["learner_score"], "score tau_j": mean("learner_score", demo), "demo score tau_j": mean("demonstrator_score", demo),
         "return tau_j": mean("learner_return", demo), "demo return tau_j": mean("demonstrator_return", demo),
         "goal tau_j": mean("learner_goal", demo), "demo goal tau_j": mean("demonstrator_goal", demo),
+        "stopped at budget": m.get("stopped") == "max_seconds",
     })
     console.print(f"done {env} {method}: " + ", ".join(f"{c} {_cell(row.get(c))}" for c in COLUMNS[6:]))
     return row

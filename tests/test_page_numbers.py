@@ -380,6 +380,24 @@ def test_the_environment_reading_and_its_table(tmp_path):
     assert page_numbers._environment_table(r).splitlines()[2] == "| AIRL (this thesis) | 0.000 (0.33) | 0.500 | 1.000 | 0.30 | 0.20 |"
 
 
+def test_the_environments_table_says_which_fit_stopped_at_its_time_budget():
+    """benchmarks/environments.py's rows as own-problem.md's table: a fit stopped by ``--budget``
+    (optim.max_seconds) says so beside its bracket, a killed or refused one has no numbers, and the
+    ratio to MCE IRL's process is taken only between two finished processes."""
+    def row(method, seconds, width=None, budget=False):
+        return {"env": "Taxi-v4", "method": method, "S": 500, "A": 6, "T": 201, "D": 3, "process s": seconds, "peak MB": 2048.0,
+                "bracket width": width, "score tau": 0.9999, "score tau_j": 0.9997, "demo score tau_j": 1.0, "return tau_j": 2.03,
+                "demo return tau_j": 2.53, "goal tau_j": 0.9993, "demo goal tau_j": 1.0, "stopped at budget": budget}
+
+    out = page_numbers._environment_tables({"budget": 300.0, "rows": [row("airl", 312.4, 0.0221, True), row("mce", 20.6), row("mmp", "> 600")]})
+    lines = out["table"].splitlines()
+    assert lines[2] == "| Taxi-v4 | 500, 6, 201, 3 | airl | 312.4 | 2,048 | 2.2e-2 (stopped at 300 s) | 1.000 | 1.000 | 2.03 (2.53) | 0.999 (1.000) |"
+    assert lines[3].split(" | ")[5] == "—" and lines[4] == "| Taxi-v4 | 500, 6, 201, 3 | mmp | &gt; 600 | — | — | — | — | — | — |"
+    assert out["ratio"] == {"Taxi-v4": "15.2×"}
+    closed = page_numbers._environment_tables({"budget": None, "rows": [row("airl", 36.1, 9.98e-4), row("mce", 1.4)]})
+    assert closed["table"].splitlines()[2].split(" | ")[5] == "1.0e-3"
+
+
 def test_viano_s_tables_as_the_page_prints_them():
     """Ours, the published number and the relative difference; the prose's largest differences."""
     def t(rows, published=None, expert=-128.8, expert_published=None):

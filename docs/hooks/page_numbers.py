@@ -38,7 +38,7 @@ SOURCES: dict[str, list[str]] = {
                     "--timeout", "400", "--json", "docs/numbers/default_fit.json"],
     "first_fit": ["benchmarks/first_fit.py", "--json", "docs/numbers/first_fit.json"],
     "test_suite": ["benchmarks/test_suite.py", "--json", "docs/numbers/test_suite.json"],
-    "environments": ["benchmarks/environments.py", "--timeout", "300", "--json", "docs/numbers/environments.json"],
+    "environments": ["benchmarks/environments.py", "--timeout", "600", "--budget", "300", "--json", "docs/numbers/environments.json"],
     "page_runs": ["benchmarks/page_runs.py", "--json", "docs/numbers/page_runs.json"],
     "mmdp": ["benchmarks/mmdp.py", "--json", "docs/numbers/mmdp.json"],
     "sweeps": ["benchmarks/sweeps.py", "--json", "docs/numbers/sweeps.json", "--report", "experiments"],
@@ -314,7 +314,8 @@ def _environment_tables(values: dict) -> dict:
         else:
             demo_return = "" if r["demo return tau_j"] is None else f" ({_cell(r['demo return tau_j'], '.3g')})"
             demo_goal = "" if r["demo goal tau_j"] is None else f" ({_cell(r['demo goal tau_j'], '.3f')})"
-            cells = [_cell(r["process s"], ".1f"), _cell(r["peak MB"], ",.0f"), _cell(r["bracket width"], "e1"),
+            bracket = _cell(r["bracket width"], "e1") + (f" (stopped at {values['budget']:g} s)" if r.get("stopped at budget") else "")
+            cells = [_cell(r["process s"], ".1f"), _cell(r["peak MB"], ",.0f"), bracket,
                      _cell(r["score tau"], ".3f"), _cell(r["score tau_j"], ".3f"),
                      _cell(r["return tau_j"], ".3g") + demo_return, _cell(r["goal tau_j"], ".3f") + demo_goal]
         lines.append("| " + " | ".join([r["env"], size, r["method"], *cells]) + " |")
