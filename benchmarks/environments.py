@@ -26,6 +26,8 @@ from rich.table import Table
 
 from _runs import Refused, TimedOut, fit_row, provenance, run
 
+from airl_cli.methods import plays_game  # the registry says which method takes optim.max_seconds
+
 console = Console(width=220)
 
 ENVS = ("FrozenLake-v1", "FrozenLake8x8-v1", "CliffWalking-v1", "Taxi-v4", "seals/CliffWorld7x4-v0", "seals/Branching-v0", "seals/RiskyPath-v0")
@@ -62,7 +64,7 @@ def main() -> None:
             folder = root / env.replace("/", "_")
             run(["generate", "mdp=gymnasium", f"mdp.env={env}", f"hydra.run.dir={folder / 'gen'}"])
             for method in args.methods:
-                rows.append(measure(env, method, folder / "gen" / "dataset.npz", folder / method, args.timeout, args.budget if method == "airl" else None))
+                rows.append(measure(env, method, folder / "gen" / "dataset.npz", folder / method, args.timeout, args.budget if plays_game(method) else None))
     table = Table(title="the environments by id at their own horizon, every method (whole processes, all cores)")
     for col in COLUMNS:
         table.add_column(col, justify="right")

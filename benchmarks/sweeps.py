@@ -342,8 +342,14 @@ def weight_region_reading(folders: dict[str, Path], default: tuple[str, ...] = (
     if not every:
         return {"fits": 0}
     sweeps = {key: {"fits": len(xs), "median_ratio": statistics.median(xs), "bounded": sum(x < 1.0 for x in xs)} for key, xs in ratios.items()}
-    ends = [k for k in default if k in sweeps]
-    extreme = lambda pick: {"sweep": (k := pick(ends, key=lambda e: sweeps[e]["median_ratio"])), "median_ratio": sweeps[k]["median_ratio"]} if ends else None  # noqa: E731
+    medians = {k: sweeps[k]["median_ratio"] for k in default if k in sweeps}
+
+    def extreme(pick) -> dict | None:  # the sweep among ``default`` whose median ``pick`` (min or max) chooses
+        if not medians:
+            return None
+        key = pick(medians, key=medians.get)
+        return {"sweep": key, "median_ratio": medians[key]}
+
     return {"fits": len(every), "median_ratio": statistics.median(every),
             "bounded": sum(x < 1.0 for x in every), "within_10": sum(x < math.sin(math.radians(10.0)) for x in every),
             "sweeps": sweeps, "least": extreme(min), "most": extreme(max)}
