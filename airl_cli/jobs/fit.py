@@ -337,14 +337,22 @@ def verbose_lines(info: dict) -> list[str]:
     lines.append(f"  gap         {info['planner_certificate']}")
     lines.append(f"  objective   {info['objective']:.6g} at the learned w against those best responses; lower bound {info['lower_bound']:.6g}")
     if "bracket_calls" in info:
-        grid = f", its grid of beliefs at resolution {info['bracket_grid_resolution']}" if info.get("bracket_grid_resolution") else ""
         lines.append(
-            f"  bracket     {info['bracket_calls']} bracket(s) of {info['bracket_beliefs']:,} beliefs{grid}; {info['close_steps']} closing step(s); "
+            f"  bracket     {info['bracket_calls']} bracket(s) {_bracket_effort(info)}; {info['close_steps']} closing step(s); "
             f"the bracket's policy bounds the answer {info['planner_resolution']:.2g} (relative) above the planner's"
         )
     elif "planner_resolution" in info:
         lines.append(f"  resolution  PBVI on {info['check_beliefs']} beliefs bounds the answer {info['planner_resolution']:.2g} (relative) higher")
     return lines
+
+
+def _bracket_effort(info: dict) -> str:
+    """What one bracket of the fit planned, from its metrics ``info``: the count program cut at a
+    layer (``core.irl.cut_closer``) or PBVI's beliefs backed up, on a grid of beliefs where it has one."""
+    if "bracket_cut_layers" in info:
+        return f"by the count program exact over {info['bracket_cut_layers']} layers ({info['bracket_cut_nodes']:,} nodes), the likeliest models' own policies after them"
+    grid = f", its grid of beliefs at resolution {info['bracket_grid_resolution']}" if info.get("bracket_grid_resolution") else ""
+    return f"of {info['bracket_beliefs']:,} beliefs{grid}"
 
 
 #: The warnings of the fits run in this process (``airl fit --strict`` exits 3 if there are any).

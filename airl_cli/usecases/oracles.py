@@ -56,11 +56,15 @@ def choose_planner(problem: GameProblem, planner: PlannerOptions, *, optimizer: 
             f"the count program plans the adversary exactly ({size.nodes:,} nodes, about {size_text(size.bytes)})",
             built,
         )
+    if kinds is None:
+        return PlannerChoice(pbvi, "every move its own kind, so no count program applies: PBVI, closed by the bracket (on its grid of beliefs where that fits)")
     if size is not None:
         why = f"its {size.nodes:,} nodes would take about {size_text(size.bytes)}, more than half the {size_text(free)} free"
     else:
-        why = "every move its own kind" if kinds is None else f"more than {counts.MAX_NODES:,} count nodes"
-    return PlannerChoice(pbvi, f"the moves are of too many kinds for the exact count program ({why}): PBVI, closed by the bracket (on its grid of beliefs where that fits)")
+        why = f"more than {counts.MAX_NODES:,} nodes"
+    closing = ("the count program cut after as many layers as pbvi.bracket_nodes allows" if planner.bracket_nodes
+               else "on its grid of beliefs where that fits")
+    return PlannerChoice(pbvi, f"the moves are of {kinds.n_kinds} kinds, but the exact count program is too large ({why}): PBVI, closed by the bracket ({closing})")
 
 
 def _dynamics(problem: GameProblem):
@@ -76,7 +80,7 @@ def planner_refusal(problem: GameProblem, chosen: PlannerChoice) -> None:
     planner = chosen.planner
     if planner.adversary != "history":
         return
-    M, S, A, _ = problem.transitions.shape
+    _, S, A, _ = problem.transitions.shape
     T = problem.horizon
     if planner.method == "exact" and S * (A * S) ** (T - 1) > EXACT_MAX_HISTORIES:
         raise ConfigError(

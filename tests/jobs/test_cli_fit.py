@@ -317,6 +317,38 @@ def test_a_fit_at_a_budget_says_the_width_it_reached_and_the_setting_that_narrow
     assert "optim.max_seconds = 1e-09; a longer one narrows it" in timed.stderr and timed.stderr.count("NOT converged") == 1
 
 
+@pytest.mark.parametrize(
+    "args, effort",
+    [
+        # a dense random MDP: PBVI, its bracket backs up beliefs on a grid
+        (SMALL, r"bracket\(s\) of [\d,]+ beliefs, its grid of beliefs at resolution \d+"),
+        # a slip grid whose count program is cut at a layer (pbvi.bracket_nodes): the bracket is that program
+        (["mdp=objectworld", "mdp.size=4", "mdp.horizon=6", "demos.n=30", "pbvi.method=pbvi", "pbvi.bracket_nodes=2000"],
+         r"bracket\(s\) by the count program exact over 5 layers \(1,120 nodes\)"),
+        # the exact count program: no bracket of its own, the fit's gap is the certificate
+        (["mdp=objectworld", "mdp.size=4", "mdp.horizon=6", "demos.n=30"], None),
+    ],
+    ids=["grid", "cut_program", "counts"],
+)
+def test_verbose_says_what_stands_behind_the_certificate_for_every_planner(tmp_path, args, effort):
+    """`airl fit --verbose` prints the planner, its gap and the bracket's effort from metrics.json,
+    whichever bracket the fit closed (it once failed with a traceback after the cut program's fits)."""
+    import re
+
+    out = tmp_path / "run"
+    result = run("fit", "--verbose", f"hydra.run.dir={out}", *args)
+    assert result.exit_code == 0, result.output
+    metrics = json.loads((out / "metrics.json").read_text())
+    details = result.output.split("details (metrics.json):\n", 1)[1]
+    assert f"  planner     pbvi.method={metrics['planner']}: {metrics['planner_reason']}" in details
+    assert f"  gap         {metrics['planner_certificate']}" in details
+    bracket = [line for line in details.splitlines() if line.startswith("  bracket ")]
+    if effort is None:
+        assert metrics["planner"] == "counts" and bracket == []
+    else:
+        assert len(bracket) == 1 and re.search(effort, bracket[0]), bracket
+        assert f"{metrics['close_steps']} closing step(s)" in bracket[0]
+
 def test_sharpening_grows_the_fit_s_belief_set_and_the_check_starts_from_it(tmp_path):
     """pbvi.sharpen_rounds: the metrics say how often the bound was raised and how large the set
     grew; the summary's fit line says so; the check plans on the grown set (or more); bad values are refused."""

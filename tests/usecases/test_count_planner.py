@@ -65,6 +65,15 @@ def test_a_count_program_larger_than_half_the_free_memory_is_left_to_pbvi(tiny_g
     monkeypatch.setattr(oracles, "available_memory", lambda: 2 * size.bytes - 1)
     chosen = oracles.choose_planner(problem, PlannerOptions(method="auto"))
     assert chosen.planner.method == "pbvi" and "more than half the" in chosen.reason
+    kinds = oracles.counts.move_kinds(oracles.sparse_dynamics(d.transitions)).n_kinds
+    assert chosen.reason.startswith(f"the moves are of {kinds} kinds, but the exact count program is too large (its {size.nodes:,} nodes would take")
+    assert chosen.reason.endswith("closed by the bracket (the count program cut after as many layers as pbvi.bracket_nodes allows)")
+    no_cut = oracles.choose_planner(problem, PlannerOptions(method="auto", bracket_nodes=0))
+    assert no_cut.reason.endswith("closed by the bracket (on its grid of beliefs where that fits)")
+    with monkeypatch.context() as m:  # more nodes than counts.MAX_NODES: no program built
+        m.setattr(oracles.counts, "program", lambda dyn, horizon: None)
+        too_many = oracles.choose_planner(problem, PlannerOptions(method="auto"))
+    assert too_many.planner.method == "pbvi" and f"too large (more than {oracles.counts.MAX_NODES:,} nodes)" in too_many.reason
     counts_set = oracles.choose_planner(problem, PlannerOptions(method="counts"))
     assert counts_set.program is not None and counts_set.program.size == size  # built once, for the refusal and the fit
     oracles.planner_refusal(problem, counts_set)  # within all of it: planned
