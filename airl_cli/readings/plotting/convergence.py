@@ -129,19 +129,20 @@ def _log_suits(values: np.ndarray) -> bool:
     return finite.size > 0 and bool(np.all(finite > 0)) and float(finite.max() / finite.min()) > 20
 
 
-def _bounds_limits(upper: np.ndarray, lower: np.ndarray, gap: np.ndarray) -> tuple[float, float] | None:
+def _bounds_limits(upper: np.ndarray, lower: np.ndarray, gap: np.ndarray, bracket: np.ndarray) -> tuple[float, float] | None:
     """y-limits that show where the bounds close in, if the first iterations' bounds would flatten it.
 
     The first bounds are loose by orders of magnitude (a lower bound of -300 for an optimum of
     10): the axis then spans the bounds from the first iteration whose relative gap is at most 5%
-    (1 where that would leave out more than two thirds of the iterations).
+    (1 where that would leave out more than two thirds of the iterations), U included (``bracket``,
+    inf where unknown): the final bracket, the figure's title, always stands on the axis.
     """
     settled = np.flatnonzero(gap <= 0.05)
     if settled.size < len(gap) / 3:
         settled = np.flatnonzero(gap <= 1.0)
     if settled.size == 0 or settled[0] == 0:
         return None
-    values = np.concatenate([upper[settled[0]:], lower[settled[0]:]])
+    values = np.concatenate([upper[settled[0]:], lower[settled[0]:], bracket[settled[0]:]])
     values = values[np.isfinite(values)]
     low, high = float(values.min()), float(values.max())
     pad = 0.08 * max(high - low, 1e-12 * max(1.0, abs(high)))
@@ -166,7 +167,7 @@ def exact_figure(history: pd.DataFrame, metrics: Mapping[str, Any]) -> Figure:
         bounds.errorbar([x[-1]], [(bracket[-1] + lower[-1]) / 2], yerr=[(bracket[-1] - lower[-1]) / 2], color=BRACKET_COLOUR,
                         capsize=5, linewidth=2.0, label="the final bracket [L, U]")
     bounds.fill_between(x, lower, upper, color="#999999", alpha=0.15, linewidth=0)
-    limits = _bounds_limits(upper, lower, gap)
+    limits = _bounds_limits(upper, lower, gap, bracket)
     if limits is not None:
         bounds.set_ylim(*limits)
         bounds.set_title("(the first iterations' looser bounds leave the axis)", fontsize=9, color="#555555")

@@ -84,6 +84,22 @@ def test_the_exact_figure_marks_the_planner_calls():
     assert calls and list(calls[0].get_xdata()) == list(range(1, 8))  # the planner was called at iterations 1..7
 
 
+def test_the_bounds_axis_holds_the_final_bracket_however_wide():
+    """The axis leaves out the first iterations' loose bounds, never U: a bracket that stays wide
+    (FrozenLake8x8-v1 by id: [128.2, 154.9] beside bounds that settle near 128) is on the axis,
+    and a closed one leaves the axis as the bounds alone set it."""
+    history = exact_history(40)
+    base = {"method": "airl", "optimizer": "exact", "tol": 1e-3}
+    alone = plotting.convergence(history, base).axes[0].get_ylim()
+    lower, upper = history["lower"].iloc[-1], history["upper"].iloc[-1]
+    assert alone[1] < upper + 1.0  # the settled bounds alone: U = upper + 20 would leave the axis
+    for U in (upper + 20.0, upper + 1e-4):
+        history["bracket_upper"] = np.where(history["iteration"] >= 30, U + 0.5, np.inf)
+        low, high = plotting.convergence(history, {**base, "minimum_bracket": [lower, U]}).axes[0].get_ylim()
+        assert low <= lower and high >= U + 0.5  # L, U per iteration and the final bracket all drawn inside
+    assert (low, high) == pytest.approx(alone, abs=0.6)  # a closed bracket: the axis about as the bounds alone set it
+
+
 def test_the_gradient_figure_shows_the_objective_the_certified_optimum_and_the_gradient_norm():
     metrics = {"method": "airl", "optimizer": "gradient", "certified_optimum": 9.0, "steps": 20, "stopped": "max_steps"}
     fig = plotting.convergence(gradient_history(), metrics)
