@@ -178,7 +178,7 @@ def fit(
     strict: bool = typer.Option(
         False,
         "--strict",
-        help="Exit with status 3 if the fit warns (NOT converged, a degenerate optimum) or its bracket on eq. 5.9's minimum is wider than optim.tol.",
+        help="Exit with status 3 if the fit warns (NOT converged, a degenerate optimum, a learned reward the same everywhere) or its bracket on eq. 5.9's minimum is wider than optim.tol.",
     ),
     verbose: bool = typer.Option(
         False, "--verbose", help="After the summary, what stands behind the certificate: the planner chosen and why, its own gap, the bracket's effort."

@@ -132,6 +132,8 @@ def summary_text(dataset: Dataset, settings: FitSettings, learned: Learned, rows
         lines += _objective_lines(info)
         if info.get("degenerate"):
             lines.append(f"warning   {degenerate_sentence(info)}")
+    if constant := constant_sentence(info):
+        lines.append(f"warning   {constant}")
     if learned.weights is not None:
         lines += ["", "learned weights:"]
         if learned.step_weights is not None:
@@ -149,6 +151,18 @@ def summary_text(dataset: Dataset, settings: FitSettings, learned: Learned, rows
     else:
         lines += ["", "the dataset has no true weights: nothing to score against"]
     return "\n".join(lines) + "\n"
+
+
+def constant_sentence(info: dict) -> str | None:
+    """One sentence where the learned reward is the same everywhere in some dynamics
+    (``usecases.fit.constant_dynamics``: w = 0, say): the learner's policy there is the planner's
+    tie-break, whatever its score; None otherwise, and for the thesis's degenerate optimum, which
+    ``degenerate_sentence`` says already."""
+    names = info.get("constant_reward") or []
+    if not names or info.get("degenerate"):
+        return None
+    return (f"the learned reward w . phi is the same in every state and action ({', '.join(names)}): every policy is optimal "
+            "for it, so the learner's policy there and its scores are the planner's tie-break (the lowest action), not a learned reward's")
 
 
 def degenerate_sentence(info: dict) -> str:
@@ -372,12 +386,15 @@ def wide_sentence(info: dict) -> str | None:
 def fit_warnings(info: dict) -> list[str]:
     """The sentences a fit warns with on stderr: a certified learner stopped at a budget with its
     bracket wider than optim.tol (the width it reached, the setting that narrows it), a degenerate
-    optimum (a certificate that says nothing of the reward)."""
+    optimum (a certificate that says nothing of the reward), a learned reward that is the same
+    everywhere (any method's: its policy is a tie-break)."""
     out = []
     if info.get("optimizer") == "exact" and info.get("stopped") in ("max_iterations", "max_seconds") and not info.get("converged"):
         out.append(f"NOT converged: {info['certificate']}")
     if info.get("degenerate"):
         out.append(degenerate_sentence(info))
+    if constant := constant_sentence(info):
+        out.append(constant)
     return out
 
 

@@ -15,6 +15,7 @@ from dataclasses import replace
 
 import numpy as np
 
+from airl_cli.core.mdp.scores import constant_reward
 from airl_cli.core.mdp.state_action import decision_policy
 from airl_cli.errors import ConfigError
 from airl_cli.io.dataset import Dataset
@@ -26,7 +27,7 @@ from airl_cli.usecases.learners import Learner
 from airl_cli.usecases.problem import learner_rng, with_loss
 from airl_cli.usecases.state_action import expanded, original_policies
 
-__all__ = ["learner_class", "learner", "method_of", "check_supported", "learn", "with_method_loss", "fit_dataset"]
+__all__ = ["check_supported", "constant_dynamics", "fit_dataset", "learn", "learner", "learner_class", "method_of", "with_method_loss"]
 
 
 def learner_class(method: str) -> type:
@@ -107,7 +108,17 @@ def fit_dataset(
     (``problem.learner_rng``), then ``learn``. The command line's fit job, the Python API and the
     sweeps' rows all fit through it."""
     dataset = with_method_loss(dataset, fitter, loss)
-    return learn(dataset, fitter, learner_rng(seed, method_of(fitter).name), callback, planner_progress)
+    learned = learn(dataset, fitter, learner_rng(seed, method_of(fitter).name), callback, planner_progress)
+    if learned.weights is None or learned.step_weights is not None:  # behavioural cloning (no reward); a reward per step
+        return learned
+    return replace(learned, info={**learned.info, "constant_reward": constant_dynamics(dataset, learned.weights)})
+
+
+def constant_dynamics(dataset: Dataset, weights: np.ndarray) -> list[str]:
+    """The demonstration dynamics tau_j whose learned reward w_j . phi is the same everywhere
+    (``scores.constant_reward``: w_j = 0, say), for weights (D, K): there every policy is optimal
+    and the learner's is the planner's tie-break; [] where each reward tells actions apart somewhere."""
+    return [f"tau_{j}" for j, w in enumerate(weights, start=1) if constant_reward(dataset.features, w, time_features=dataset.time_features)]
 
 
 def _on_original(learned: Learned, S: int) -> Learned:

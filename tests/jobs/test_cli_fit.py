@@ -301,14 +301,15 @@ def test_the_planner_is_not_starved_while_the_learner_keeps_improving(tmp_path):
 def test_a_fit_at_a_budget_says_the_width_it_reached_and_the_setting_that_narrows_it(tmp_path):
     """NOT converged at the iteration cap or the time limit: one sentence with the bracket reached and
     the one setting to raise; --strict exits 3 on it (and says it once)."""
-    from airl_cli.jobs.fit import fit_warnings
+    from airl_cli.jobs.fit import constant_sentence, fit_warnings
 
     out = tmp_path / "run"
     result = run("fit", f"hydra.run.dir={out}", *SMALL, "optim.max_iterations=3")
     assert result.exit_code == 0, result.output
     metrics = json.loads((out / "metrics.json").read_text())
     assert metrics["stopped"] == "max_iterations" and not metrics["converged"]
-    (sentence,) = fit_warnings(metrics)
+    sentence, *rest = fit_warnings(metrics)
+    assert rest == ([constant_sentence(metrics)] if metrics["constant_reward"] else [])  # w = 0 after three iterations: said too
     assert sentence.startswith("NOT converged: eq. 5.9's minimum lies in [") and "optim.max_iterations = 3; a higher one narrows it" in sentence
     assert "warning: NOT converged" in result.stderr
     timed = run("fit", "--strict", f"hydra.run.dir={tmp_path / 'timed'}", *SMALL, "optim.max_seconds=1e-9")

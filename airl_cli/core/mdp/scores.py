@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from airl_cli.core.mdp.basics import discounted
-from airl_cli.core.mdp.planning import backward_induction, expect_next, expected_return
+from airl_cli.core.mdp.planning import TIE_RTOL, backward_induction, expect_next, expected_return
 from airl_cli.core.mdp.sparse import planning_form
 
 
@@ -95,6 +95,23 @@ def normalised(value: float, bounds: tuple[float, float]) -> float:
 
 #: How far past 0 or 1 a normalised score may lie by rounding alone (``normalised`` clips it).
 ROUNDING = 1e-9
+
+
+def constant_reward(features: np.ndarray, w: np.ndarray, *, time_features: bool = False, rtol: float = TIE_RTOL) -> bool:
+    """Whether the reward r = phi . w is the same in every state (and action) at each step: then
+    every action ties at every (t, s), every policy is optimal for it, and "the" optimal policy is the
+    planner's tie-break (the lowest action within ``rtol``, ``planning.TIE_RTOL``), not the reward's.
+
+    Args:
+        features: (S, K) phi(s), (S, A, K) phi(s, a), or with ``time_features`` (T, S, K) phi_t(s)
+            or (T-1, S, A, K) phi_t(s, a) (axis 0 is t).
+        w: (K,) weights (w = 0 is constant).
+        rtol: entries within rtol * max |r| of each other are equal (relative, as the planner's ties).
+    """
+    r = np.asarray(features) @ np.asarray(w, dtype=np.float64)
+    r = r.reshape(r.shape[0], -1) if time_features else r.reshape(1, -1)  # (steps, states [x actions])
+    spread = r.max(axis=1) - r.min(axis=1)
+    return bool(np.all(spread <= rtol * np.abs(r).max(axis=1)))
 
 
 def cosine_similarity(w: np.ndarray, w_star: np.ndarray) -> float:
