@@ -56,15 +56,19 @@ def choose_planner(problem: GameProblem, planner: PlannerOptions, *, optimizer: 
             f"the count program plans the adversary exactly ({size.nodes:,} nodes, about {size_text(size.bytes)})",
             built,
         )
+    if planner.bracket_beliefs == 0:
+        closing = "PBVI, with no bracket (pbvi.bracket_beliefs=0)"
+    elif kinds is not None and planner.bracket_nodes:
+        closing = "PBVI, closed by the bracket (the count program cut after as many layers as pbvi.bracket_nodes allows)"
+    else:
+        closing = "PBVI, closed by the bracket (on its grid of beliefs where that fits)"
     if kinds is None:
-        return PlannerChoice(pbvi, "every move its own kind, so no count program applies: PBVI, closed by the bracket (on its grid of beliefs where that fits)")
+        return PlannerChoice(pbvi, f"every move its own kind, so no count program applies: {closing}")
     if size is not None:
         why = f"its {size.nodes:,} nodes would take about {size_text(size.bytes)}, more than half the {size_text(free)} free"
     else:
         why = f"more than {counts.MAX_NODES:,} nodes"
-    closing = ("the count program cut after as many layers as pbvi.bracket_nodes allows" if planner.bracket_nodes
-               else "on its grid of beliefs where that fits")
-    return PlannerChoice(pbvi, f"the moves are of {kinds.n_kinds} kinds, but the exact count program is too large ({why}): PBVI, closed by the bracket ({closing})")
+    return PlannerChoice(pbvi, f"the moves are of {kinds.n_kinds} kinds, but the exact count program is too large ({why}): {closing}")
 
 
 def _dynamics(problem: GameProblem):

@@ -70,6 +70,8 @@ def test_a_count_program_larger_than_half_the_free_memory_is_left_to_pbvi(tiny_g
     assert chosen.reason.endswith("closed by the bracket (the count program cut after as many layers as pbvi.bracket_nodes allows)")
     no_cut = oracles.choose_planner(problem, PlannerOptions(method="auto", bracket_nodes=0))
     assert no_cut.reason.endswith("closed by the bracket (on its grid of beliefs where that fits)")
+    no_bracket = oracles.choose_planner(problem, PlannerOptions(method="auto", bracket_beliefs=0))
+    assert no_bracket.reason.endswith(": PBVI, with no bracket (pbvi.bracket_beliefs=0)")
     with monkeypatch.context() as m:  # more nodes than counts.MAX_NODES: no program built
         m.setattr(oracles.counts, "program", lambda dyn, horizon: None)
         too_many = oracles.choose_planner(problem, PlannerOptions(method="auto"))
