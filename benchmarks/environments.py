@@ -105,6 +105,7 @@ def measure(env: str, method: str, file: Path, folder: Path, timeout: float, bud
         "return tau_j": mean("learner_return", demo), "demo return tau_j": mean("demonstrator_return", demo),
         "goal tau_j": mean("learner_goal", demo), "demo goal tau_j": mean("demonstrator_goal", demo),
         "stopped at budget": m.get("stopped") == "max_seconds",
+        "constant reward": bool(m.get("constant_reward")),  # w . phi the same everywhere: the scores are a tie-break's
     })
     console.print(f"done {env} {method}: " + ", ".join(f"{c} {_cell(row.get(c))}" for c in COLUMNS[6:]))
     return row

@@ -396,6 +396,9 @@ def test_the_environments_table_says_which_fit_stopped_at_its_time_budget():
     assert out["ratio"] == {"Taxi-v4": "15.2×"}
     closed = page_numbers._environment_tables({"budget": None, "rows": [row("airl", 36.1, 9.98e-4), row("mce", 1.4)]})
     assert closed["table"].splitlines()[2].split(" | ")[5] == "1.0e-3"
+    constant = page_numbers._environment_tables({"budget": None, "rows": [{**row("projection", 1.2), "constant reward": True}, row("mce", 1.4)]})
+    assert constant["table"].splitlines()[2].split(" | ")[7] == "1.000 (w · φ constant: a tie-break's)"  # a learned reward the same everywhere
+    assert constant["table"].splitlines()[3].split(" | ")[7] == "1.000"
 
 
 def test_viano_s_tables_as_the_page_prints_them():

@@ -315,8 +315,9 @@ def _environment_tables(values: dict) -> dict:
             demo_return = "" if r["demo return tau_j"] is None else f" ({_cell(r['demo return tau_j'], '.3g')})"
             demo_goal = "" if r["demo goal tau_j"] is None else f" ({_cell(r['demo goal tau_j'], '.3f')})"
             bracket = _cell(r["bracket width"], "e1") + (f" (stopped at {values['budget']:g} s)" if r.get("stopped at budget") else "")
+            tie = " (w · φ constant: a tie-break's)" if r.get("constant reward") else ""  # metrics.json's constant_reward
             cells = [_cell(r["process s"], ".1f"), _cell(r["peak MB"], ",.0f"), bracket,
-                     _cell(r["score tau"], ".3f"), _cell(r["score tau_j"], ".3f"),
+                     _cell(r["score tau"], ".3f"), _cell(r["score tau_j"], ".3f") + tie,
                      _cell(r["return tau_j"], ".3g") + demo_return, _cell(r["goal tau_j"], ".3f") + demo_goal]
         lines.append("| " + " | ".join([r["env"], size, r["method"], *cells]) + " |")
     airl = {r["env"]: r for r in values["rows"] if r["method"] == "airl"}
