@@ -132,6 +132,8 @@ def summary_text(dataset: Dataset, settings: FitSettings, learned: Learned, rows
         lines += _objective_lines(info)
         if info.get("degenerate"):
             lines.append(f"warning   {degenerate_sentence(info)}")
+    elif "stopped" in info:
+        lines.append(f"stopped   {stop_sentence(info)}")
     if constant := constant_sentence(info):
         lines.append(f"warning   {constant}")
     if learned.weights is not None:
@@ -151,6 +153,27 @@ def summary_text(dataset: Dataset, settings: FitSettings, learned: Learned, rows
     else:
         lines += ["", "the dataset has no true weights: nothing to score against"]
     return "\n".join(lines) + "\n"
+
+
+#: Where a comparison method stopped (``usecases.learners.comparison.stop_info``'s ``stopped``), in words.
+STOP_WORDS = {
+    "tolerance": "converged: its stopping rule met",
+    "no_progress": "converged: no further step exists (the projection's mu(w) equals mu_bar)",
+    "max_iterations": "NOT converged: stopped at its cap of iterations (method.max_iterations)",
+    "line_search": "NOT converged: L-BFGS-B's line search ended short of its tolerance",
+}
+
+
+def stop_sentence(info: dict) -> str:
+    """Where a comparison method stopped and what it proves there: its reason, what its rule
+    measures at the learned w and, for an objective that is strongly convex (MMP) or concave (MCE
+    IRL), the bracket on the objective's optimum (``core.irl.baselines``, eq. (1))."""
+    out = f"{STOP_WORDS[info['stopped']]}, {info['stop_measure']} {info['stop_value']:.2g}"
+    if info.get("objective_bracket") is not None:
+        lo, up = info["objective_bracket"]
+        out += (f"; its objective's optimum lies in [{lo:.6g}, {up:.6g}] (relative width {info['objective_relative_width']:.2g}), "
+                f"{info['objective']:.6g} at the learned w")
+    return out
 
 
 def constant_sentence(info: dict) -> str | None:
@@ -391,6 +414,8 @@ def fit_warnings(info: dict) -> list[str]:
     out = []
     if info.get("optimizer") == "exact" and info.get("stopped") in ("max_iterations", "max_seconds") and not info.get("converged"):
         out.append(f"NOT converged: {info['certificate']}")
+    if "stop_measure" in info and not info["converged"]:  # a comparison method at its cap
+        out.append(f"{stop_sentence(info)}; a larger method.max_iterations goes further")
     if info.get("degenerate"):
         out.append(degenerate_sentence(info))
     if constant := constant_sentence(info):

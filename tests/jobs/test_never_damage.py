@@ -130,3 +130,23 @@ def test_a_fit_stopped_by_its_cap_is_not_called_degenerate(tmp_path):
     assert "optimal too" not in result.output + result.stderr and "indistinguishable" not in result.output + result.stderr
     metrics = json.loads((tmp_path / "a" / "metrics.json").read_text())
     assert metrics["converged"] is False and metrics["degenerate"] is False
+
+
+def test_a_comparison_method_says_where_it_stopped_and_strict_judges_it(tmp_path):
+    """MMP (subgradient descent, no rule but its cap) says so with its objective's bracket, on
+    stderr too, and --strict exits 3; MCE IRL, converged by L-BFGS-B's rule, passes. Before, both
+    summaries said only "N iterations"."""
+    mmp = runner.invoke(app, ["fit", "--strict", *SMALL, "method=mmp", f"hydra.run.dir={tmp_path / 'a'}"])
+    assert mmp.exit_code == 3, mmp.output
+    assert "warning: NOT converged: stopped at its cap of iterations (method.max_iterations)" in mmp.stderr
+    summary = (tmp_path / "a" / "summary.txt").read_text()
+    assert "stopped   NOT converged" in summary and "its objective's optimum lies in [" in summary
+    metrics = json.loads((tmp_path / "a" / "metrics.json").read_text())
+    lo, up = metrics["objective_bracket"]
+    assert metrics["stopped"] == "max_iterations" and not metrics["converged"] and lo <= up == metrics["objective"]
+    fit_job.WARNED.clear()
+    mce = runner.invoke(app, ["fit", "--strict", *SMALL, "method=mce", f"hydra.run.dir={tmp_path / 'b'}"])
+    assert mce.exit_code == 0, mce.output
+    assert "stopped   converged: its stopping rule met, the gradient's norm at w" in (tmp_path / "b" / "summary.txt").read_text()
+    metrics = json.loads((tmp_path / "b" / "metrics.json").read_text())
+    assert metrics["converged"] and metrics["stopped"] == "tolerance" and metrics["objective_relative_width"] < 1e-6

@@ -11,6 +11,24 @@ sum_t phi(s_t) under tau_j (row j-1 for j = 1..D):
 
 ``behavioral_cloning`` learns no reward: it returns the demonstrations' action frequencies.
 
+Each iterative method says where it stopped (``Stop``): its own rule met or its cap reached, what
+the rule measured there, and, where its objective is strongly convex (MMP and MCE IRL with
+lam > 0), a bracket on the objective's optimum. For a lam-strongly convex f and any w with a
+subgradient g of f at w,
+
+    f(w) - |g|^2 / (2 lam)  <=  min f  <=  f(w)                                     (1)
+
+(f(v) >= f(w) + g . (v - w) + lam/2 |v - w|^2, minimised over v), and alike for a maximised
+lam-strongly concave objective: max g in [g(w), g(w) + |grad g(w)|^2 / (2 lam)]. Where f has kinks
+(MMP's maxima over policies), |g| stays large at the minimum and (1) at one point is loose; the
+minorants of every point k visited, averaged with weights theta on the simplex, bound it better:
+
+    min f  >=  max_theta  theta . a - |B^T theta|^2 / (2 lam),                           (2)
+    a_k = f(w_k) - g_k . w_k + lam/2 |w_k|^2,   B_k = g_k - lam w_k
+
+(the minimum over v of sum_k theta_k [f(w_k) + g_k . (v - w_k) + lam/2 |v - w_k|^2]): the dual of
+the cutting-plane model, valid at every theta (``bundle_lower_bound``; theta = e_k is (1) at w_k).
+
 Shapes: transitions (M, S, A, S) with index 0 the expert's dynamics tau (unused here: these
 methods only see the demonstration dynamics 1..D = M-1); features phi (S, K); initial p0 (S,);
 horizon T counts states; targets (D, K); per-time rewards (T, S); deterministic policies
@@ -27,6 +45,83 @@ from airl_cli.core.mdp.basics import check_probabilities, check_transitions, dis
 from airl_cli.core.mdp.planning import backward_induction, state_marginals
 from airl_cli.core.mdp.sparse import SparseDynamics
 
+#: ``Stop.reason``: the method's own rule met (a gradient or margin within its tolerance), no
+#: further step possible (projection: mu(w) = mu_bar), its cap of iterations reached, or L-BFGS-B's
+#: line search ended short of its rule (rounding near the optimum, or a flat objective).
+STOP_REASONS = ("tolerance", "no_progress", "max_iterations", "line_search")
+
+
+@dataclass(frozen=True)
+class Stop:
+    """Where an iterative comparison method stopped, and what it proves there.
+
+    Attributes:
+        reason: one of ``STOP_REASONS``.
+        measure: what the method's rule measures ("gradient norm": |grad| at the returned w;
+            "margin": projection's |mu_E - mu_bar|), and ``value`` its value at the stop.
+        bracket: (lower, upper) on the optimum of the method's objective by eq. (1) of the module
+            docstring (MCE IRL's maximum of g, MMP's minimum of f), None where none is known
+            (lam = 0, robust MCE IRL, projection); ``objective``: the objective at the returned w.
+    """
+
+    reason: str
+    measure: str
+    value: float
+    bracket: tuple[float, float] | None = None
+    objective: float | None = None
+
+    @property
+    def converged(self) -> bool:
+        """The method's own rule was met (or, projection, no further step exists)."""
+        return self.reason in ("tolerance", "no_progress")
+
+    @property
+    def width(self) -> float | None:
+        """The bracket's relative width (U - L) / max(1, |objective|), None without a bracket."""
+        if self.bracket is None:
+            return None
+        return max(0.0, self.bracket[1] - self.bracket[0]) / max(1.0, abs(self.objective))
+
+
+def strong_convexity_bracket(objective: float, grad_norm: float, lam: float, *, maximise: bool) -> tuple[float, float] | None:
+    """The optimum bracketed by eq. (1) of the module docstring at one point: (L, U), None for lam = 0."""
+    if not lam > 0:
+        return None
+    slack = grad_norm**2 / (2.0 * lam)
+    return (objective, objective + slack) if maximise else (objective - slack, objective)
+
+
+def bundle_lower_bound(f: np.ndarray, W: np.ndarray, G: np.ndarray, lam: float, iterations: int = 2000) -> float:
+    """A lower bound on min f by eq. (2) of the module docstring: Frank-Wolfe's ascent over theta
+    (an exact line search on the concave quadratic) from the best single point; every theta it
+    visits is a valid bound, so stopping early loosens it only.
+
+    Args:
+        f: (n,) f(w_k); W: (n, K) the points w_k; G: (n, K) a subgradient of f at each; lam > 0.
+    """
+    a = f - np.einsum("nk,nk->n", G, W) + 0.5 * lam * np.einsum("nk,nk->n", W, W)
+    B = G - lam * W
+    single = a - np.einsum("nk,nk->n", B, B) / (2.0 * lam)
+    i = int(np.argmax(single))
+    theta, u = np.zeros(f.size), B[i].copy()  # u = B^T theta
+    theta[i] = 1.0
+    value = best = float(single[i])
+    for _ in range(iterations):
+        grad = a - B @ u / lam
+        k = int(np.argmax(grad))
+        slope = float(grad[k] - grad @ theta)  # along e_k - theta
+        if slope <= 1e-15 * max(1.0, abs(value)):
+            break
+        step_u = B[k] - u
+        curve = float(step_u @ step_u) / lam
+        gamma = 1.0 if curve <= 0.0 else min(1.0, slope / curve)
+        theta *= 1.0 - gamma
+        theta[k] += gamma
+        u = u + gamma * step_u
+        value = float(theta @ a - u @ u / (2.0 * lam))
+        best = max(best, value)
+    return best
+
 
 @dataclass(frozen=True)
 class BaselineResult:
@@ -38,11 +133,13 @@ class BaselineResult:
         policy: (T-1, S, A) stochastic policy for behavioural cloning, else None.
         history: column -> (iterations,) array, one row per iteration; the columns depend on
             the method (empty for behavioural cloning, which does not iterate).
+        stop: where the method stopped (``Stop``); None for behavioural cloning.
     """
 
     weights: np.ndarray | None
     policy: np.ndarray | None
     history: dict[str, np.ndarray]
+    stop: Stop | None = None
 
 
 def check_problem(
@@ -169,7 +266,8 @@ def projection(
         mu_bar += ((mu(w) - mu_bar) . (mu_E - mu_bar) / |mu(w) - mu_bar|^2) (mu(w) - mu_bar)
 
     It stops when the margin |mu_E - mu_bar| falls below ``tol``, when mu(w) equals mu_bar (no
-    projection is possible), or after ``max_iterations`` steps after step 0.
+    projection is possible), or after ``max_iterations`` steps after step 0 (``Stop``'s reasons
+    "tolerance", "no_progress", "max_iterations", its measure the last margin).
 
     The method yields one candidate policy per step; of these the one whose features mu(w) are
     closest to mu_E is returned (the earliest on ties). The last w = mu_E - mu_bar itself is not
@@ -200,14 +298,19 @@ def projection(
     margins = [float(np.linalg.norm(mu_E - mu_bar))]
     gaps = list(margins)
     best_w = w
-    for _ in range(max_iterations):
+    reason = "max_iterations"
+    for _ in range(max_iterations + 1):
         if margins[-1] < tol:
+            reason = "tolerance"
+            break
+        if len(margins) > max_iterations:
             break
         w = mu_E - mu_bar
         mu = _optimal_features(P, phi, p0, horizon, w, discount)
         step = mu - mu_bar
         denom = float(step @ step)
         if denom <= 1e-24 * max(1.0, float(mu_bar @ mu_bar)):
+            reason = "no_progress"
             break
         mu_bar = mu_bar + (float(step @ w) / denom) * step
         margins.append(float(np.linalg.norm(mu_E - mu_bar)))
@@ -215,7 +318,7 @@ def projection(
         if gaps[-1] < min(gaps[:-1]):
             best_w = w
     history = {"step": np.arange(len(margins)), "margin": np.array(margins), "feature_gap": np.array(gaps)}
-    return BaselineResult(np.tile(best_w, (P.shape[0] - 1, 1)), None, history)
+    return BaselineResult(np.tile(best_w, (P.shape[0] - 1, 1)), None, history, Stop(reason, "the margin |mu_E - mu_bar|", margins[-1]))
 
 
 def behavioral_cloning(

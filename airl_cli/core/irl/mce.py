@@ -21,7 +21,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import minimize
 
-from airl_cli.core.irl.baselines import BaselineResult, _check_weights, check_problem, feature_sum
+from airl_cli.core.irl.baselines import BaselineResult, Stop, _check_weights, check_problem, feature_sum, strong_convexity_bracket
 from airl_cli.core.mdp.basics import per_time
 from airl_cli.core.mdp.planning import soft_backward_induction, soft_backward_induction_sa, state_marginals
 from airl_cli.core.mdp.sparse import planning_form
@@ -159,7 +159,9 @@ def mce_irl(
     Returns:
         ``BaselineResult`` with weights (D, K) (identical rows) and history columns "step",
         "objective" (g(w), maximised) and "grad_norm" (Euclidean norm of grad g); row 0 is the
-        starting point w = 0, then one row per L-BFGS-B iteration.
+        starting point w = 0, then one row per L-BFGS-B iteration. Its ``stop``: L-BFGS-B's reason,
+        |grad g| at the returned w and, with lam > 0, max g within [g(w), g(w) + |grad g|^2 / (2 lam)]
+        (g is lam-strongly concave: p0 . V_j(w)[0], a soft maximum of functions linear in w, is convex).
     """
     P, phi, p0, c = check_problem(transitions, features, initial, horizon, targets, action_features=action_features)
     if lam < 0 or max_iterations < 1 or tol < 0:
@@ -167,7 +169,7 @@ def mce_irl(
     # each tau_j in the form its backups are fastest in: sparse where a state reaches few others
     # (Taxi-v4 at T = 201: each (s, a) reaches at most 3 of 500 states)
     models = [None] + [planning_form(P[j]) for j in range(1, P.shape[0])]
-    w, objective, grad_norm = lbfgs_ascent(
+    w, objective, grad_norm, stop = lbfgs_ascent(
         lambda w: _mce_value_and_grad(w, models, phi, p0, horizon, c, lam, discount, action_features), phi.shape[-1], max_iterations, tol=tol
     )
     history = {
@@ -176,10 +178,11 @@ def mce_irl(
         "grad_norm": np.array(grad_norm),
     }
     D = P.shape[0] - 1
-    return BaselineResult(np.tile(w, (D, 1)), None, history)
+    stop = Stop(stop.reason, stop.measure, stop.value, strong_convexity_bracket(stop.objective, stop.value, lam, maximise=True), stop.objective)
+    return BaselineResult(np.tile(w, (D, 1)), None, history, stop)
 
 
-def lbfgs_ascent(evaluate, K: int, max_iterations: int, *, tol: float) -> tuple[np.ndarray, list[float], list[float]]:
+def lbfgs_ascent(evaluate, K: int, max_iterations: int, *, tol: float) -> tuple[np.ndarray, list[float], list[float], Stop]:
     """Maximise a concave g by L-BFGS-B from w = 0 (MCE IRL and robust MCE IRL).
 
     Args:
@@ -187,7 +190,9 @@ def lbfgs_ascent(evaluate, K: int, max_iterations: int, *, tol: float) -> tuple[
         K: the number of weights; max_iterations: L-BFGS-B iterations; tol: scipy's ``tol``.
 
     Returns:
-        (w (K,), g at w = 0 and after each iteration, |gradient| at the same points).
+        (w (K,), g at w = 0 and after each iteration, |gradient| at the same points, where it
+        stopped: scipy's status 0 "tolerance", 1 "max_iterations", else "line_search", with g and
+        |grad g| at the returned w; no bracket, which needs the objective's curvature).
     """
     last: dict[str, object] = {}
 
@@ -209,4 +214,6 @@ def lbfgs_ascent(evaluate, K: int, max_iterations: int, *, tol: float) -> tuple[
     objective.append(value0)
     grad_norm.append(float(np.linalg.norm(grad0)))
     result = minimize(negative, w0, jac=True, method="L-BFGS-B", tol=tol, callback=record, options={"maxiter": max_iterations})
-    return result.x, objective, grad_norm
+    value, grad = (last["value"], last["grad"]) if np.array_equal(last["w"], result.x) else evaluate(result.x)
+    reason = {0: "tolerance", 1: "max_iterations"}.get(int(result.status), "line_search")
+    return result.x, objective, grad_norm, Stop(reason, "the gradient's norm at w", float(np.linalg.norm(grad)), objective=float(value))

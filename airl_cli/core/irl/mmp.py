@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from airl_cli.core.irl.baselines import BaselineResult, check_problem, feature_sum
+from airl_cli.core.irl.baselines import BaselineResult, Stop, bundle_lower_bound, check_problem, feature_sum
 from airl_cli.core.mdp.basics import check_probabilities, discounted
 from airl_cli.core.mdp.planning import backward_induction
 
@@ -80,7 +80,11 @@ def max_margin_planning(
     Returns:
         ``BaselineResult`` with weights (D, K), identical rows holding the w of the lowest
         objective seen. History columns "step", "objective" (f at that step's w), "grad_norm"
-        (Euclidean norm of the subgradient) and "eta", one row per iteration.
+        (Euclidean norm of the subgradient) and "eta", one row per iteration. Its ``stop``: the cap
+        (subgradient descent has no rule of its own), the subgradient's norm at the returned w and,
+        with lam > 0, min f bracketed by f at the returned w and the bound of every step's
+        minorant (``baselines.bundle_lower_bound``; f is lam-strongly convex: each max_pi is a
+        maximum of functions linear in w).
     """
     P, phi, p0, c = check_problem(transitions, features, initial, horizon, targets)
     if lam < 0 or eta0 <= 0 or max_iterations < 1:
@@ -90,7 +94,7 @@ def max_margin_planning(
     target_sum = c.sum(axis=0)
     w = np.zeros(phi.shape[-1])
     best_w, best_f = w, np.inf
-    objective, grad_norm, etas = [], [], []
+    objective, grad_norm, etas, points, subgradients = [], [], [], [], []
     for t in range(max_iterations):
         f = 0.5 * lam * float(w @ w) - float(w @ target_sum)
         g = lam * w - target_sum
@@ -104,6 +108,8 @@ def max_margin_planning(
         objective.append(f)
         grad_norm.append(float(np.linalg.norm(g)))
         etas.append(eta)
+        points.append(w)
+        subgradients.append(g)
         w = w - eta * g
     history = {
         "step": np.arange(max_iterations),
@@ -111,4 +117,7 @@ def max_margin_planning(
         "grad_norm": np.array(grad_norm),
         "eta": np.array(etas),
     }
-    return BaselineResult(np.tile(best_w, (D, 1)), None, history)
+    best = int(np.argmin(objective))  # the first of the lowest, as best_w
+    lower = bundle_lower_bound(np.array(objective), np.array(points), np.array(subgradients), lam) if lam > 0 else None
+    bracket = None if lower is None else (min(lower, objective[best]), objective[best])
+    return BaselineResult(np.tile(best_w, (D, 1)), None, history, Stop("max_iterations", "the subgradient's norm at w", grad_norm[best], bracket, objective[best]))

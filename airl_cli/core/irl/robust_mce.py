@@ -42,7 +42,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from airl_cli.core.irl.baselines import BaselineResult, check_problem, feature_sum
+from airl_cli.core.irl.baselines import BaselineResult, Stop, check_problem, feature_sum
 from airl_cli.core.irl.mce import lbfgs_ascent
 from airl_cli.core.mdp.basics import per_time
 from airl_cli.core.mdp.planning import expect_next
@@ -235,7 +235,9 @@ def robust_mce_irl(
 
     Returns:
         ``BaselineResult``: weights (D, K) identical rows; history "step", "objective" (g(w)),
-        "grad_norm", row 0 at w = 0.
+        "grad_norm", row 0 at w = 0; ``stop``: L-BFGS-B's reason (``lbfgs_ascent``), or Adam's cap,
+        and |grad g| at the returned w. No bracket: the robust soft value is a maximum over the
+        player of a minimum over the opponent, neither convex nor concave in w in general.
     """
     P, phi, p0, c = check_problem(transitions, features, initial, horizon, targets)
     allowed = None if allowed is None else np.asarray(allowed, dtype=bool)
@@ -248,11 +250,12 @@ def robust_mce_irl(
         return _value_and_grad(w, P, phi, p0, horizon, c, lam, alpha, discount, form, allowed, warm)
 
     if optimizer == "lbfgs":
-        w, objective, grad_norm = lbfgs_ascent(evaluate, phi.shape[-1], max_iterations, tol=tol)
+        w, objective, grad_norm, stop = lbfgs_ascent(evaluate, phi.shape[-1], max_iterations, tol=tol)
     else:
         w, objective, grad_norm = _adam(evaluate, phi.shape[-1], max_iterations, lr=lr)
+        stop = Stop("max_iterations", "the gradient's norm at w", grad_norm[-1], objective=objective[-1])
     history = {"step": np.arange(len(objective)), "objective": np.array(objective), "grad_norm": np.array(grad_norm)}
-    return BaselineResult(np.tile(w, (P.shape[0] - 1, 1)), None, history)
+    return BaselineResult(np.tile(w, (P.shape[0] - 1, 1)), None, history, stop)
 
 
 def _adam(evaluate, K: int, max_iterations: int, *, lr: float, betas=(0.9, 0.99), eps: float = 1e-7):

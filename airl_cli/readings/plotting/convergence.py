@@ -266,9 +266,24 @@ def method_figure(history: pd.DataFrame, metrics: Mapping[str, Any]) -> Figure:
             label += " (log scale)"
         ax.set_xlabel(x_label)
         ax.set_ylabel(label)
-        ax.legend(handles=[Line2D([], [], color=colour, linewidth=1.8, label=_label(method))], loc="best", frameon=False)
-    _suptitle(fig, f"airl fit, method={method}: {_label(method)}'s {x_label}s 0 to {x[-1]:g}", fontsize=11)
+        handles = [Line2D([], [], color=colour, linewidth=1.8, label=_label(method))]
+        if column == "objective" and metrics.get("objective_bracket") is not None:  # where its optimum lies (core.irl.baselines, eq. 1)
+            lo, up = metrics["objective_bracket"]
+            ax.axhspan(lo, up, color=THRESHOLD_COLOUR, alpha=0.15, linewidth=0)
+            ax.axhline(lo, color=THRESHOLD_COLOUR, linewidth=1.2, linestyle="--")
+            handles.append(Line2D([], [], color=THRESHOLD_COLOUR, linewidth=1.2, linestyle="--", label=f"its optimum lies in [{lo:.6g}, {up:.6g}]"))
+        ax.legend(handles=handles, loc="best", frameon=False)
+    _suptitle(fig, f"airl fit, method={method}: {_label(method)}'s {x_label}s 0 to {x[-1]:g}{_stop_words(metrics)}", fontsize=11)
     return fig
+
+
+def _stop_words(metrics: Mapping[str, Any]) -> str:
+    """", converged" or ", NOT converged (its cap)": where a comparison method stopped (metrics.json's ``stopped``)."""
+    if "stopped" not in metrics:
+        return ""
+    if metrics.get("converged"):
+        return ", converged"
+    return ", NOT converged (its cap)" if metrics["stopped"] == "max_iterations" else ", NOT converged (its line search)"
 
 
 def convergence(history: pd.DataFrame, metrics: Mapping[str, Any]) -> Figure:

@@ -25,8 +25,26 @@ from airl_cli.settings.reader import Reader
 from airl_cli.usecases.learned import Learned
 
 
-def _weights_learned(name: str, res) -> Learned:
-    return Learned(name, res.weights, None, res.history, {"iterations": int(len(next(iter(res.history.values()), [])))})
+def _weights_learned(name: str, res: baselines.BaselineResult) -> Learned:
+    """The solver's weights, history and where it stopped (``stop_info``) as a ``Learned``."""
+    return Learned(name, res.weights, None, res.history, {"iterations": len(next(iter(res.history.values()), [])), **stop_info(res.stop)})
+
+
+def stop_info(stop: baselines.Stop) -> dict:
+    """metrics.json's record of where a comparison method stopped (``core.irl.baselines.Stop``):
+    ``stopped`` (its reason), ``converged`` (its own rule met), ``stop_measure`` and ``stop_value``
+    (what the rule measures, at the returned w), ``objective`` (the method's objective there, None
+    for projection, which has none), ``objective_bracket`` [L, U] on that objective's optimum and
+    ``objective_relative_width`` (None where no bracket is known)."""
+    return {
+        "stopped": stop.reason,
+        "converged": stop.converged,
+        "stop_measure": stop.measure,
+        "stop_value": stop.value,
+        "objective": stop.objective,
+        "objective_bracket": None if stop.bracket is None else [float(stop.bracket[0]), float(stop.bracket[1])],
+        "objective_relative_width": stop.width,
+    }
 
 
 def _check_options(learner) -> None:

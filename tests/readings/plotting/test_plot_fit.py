@@ -127,6 +127,18 @@ def test_a_comparison_methods_history_is_drawn_column_by_column(method, columns)
         assert ax.get_xlabel() and ax.get_ylabel() and ax.get_lines()
 
 
+def test_a_comparison_method_figure_says_where_it_stopped_and_shades_its_bracket():
+    history = pd.DataFrame({"step": [0, 1, 2], "objective": [13.0, 12.0, 11.5], "grad_norm": [3.0, 1.9, 1.2], "eta": [0.1, 0.07, 0.05]})
+    metrics = {"method": "mmp", "stopped": "max_iterations", "converged": False, "objective_bracket": [9.25, 11.5]}
+    fig = plotting.convergence(history, metrics)
+    assert "NOT converged (its cap)" in fig._suptitle.get_text()
+    objective = fig.axes[0]
+    assert objective.get_ylim()[0] <= 9.25  # the bracket's lower side stands on the axis
+    assert any("[9.25, 11.5]" in text.get_text() for text in objective.get_legend().get_texts())
+    assert "converged" in plotting.convergence(history, {**metrics, "converged": True, "stopped": "tolerance"})._suptitle.get_text()
+    assert "converged" not in plotting.convergence(history, {"method": "mmp"})._suptitle.get_text()  # an older folder's metrics: no word
+
+
 def test_a_sweep_jobs_folder_is_a_fit_folder(tmp_path):
     job = write_fit(tmp_path / "demos.n=10,method=mce,seed=0", {"method": "mce"},
                     pd.DataFrame({"step": [0, 1], "objective": [-2.0, -1.0], "grad_norm": [1.0, 0.1]}))
