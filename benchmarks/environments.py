@@ -7,7 +7,8 @@ it with each method in a fresh process on every core, as a user runs it, and pri
 (environment, method): the process time, the peak resident memory, the learner's and the
 demonstrator's normalised score, expected return and probability of reaching the goal under tau
 and averaged over tau_1..tau_D, and, for the thesis's method, the bracket's relative width on eq. 5.9's
-minimum and its iterations. A fit past ``--timeout`` seconds, or one that airl refuses (a problem
+minimum and its iterations, for a comparison method where it stopped (converged, or its cap) and,
+for MCE IRL and MMP, the relative width of the bracket on their own objective's optimum. A fit past ``--timeout`` seconds, or one that airl refuses (a problem
 too large for memory), is a row that says so. ``--json FILE`` writes the rows with the commit, the
 machine and the command (docs/numbers/environments.json: the environments' pages render from it).
 """
@@ -105,6 +106,9 @@ def measure(env: str, method: str, file: Path, folder: Path, timeout: float, bud
         "return tau_j": mean("learner_return", demo), "demo return tau_j": mean("demonstrator_return", demo),
         "goal tau_j": mean("learner_goal", demo), "demo goal tau_j": mean("demonstrator_goal", demo),
         "stopped at budget": m.get("stopped") == "max_seconds",
+        # where it stopped: the thesis's method's bracket closed or a budget; a comparison method's own rule met or its cap
+        "stopped": m.get("stopped"), "converged": m.get("converged"),
+        "objective width": m.get("objective_relative_width"),  # MCE IRL's and MMP's bracket on their own objective's optimum
         "constant reward": bool(m.get("constant_reward")),  # w . phi the same everywhere: the scores are a tie-break's
     })
     console.print(f"done {env} {method}: " + ", ".join(f"{c} {_cell(row.get(c))}" for c in COLUMNS[6:]))

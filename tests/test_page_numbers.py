@@ -382,23 +382,29 @@ def test_the_environment_reading_and_its_table(tmp_path):
 
 def test_the_environments_table_says_which_fit_stopped_at_its_time_budget():
     """benchmarks/environments.py's rows as own-problem.md's table: a fit stopped by ``--budget``
-    (optim.max_seconds) says so beside its bracket, a killed or refused one has no numbers, and the
-    ratio to MCE IRL's process is taken only between two finished processes."""
-    def row(method, seconds, width=None, budget=False):
+    (optim.max_seconds) says so, a comparison method whether it converged or stopped at its cap
+    (with its own objective's bracket where it has one), a killed or refused one has no numbers,
+    and the ratio to MCE IRL's process is taken only between two finished processes."""
+    def row(method, seconds, width=None, budget=False, **stop):
         return {"env": "Taxi-v4", "method": method, "S": 500, "A": 6, "T": 201, "D": 3, "process s": seconds, "peak MB": 2048.0,
                 "bracket width": width, "score tau": 0.9999, "score tau_j": 0.9997, "demo score tau_j": 1.0, "return tau_j": 2.03,
-                "demo return tau_j": 2.53, "goal tau_j": 0.9993, "demo goal tau_j": 1.0, "stopped at budget": budget}
+                "demo return tau_j": 2.53, "goal tau_j": 0.9993, "demo goal tau_j": 1.0, "stopped at budget": budget, **stop}
 
-    out = page_numbers._environment_tables({"budget": 300.0, "rows": [row("airl", 312.4, 0.0221, True), row("mce", 20.6), row("mmp", "> 600")]})
+    rows = [row("airl", 312.4, 0.0221, True, stopped="max_seconds", converged=False), row("mce", 20.6, stopped="max_iterations", converged=False, **{"objective width": 3.4e3}),
+            row("mmp", "> 600"), row("projection", 1.1, stopped="tolerance", converged=True)]
+    out = page_numbers._environment_tables({"budget": 300.0, "rows": rows})
     lines = out["table"].splitlines()
-    assert lines[2] == "| Taxi-v4 | 500, 6, 201, 3 | airl | 312.4 | 2,048 | 2.2e-2 (stopped at 300 s) | 1.000 | 1.000 | 2.03 (2.53) | 0.999 (1.000) |"
-    assert lines[3].split(" | ")[5] == "—" and lines[4] == "| Taxi-v4 | 500, 6, 201, 3 | mmp | &gt; 600 | — | — | — | — | — | — |"
+    assert lines[2] == "| Taxi-v4 | 500, 6, 201, 3 | airl | 312.4 | 2,048 | at 300 s | 2.2e-2 | 1.000 | 1.000 | 2.03 (2.53) | 0.999 (1.000) |"
+    assert lines[3].split(" | ")[5:7] == ["cap", "3.4e3"]  # MCE IRL at its cap, its own objective's bracket
+    assert lines[4] == "| Taxi-v4 | 500, 6, 201, 3 | mmp | &gt; 600 | — | — | — | — | — | — | — |"
+    assert lines[5].split(" | ")[5:7] == ["converged", "—"]  # projection: its margin within method.tol, no bracket
     assert out["ratio"] == {"Taxi-v4": "15.2×"}
-    closed = page_numbers._environment_tables({"budget": None, "rows": [row("airl", 36.1, 9.98e-4), row("mce", 1.4)]})
-    assert closed["table"].splitlines()[2].split(" | ")[5] == "1.0e-3"
+    closed = page_numbers._environment_tables({"budget": None, "rows": [row("airl", 36.1, 9.98e-4, stopped="tolerance", converged=True), row("mce", 1.4)]})
+    assert closed["table"].splitlines()[2].split(" | ")[5:7] == ["converged", "1.0e-3"]
+    assert closed["table"].splitlines()[3].split(" | ")[5] == "—"  # a row measured before the stop was recorded
     constant = page_numbers._environment_tables({"budget": None, "rows": [{**row("projection", 1.2), "constant reward": True}, row("mce", 1.4)]})
-    assert constant["table"].splitlines()[2].split(" | ")[7] == "1.000 (w · φ constant: a tie-break's)"  # a learned reward the same everywhere
-    assert constant["table"].splitlines()[3].split(" | ")[7] == "1.000"
+    assert constant["table"].splitlines()[2].split(" | ")[8] == "1.000 (w · φ constant: a tie-break's)"  # a learned reward the same everywhere
+    assert constant["table"].splitlines()[3].split(" | ")[8] == "1.000"
 
 
 def test_viano_s_tables_as_the_page_prints_them():

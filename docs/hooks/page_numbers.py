@@ -304,19 +304,19 @@ def _suite_minutes(values: dict) -> dict:
 
 def _environment_tables(values: dict) -> dict:
     """The environments' table (benchmarks/environments.py's rows): one row per environment and method."""
-    head = ["environment", "S, A, T, D", "method", "s", "MB", "bracket", "score τ", "score $\\tau_j$", "return (demo)", "goal (demo)"]
-    lines = ["| " + " | ".join(head) + " |", "| --- | --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: |"]
+    head = ["environment", "S, A, T, D", "method", "s", "MB", "stopped", "bracket", "score τ", "score $\\tau_j$", "return (demo)", "goal (demo)"]
+    lines = ["| " + " | ".join(head) + " |", "| --- | --- | --- | ---: | ---: | --- | ---: | ---: | ---: | ---: | ---: |"]
     for r in values["rows"]:
         size = f"{r['S']:,}, {r['A']}, {r['T']}, {r['D']}"
         if isinstance(r["process s"], str):  # past the time limit, or refused
             shown = r["process s"].replace(">", "&gt;")
-            cells = [shown, "—", "—", "—", "—", "—", "—"]
+            cells = [shown, "—", "—", "—", "—", "—", "—", "—"]
         else:
             demo_return = "" if r["demo return tau_j"] is None else f" ({_cell(r['demo return tau_j'], '.3g')})"
             demo_goal = "" if r["demo goal tau_j"] is None else f" ({_cell(r['demo goal tau_j'], '.3f')})"
-            bracket = _cell(r["bracket width"], "e1") + (f" (stopped at {values['budget']:g} s)" if r.get("stopped at budget") else "")
+            width = r["bracket width"] if r["bracket width"] is not None else r.get("objective width")  # eq. 5.9's, or the method's own objective's
             tie = " (w · φ constant: a tie-break's)" if r.get("constant reward") else ""  # metrics.json's constant_reward
-            cells = [_cell(r["process s"], ".1f"), _cell(r["peak MB"], ",.0f"), bracket,
+            cells = [_cell(r["process s"], ".1f"), _cell(r["peak MB"], ",.0f"), _stopped_cell(r, values["budget"]), _cell(width, "e1"),
                      _cell(r["score tau"], ".3f"), _cell(r["score tau_j"], ".3f") + tie,
                      _cell(r["return tau_j"], ".3g") + demo_return, _cell(r["goal tau_j"], ".3f") + demo_goal]
         lines.append("| " + " | ".join([r["env"], size, r["method"], *cells]) + " |")
@@ -325,6 +325,19 @@ def _environment_tables(values: dict) -> dict:
     ratio = {env: airl[env]["process s"] / mce[env]["process s"] for env in airl
              if env in mce and not isinstance(airl[env]["process s"], str) and not isinstance(mce[env]["process s"], str)}
     return {"table": "\n".join(lines), "ratio": {env: _cell(x, "x1") for env, x in ratio.items()}}
+
+
+def _stopped_cell(row: dict, budget: float | None) -> str:
+    """Where an environment's fit stopped (metrics.json's ``stopped`` and ``converged``): "converged"
+    (the thesis's bracket within optim.tol, or a comparison method's own rule met), "at 300 s" (the
+    time limit), "cap" (method.max_iterations, or optim.max_iterations), "line search"; "—" for
+    behavioural cloning, which does not iterate, and rows measured before it was recorded."""
+    if row.get("stopped at budget"):
+        return f"at {budget:g} s"
+    if row.get("converged"):
+        return "converged"
+    words = {"max_iterations": "cap", "line_search": "line search", "max_seconds": "time limit", "tolerance": "not closed", "no_improvement": "no improvement"}
+    return words.get(row.get("stopped"), "—")
 
 
 def _seconds(value: float) -> str:
