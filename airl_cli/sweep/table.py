@@ -122,6 +122,9 @@ def read_rows(paths: list[Path]) -> pd.DataFrame:
         header, _, body = path.read_text().partition("\n")
         bodies.setdefault(header, []).append(body if body.endswith("\n") or not body else body + "\n")
     frames = [pd.read_csv(io.StringIO(header + "\n" + "".join(group))) for header, group in bodies.items()]
+    # a column of True/False in one method's rows and empty in another's stays True/False: concatenated
+    # after a float column of NaN, a bool one would become 1.0/0.0 (``method_converged``: the comparison methods' alone)
+    frames = [f.astype({c: object for c in f.columns if f[c].dtype == bool}) for f in frames]
     return pd.concat(frames, ignore_index=True) if frames else pd.DataFrame()
 
 

@@ -134,6 +134,12 @@ def test_quick_sweep_end_to_end_on_every_core(tmp_path, name):
     table = pd.read_csv(folder / "results.csv")
     assert set(table["method"]) == {"airl", "mce"} and set(table["seed"]) == {0, 1}
     assert not table.duplicated(["method", "seed", "dynamics"]).any()
+    # where each method stopped: the thesis's method's reason; MCE IRL's own rule and its objective's bracket
+    mce, airl = table[table["method"] == "mce"], table[table["method"] == "airl"]
+    assert airl["stopped"].notna().all() and airl["method_converged"].isna().all() and airl["objective_width"].isna().all()
+    assert set(mce["method_converged"]) <= {True, False} and (mce["objective_width"] >= 0).all()
+    cells = {line.split(",")[list(table.columns).index("method_converged")] for line in (folder / "results.csv").read_text().splitlines()[1:]}
+    assert cells <= {"", "True", "False"}  # not 1.0: airl's empty cells read first made a bool column float
     pngs = sorted(p.name for p in (folder / "figures").glob("*.png"))
     assert pngs
     (folder / "figures" / pngs[0]).unlink()
@@ -270,3 +276,14 @@ def test_the_rows_of_many_jobs_read_at_once_equal_a_read_per_file(tmp_path):
     with_header = read_rows([*paths, tmp_path / "header.csv"]).sort_values(keys).reset_index(drop=True)
     pd.testing.assert_frame_equal(with_header, ours)
     assert read_rows([]).empty
+    # a column of True/False in one header's rows and empty in another's keeps True/False, whichever comes first
+    (tmp_path / "empty.csv").write_text("method,flag\nairl,\n")
+    (tmp_path / "flag.csv").write_text("method,seed,flag\nmce,0,True\n")
+    assert read_rows([tmp_path / "empty.csv", tmp_path / "flag.csv"])["flag"].tolist()[1] is True
+
+
+def test_a_header_that_departs_from_the_jobs_says_where():
+    from airl_cli.kinds.fit.files import _header_difference
+
+    assert _header_difference(["a", "c", "b"], ["a", "b", "c"]) == "column 2 is 'c', the job writes 'b' there"
+    assert _header_difference(["a"], ["a", "b"]) == "1 columns, the job writes 2"

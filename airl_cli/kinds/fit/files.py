@@ -18,6 +18,7 @@ FIT_COLUMNS = (
     "experiment", "method", "seed", "run", "x", "x_name", "mdp", "dynamics_kind", "n_dynamics", "n_features",
     "n_demos", "demos", "sigma", "weight_sharing", "loss", "dynamics", "learner_score", "demonstrator_score",
     "cosine_similarity", "seconds", "optimizer", "objective", "relative_gap", "bracket_width", "converged", "degenerate",
+    "stopped", "method_converged", "objective_width",
     "equilibrium_score", "weight_scale", "n_test", "learner_return", "demonstrator_return", "learner_goal", "demonstrator_goal",
 )  # fmt: skip
 #: The config groups whose every setting becomes a column of the results table.
@@ -25,9 +26,9 @@ SETTING_GROUPS = ("mdp", "dynamics", "demos", "loss", "method", "pbvi", "game", 
 INTEGERS = {"seed", "run", "n_dynamics", "n_test", "n_features", "n_demos"}
 FLOATS = {
     "x", "sigma", "learner_score", "demonstrator_score", "cosine_similarity", "seconds", "objective", "relative_gap", "bracket_width",
-    "equilibrium_score", "weight_scale", "learner_return", "demonstrator_return", "learner_goal", "demonstrator_goal",
+    "equilibrium_score", "weight_scale", "learner_return", "demonstrator_return", "learner_goal", "demonstrator_goal", "objective_width",
 }  # fmt: skip
-BOOLS = {"weight_sharing", "converged", "degenerate"}
+BOOLS = {"weight_sharing", "converged", "degenerate", "method_converged"}
 #: Cells that differ from one dynamics' row to the next (all others are the job's, the same in each row).
 PER_DYNAMICS = (
     "dynamics", "learner_score", "demonstrator_score", "cosine_similarity", "equilibrium_score", "learner_return", "demonstrator_return",
@@ -56,7 +57,7 @@ def check(folder: Path, config: dict, header: list[str], rows: list[list[str]]) 
     settings = {k: cell(v) for k, v in setting_columns(config).items()}
     expected = [*FIT_COLUMNS, *settings]
     if header != expected:
-        raise Damaged(f"{ROWS}'s header is not the job's ({len(header)} columns, the job writes {len(expected)})")
+        raise Damaged(f"{ROWS}'s header is not the job's ({_header_difference(header, expected)})")
     first = dict(zip(header, rows[0], strict=True))
     method = config["method"].get("name")
     metrics = json_file(folder / METRICS, ("method", "shared", "scored", "dynamics"))
@@ -70,6 +71,10 @@ def check(folder: Path, config: dict, header: list[str], rows: list[list[str]]) 
     empty |= set() if learns_reward(method) else {"cosine_similarity", "weight_scale"}  # a policy, no weights
     goal = isinstance(metrics["dynamics"], list) and metrics["dynamics"] and isinstance(metrics["dynamics"][0], dict) and metrics["dynamics"][0].get("learner_goal") is not None
     empty |= set() if goal and metrics["scored"] else {"learner_goal", "demonstrator_goal"}  # an environment's goal only
+    # a comparison method's stop (``usecases.learners.comparison.stop_info``): none for behavioural cloning, a bracket for MCE IRL and MMP (lam > 0)
+    empty |= set() if plays_game(method) or "stop_measure" in metrics else {"stopped"}
+    empty |= set() if "stop_measure" in metrics else {"method_converged"}
+    empty |= set() if metrics.get("objective_relative_width") is not None else {"objective_width"}
     check_types(ROWS, header, rows, empty | {k for k, v in settings.items() if v == ""}, integers=INTEGERS, floats=FLOATS, bools=BOOLS)
     x_key = str(config["experiment"].get("x_key") or "seed")
     x = config
@@ -91,6 +96,14 @@ def check(folder: Path, config: dict, header: list[str], rows: list[list[str]]) 
     _check_outputs(folder, header, rows, metrics, int(first["n_features"]), D)
     if config.get("data") is None:  # built in the job
         check_npz(folder / "dataset.npz", ("transitions", "features", "initial", "horizon"))
+
+
+def _header_difference(header: list[str], expected: list[str]) -> str:
+    """Where a header departs from the job's: its length, or its first column that differs."""
+    if len(header) != len(expected):
+        return f"{len(header)} columns, the job writes {len(expected)}"
+    i = next(i for i, (a, b) in enumerate(zip(header, expected, strict=True)) if a != b)
+    return f"column {i + 1} is {header[i]!r}, the job writes {expected[i]!r} there"
 
 
 def _check_outputs(folder: Path, header: list[str], rows: list[list[str]], metrics: dict, n_features: int, D: int) -> None:

@@ -47,6 +47,11 @@ def rows(cfg: DictConfig, folder) -> list[dict]:
         "bracket_width": info.get("bracket_relative_gap", np.nan) if certified else np.nan,  # eq. 5.9's minimum's [L, U], relative
         "converged": info["converged"] if certified else np.nan,
         "degenerate": info["degenerate"] if certified else np.nan,
+        # where the method stopped: the thesis's method's reason; a comparison method's, whether its own rule was met and
+        # MCE IRL's and MMP's bracket on their own objective's optimum (``usecases.learners.comparison.stop_info``)
+        "stopped": info.get("stopped", ""),
+        "method_converged": info["converged"] if "stop_measure" in info else np.nan,
+        "objective_width": np.nan if info.get("objective_relative_width") is None else info["objective_relative_width"],
     }
     settings = setting_columns(c)
     # max |w|: a certified w this small beside a flagged fit is the zero reward (docs/method.md, "A degenerate optimum")
