@@ -168,7 +168,7 @@ def stop_sentence(info: dict) -> str:
     """Where a comparison method stopped and what it proves there: its reason, what its rule
     measures at the learned w and, for an objective that is strongly convex (MMP) or concave (MCE
     IRL), the bracket on the objective's optimum (``core.irl.baselines``, eq. (1))."""
-    out = f"{STOP_WORDS[info['stopped']]}, {info['stop_measure']} {info['stop_value']:.2g}"
+    out = f"{STOP_WORDS[info['stopped']]}, {info['stop_measure']} is {info['stop_value']:.2g}"
     if info.get("objective_bracket") is not None:
         lo, up = info["objective_bracket"]
         out += (f"; its objective's optimum lies in [{lo:.6g}, {up:.6g}] (relative width {info['objective_relative_width']:.2g}), "

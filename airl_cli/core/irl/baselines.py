@@ -57,8 +57,9 @@ class Stop:
 
     Attributes:
         reason: one of ``STOP_REASONS``.
-        measure: what the method's rule measures ("gradient norm": |grad| at the returned w;
-            "margin": projection's |mu_E - mu_bar|), and ``value`` its value at the stop.
+        measure: what the method's rule measures, in words ("the gradient's norm at w", w the
+            returned weights; "the margin |mu_E - mu_bar|", projection's), and ``value`` its value
+            at the stop.
         bracket: (lower, upper) on the optimum of the method's objective by eq. (1) of the module
             docstring (MCE IRL's maximum of g, MMP's minimum of f), None where none is known
             (lam = 0, robust MCE IRL, projection); ``objective``: the objective at the returned w.
