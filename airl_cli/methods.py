@@ -154,3 +154,13 @@ def alpha_of(name: str, options: dict) -> float:
 def learns_reward(name: str) -> bool:
     """Whether the method named ``name`` learns reward weights (unknown names: True)."""
     return REGISTRY[name].learns_reward if name in REGISTRY else True
+
+
+#: Where a comparison method stopped (metrics.json's ``stopped``: ``core.irl.baselines.STOP_REASONS``),
+#: in words: the sentence of ``airl fit``'s summary and the few words of ``airl plot``'s title.
+STOP_WORDS = {
+    "tolerance": ("converged: its stopping rule met", "converged"),
+    "no_progress": ("converged: no further step exists (the projection's mu(w) equals mu_bar)", "converged"),
+    "max_iterations": ("NOT converged: stopped at its cap of iterations (method.max_iterations)", "NOT converged (its cap)"),
+    "line_search": ("NOT converged: L-BFGS-B's line search ended short of its tolerance", "NOT converged (its line search)"),
+}

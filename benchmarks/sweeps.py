@@ -218,7 +218,7 @@ def verdicts(folder: Path) -> list[tuple[dict, dict, str]]:
     """The certified fits of the thesis's method in a sweep's folder (certified: stopped by its
     certificate, not by a cap), each as (its job's overrides, its metrics.json, the degenerate
     verdict's kind: "below" — w = 0, or B(w) within the tolerance —, "f0" — flagged by the bound on
-    f(0) alone — or "none"), the rule of ``airl_cli.jobs.fit.degenerate_sentence``."""
+    f(0) alone — or "none"), the rule of ``airl_cli.jobs.fit_summary.degenerate_sentence``."""
     from airl_cli.core.irl.certified_answer import CAPS
 
     out = []
@@ -235,7 +235,7 @@ def verdicts(folder: Path) -> list[tuple[dict, dict, str]]:
 def degeneracy_reading(folder: Path) -> dict:
     """The certified fits of the thesis's method (every variant; certified: stopped by its
     certificate, not by a cap — the Markov variants' brackets are not closed, so ``converged`` would
-    leave them out) by the degenerate verdict's kind (``airl_cli.jobs.fit.degenerate_sentence``):
+    leave them out) by the degenerate verdict's kind (``airl_cli.jobs.fit_summary.degenerate_sentence``):
     "below" (w = 0, or B(w) within the tolerance), "f0" (flagged by the bound on f(0) alone), "none"
     (not flagged); per kind the number of fits and the median and quartiles of cos(w, w*). And
     ``table``: per swept value and variant (``airl_cli.readings.variants.variants_summary``, in the

@@ -91,7 +91,7 @@ LAYERS = (
     ("settings", "settings.config settings.job settings.demos settings.dynamics settings.experiments settings.envs"),
     ("use cases", "usecases usecases.* readings.plotting readings.plotting.* readings.summaries readings.summaries.*"
      " kinds.*.summaries kinds.*.summaries.* kinds.*.figures kinds.*.figures.*"),
-    ("jobs", "jobs jobs.common jobs.fit jobs.generate jobs.inspect jobs.plan api"),
+    ("jobs", "jobs jobs.common jobs.fit jobs.fit_summary jobs.generate jobs.inspect jobs.plan api"),
     ("launch", "jobs.launch"),
     ("sweeps", "sweep sweep.* readings.report hydra_plugins.* kinds.*.rows kinds.*.files"),
     ("kinds", "kinds kinds.*"),  # the kinds' folders: their parts are in the layers above by their patterns

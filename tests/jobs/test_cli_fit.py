@@ -301,7 +301,7 @@ def test_the_planner_is_not_starved_while_the_learner_keeps_improving(tmp_path):
 def test_a_fit_at_a_budget_says_the_width_it_reached_and_the_setting_that_narrows_it(tmp_path):
     """NOT converged at the iteration cap or the time limit: one sentence with the bracket reached and
     the one setting to raise; --strict exits 3 on it (and says it once)."""
-    from airl_cli.jobs.fit import constant_sentence, fit_warnings
+    from airl_cli.jobs.fit_summary import constant_sentence, fit_warnings
 
     out = tmp_path / "run"
     result = run("fit", f"hydra.run.dir={out}", *SMALL, "optim.max_iterations=3")

@@ -10,7 +10,7 @@ from typer.testing import CliRunner
 
 from airl_cli.cli import app
 from airl_cli.core.mdp.scores import constant_reward
-from airl_cli.jobs.fit import constant_sentence, fit_warnings
+from airl_cli.jobs.fit_summary import constant_sentence, fit_warnings
 
 
 def test_constant_reward_on_hand_made_features():

@@ -21,7 +21,7 @@ from matplotlib.lines import Line2D
 from matplotlib.ticker import MaxNLocator
 
 from airl_cli.io.fit_folder import HISTORY, METRICS, read_metrics
-from airl_cli.methods import REGISTRY, learns_reward, plays_game
+from airl_cli.methods import REGISTRY, STOP_WORDS, learns_reward, plays_game
 from airl_cli.readings.plotting._style import METHOD_COLOURS, THRESHOLD_COLOUR, _label, _suptitle
 
 LOWER_COLOUR = "#1f77b4"
@@ -281,9 +281,7 @@ def _stop_words(metrics: Mapping[str, Any]) -> str:
     """", converged" or ", NOT converged (its cap)": where a comparison method stopped (metrics.json's ``stopped``)."""
     if "stopped" not in metrics:
         return ""
-    if metrics.get("converged"):
-        return ", converged"
-    return ", NOT converged (its cap)" if metrics["stopped"] == "max_iterations" else ", NOT converged (its line search)"
+    return ", " + STOP_WORDS.get(metrics["stopped"], ("", f"stopped: {metrics['stopped']}"))[1]
 
 
 def convergence(history: pd.DataFrame, metrics: Mapping[str, Any]) -> Figure:

@@ -22,7 +22,7 @@ from airl_cli.core.irl.certified import CertifiedOptions, minimize
 from airl_cli.core.irl.degeneracy import is_degenerate, reward_effect
 from airl_cli.core.mdp.planning import state_marginals
 from airl_cli.core.mdp.scores import mixture_performance, performance
-from airl_cli.jobs.fit import degenerate_sentence
+from airl_cli.jobs.fit_summary import degenerate_sentence
 
 runner = CliRunner()
 T = 3

@@ -131,3 +131,11 @@ def test_strong_convexity_bracket_sides():
     assert strong_convexity_bracket(2.0, 0.2, 0.01, maximise=True) == pytest.approx((2.0, 4.0))
     assert strong_convexity_bracket(2.0, 0.2, 0.01, maximise=False) == pytest.approx((0.0, 2.0))
     assert strong_convexity_bracket(2.0, 0.2, 0.0, maximise=False) is None
+
+
+def test_every_stop_reason_has_its_words():
+    from airl_cli.core.irl.baselines import STOP_REASONS
+    from airl_cli.methods import STOP_WORDS
+
+    assert set(STOP_WORDS) == set(STOP_REASONS)
+    assert all(("NOT" in long) == (reason in ("max_iterations", "line_search")) and ("NOT" in short) == ("NOT" in long) for reason, (long, short) in STOP_WORDS.items())
