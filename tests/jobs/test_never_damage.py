@@ -136,11 +136,12 @@ def test_a_comparison_method_says_where_it_stopped_and_strict_judges_it(tmp_path
     """MMP (subgradient descent, no rule but its cap) says so with its objective's bracket, on
     stderr too, and --strict exits 3; MCE IRL, converged by L-BFGS-B's rule, passes. Before, both
     summaries said only "N iterations"."""
-    mmp = runner.invoke(app, ["fit", "--strict", *SMALL, "method=mmp", f"hydra.run.dir={tmp_path / 'a'}"])
+    mmp = runner.invoke(app, ["fit", "--strict", *SMALL, "method=mmp", "method.max_iterations=7", f"hydra.run.dir={tmp_path / 'a'}"])
     assert mmp.exit_code == 3, mmp.output
     assert "warning: NOT converged: stopped at its cap of iterations (method.max_iterations)" in mmp.stderr
     summary = (tmp_path / "a" / "summary.txt").read_text()
     assert "stopped   NOT converged" in summary and "its objective's optimum lies in [" in summary
+    assert "one shared w, 7 iterations" in summary  # its cap, as the stop sentence says
     metrics = json.loads((tmp_path / "a" / "metrics.json").read_text())
     lo, up = metrics["objective_bracket"]
     assert metrics["stopped"] == "max_iterations" and not metrics["converged"] and lo <= up == metrics["objective"]
@@ -150,3 +151,6 @@ def test_a_comparison_method_says_where_it_stopped_and_strict_judges_it(tmp_path
     assert "stopped   converged: its stopping rule met, the gradient's norm at w" in (tmp_path / "b" / "summary.txt").read_text()
     metrics = json.loads((tmp_path / "b" / "metrics.json").read_text())
     assert metrics["converged"] and metrics["stopped"] == "tolerance" and metrics["objective_relative_width"] < 1e-6
+    capped = runner.invoke(app, ["fit", *SMALL, "method=mce", "method.max_iterations=2", f"hydra.run.dir={tmp_path / 'c'}"])
+    assert capped.exit_code == 0 and "one shared w, 2 iterations" in (tmp_path / "c" / "summary.txt").read_text()  # not 3: row 0 is w = 0
+    assert len((tmp_path / "c" / "history.csv").read_text().splitlines()) == 1 + 3  # the header, w = 0 and two iterations

@@ -63,6 +63,9 @@ class Stop:
         bracket: (lower, upper) on the optimum of the method's objective by eq. (1) of the module
             docstring (MCE IRL's maximum of g, MMP's minimum of f), None where none is known
             (lam = 0, robust MCE IRL, projection); ``objective``: the objective at the returned w.
+        iterations: the iterations run (L-BFGS-B's, Adam's, MMP's subgradient steps, projection's
+            steps after step 0): what ``max_iterations`` caps. The history has one row per
+            iteration, after a row for the starting point w = 0 where the method records one.
     """
 
     reason: str
@@ -70,6 +73,7 @@ class Stop:
     value: float
     bracket: tuple[float, float] | None = None
     objective: float | None = None
+    iterations: int = 0
 
     @property
     def converged(self) -> bool:
@@ -319,7 +323,7 @@ def projection(
         if gaps[-1] < min(gaps[:-1]):
             best_w = w
     history = {"step": np.arange(len(margins)), "margin": np.array(margins), "feature_gap": np.array(gaps)}
-    return BaselineResult(np.tile(best_w, (P.shape[0] - 1, 1)), None, history, Stop(reason, "the margin |mu_E - mu_bar|", margins[-1]))
+    return BaselineResult(np.tile(best_w, (P.shape[0] - 1, 1)), None, history, Stop(reason, "the margin |mu_E - mu_bar|", margins[-1], iterations=len(margins) - 1))
 
 
 def behavioral_cloning(

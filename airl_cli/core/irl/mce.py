@@ -18,6 +18,8 @@ initial p0 (S,); horizon T counts states; targets (D, K).
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 from scipy.optimize import minimize
 
@@ -178,7 +180,7 @@ def mce_irl(
         "grad_norm": np.array(grad_norm),
     }
     D = P.shape[0] - 1
-    stop = Stop(stop.reason, stop.measure, stop.value, strong_convexity_bracket(stop.objective, stop.value, lam, maximise=True), stop.objective)
+    stop = dataclasses.replace(stop, bracket=strong_convexity_bracket(stop.objective, stop.value, lam, maximise=True))
     return BaselineResult(np.tile(w, (D, 1)), None, history, stop)
 
 
@@ -216,4 +218,4 @@ def lbfgs_ascent(evaluate, K: int, max_iterations: int, *, tol: float) -> tuple[
     result = minimize(negative, w0, jac=True, method="L-BFGS-B", tol=tol, callback=record, options={"maxiter": max_iterations})
     value, grad = (last["value"], last["grad"]) if np.array_equal(last["w"], result.x) else evaluate(result.x)
     reason = {0: "tolerance", 1: "max_iterations"}.get(int(result.status), "line_search")
-    return result.x, objective, grad_norm, Stop(reason, "the gradient's norm at w", float(np.linalg.norm(grad)), objective=float(value))
+    return result.x, objective, grad_norm, Stop(reason, "the gradient's norm at w", float(np.linalg.norm(grad)), objective=float(value), iterations=int(result.nit))

@@ -120,4 +120,4 @@ def max_margin_planning(
     best = int(np.argmin(objective))  # the first of the lowest, as best_w
     lower = bundle_lower_bound(np.array(objective), np.array(points), np.array(subgradients), lam) if lam > 0 else None
     bracket = None if lower is None else (min(lower, objective[best]), objective[best])
-    return BaselineResult(np.tile(best_w, (D, 1)), None, history, Stop("max_iterations", "the subgradient's norm at w", grad_norm[best], bracket, objective[best]))
+    return BaselineResult(np.tile(best_w, (D, 1)), None, history, Stop("max_iterations", "the subgradient's norm at w", grad_norm[best], bracket, objective[best], max_iterations))

@@ -253,7 +253,7 @@ def robust_mce_irl(
         w, objective, grad_norm, stop = lbfgs_ascent(evaluate, phi.shape[-1], max_iterations, tol=tol)
     else:
         w, objective, grad_norm = _adam(evaluate, phi.shape[-1], max_iterations, lr=lr)
-        stop = Stop("max_iterations", "the gradient's norm at w", grad_norm[-1], objective=objective[-1])
+        stop = Stop("max_iterations", "the gradient's norm at w", grad_norm[-1], objective=objective[-1], iterations=len(objective) - 1)
     history = {"step": np.arange(len(objective)), "objective": np.array(objective), "grad_norm": np.array(grad_norm)}
     return BaselineResult(np.tile(w, (P.shape[0] - 1, 1)), None, history, stop)
 

@@ -27,7 +27,7 @@ from airl_cli.usecases.learned import Learned
 
 def _weights_learned(name: str, res: baselines.BaselineResult) -> Learned:
     """The solver's weights, history and where it stopped (``stop_info``) as a ``Learned``."""
-    return Learned(name, res.weights, None, res.history, {"iterations": len(next(iter(res.history.values()), [])), **stop_info(res.stop)})
+    return Learned(name, res.weights, None, res.history, {"iterations": res.stop.iterations, **stop_info(res.stop)})
 
 
 def stop_info(stop: baselines.Stop) -> dict:

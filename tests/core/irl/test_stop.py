@@ -133,6 +133,27 @@ def test_strong_convexity_bracket_sides():
     assert strong_convexity_bracket(2.0, 0.2, 0.0, maximise=False) is None
 
 
+def test_a_method_at_its_cap_has_run_as_many_iterations_as_the_cap():
+    """``Stop.iterations`` is what ``max_iterations`` caps: the summary said "6 iterations" beside
+    "stopped at its cap" of 5 when it counted the history's rows (row 0 is the start w = 0)."""
+    P, phi, p0, T, targets, _, _ = tiny_problem(6)
+    marginals = np.full((2, T, 4), 0.25)
+    capped = {
+        "mce": mce_irl(P, phi, p0, T, targets, lam=0.01, max_iterations=3),
+        "robust adam": robust_mce_irl(P, phi, p0, T, targets, optimizer="adam", max_iterations=3),
+        "robust lbfgs": robust_mce_irl(P, phi, p0, T, targets, max_iterations=3),
+        "projection": projection(P, phi, p0, T, targets, max_iterations=3, tol=0.0),
+        "mmp": max_margin_planning(P, phi, p0, T, targets, demo_marginals=marginals, loss=1.0 - np.eye(4), lam=0.01, max_iterations=3),
+    }
+    for name, res in capped.items():
+        rows = len(res.history["step"])
+        if res.stop.reason == "max_iterations":
+            assert res.stop.iterations == 3, name
+        assert rows == res.stop.iterations + (0 if name == "mmp" else 1), name  # a row for the start, except MMP's
+    converged = mce_irl(P, phi, p0, T, targets, lam=0.01)
+    assert converged.stop.converged and converged.stop.iterations == len(converged.history["step"]) - 1 > 3
+
+
 def test_every_stop_reason_has_its_words():
     from airl_cli.core.irl.baselines import STOP_REASONS
     from airl_cli.methods import STOP_WORDS
