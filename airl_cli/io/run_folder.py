@@ -116,7 +116,9 @@ def entry_refusal(folder: str, inputs: list[str], *, replace: bool, key: str = "
     A finished run's folder is a record: a new run into a folder that holds anything is refused,
     naming what is there, unless ``replace`` (``--replace``), which empties it first (``empty``) —
     refused too if one of the run's own inputs (``inputs``, the values its overrides set:
-    ``settings.overrides.CommandLine.input_values``, naming a file or folder) lies in it. An empty ``hydra.run.dir=`` (Hydra would write into the current folder) is refused.
+    ``settings.overrides.CommandLine.input_values``, naming a file or folder) lies in it, and where
+    ``folder`` is the current folder, one that holds it, or the home folder (``hydra.run.dir=.``:
+    everything of the user's there would go). An empty ``hydra.run.dir=`` (Hydra would write into the current folder) is refused.
     """
     if not folder.strip():
         return empty_folder_refusal(key)
@@ -128,6 +130,10 @@ def entry_refusal(folder: str, inputs: list[str], *, replace: bool, key: str = "
     if not replace:
         return f"{folder} already holds {shown}; a run never replaces another's files: name a new folder, or add --replace to empty it first"
     inside = path.resolve()
+    here = Path.cwd().resolve()
+    if inside == here or inside in here.parents or inside == Path.home().resolve():
+        what = "the current folder" if inside == here else ("a folder that holds the current folder" if inside in here.parents else "your home folder")
+        return f"--replace would empty {folder}, {what}, and everything in it; name the run's own folder, e.g. {key}=results/mine"
     for value in inputs:
         if Path(value).exists() and (Path(value).resolve() == inside or inside in Path(value).resolve().parents):
             return f"--replace would empty {folder}, which holds this run's input {value}; copy the input elsewhere first"

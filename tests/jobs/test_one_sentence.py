@@ -51,6 +51,21 @@ def test_replace_empties_the_folder_first_but_never_deletes_the_runs_own_input(t
     assert "notes.txt" not in names and "dataset.npz" not in names and {"weights.json", "summary.txt"} <= names
 
 
+@pytest.mark.parametrize("folder, what", [(".", "the current folder"), ("..", "holds the current folder")])
+def test_replace_never_empties_the_current_folder_or_one_above_it(tmp_path, monkeypatch, folder, what):
+    """``airl fit --replace hydra.run.dir=.`` deleted every file of the folder the user stood in."""
+    here = tmp_path / "project"
+    (here / "src").mkdir(parents=True)
+    (here / "src" / "main.py").write_text("print(1)")
+    (here / "notes.txt").write_text("mine")
+    monkeypatch.chdir(here)
+    before = sha256_listing(tmp_path)
+    for command in (["fit", "--replace", *SMALL, f"hydra.run.dir={folder}"], ["fit", "--replace", "-m", *SMALL, "seed=0,1", f"hydra.sweep.dir={folder}"]):
+        line = one_error(runner.invoke(app, command))
+        assert "--replace would empty" in line and what in line, line
+    assert sha256_listing(tmp_path) == before
+
+
 def test_an_empty_run_folder_is_refused_and_writes_nothing(tmp_path):
     line = one_error(runner.invoke(app, ["fit", *SMALL, "hydra.run.dir="]))
     assert "hydra.run.dir= is empty" in line
