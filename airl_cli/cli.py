@@ -221,6 +221,9 @@ def sweep(
     hydra/launcher=basic runs them one by one, hydra/launcher=submitit_slurm on a cluster.
     """
     args = _overrides(ctx)
+    from airl_cli.jobs.launch import check_print_options
+
+    check_print_options(cfg, resolve)
     if cfg is not None:  # print the config (Hydra takes --cfg without --multirun)
         from airl_cli.sweep.run import print_config
 

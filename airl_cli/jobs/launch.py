@@ -78,6 +78,9 @@ def run_hydra(
     (job ``sweep``) says it itself. ``replace``: a single run may go into a ``hydra.run.dir`` that
     holds files, which are removed first (``io.run_folder.entry_refusal``).
     """
+    check_print_options(cfg, resolve)
+    if not multirun and cfg is None:
+        check_single_values(overrides)
     earlier = claimed_folder()
     try:
         _run_hydra(job, overrides, cfg=cfg, resolve=resolve, multirun=multirun, app=app, replace=replace)
@@ -91,6 +94,35 @@ def run_hydra(
         folder = None if where is None else Path(where)
         stop(err, folder, fresh=folder is not None and holds_no_results(folder))
         raise
+
+
+#: ``--cfg``'s choices, as Hydra names them.
+CFG_CHOICES = ("job", "hydra", "all")
+
+
+def check_print_options(cfg: str | None, resolve: bool) -> None:
+    """Refuse, in one sentence, a ``--cfg`` Hydra does not know and ``--resolve`` without ``--cfg``
+    (which Hydra ignores: the command would run)."""
+    if cfg is not None and cfg not in CFG_CHOICES:
+        refuse(f"--cfg takes one of {', '.join(CFG_CHOICES)}, not '{cfg}'")
+    if resolve and cfg is None:
+        refuse("--resolve goes with --cfg (it resolves the printed config's interpolations); add --cfg job, or drop --resolve")
+
+
+def check_single_values(overrides: CommandLine) -> None:
+    """Refuse, in one sentence, an override of several values (``seed=0,1``, ``seed=range(0,2)``) on
+    a single run: Hydra's message names its own remedies, not ``-m``."""
+    from hydra.core.override_parser.overrides_parser import OverridesParser
+    from hydra.errors import HydraException
+
+    for text in quote_paths(overrides):
+        try:
+            parsed = OverridesParser.create().parse_overrides([text])
+        except HydraException:
+            continue  # Hydra says what is wrong with it
+        if parsed and parsed[0].is_sweep_override():
+            key = parsed[0].key_or_group
+            refuse(f"'{text}' gives {key} several values: add -m for one run per value, or quote a value that holds commas (\"{key}='a,b'\")")
 
 
 def _run_hydra(job: str, overrides: CommandLine, *, cfg: str | None, resolve: bool, multirun: bool, app: str | None, replace: bool) -> None:

@@ -94,7 +94,16 @@ def _range(lo: Any, hi: Any, open_lo: bool = False) -> str:
 
 
 def plain(cfg: DictConfig | Mapping) -> dict:
-    """The config as plain Python containers, interpolations resolved."""
+    """The config as plain Python containers, interpolations resolved.
+
+    Raises:
+        ConfigError: an interpolation that does not resolve (``mdp.n_states=${oops}``), in one sentence.
+    """
     if isinstance(cfg, DictConfig):
-        return OmegaConf.to_container(cfg, resolve=True)  # type: ignore[return-value]
+        from omegaconf.errors import InterpolationResolutionError
+
+        try:
+            return OmegaConf.to_container(cfg, resolve=True)  # type: ignore[return-value]
+        except InterpolationResolutionError as err:
+            raise ConfigError(f"{err.full_key or 'a setting'}: {str(err).splitlines()[0].rstrip('.')}: an interpolation ${{...}} must name a setting of the config") from None
     return dict(cfg)

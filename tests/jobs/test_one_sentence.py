@@ -99,6 +99,17 @@ def test_an_empty_new_folder_is_accepted(tmp_path):
         (["inspect"], "missing argument 'path' (see airl inspect --help)"),
         (["inspect", ""], "airl inspect '' names no file"),
         (["fit", "hydra.run.dir=résultats/a"], "write hydra.run.dir='résultats/a' (in the shell: \"hydra.run.dir='résultats/a'\")"),
+        # Hydra's traceback or its own remedies, exit 1 (a walk through the commands, session 87)
+        (["fit", "mdp.n_states=${oops}"], "mdp.n_states: Interpolation key 'oops' not found"),
+        (["generate", "mdp.n_states=${oops}"], "mdp.n_states: Interpolation key 'oops' not found"),
+        (["plan", "plan.horizon=${oops}"], "plan.horizon: Interpolation key 'oops' not found"),
+        (["sweep", "experiment=fig05", "profile=quick", "mdp.n_states=${oops}"], "mdp.n_states: Interpolation key 'oops' not found"),
+        (["fit", "seed=0,1"], "'seed=0,1' gives seed several values: add -m"),
+        (["generate", "seed=range(0,2)"], "'seed=range(0,2)' gives seed several values: add -m"),
+        (["plan", "plan.input=benchmark:hiv", "plan.horizon=3,4"], "gives plan.horizon several values"),
+        (["fit", "--cfg", "foo"], "--cfg takes one of job, hydra, all, not 'foo'"),
+        (["sweep", "experiment=fig05", "--cfg", "foo"], "--cfg takes one of job, hydra, all, not 'foo'"),
+        (["fit", "--resolve"], "--resolve goes with --cfg"),
         # issue 72 item 1: the sweep wrote its whole folder into the current one, exit 0
         (["sweep", "experiment=fig05", "profile=quick", "hydra.sweep.dir="], "hydra.sweep.dir= is empty (the run would write into the current folder)"),
     ],
