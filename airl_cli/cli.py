@@ -187,17 +187,13 @@ def fit(
     """``airl fit`` (its help, ``FIT_HELP``, names the methods of the registry)."""
     if (strict or verbose) and multirun:
         refuse(f"{'--strict judges' if strict else '--verbose shows'} one fit; a multirun's jobs run in worker processes (read each job's metrics.json instead)")
-    from airl_cli.jobs.fit import VERBOSE, WARNED, WIDE
+    from airl_cli.jobs.fit import VERBOSE, WARNED
 
-    WARNED.clear()
-    WIDE.clear()  # what an earlier command in this process saw is not this fit's
+    WARNED.clear()  # what an earlier command in this process saw is not this fit's
     VERBOSE[:] = [True] if verbose else []
     run_hydra("fit", _overrides(ctx), cfg=cfg, resolve=resolve, multirun=multirun, replace=replace)
-    if strict and cfg is None:
-        for sentence in WIDE:
-            typer.echo(f"airl fit --strict: {sentence}", err=True)
-        if WARNED or WIDE:
-            raise typer.Exit(3)
+    if strict and cfg is None and WARNED:
+        raise typer.Exit(3)
 
 
 @app.command(context_settings=PASS_THROUGH, cls=_SweepCommand)

@@ -15,7 +15,7 @@ from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from airl_cli.io.dataset import Dataset, read_dataset, write_dataset
 from airl_cli.io.fit_folder import write_fit
 from airl_cli.jobs.common import Prepared, check_memory, err_console, out_console, output_dir, run_job, save_config, size_note, warm_up
-from airl_cli.jobs.fit_summary import fit_warnings, summary_text, verbose_lines, wide_sentence
+from airl_cli.jobs.fit_summary import fit_warnings, summary_text, verbose_lines
 from airl_cli.methods import THESIS, plays_game
 from airl_cli.plain_progress import PlainProgress
 from airl_cli.settings.config import FitSettings
@@ -186,8 +186,6 @@ def main(cfg: DictConfig, job: FitJob) -> None:
     for sentence in fit_warnings(run.learned.info):
         err_console.print(f"warning: {sentence}", soft_wrap=True)
         WARNED.append(sentence)
-    if plays_game(run.learned.method) and (wide := wide_sentence(run.learned.info)):
-        WIDE.append(wide)
 
 
 #: ``airl fit --verbose``: the summary is followed by ``verbose_lines`` (set by the command line).
@@ -196,8 +194,6 @@ VERBOSE: list[bool] = []
 
 #: The warnings of the fits run in this process (``airl fit --strict`` exits 3 if there are any).
 WARNED: list[str] = []
-#: What ``airl fit --strict`` also counts as not converged: a bracket on eq. 5.9's minimum wider than optim.tol.
-WIDE: list[str] = []
 
 
 @hydra.main(version_base="1.3", config_path=conf_dir(), config_name="airl")

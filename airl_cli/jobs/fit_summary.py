@@ -1,5 +1,5 @@
 """What ``airl fit`` says about a fit: the summary it prints and writes (``summary_text``), the
-sentences it warns with on stderr (``fit_warnings``, and ``wide_sentence`` for ``--strict``) and
+sentences it warns with on stderr (``fit_warnings``, which ``--strict`` turns into exit 3) and
 ``--verbose``'s details (``verbose_lines``), all from the fit's dataset, settings and metrics
 ``info`` (the learner's ``Learned.info``, as metrics.json keeps it)."""
 
@@ -202,22 +202,17 @@ def _bracket_effort(info: dict) -> str:
     return f"of {info['bracket_beliefs']:,} beliefs{grid}"
 
 
-def wide_sentence(info: dict) -> str | None:
-    """The sentence ``--strict`` adds when the fit's certificate, the bracket valid whatever the
-    adversary's policy, is wider than optim.tol (or missing, where the fit closes none)."""
-    if info.get("optimizer") != "exact" or info.get("converged") or info.get("stopped") in ("max_iterations", "max_seconds"):
-        return None  # the gradient steps have no bracket; a fit at a budget warns already (``fit_warnings``)
-    return f"not converged: {info['certificate']}"
-
-
 def fit_warnings(info: dict) -> list[str]:
-    """The sentences a fit warns with on stderr: a certified learner stopped at a budget with its
-    bracket wider than optim.tol (the width it reached, the setting that narrows it), a degenerate
+    """The sentences a fit warns with on stderr: a certified learner whose bracket is wider than
+    optim.tol (stopped at a budget: "NOT converged"; else held open by its planner, the Markov
+    adversary's game or the grid's resolution), with the width it reached and the setting that
+    narrows it (the certificate's own words), a degenerate
     optimum (a certificate that says nothing of the reward), a learned reward that is the same
     everywhere (any method's: its policy is a tie-break)."""
     out = []
-    if info.get("optimizer") == "exact" and info.get("stopped") in ("max_iterations", "max_seconds") and not info.get("converged"):
-        out.append(f"NOT converged: {info['certificate']}")
+    if info.get("optimizer") == "exact" and not info.get("converged"):
+        budget = info.get("stopped") in ("max_iterations", "max_seconds")
+        out.append(f"{'NOT converged' if budget else 'not closed to optim.tol'}: {info['certificate']}")
     if "stop_measure" in info and not info["converged"]:  # a comparison method at its cap
         out.append(f"{stop_sentence(info)}; a larger method.max_iterations goes further")
     if info.get("degenerate"):

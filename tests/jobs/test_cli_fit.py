@@ -318,6 +318,17 @@ def test_a_fit_at_a_budget_says_the_width_it_reached_and_the_setting_that_narrow
     assert "optim.max_seconds = 1e-09; a longer one narrows it" in timed.stderr and timed.stderr.count("NOT converged") == 1
 
 
+def test_a_bracket_held_open_by_its_planner_warns_on_stderr_too():
+    """Stopped by its tolerance on the planner's gap, the bracket 96x wider than optim.tol (the grid's
+    resolution): the summary said so, stderr said nothing, and only --strict told a script."""
+    from airl_cli.jobs.fit_summary import fit_warnings
+
+    certificate = "eq. 5.9's minimum lies in [-1.10585, -1.00861] whatever the adversary's policy (relative width 0.096, wider than optim.tol = 0.001: a larger pbvi.bracket_grid narrows it)"
+    metrics = {"optimizer": "exact", "stopped": "tolerance", "converged": False, "certificate": certificate, "degenerate": False}
+    assert fit_warnings(metrics) == [f"not closed to optim.tol: {certificate}"]
+    assert fit_warnings(metrics | {"converged": True}) == []
+
+
 @pytest.mark.parametrize(
     "args, effort",
     [

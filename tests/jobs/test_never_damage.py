@@ -108,7 +108,7 @@ def test_strict_fails_a_bracket_wider_than_optim_tol(tmp_path):
     bracketed at its answer, not closed): --strict says so and exits 3, the results written all the same."""
     result = runner.invoke(app, ["fit", "--strict", *SMALL, "game.adversary=markov", f"hydra.run.dir={tmp_path / 'a'}"])
     assert result.exit_code == 3, result.output
-    assert "airl fit --strict: not converged: eq. 5.9's minimum with a Markov adversary lies in" in result.stderr
+    assert "warning: not closed to optim.tol: eq. 5.9's minimum with a Markov adversary lies in" in result.stderr
     assert "wider than optim.tol = 0.001: the Markov adversary's game is bracketed at its answer, not closed" in result.stderr
     metrics = json.loads((tmp_path / "a" / "metrics.json").read_text())
     assert not metrics["converged"] and metrics["bracket_relative_gap"] > metrics["tol"]
