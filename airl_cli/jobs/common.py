@@ -126,6 +126,32 @@ def stop(err: BaseException, folder: Path | None, *, fresh: bool) -> None:
     raise SystemExit(status) from None
 
 
+def stop_multirun(err: BaseException, folder: Path, *, made: bool) -> None:
+    """Say in one sentence that a multirun (``-m``) was interrupted, and exit (130, or 143): the
+    folders of its unfinished jobs (marked ``INCOMPLETE``, or holding only Hydra's records) are
+    removed, the finished jobs' kept; with none finished, the multirun's folder goes too if this
+    run ``made`` it (a folder the user named and made stays, emptied).
+
+    Raises:
+        SystemExit: always.
+    """
+    jobs = [p for p in folder.iterdir() if p.is_dir() and not p.name.startswith(".")] if folder.is_dir() else []
+    unfinished = [p for p in jobs if (p / INCOMPLETE).exists() or holds_no_results(p)]
+    for job in unfinished:
+        discard(job)
+    kept = len(jobs) - len(unfinished)
+    if kept:
+        sentence = (f"[bold yellow]interrupted[/]: the {kept} finished job(s) are kept in {escape(str(folder))}; "
+                    f"the {len(unfinished)} unfinished one(s) removed (run the command again for them)")
+    elif made and discard(folder):
+        sentence = f"[bold yellow]interrupted[/]: nothing was kept (the multirun folder {escape(str(folder))} is removed)"
+    else:  # the user's own folder stays, as empty as it was
+        (folder / "multirun.yaml").unlink(missing_ok=True)
+        sentence = f"[bold yellow]interrupted[/]: nothing was kept ({escape(str(folder))} is empty again)"
+    err_console.print(sentence, soft_wrap=True)
+    raise SystemExit(interrupt_status()) from None
+
+
 def fit_sizes(job: FitJob) -> dict | None:
     """S, A, T, D, N and R of the fit this job asks for, known without building or reading it all.
 

@@ -82,12 +82,16 @@ def run_hydra(
     if not multirun and cfg is None:
         check_single_values(overrides)
     earlier = claimed_folder()
+    _multirun.clear()
     try:
         _run_hydra(job, overrides, cfg=cfg, resolve=resolve, multirun=multirun, app=app, replace=replace)
     except (KeyboardInterrupt, SystemError, ResultsUnwritable) as err:
         if job == "sweep" or not (interrupted(err) or isinstance(err, ResultsUnwritable)):
             raise
-        from airl_cli.jobs.common import stop
+        from airl_cli.jobs.common import stop, stop_multirun
+
+        if interrupted(err) and "folder" in _multirun:  # -m: its unfinished jobs' folders go, the finished stay
+            stop_multirun(err, Path(_multirun["folder"]), made=not _multirun["existed"])
 
         claimed = claimed_folder()  # the folder this run made, if it got that far
         where = err.folder if isinstance(err, ResultsUnwritable) else (claimed if claimed != earlier else None)
@@ -95,6 +99,9 @@ def run_hydra(
         stop(err, folder, fresh=folder is not None and holds_no_results(folder))
         raise
 
+
+#: The folder of the ``-m`` multirun under way in this process (``run_hydra`` clears it out on Ctrl-C).
+_multirun: dict[str, Any] = {}
 
 #: ``--cfg``'s choices, as Hydra names them.
 CFG_CHOICES = ("job", "hydra", "all")
@@ -135,7 +142,11 @@ def _run_hydra(job: str, overrides: CommandLine, *, cfg: str | None, resolve: bo
     if cfg is None:
         check_output_folder(line, multirun=multirun)
     if multirun and cfg is None and job in PRINT_ONLY:
+        check_every_value(job, line)
+        named = line.value("hydra.sweep.dir")
+        existed = named is not None and Path(named.strip("'\"")).is_dir()
         line = _multirun_folder(job, line, replace=replace)
+        _multirun.update(folder=line.value("hydra.sweep.dir").strip("'\""), existed=existed)
     argv = [f"airl {job}"]
     if multirun:
         argv.append("--multirun")
@@ -207,6 +218,27 @@ def _multirun_folder(job: str, line: CommandLine, *, replace: bool) -> CommandLi
         return line
     except ConfigError as err:
         refuse(err)
+
+
+def check_every_value(job: str, line: CommandLine) -> None:
+    """``-m``: every value of every swept override checked as its job would check it (``preflight``),
+    each beside the other swept keys' first values, before the multirun's folder is made. A bad
+    value is one sentence and nothing on disk; Hydra's sweeper would have run and written the jobs
+    before it. (Each value once, not every combination: a value that is bad only beside another's
+    is refused by its job, in its folder's ``error.txt``.)"""
+    from hydra.core.override_parser.overrides_parser import OverridesParser
+
+    texts = quote_paths(line)
+    parsed = OverridesParser.create().parse_overrides(texts)
+    choices = [[f"{o.get_key_element()}={v}" for v in o.sweep_string_iterator()] if o.is_sweep_override() else [t] for o, t in zip(parsed, texts)]
+    first = [c[0] for c in choices]
+    seen = set()
+    for i, values in enumerate(choices):
+        for value in values:
+            combination = first[:i] + [value] + first[i + 1 :]
+            if tuple(combination) not in seen:
+                seen.add(tuple(combination))
+                preflight(job, combination)
 
 
 def preflight(job: str, overrides: CommandLine | list[str], *, replace: bool = False) -> Prepared:

@@ -344,3 +344,58 @@ def test_the_temporary_files_of_killed_writers_are_removed_and_nothing_else(tmp_
     remove_temporaries(tmp_path / "sweep")
     assert not Path(stray).exists()
     assert all(path.exists() for path in kept)
+
+
+def _multirun_folder(root: Path, finished: int, unfinished: int) -> Path:
+    """A ``-m`` folder as Hydra leaves it at a Ctrl-C: finished jobs, and jobs that hold Hydra's
+    records and the INCOMPLETE marker (or a partial result beside it)."""
+    root.mkdir(exist_ok=True)
+    (root / "multirun.yaml").write_text("hydra: {}\n")
+    for i in range(finished + unfinished):
+        (root / str(i) / ".hydra").mkdir(parents=True)
+        (root / str(i) / "config.yaml").write_text("seed: 0\n")
+        (root / str(i) / ("summary.txt" if i < finished else INCOMPLETE)).write_text("x")
+    return root
+
+
+@pytest.mark.parametrize("finished, made", [(1, True), (0, True), (0, False)])
+def test_an_interrupted_multirun_keeps_its_finished_jobs_and_removes_the_rest(tmp_path, capsys, finished, made):
+    """``airl fit -m seed=0,1`` stopped by Ctrl-C left the unfinished job's folder (Hydra's records
+    and INCOMPLETE) and said only "interrupted"."""
+    from airl_cli.jobs.common import stop_multirun
+
+    folder = _multirun_folder(tmp_path / "multi", finished, 2 - finished)
+    with pytest.raises(SystemExit) as stopped:
+        stop_multirun(KeyboardInterrupt(), folder, made=made)
+    assert stopped.value.code == 130
+    err = capsys.readouterr().err
+    if finished:
+        assert one_line(err, f"interrupted: the 1 finished job(s) are kept in {folder}; the 1 unfinished one(s) removed"), err
+        assert sorted(p.name for p in folder.iterdir()) == ["0", "multirun.yaml"] and (folder / "0" / "summary.txt").exists()
+    elif made:
+        assert one_line(err, f"interrupted: nothing was kept (the multirun folder {folder} is removed)"), err
+        assert not folder.exists()
+    else:  # the user's own folder, named with hydra.sweep.dir and made before: empty again
+        assert one_line(err, f"interrupted: nothing was kept ({folder} is empty again)"), err
+        assert folder.is_dir() and not any(folder.iterdir())
+
+
+@pytest.mark.slow  # end to end, seconds: the slow suite (pytest -m slow, run by CI)
+def test_ctrl_c_during_a_fit_multirun_leaves_no_unfinished_job(tmp_path):
+    """Jobs of seconds each on two warm workers, Ctrl-C to the process group as a terminal sends it."""
+    folder = tmp_path / "multi"
+    proc = subprocess.Popen([*AIRL, "fit", "-m", "seed=0,1,2,3", "mdp.n_states=150", f"hydra.sweep.dir={folder}"],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
+    try:
+        deadline = time.time() + 120
+        while time.time() < deadline and len(list(folder.glob("*/INCOMPLETE"))) < 1:
+            time.sleep(0.1)
+        time.sleep(0.5)
+        os.killpg(proc.pid, signal.SIGINT)
+        _, err = proc.communicate(timeout=60)
+    finally:
+        kill_group(proc.pid)
+    assert proc.returncode == 130, err
+    assert "interrupted: " in err and "Traceback" not in err, err
+    left = [p for p in folder.iterdir() if p.is_dir()] if folder.exists() else []
+    assert all((p / "summary.txt").exists() and not (p / INCOMPLETE).exists() for p in left), left
