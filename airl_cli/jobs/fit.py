@@ -22,6 +22,7 @@ from airl_cli.settings.config import FitSettings
 from airl_cli.settings.job import FitJob, fit_job
 from airl_cli.settings.overrides import CommandLine
 from airl_cli.settings.paths import conf_dir
+from airl_cli.settings.problem_defaults import PROBLEM_GROUPS
 from airl_cli.usecases.evaluate import score_learned
 from airl_cli.usecases.fit import check_supported, fit_dataset, learner, with_method_loss
 from airl_cli.usecases.learned import Learned
@@ -55,8 +56,6 @@ def prepare(cfg: DictConfig, overrides: CommandLine | list[str] = ()) -> Prepare
 
 #: The groups that configure the thesis's learner alone (method=airl).
 LEARNER_GROUPS = ("game", "optim", "pbvi", "variant")
-#: The groups that describe a problem airl builds (ignored when the problem comes from data=FILE).
-PROBLEM_GROUPS = ("mdp", "dynamics", "demos")
 
 
 def ignored_settings(cfg: DictConfig, line: CommandLine, method: str) -> list[str]:

@@ -15,6 +15,9 @@ import yaml
 from airl_cli.settings.overrides import CommandLine
 from airl_cli.settings.paths import conf_dir
 
+#: The config groups that describe a problem airl builds (ignored when the problem comes from data=FILE).
+PROBLEM_GROUPS = ("mdp", "dynamics", "demos")
+
 
 def is_env_id(name: object) -> bool:
     """Whether ``mdp.env`` names an environment by its registered id (``FrozenLake-v1``,

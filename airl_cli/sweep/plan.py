@@ -26,6 +26,7 @@ from airl_cli.settings.experiments import compose_airl, experiment_names  # noqa
 from airl_cli.settings.hydra_internals import launcher_discoverable, overrides_dirname, split_sweep_overrides
 from airl_cli.settings.job import fit_job
 from airl_cli.settings.overrides import CommandLine, Override
+from airl_cli.settings.problem_defaults import PROBLEM_GROUPS
 from airl_cli.sweep.folder import shared_settings
 from airl_cli.sweep.pool import workers
 from airl_cli.sweep.spec import SweepPlan
@@ -81,6 +82,11 @@ def _plan(line: CommandLine) -> SweepPlan:
 
         check_memory(fit_job(first_job), workers=workers)
     swept = _swept_keys(params, jobs_overrides)
+    if first_job.get("data") is not None and (ignored := [k for k in swept if k.split(".")[0] in PROBLEM_GROUPS]):
+        raise ConfigError(
+            f"with data=FILE every job learns from that file, so this sweep's {', '.join(ignored)} would change nothing; "
+            "drop data= (the experiment builds its own problems), or run airl fit -m data=FILE with the settings to vary"
+        )
     job_config = OmegaConf.to_container(first_job, resolve=False)
     del job_config["hydra"]
     settings = shared_settings(plain(OmegaConf.create(job_config)), swept)
@@ -124,6 +130,7 @@ def _folder(cfg: DictConfig, line: CommandLine, parser: OverridesParser) -> Path
         return Path(cfg.hydra.sweep.dir)
     extra = [o.text for o in line.tasks if o.key not in ("experiment", "profile")]
     suffix = overrides_dirname(parser.parse_overrides(extra), []) if extra else ""
+    suffix = suffix.replace("/", "_")  # data=dir/file.npz: one folder, not a folder in a folder
     if len(suffix) > 100:
         suffix = hashlib.sha1(suffix.encode()).hexdigest()[:12]
     return Path(f"{cfg.hydra.sweep.dir}-{suffix}" if suffix else cfg.hydra.sweep.dir)

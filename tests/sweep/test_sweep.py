@@ -80,6 +80,18 @@ def test_a_variant_gets_its_own_folder():
     assert plan(["experiment=fig05", "hydra.sweep.dir=elsewhere"]).folder == Path("elsewhere")
 
 
+
+def test_a_sweep_of_problems_refuses_a_dataset_file_and_a_file_names_one_folder(tmp_path, monkeypatch):
+    """``airl sweep experiment=fig05 data=FILE`` ran every job on the file, its rows at N = 1 and
+    N = 1000 identical, in results/sweeps/fig05-quick-data=gen/dataset.npz/ (a folder in a folder)."""
+    monkeypatch.chdir(tmp_path)
+    assert runner.invoke(app, ["generate", "mdp.n_states=6", "mdp.horizon=3", "hydra.run.dir=gen"]).exit_code == 0
+    with pytest.raises(ConfigError, match="this sweep's demos.n would change nothing; drop data="):
+        plan(["experiment=fig05", "profile=quick", "data=gen/dataset.npz"])
+    methods = plan(["experiment=fig04", "profile=quick", "data=gen/dataset.npz"])  # methods compared on one file: fine
+    assert methods.folder == Path("results/sweeps/fig04-quick-data=gen_dataset.npz")
+
+
 def test_full_sizes_follow_the_thesis():
     assert len(plan(["experiment=fig04"]).jobs) == 100 * 5  # 100 datasets, five methods
     assert len(plan(["experiment=fig05"]).jobs) == 7 * 10 * 5  # N in {1, 3, ..., 1000}
