@@ -165,7 +165,8 @@ def _objective_lines(info: dict) -> list[str]:
     lines = [f"objective {info['objective']:.6g} at the last step, (1/K)|grad|_1 = {info['grad_norm']:.3g}"]
     if "certified_optimum" in info:
         lines.append(
-            f"optimum   {info['certified_optimum']:.6g} (certified by optim=exact); f at the learned w is "
+            f"optimum   {info['certified_optimum']:.6g}, the minimum of the game the steps play (against PBVI's best responses, "
+            "by the exact solve; eq. 5.9's minimum whatever the adversary's policy is optim=exact's bracket, at or above it); f at the learned w is "
             f"{info['objective_at_weights']:.6g} (double oracle to threshold {info['objective_at_weights_tol']:g}), "
             f"{info['above_optimum']:.3g} above it ({100 * info['relative_above_optimum']:.2g}%)"
         )

@@ -228,7 +228,7 @@ def gradient_figure(history: pd.DataFrame, metrics: Mapping[str, Any]) -> Figure
     optimum = metrics.get("certified_optimum")
     if optimum is not None:
         obj_ax.axhline(float(optimum), color="black", linestyle="--", linewidth=1.4,
-                       label=f"certified optimum {float(optimum):.6g} (optim=exact)")
+                       label=f"the steps' game's minimum {float(optimum):.6g} (PBVI's best responses)")
     obj_ax.set_xlabel("gradient step")
     obj_ax.set_ylabel("objective f(w) of eq. 5.9")
     obj_ax.legend(loc="best", frameon=False)
@@ -243,7 +243,7 @@ def gradient_figure(history: pd.DataFrame, metrics: Mapping[str, Any]) -> Figure
 
     title = f"airl fit, optim=gradient: Table I's steps ({len(x)} steps, stopped: {metrics.get('stopped', '?')})"
     if metrics.get("relative_above_optimum") is not None:
-        title += f", {100 * float(metrics['relative_above_optimum']):.2g}% above the certified optimum"
+        title += f", {100 * float(metrics['relative_above_optimum']):.2g}% above its game's minimum"
     _suptitle(fig, title, fontsize=11)
     return fig
 

@@ -105,12 +105,12 @@ def test_the_gradient_figure_shows_the_objective_the_certified_optimum_and_the_g
     fig = plotting.convergence(gradient_history(), metrics)
     objective, grad = fig.axes
     assert objective.get_xlabel() == "gradient step" and "objective" in objective.get_ylabel()
-    optimum = [line for line in objective.get_lines() if "certified optimum" in line.get_label()]
+    optimum = [line for line in objective.get_lines() if "game's minimum" in line.get_label()]
     assert optimum and np.allclose(optimum[0].get_ydata(), 9.0)
     assert grad.get_yscale() == "log" and "gradient" in grad.get_ylabel()
     # without a certified optimum (optim.certify=false) there is no such line
     fig = plotting.convergence(gradient_history(), {**metrics, "certified_optimum": None})
-    assert not [line for line in fig.axes[0].get_lines() if "certified" in line.get_label()]
+    assert not [line for line in fig.axes[0].get_lines() if "minimum" in line.get_label()]
 
 
 @pytest.mark.parametrize("method, columns", [
