@@ -10,6 +10,7 @@ file is written atomically.
 
 from __future__ import annotations
 
+import hashlib
 import json
 import re
 from dataclasses import dataclass
@@ -21,6 +22,7 @@ from omegaconf import OmegaConf
 from airl_cli.errors import AirlError
 from airl_cli.io.files import atomic_write, write_text
 from airl_cli.io.results_table import read_results_table
+from airl_cli.io.run_folder import EXPERIMENT_FILE
 from airl_cli.methods import NAMES
 from airl_cli.readings.certificates import certificates
 from airl_cli.readings.claims import claims_numbers, claims_table, measure_claims, reading_of
@@ -95,9 +97,13 @@ def load_variants(sweeps: Path, experiments: Tables, profile: str = "full") -> T
     """Variants run as `airl sweep experiment=NAME OVERRIDES`: folder <study>-<profile>-<overrides>."""
     out = {}
     by_study = {meta["study"]: (name, meta) for name, (meta, _) in experiments.items()}
+    slugs: set[str] = set()
     for name, meta in by_study.values():
         for folder, overrides in _variant_folders(sweeps, meta, profile):
             slug = re.sub(r"[^A-Za-z0-9.]+", "_", overrides)
+            if slug in slugs:  # optim.lam=0.01,-1 and optim.lam=0.01,1: one name, two figures
+                slug += "_" + hashlib.sha1(overrides.encode()).hexdigest()[:8]
+            slugs.add(slug)
             out[f"{name} with {overrides}"] = ({**meta, "folder": str(folder), "slug": slug}, read_table(folder, meta))
     return dict(sorted(out.items(), key=lambda item: item[1][0]["folder"]))
 
@@ -199,7 +205,7 @@ def build(sweeps: Path, profile: str = "full") -> Report:
         ]
     figures: list[tuple[Path, str]] = []
     for name, (meta, table) in sorted(experiments.items()):
-        parts += ["", f"## {name}: {meta['title']}", "", f"Thesis: {meta['thesis']}.", "", summary_of(meta).section(meta, table)]
+        parts += ["", f"## {name}: {meta['title']}{_partial(Path(meta['folder']))}", "", f"Thesis: {meta['thesis']}.", "", summary_of(meta).section(meta, table)]
         for png in sorted(Path(meta["folder"], "figures").glob(f"{name}_*.png")):
             figures.append((png, png.name))
             parts += ["", f"![{png.stem}](figures/{png.name})"]
@@ -207,7 +213,7 @@ def build(sweeps: Path, profile: str = "full") -> Report:
         parts += ["", "# Variants", "", "The same experiments with one setting changed, each in a sweep folder of its own."]
     for label, (meta, table) in variants.items():
         name = label.split(" with ")[0]
-        parts += ["", f"## {label}", "", summary_of(meta).section(meta, table)]
+        parts += ["", f"## {label}{_partial(Path(meta['folder']))}", "", summary_of(meta).section(meta, table)]
         for png in sorted(Path(meta["folder"], "figures").glob(f"{name}_*.png")):
             target = f"{meta['slug']}_{png.name}"
             figures.append((png, target))
@@ -216,12 +222,26 @@ def build(sweeps: Path, profile: str = "full") -> Report:
     return Report("\n".join(parts) + "\n", claims_table(measured), figures, claims_numbers(measured))
 
 
+def _partial(folder: Path) -> str:
+    """" [partial: 8 of 16 jobs]" for a sweep whose experiment.json says some jobs did not finish
+    (an interrupted sweep, or one whose jobs stopped on bad input: its table holds the others); ""
+    otherwise."""
+    try:
+        meta = json.loads((folder / EXPERIMENT_FILE).read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return ""
+    finished, jobs = meta.get("finished"), meta.get("jobs")
+    if not isinstance(finished, int) or not isinstance(jobs, int) or finished >= jobs:
+        return ""
+    return f" [partial: {finished} of {jobs} jobs]"
+
+
 def sections(results: str) -> list[str]:
     """The experiments (and variants) a results.md reports: its "## NAME: title" and "## NAME with ..." headings."""
     names = []
     for line in results.splitlines():
         if line.startswith("## ") and not line.startswith(("## Every method", "## The certificates")):
-            names.append(line[3:].split(":", 1)[0].strip())
+            names.append(line[3:].split(" [partial: ", 1)[0].split(":", 1)[0].strip())
     return names
 
 

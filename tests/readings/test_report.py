@@ -142,3 +142,22 @@ def test_a_report_that_keeps_every_claim_is_written(sweeps, tmp_path):
     result = runner.invoke(app, ["report", str(sweeps), "--out", str(out)])
     assert result.exit_code == 0, result.output
     assert "| fig04 |" in (out / "README.md").read_text() and "| old |" not in (out / "README.md").read_text()
+
+
+def test_a_partial_sweep_says_so_and_two_variants_never_share_a_figure(sweeps, tmp_path):
+    """An unfinished sweep (8 of 16 jobs) read as any other; optim.lam=0.01,-1 and optim.lam=0.01,1
+    written to one figure file, results.md showing it for both (a walk through the commands)."""
+    for overrides, score in (("optim.lam=0.01,-1", 0.6), ("optim.lam=0.01,1", 0.7)):
+        folder = sweeps / f"fig04-full-{overrides}"
+        (folder / "figures").mkdir(parents=True)
+        fig04_table(score).to_csv(folder / "results.csv", index=False)
+        (folder / "figures" / "fig04_histogram.png").write_bytes(b"\x89PNG " + overrides.encode())
+    (sweeps / "fig04-full-optim.lam=0.01,-1" / "experiment.json").write_text(json.dumps({"name": "fig04", "jobs": 16, "finished": 8}))
+    out = tmp_path / "report"
+    assert runner.invoke(app, ["report", str(sweeps), "--out", str(out)]).exit_code == 0
+    results = (out / "results.md").read_text()
+    assert "## fig04 with optim.lam=0.01,-1 [partial: 8 of 16 jobs]" in results
+    assert "## fig04 with optim.lam=0.01,1\n" in results and "## fig04:" in results and "[partial" not in results.split("# Variants")[0]
+    shown = [line.split("(figures/")[1].rstrip(")") for line in results.splitlines() if "optim.lam" in line and line.startswith("![")]
+    assert len(shown) == len(set(shown)) == 2
+    assert sorted((out / "figures" / name).read_bytes() for name in shown) == [b"\x89PNG optim.lam=0.01,-1", b"\x89PNG optim.lam=0.01,1"]
