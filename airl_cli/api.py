@@ -23,6 +23,7 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 from hydra import compose, initialize_config_dir
 from omegaconf import DictConfig
@@ -36,7 +37,6 @@ from airl_cli.settings.command_line import config_groups
 from airl_cli.settings.config import fit_settings, loss_and_seed, problem_settings
 from airl_cli.settings.hydra_internals import launcher_discoverable
 from airl_cli.settings.paths import conf_dir
-from airl_cli.settings.problem_defaults import with_problem_defaults
 from airl_cli.usecases import fit as _fit
 from airl_cli.usecases.evaluate import score_learned
 from airl_cli.usecases.fit import fit_dataset
@@ -49,10 +49,22 @@ __all__ = ["Airl", "Mce", "RobustMce", "Projection", "Mmp", "Bc", "CertifiedOpti
 
 
 def config(*overrides: str) -> DictConfig:
-    """The composed config for these overrides (``"mdp=grid"``, ``"optim.lam=0.1"``...), as a job sees it."""
+    """The composed config for these overrides (``"mdp=grid"``, ``"optim.lam=0.1"``...), as a job sees it.
+
+    Raises:
+        ConfigError: what ``airl fit`` refuses on its command line, in its sentence: an override
+            Hydra cannot read, a key set twice, a misspelt key or group option, ``+KEY`` of a key
+            airl never reads.
+    """
+    from airl_cli.settings.command_line import checked
+    from airl_cli.settings.overrides import syntax_problem
+
+    texts = [str(o) for o in overrides]
+    if (problem := syntax_problem(texts, "fit", [])) is not None:
+        raise ConfigError(problem.replace(" is not an option of airl fit (its options: ; see airl fit --help)", " is an option of the command line, not an override"))
     launcher_discoverable()  # hydra/launcher=airl's config comes with the plugin
     with initialize_config_dir(config_dir=conf_dir(), version_base="1.3", job_name="api"):
-        return compose("airl", overrides=with_problem_defaults(list(overrides)))
+        return compose("airl", overrides=checked("fit", texts).overrides)
 
 
 def load_dataset(path: str | os.PathLike) -> Dataset:
@@ -66,8 +78,15 @@ def save_dataset(path: str | os.PathLike, dataset: Dataset) -> Path:
 
 
 def make_dataset(*overrides: str) -> Dataset:
-    """Build the problem and demonstrations the overrides describe, as ``airl generate`` does."""
-    dataset, _ = build_dataset(problem_settings(config(*overrides)))
+    """Build the problem and demonstrations the overrides describe, as ``airl generate`` does.
+
+    Raises:
+        ConfigError: as ``config``; and ``data=`` (a file is read with ``load_dataset``, not built).
+    """
+    cfg = config(*overrides)
+    if cfg.get("data") is not None:
+        raise ConfigError(f"make_dataset builds a problem, and data={cfg.data} names a file: read it with api.load_dataset({str(cfg.data)!r})")
+    dataset, _ = build_dataset(problem_settings(cfg))
     return dataset
 
 
@@ -97,6 +116,8 @@ def dataset_from_env(env, *demo_envs, horizon: int | None = None, n_demos: int =
     made = problem_of([env, *(demo_envs or (env,))])
     if horizon is None:
         horizon = horizon_of(getattr(getattr(env, "spec", None), "max_episode_steps", None))
+    if not (isinstance(horizon, int | np.integer) and horizon >= 2) or not (isinstance(n_demos, int | np.integer) and n_demos >= 1) or not 0 < discount <= 1:
+        raise ConfigError(f"dataset_from_env needs a whole horizon >= 2 (states per trajectory), n_demos >= 1 and discount in (0, 1], got {horizon!r}, {n_demos!r} and {discount!r}")
     S = made.initial.size
     problem = Problem(made.transitions, made.features, made.initial, int(horizon), made.true_weights, zero_one_loss(S), discount=float(discount))
     return demonstrated(problem, DemoSettings("sampled", int(n_demos)), int(seed))[0]

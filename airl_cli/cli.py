@@ -14,7 +14,7 @@ import gc
 import typer
 from typer.core import TyperCommand
 
-from airl_cli.errors import AirlError, refuse, stop_on_sigterm
+from airl_cli.errors import AirlError, ConfigError, refuse, stop_on_sigterm
 from airl_cli.heap import keep_heap_slack
 from airl_cli.jobs.launch import quote_paths, run_hydra
 from airl_cli.methods import NAMES
@@ -61,7 +61,10 @@ def _overrides(ctx: typer.Context) -> CommandLine:
     problem = syntax_problem(quote_paths(line), command, options + ["--help"])
     if problem is not None:
         refuse(problem)
-    return checked(command, line)
+    try:
+        return checked(command, line)
+    except ConfigError as err:
+        refuse(err)
 
 
 def _usage_error() -> type[Exception]:

@@ -140,14 +140,18 @@ def _bash_blocks() -> list[tuple[str, int, list[str]]]:
 
 
 def _refused(check, *args) -> str | None:
-    """The sentence a check refuses with (it prints it and exits 2), or None."""
+    """The sentence a check refuses with (it prints it and exits 2, or raises ``ConfigError``), or None."""
     import contextlib
     import io
+
+    from airl_cli.errors import ConfigError
 
     err = io.StringIO()
     try:
         with contextlib.redirect_stderr(err), contextlib.redirect_stdout(err):
             check(*args)
+    except ConfigError as refusal:
+        return str(refusal)
     except (typer.Exit, SystemExit):
         return err.getvalue().strip() or "refused"
     return None

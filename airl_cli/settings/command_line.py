@@ -12,7 +12,7 @@ from pathlib import Path
 
 import yaml
 
-from airl_cli.errors import refuse
+from airl_cli.errors import ConfigError, refuse
 from airl_cli.io.files import writable_problem
 from airl_cli.settings.overrides import RENAMED_KEYS, CommandLine
 from airl_cli.settings.paths import conf_dir
@@ -47,7 +47,11 @@ def checked(job: str, overrides: CommandLine | list[str]) -> CommandLine:
     """The command line of ``airl JOB`` checked before Hydra sees it, once: a problem's own dynamics
     added (fit, generate), then every ``GROUP=OPTION`` and every key refused in one sentence if
     airl has no such option or key (``check_group_choices``, ``check_keys``). A command line
-    checked already is returned as it is (a sweep's jobs)."""
+    checked already is returned as it is (a sweep's jobs).
+
+    Raises:
+        ConfigError: the one sentence (the command line says it and exits 2, the API raises it).
+    """
     line = CommandLine.of(overrides)
     if line.checked:
         return line
@@ -66,7 +70,7 @@ def check_group_choices(line: CommandLine) -> None:
             continue
         for option in o.value.split(","):
             if option and option not in groups[o.key]:
-                refuse(f"'{option}' is not an option of the config group '{o.key}'; choose one of: {', '.join(groups[o.key])}")
+                raise ConfigError(f"'{option}' is not an option of the config group '{o.key}'; choose one of: {', '.join(groups[o.key])}")
     _check_problem_choice(line)
 
 
@@ -84,14 +88,14 @@ def _check_problem_choice(line: CommandLine) -> None:
         return
     clash = [f"{k}=" for k in ("mdp", "dynamics", "data") if k in chosen]
     if clash:
-        refuse(
+        raise ConfigError(
             f"'problem={problem}' picks the problem and its dynamics itself; drop {' and '.join(clash)} "
             "(change its values with mdp.KEY=VALUE or dynamics.KEY=VALUE), or drop problem="
         )
     path = Path(conf_dir()) / "experiment" / f"{chosen.get('experiment')}.yaml"
     params = ((_yaml(path)[0].get("hydra") or {}).get("sweeper") or {}).get("params") or {} if path.is_file() else None
     if params is not None and "problem" not in params:  # an experiment that does not sweep problems has its own
-        refuse(f"'experiment={chosen['experiment']}' picks its own problem; drop problem={problem} (experiment=transfer sweeps the problems of conf/problem/)")
+        raise ConfigError(f"'experiment={chosen['experiment']}' picks its own problem; drop problem={problem} (experiment=transfer sweeps the problems of conf/problem/)")
 
 
 def _yaml(path: Path) -> tuple[dict, bool]:
@@ -144,7 +148,7 @@ def check_keys(line: CommandLine, primary: str = "airl") -> None:
     Keys of the experiment and profile groups, which set values across groups, are left to Hydra.
 
     Raises:
-        typer.Exit: status 2, after the sentence (the key, the group's real keys, the closest).
+        ConfigError: the sentence (the key, the group's real keys, the closest).
     """
     groups = config_groups()
     values = [o for o in line.tasks if o.sets and not o.prefix.startswith("~") and o.key not in groups]
@@ -160,18 +164,18 @@ def check_keys(line: CommandLine, primary: str = "airl") -> None:
                 continue
             close = difflib.get_close_matches(name, top, n=1, cutoff=0.7)
             hint = f"did you mean '{close[0]}'? " if close else ""
-            refuse(f"'{name}' is not a setting{adds}; {hint}the top-level keys are: {', '.join(top)}")
+            raise ConfigError(f"'{name}' is not a setting{adds}; {hint}the top-level keys are: {', '.join(top)}")
         group, leaf = parts[0], parts[1]
         if group not in known and group not in top:
             close = difflib.get_close_matches(group, list(known), n=1)
             hint = f"did you mean '{close[0]}'? " if close else ""
-            refuse(f"'{name}' names no setting: '{group}' is not a config group; {hint}the groups are: {', '.join(known)}")
+            raise ConfigError(f"'{name}' names no setting: '{group}' is not a config group; {hint}the groups are: {', '.join(known)}")
         option, keys = known.get(group, ("", None))
         if keys is None or leaf in keys:
             continue
         close = difflib.get_close_matches(leaf, keys, n=1, cutoff=0.7)
         hint = f"did you mean '{group}.{close[0]}'? " if close else ""
-        refuse(RENAMED_KEYS.get(name) or f"'{name}' is not a key of the config group '{group}' ({group}={option}){adds}; {hint}its keys are: {', '.join(keys)}")
+        raise ConfigError(RENAMED_KEYS.get(name) or f"'{name}' is not a key of the config group '{group}' ({group}={option}){adds}; {hint}its keys are: {', '.join(keys)}")
 
 
 def check_output_folder(line: CommandLine, *, multirun: bool) -> None:

@@ -107,3 +107,41 @@ def test_scoring_a_run_on_another_problem_or_a_broken_folder_is_one_sentence(tmp
         api.load_learned("f")
     with pytest.raises(DatasetError, match="test_transitions"):
         api.with_test_dynamics(api.load_dataset("f/dataset.npz"), np.full((2, 6, 3, 5), 0.2))
+
+
+@pytest.mark.parametrize(
+    "call, needle",
+    [
+        (lambda ds: api.fit(ds, "method=mce", "method.lamda=5"), "'method.lamda' is not a key of the config group 'method' (method=mce); did you mean 'method.lam'?"),
+        (lambda ds: api.learner("+optim.tolerance=0.5"), "a leading + would add a key that airl never reads"),
+        (lambda ds: api.learner("seed=1", "seed=2"), "'seed' is set twice ('1' and '2'); give it once"),
+        (lambda ds: api.learner("pbvi=nope"), "'nope' is not an option of the config group 'pbvi'"),
+        (lambda ds: api.learner("mdp.n_states==3"), "cannot read the override 'mdp.n_states==3'"),
+        (lambda ds: api.learner("--strict"), "'--strict' is an option of the command line, not an override"),
+        (lambda ds: api.make_dataset("data=gen/dataset.npz"), "make_dataset builds a problem, and data=gen/dataset.npz names a file"),
+        (lambda ds: api.Airl.exact(planner="foo"), "planner must be a PlannerOptions"),
+        (lambda ds: api.dataset_from_env(_chain(), horizon=0), "dataset_from_env needs a whole horizon >= 2"),
+    ],
+)
+def test_the_api_refuses_what_the_command_line_refuses_in_one_sentence(call, needle):
+    """Before: Hydra's ConfigCompositionException for a misspelt key, '+KEY' and a key given twice
+    accepted and silently ignored (or the last kept), data= ignored by make_dataset (S = 20 built),
+    a planner of the wrong type failing at fit with an AttributeError, horizon=0 numpy's ValueError."""
+    from airl_cli.errors import ConfigError
+
+    ds = api.make_dataset(*SMALL)
+    with pytest.raises(ConfigError) as err:
+        call(ds)
+    assert needle in str(err.value), str(err.value)
+
+
+def _chain():
+    """A two-state environment with a transition table (gymnasium toy-text's ``P``)."""
+
+    class Chain:
+        observation_space = type("Space", (), {"n": 2})()
+        action_space = type("Space", (), {"n": 2})()
+        P = {s: {a: [(1.0, (s + a) % 2, float(s == 1), False)] for a in range(2)} for s in range(2)}
+        initial_state_distrib = np.array([1.0, 0.0])
+
+    return Chain()

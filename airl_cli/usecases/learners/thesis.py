@@ -90,6 +90,8 @@ class Airl:
             raise ConfigError(f"optim.max_iterations must be >= 1 and optim.max_seconds > 0, got {certified.max_iterations!r} and {certified.max_seconds!r}")
         if matching not in ("total", "per_step"):
             raise ConfigError(f"game.matching must be total or per_step, got {matching!r}")
+        if planner is not None and not isinstance(planner, PlannerOptions):
+            raise ConfigError(f"planner must be a PlannerOptions (the pbvi group's settings, api.PlannerOptions(...)), got {planner!r}")
         planner = base.options.planner if planner is None else planner
         options = replace(base.options, weight_sharing=certified.weight_sharing, lam=certified.lam, normalize_loss=certified.normalize_loss, planner=planner)
         return cls(options, certified, "exact", False, matching)
