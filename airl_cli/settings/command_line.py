@@ -66,6 +66,12 @@ def check_group_choices(line: CommandLine) -> None:
     """Refuse ``GROUP=OPTION`` with an unknown OPTION in one sentence (Hydra would print its search path)."""
     groups = config_groups()
     for o in line.items:
+        if o.sets and o.key.startswith("hydra/") and o.key not in groups:  # Hydra's own groups (hydra/launcher)
+            from airl_cli.settings.hydra_internals import hydra_group_options
+
+            groups[o.key] = hydra_group_options(o.key, conf_dir())
+            if not groups[o.key]:
+                raise ConfigError(f"'{o.key}' is not a config group of Hydra's (hydra/launcher, hydra/sweeper, ... ; see airl fit --help)")
         if not o.sets or o.key not in groups or o.value.startswith(("choice(", "range(", "glob(")):
             continue
         for option in o.value.split(","):

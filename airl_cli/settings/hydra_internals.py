@@ -31,6 +31,10 @@ checks each function against Hydra itself, are the one place to look. What each 
 
 Hydra itself is imported inside the functions, when one is called: importing this module costs
 nothing (``airl``'s command line starts without Hydra).
+- ``hydra_group_options``: ``hydra._internal.utils.create_config_search_path`` and
+  ``hydra._internal.config_loader_impl.ConfigLoaderImpl.get_group_options``: the options of one of
+  Hydra's own config groups (``hydra/launcher``) with airl's plugins, for a misspelt choice to be
+  refused in one sentence instead of Hydra's listing and exit 1.
 """
 
 from __future__ import annotations
@@ -231,3 +235,14 @@ def defaults_key(defaults: Sequence[Any]) -> tuple:
     """Hydra's resolved defaults (its ``ResultDefault`` items), by value: the fields that decide
     which config file is merged where, so equal keys merge to equal configs."""
     return tuple((d.config_path, d.package, d.parent, d.is_self, d.primary, d.override_key) for d in defaults)
+
+
+def hydra_group_options(group: str, config_dir: str) -> list[str]:
+    """The options of the config group ``group`` (``hydra/launcher``) on Hydra's search path with
+    ``config_dir`` as the primary config's folder and the installed plugins'; [] for no such group."""
+    from hydra._internal.config_loader_impl import ConfigLoaderImpl
+    from hydra._internal.utils import create_config_search_path
+
+    launcher_discoverable()
+    loader = ConfigLoaderImpl(config_search_path=create_config_search_path(config_dir))
+    return sorted(loader.get_group_options(group))

@@ -110,6 +110,8 @@ def test_an_empty_new_folder_is_accepted(tmp_path):
         (["fit", "--cfg", "foo"], "--cfg takes one of job, hydra, all, not 'foo'"),
         (["sweep", "experiment=fig05", "--cfg", "foo"], "--cfg takes one of job, hydra, all, not 'foo'"),
         (["fit", "--resolve"], "--resolve goes with --cfg"),
+        (["fit", "hydra/launcher=foo"], "'foo' is not an option of the config group 'hydra/launcher'; choose one of: airl, basic"),
+        (["fit", "hydra/lancher=basic"], "'hydra/lancher' is not a config group of Hydra's"),
         # -m ran job 0 and wrote its folder before the sweeper reached the bad value
         (["fit", "-m", "optim.lam=0.01,-1", "mdp.n_states=6", "mdp.horizon=3"], "'optim.lam' must be > 0.0, got -1"),
         (["generate", "-m", "seed=0,abc", "mdp.n_states=6", "mdp.horizon=3"], "'seed' must be a whole number, got 'abc'"),

@@ -258,3 +258,20 @@ def test_a_single_run_composes_and_runs_as_hydra_main_does(tmp_path, monkeypatch
         with pytest.raises(SystemExit) as by_us:
             run.start(fails)
     assert by_us.value.code == by_hydra.value.code == 1  # reported as Hydra reports a failed task
+
+
+def test_hydra_group_options_are_the_choices_hydra_accepts():
+    """Each option listed composes; a name outside them is Hydra's MissingConfigException."""
+    from hydra import compose, initialize_config_dir
+    from hydra.errors import MissingConfigException
+
+    from airl_cli.settings.hydra_internals import hydra_group_options
+    from airl_cli.settings.paths import conf_dir
+
+    options = hydra_group_options("hydra/launcher", conf_dir())
+    assert {"airl", "basic"} <= set(options) and hydra_group_options("hydra/nothing", conf_dir()) == []
+    with initialize_config_dir(config_dir=conf_dir(), version_base="1.3"):
+        for option in ("airl", "basic"):
+            assert compose("airl", overrides=[f"hydra/launcher={option}"], return_hydra_config=True).hydra.launcher
+        with pytest.raises(MissingConfigException):
+            compose("airl", overrides=["hydra/launcher=foo"], return_hydra_config=True)
