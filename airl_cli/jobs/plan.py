@@ -24,7 +24,7 @@ from airl_cli.plain_progress import PlainProgress
 from airl_cli.settings.config import PlanSettings, plan_settings
 from airl_cli.settings.paths import conf_dir
 from airl_cli.usecases.memory import plan_refusal
-from airl_cli.usecases.plan import bracket_optimum, run_plan
+from airl_cli.usecases.plan import bracket_optimum, check_exact, run_plan
 
 
 class PlanInput(NamedTuple):
@@ -37,7 +37,8 @@ class PlanInput(NamedTuple):
 def prepare(cfg: DictConfig, overrides: list[str] = ()) -> Prepared:
     """The plan's settings and input files read once (a ``PlanInput``, for ``main``) and what
     ``main`` would refuse before planning checked, before any folder is made
-    (``launch.preflight``): the settings, the input's files, and a horizon that surely does not fit in memory."""
+    (``launch.preflight``): the settings, the input's files, a horizon that surely does not fit in
+    memory, and an exact enumeration of too many histories."""
     settings = plan_settings(cfg)
     problem = read_problem(settings.input)
     M, S, _ = problem.shape
@@ -51,6 +52,7 @@ def prepare(cfg: DictConfig, overrides: list[str] = ()) -> Prepared:
                 f"the {name} reach {np.max(np.abs(rewards)):.3g}: their sums over plan.horizon = {settings.horizon} decisions "
                 f"(up to {largest_sum(rewards, settings.horizon):.3g}) are beyond {MAX_SUM:.0e}, where the planners' values overflow; scale them down"
             )
+    check_exact(problem, settings)
     return Prepared(PlanInput(settings, problem))
 
 

@@ -10,15 +10,35 @@ from dataclasses import dataclass
 import numpy as np
 
 from airl_cli.core.irl.bracket import relative_width
-from airl_cli.core.mmdp.baselines import Plan, graph_returns, plan
 from airl_cli.core.mdp.sparse import sparse_dynamics
+from airl_cli.core.mmdp.baselines import Plan, graph_returns, plan
 from airl_cli.core.mmdp.bounds import bracket
 from airl_cli.core.mmdp.count_bracket import count_bracket
+from airl_cli.core.mmdp.exact import EXACT_MAX_HISTORIES, TooManyHistories, check_exact_size
 from airl_cli.core.mmdp.planner import layered_rewards
 from airl_cli.errors import ConfigError
 from airl_cli.io.mmdp_files import MMDPProblem
 from airl_cli.settings.config import PlanSettings
 from airl_cli.usecases.memory import available_memory
+
+
+def exact_refusal(err: TooManyHistories, horizon: int) -> str:
+    """The sentence for ``plan.method=exact`` on a problem with too many histories to enumerate."""
+    return (f"plan.method=exact would visit {err.n_histories:.3g} histories (S={err.S}, A={err.A}, {err.T} layers of states for "
+            f"plan.horizon={horizon}), above its {EXACT_MAX_HISTORIES:,}; use plan.method=pbvi")
+
+
+def check_exact(problem: MMDPProblem, settings: PlanSettings) -> None:
+    """``plan.method=exact``: refuse (``ConfigError``, ``exact_refusal``) a problem whose histories
+    are too many to enumerate, before any planning (``jobs.plan.prepare``)."""
+    if settings.method != "exact":
+        return
+    M, S, A = problem.shape
+    T = layered_rewards(problem.transitions, problem.rewards, horizon=settings.horizon).horizon
+    try:
+        check_exact_size(S, A, T)
+    except TooManyHistories as err:
+        raise ConfigError(exact_refusal(err, settings.horizon)) from None
 
 
 def run_plan(
@@ -35,7 +55,9 @@ def run_plan(
             iterations=settings.iterations, expansion=settings.expansion, rng=np.random.default_rng(settings.seed),
             progress=progress,
         )
-    except ValueError as err:  # the input was checked; what is left is a setting, e.g. exact on a large problem
+    except TooManyHistories as err:
+        raise ConfigError(exact_refusal(err, settings.horizon)) from None
+    except ValueError as err:  # the input was checked; what is left is a setting
         raise ConfigError(f"plan.method={settings.method}: {err}") from None
     seconds = time.perf_counter() - start
     test = None

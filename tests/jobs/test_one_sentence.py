@@ -112,6 +112,8 @@ def test_an_empty_new_folder_is_accepted(tmp_path):
         (["fit", "--resolve"], "--resolve goes with --cfg"),
         (["fit", "hydra/launcher=foo"], "'foo' is not an option of the config group 'hydra/launcher'; choose one of: airl, basic"),
         (["fit", "hydra/lancher=basic"], "'hydra/lancher' is not a config group of Hydra's"),
+        (["plan", "plan.input=benchmark:riverswim", "plan.method=exact", "plan.horizon=50"],
+         "plan.method=exact would visit 2.54e+81 histories (S=20, A=2, 51 layers of states for plan.horizon=50), above its 2,000,000; use plan.method=pbvi"),
         # -m ran job 0 and wrote its folder before the sweeper reached the bad value
         (["fit", "-m", "optim.lam=0.01,-1", "mdp.n_states=6", "mdp.horizon=3"], "'optim.lam' must be > 0.0, got -1"),
         (["generate", "-m", "seed=0,abc", "mdp.n_states=6", "mdp.horizon=3"], "'seed' must be a whole number, got 'abc'"),

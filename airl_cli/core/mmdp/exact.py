@@ -16,6 +16,7 @@ from airl_cli.core.mmdp.policy_graph import PolicyGraph, _as_layered
 # --------------------------------------------------------------------------- baselines and exact
 
 
+
 def markov_values(P: np.ndarray, R, policy: np.ndarray) -> np.ndarray:
     """Exact values of a Markov policy under each model (Theorem 2.1.1, per model).
 
@@ -83,6 +84,23 @@ def mean_graph(P: np.ndarray, R, prior: np.ndarray | None = None) -> PolicyGraph
 EXACT_MAX_HISTORIES = 2_000_000
 
 
+class TooManyHistories(ValueError):
+    """The exact enumeration would visit ``n_histories`` = S (A S)^(T-1) histories, more than
+    ``EXACT_MAX_HISTORIES`` (S states, A actions, T layers of states)."""
+
+    def __init__(self, n_histories: int, S: int, A: int, T: int) -> None:
+        self.n_histories, self.S, self.A, self.T = n_histories, S, A, T
+        super().__init__(f"exact enumeration would visit {n_histories:.3g} histories (S={S}, A={A}, T={T} layers), above {EXACT_MAX_HISTORIES:,}; plan with PBVI")
+
+
+def check_exact_size(S: int, A: int, T: int) -> None:
+    """Raise ``TooManyHistories`` if enumerating every history of S states, A actions and T layers
+    of states, S (A S)^(T-1) of them, is beyond ``EXACT_MAX_HISTORIES``."""
+    n_hist = S * (A * S) ** (T - 1)
+    if n_hist > EXACT_MAX_HISTORIES:
+        raise TooManyHistories(n_hist, S, A, T)
+
+
 def exact_graph(P: np.ndarray, R, prior: np.ndarray | None = None) -> PolicyGraph:
     """The optimal history-dependent policy by enumerating every history (tiny problems only).
 
@@ -94,16 +112,12 @@ def exact_graph(P: np.ndarray, R, prior: np.ndarray | None = None) -> PolicyGrap
     rho . R(t, s) becomes rho . R(t, s, a). The result is a tree: one node per history.
 
     Raises:
-        ValueError: if the problem has more than ``EXACT_MAX_HISTORIES`` histories.
+        TooManyHistories: if the problem has more than ``EXACT_MAX_HISTORIES`` histories.
     """
     M, S, A, _ = P.shape
     L = _as_layered(P, R)
     T = L.horizon
-    n_hist = S * (A * S) ** (T - 1)
-    if n_hist > EXACT_MAX_HISTORIES:
-        raise ValueError(
-            f"exact enumeration would visit {n_hist:,} histories (S={S}, A={A}, T={T}); use method='pbvi'"
-        )
+    check_exact_size(S, A, T)
     nodes: list[list[tuple]] = [[] for _ in range(T)]  # per t: (state, action, successors, alpha)
     impossible: dict[tuple[int, int], tuple[float, int]] = {}  # (t, s): the plan of a history no model makes
 
