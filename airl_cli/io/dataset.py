@@ -320,6 +320,10 @@ def _read(path: Path) -> Dataset:
     except DatasetError:
         raise
     except (OSError, ValueError, EOFError, zipfile.BadZipFile):
+        with open(path, "rb") as handle:
+            zipped = handle.read(4) == b"PK\x03\x04"
+        if zipped:  # a zip archive, as numpy.savez writes: cut short or corrupt
+            raise DatasetError(f"'{path}' is a damaged .npz file (cut short or corrupt): write it again") from None
         raise DatasetError(f"'{path}' is not an .npz dataset file (write one with numpy.savez)") from None
     try:
         return validate(raw)

@@ -58,7 +58,8 @@ def read_results_table(folder: str | os.PathLike) -> pd.DataFrame:
         raise DamagedTable(f"{path} is empty{rebuild}")
     if "table_sha256" in meta and hashlib.sha256(data).hexdigest() != meta["table_sha256"]:
         now = max(data.count(b"\n") - 1, 0)
-        raise DamagedTable(f"{path} is not the table its sweep wrote ({now} rows where it wrote {meta.get('table_rows')}: changed or damaged since){rebuild}")
+        rows = f"{now} rows where it wrote {meta.get('table_rows')}" if now != meta.get("table_rows") else f"its {now} rows hold other bytes"
+        raise DamagedTable(f"{path} is not the table its sweep wrote ({rows}: changed or damaged since){rebuild}")
     try:
         text = data.decode("utf-8")
         rows = list(csv.reader(io.StringIO(text, newline="")))

@@ -282,3 +282,13 @@ def test_a_plan_input_with_a_huge_header_is_one_sentence(tmp_path):
     assert result.exit_code == 2 and len(result.output.strip().splitlines()) == 1, result.output
     assert "key 'rewards'" in result.output and "the file is damaged" in result.output
     assert not (tmp_path / "run").exists()
+
+
+def test_a_cut_npz_is_called_damaged_not_something_else(tmp_path):
+    """A dataset file cut short (a copy that stopped) was 'not an .npz dataset file (write one with numpy.savez)'."""
+    whole = tmp_path / "whole.npz"
+    np.savez(whole, a=np.zeros(4000))
+    cut = tmp_path / "cut.npz"
+    cut.write_bytes(whole.read_bytes()[:3000])
+    with pytest.raises(DatasetError, match=r"'.*cut.npz' is a damaged .npz file \(cut short or corrupt\): write it again"):
+        read_dataset(cut)

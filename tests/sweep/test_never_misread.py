@@ -10,6 +10,7 @@ sweep INCOMPLETE.
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import pytest
@@ -88,6 +89,16 @@ def cut_rows(path: Path, rows: float) -> None:
     whole = int(rows)
     kept = b"".join(lines[: 1 + whole]) + lines[1 + whole][: int(len(lines[1 + whole]) * (rows - whole))]
     path.write_bytes(kept)
+
+
+def test_a_table_changed_in_place_says_so_rather_than_counting_the_same_rows_twice(copy):
+    """A results.csv with one cell changed and its rows all there said "12 rows where it wrote 12"."""
+    path = copy / "results.csv"
+    wrote = json.loads((copy / "experiment.json").read_text())["table_rows"]
+    text = path.read_text()
+    path.write_text(text.replace(",tau,", ",tau ,", 1))
+    line = one_error(runner.invoke(app, ["plot", str(copy)]))
+    assert f"(its {wrote} rows hold other bytes: changed or damaged since)" in line, line
 
 
 @pytest.mark.parametrize("rows", [4.5, 2.0])
