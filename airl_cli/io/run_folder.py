@@ -34,6 +34,9 @@ def read_experiment(folder: str | os.PathLike) -> dict | None:
 
 
 _claimed: dict[str, str] = {}
+#: A run folder ``new_run_folder`` made (resolved) -> the folders above it that it made too
+#: (``results/``, ``results/fit/``), deepest first: ``discard`` removes those left empty.
+_made_above: dict[Path, list[Path]] = {}
 
 
 def new_run_folder(path: str, *, again: bool = False) -> str:
@@ -49,6 +52,7 @@ def new_run_folder(path: str, *, again: bool = False) -> str:
     if path in _claimed and not again:
         return _claimed[path]
     base = Path(path)
+    above = [p for p in base.parents if not p.exists()]  # deepest first
     try:
         base.parent.mkdir(parents=True, exist_ok=True)
         n = 1
@@ -62,6 +66,7 @@ def new_run_folder(path: str, *, again: bool = False) -> str:
     except OSError:
         return path
     _claimed[path] = str(candidate)
+    _made_above[candidate.resolve()] = above
     return str(candidate)
 
 
@@ -99,9 +104,17 @@ def holds_no_results(folder: str | os.PathLike) -> bool:
 
 
 def discard(folder: str | os.PathLike) -> bool:
-    """Remove a run folder and everything in it; whether it is gone (a read-only one stays)."""
+    """Remove a run folder and everything in it; whether it is gone (a read-only one stays). The
+    folders above it that ``new_run_folder`` made for it go too if nothing else is in them now (a
+    refused or interrupted first run leaves no empty ``results/fit/``)."""
     shutil.rmtree(folder, ignore_errors=True)
-    return not Path(folder).exists()
+    gone = not Path(folder).exists()
+    for parent in _made_above.pop(Path(folder).resolve(), []) if gone else []:
+        try:
+            parent.rmdir()
+        except OSError:  # not empty (another run's folder), or not ours to remove
+            break
+    return gone
 
 
 def empty_folder_refusal(key: str) -> str:
