@@ -137,12 +137,16 @@ def fit_with_progress(cfg: DictConfig, folder: Path, job: FitJob) -> FitRun:
     columns = (TextColumn("{task.description}"), BarColumn(bar_width=12), TextColumn("{task.fields[info]}"), TimeElapsedColumn())
     name = "fit (exact)" if exact else "fit (gradient)"
     plain, last = PlainProgress(err_console), [""]  # stderr to a file: plain lines, the last step's info
+    certifying: list[bool] = []  # optim=gradient's certify step has begun (its note said)
     with Progress(*columns, console=err_console, transient=True, disable=plain.active) as bar:
         fit_task = bar.add_task(name, total=None if exact else settings.options.max_steps, info="")
         # one planner call at S=300, T=30 takes tens of seconds: show which time step it has backed up
         planner_task = bar.add_task("  planner", total=1, info="", visible=False)
 
         def on_step(row: dict) -> None:
+            if "relative_gap" in row and not exact and not certifying:  # the steps are done: say what comes next, once
+                certifying.append(True)
+                bar.console.print("after the gradient steps, the exact solve certifies the optimum for comparison (optim.certify)")
             if "relative_gap" in row:  # an iteration of the exact solve (or of optim.certify's, after the steps)
                 bracket = row.get("bracket_upper", np.inf)
                 width = f"  bracket [{row['lower']:.6g}, {bracket:.6g}] -> {tol:g}" if np.isfinite(bracket) else ""
@@ -161,8 +165,6 @@ def fit_with_progress(cfg: DictConfig, folder: Path, job: FitJob) -> FitRun:
             if done < total:  # a finished call is followed by its iteration's line
                 plain.line(f"{name} {last[0] or 'starting'}; planner time step {done}/{total}")
 
-        if settings.optimizer == "gradient" and settings.certify:
-            bar.console.print("after the gradient steps, the exact solve certifies the optimum for comparison (optim.certify)")
         return fit_and_write(cfg, folder, job, on_step, on_planner)
 
 
