@@ -63,6 +63,9 @@ def main(cfg: DictConfig, plan: PlanInput) -> dict:
     folder = output_dir()
     what = f"planning with {settings.method} (M={M}, S={S}, A={A}, T={settings.horizon})"
     plain = PlainProgress(err_console)  # stderr to a file: plain lines, at most every 5 s
+    if settings.method == "pbvi" and (beliefs := 2 ** (settings.iterations - 1)) > 1024:  # the set at most doubles per expansion
+        err_console.print(f"note: plan.iterations={settings.iterations} allows up to {beliefs:,} belief points: growing them, and "
+                          f"each of the {settings.horizon} backups, may take minutes", soft_wrap=True)
     with err_console.status(what) as status:
         warm_up()
 

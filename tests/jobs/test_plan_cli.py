@@ -313,3 +313,13 @@ def test_a_closed_brackets_width_is_never_printed_negative(tmp_path):
     assert result.exit_code == 0, result.output
     assert "the count program exact over 11 of 11 layers" in result.output
     assert "(relative width 0, within plan.bracket_tol = 0.0001;" in result.output
+
+
+def test_a_large_belief_set_is_announced_before_planning(tmp_path):
+    """plan.iterations=14 on riverswim printed nothing for minutes before its first backup."""
+    folder = write_folder(tmp_path / "mmdp")
+    result = runner.invoke(app, ["plan", f"plan.input={folder}", "plan.iterations=12", f"hydra.run.dir={tmp_path / 'r'}"])
+    assert result.exit_code == 0, result.output
+    assert "note: plan.iterations=12 allows up to 2,048 belief points" in result.stderr
+    quiet = runner.invoke(app, ["plan", f"plan.input={folder}", "plan.iterations=11", f"hydra.run.dir={tmp_path / 'q'}"])
+    assert quiet.exit_code == 0 and "belief points" not in quiet.stderr
