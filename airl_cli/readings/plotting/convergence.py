@@ -21,6 +21,7 @@ from matplotlib.lines import Line2D
 from matplotlib.ticker import MaxNLocator
 
 from airl_cli.io.fit_folder import HISTORY, METRICS, read_metrics
+from airl_cli.io.run_folder import INCOMPLETE
 from airl_cli.methods import REGISTRY, STOP_WORDS, learns_reward, plays_game
 from airl_cli.readings.plotting._style import METHOD_COLOURS, THRESHOLD_COLOUR, _label, _suptitle
 
@@ -49,7 +50,10 @@ def is_fit_folder(folder: Path) -> bool:
 
 
 def read_fit(folder: Path) -> tuple[dict[str, Any], pd.DataFrame]:
-    """``metrics.json`` and ``history.csv`` of a fit's run folder; ValueError naming what is wrong."""
+    """``metrics.json`` and ``history.csv`` of a fit's run folder; ValueError naming what is wrong
+    (a fit that did not finish: its ``INCOMPLETE`` marker; a history cut short in a line)."""
+    if (folder / INCOMPLETE).exists():
+        raise ValueError(f"{folder} holds a fit that did not finish (its {INCOMPLETE} marker): its files may be partial; run the fit again.")
     try:
         metrics = read_metrics(folder)
     except FileNotFoundError as error:
@@ -59,6 +63,9 @@ def read_fit(folder: Path) -> tuple[dict[str, Any], pd.DataFrame]:
     path = folder / HISTORY
     if not path.is_file():
         raise ValueError(f"The fit folder {folder} has no history.csv.")
+    data = path.read_bytes()
+    if data and not data.endswith(b"\n"):  # the fit writes whole lines: a last line without its end was cut
+        raise ValueError(f"history.csv in {folder} is cut short (its last line is incomplete); run the fit again.")
     try:
         history = pd.read_csv(path)
     except (pd.errors.EmptyDataError, pd.errors.ParserError, UnicodeDecodeError) as error:

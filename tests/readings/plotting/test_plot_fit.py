@@ -171,6 +171,9 @@ def test_a_folder_that_is_neither_gets_one_sentence(tmp_path):
     (lambda f: (f / "history.csv").write_text("iteration,upper\n1,2\n"), "lower"),
     (lambda f: (f / "metrics.json").write_text("{not json"), "metrics.json"),
     (lambda f: (f / "metrics.json").write_text("[1, 2]"), "metrics.json"),
+    # drawn before as if whole (a walk through the commands)
+    (lambda f: (f / "history.csv").write_bytes((f / "history.csv").read_bytes()[:-9]), "is cut short (its last line is incomplete)"),
+    (lambda f: (f / "INCOMPLETE").write_text("x"), "holds a fit that did not finish (its INCOMPLETE marker)"),
 ])
 def test_a_damaged_fit_folder_gets_one_sentence(tmp_path, damage, needle):
     folder = write_fit(tmp_path / "fit", {"method": "airl", "optimizer": "exact", "tol": 1e-4}, exact_history())
