@@ -131,11 +131,15 @@ def entry_refusal(folder: str, inputs: list[str], *, replace: bool, key: str = "
     refused too if one of the run's own inputs (``inputs``, the values its overrides set:
     ``settings.overrides.CommandLine.input_values``, naming a file or folder) lies in it, and where
     ``folder`` is the current folder, one that holds it, or the home folder (``hydra.run.dir=.``:
-    everything of the user's there would go). An empty ``hydra.run.dir=`` (Hydra would write into the current folder) is refused.
+    everything of the user's there would go), and a folder inside another run's folder (one above it
+    holds Hydra's ``.hydra`` records). An empty ``hydra.run.dir=`` (Hydra would write into the current folder) is refused.
     """
     if not folder.strip():
         return empty_folder_refusal(key)
     path = Path(folder)
+    for parent in path.resolve().parents:  # a run's folder is its own: none goes inside another's
+        if (parent / HYDRA_RECORDS).is_dir():
+            return f"{key}={folder} lies inside the run folder {parent} (it holds that run's {HYDRA_RECORDS} records); a run never writes into another's folder: name a folder outside it"
     if not path.is_dir() or not any(path.iterdir()):
         return None
     names = sorted(p.name for p in path.iterdir())

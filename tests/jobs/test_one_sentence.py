@@ -66,6 +66,16 @@ def test_replace_never_empties_the_current_folder_or_one_above_it(tmp_path, monk
     assert sha256_listing(tmp_path) == before
 
 
+def test_a_run_inside_another_runs_folder_is_refused(tmp_path):
+    """`airl fit hydra.run.dir=gen/sub` wrote its run into the generate run's folder gen."""
+    assert runner.invoke(app, ["generate", *SMALL, "hydra.run.dir=gen"]).exit_code == 0
+    before = sha256_listing(tmp_path)
+    for command in (["fit", "data=gen/dataset.npz", "hydra.run.dir=gen/sub"], ["fit", "-m", "data=gen/dataset.npz", "seed=0,1", "hydra.sweep.dir=gen/sub"]):
+        line = one_error(runner.invoke(app, command))
+        assert "lies inside the run folder" in line and "(it holds that run's .hydra records)" in line, line
+    assert sha256_listing(tmp_path) == before
+
+
 def test_an_empty_run_folder_is_refused_and_writes_nothing(tmp_path):
     line = one_error(runner.invoke(app, ["fit", *SMALL, "hydra.run.dir="]))
     assert "hydra.run.dir= is empty" in line
