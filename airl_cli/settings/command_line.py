@@ -62,6 +62,10 @@ def checked(job: str, overrides: CommandLine | list[str]) -> CommandLine:
     return CommandLine(line.items, checked=True)
 
 
+#: Hydra's own group options that an extra of airl's installs (pyproject.toml's optional dependencies).
+PLUGIN_EXTRAS = {("hydra/launcher", "ray"): "ray", ("hydra/launcher", "submitit_slurm"): "cluster", ("hydra/launcher", "submitit_local"): "cluster"}
+
+
 def check_group_choices(line: CommandLine) -> None:
     """Refuse ``GROUP=OPTION`` with an unknown OPTION in one sentence (Hydra would print its search path)."""
     groups = config_groups()
@@ -75,6 +79,9 @@ def check_group_choices(line: CommandLine) -> None:
         if not o.sets or o.key not in groups or o.value.startswith(("choice(", "range(", "glob(")):
             continue
         for option in o.value.split(","):
+            if option and option not in groups[o.key] and (o.key, option) in PLUGIN_EXTRAS:
+                extra = PLUGIN_EXTRAS[o.key, option]
+                raise ConfigError(f"{o.key}={option} needs its Hydra plugin, which airl's extra '{extra}' installs: pip install \".[{extra}]\" in airl's folder")
             if option and option not in groups[o.key]:
                 raise ConfigError(f"'{option}' is not an option of the config group '{o.key}'; choose one of: {', '.join(groups[o.key])}")
     _check_problem_choice(line)

@@ -122,6 +122,7 @@ def test_an_empty_new_folder_is_accepted(tmp_path):
         (["fit", "--resolve"], "--resolve goes with --cfg"),
         (["fit", "hydra/launcher=foo"], "'foo' is not an option of the config group 'hydra/launcher'; choose one of: airl, basic"),
         (["fit", "hydra/lancher=basic"], "'hydra/lancher' is not a config group of Hydra's"),
+        (["fit", "-m", "seed=0,1", "hydra/launcher=ray"], "hydra/launcher=ray needs its Hydra plugin, which airl's extra 'ray' installs: pip install \".[ray]\""),
         (["fit", "optim=gradient", "mdp.discount=0.9", "mdp.n_states=6"], "optim=gradient plays the thesis's undiscounted game"),  # its certify note came first
         (["plan", "plan.input=benchmark:riverswim", "plan.method=exact", "plan.horizon=50"],
          "plan.method=exact would visit 2.54e+81 histories (S=20, A=2, 51 layers of states for plan.horizon=50), above its 2,000,000; use plan.method=pbvi"),
