@@ -60,7 +60,7 @@ def main() -> None:
         run(["fit", "mdp.n_states=5", "mdp.horizon=4", f"hydra.run.dir={root / 'warm'}"])
         run(["generate", "mdp=gymnasium", "mdp.env=FrozenLake-v1", "mdp.horizon=5", f"hydra.run.dir={root / 'warm_sa'}"])
         for method in args.methods:
-            run(["fit", f"data={root / 'warm_sa' / 'dataset.npz'}", f"method={method}", f"hydra.run.dir={root / 'warm_sa' / method}"])
+            run(["fit", f"data={root / 'warm_sa' / 'dataset.npz'}", f"method={method}", f"hydra.run.dir={root / f'warm_sa_{method}'}"])
         for env in args.envs:
             folder = root / env.replace("/", "_")
             run(["generate", "mdp=gymnasium", f"mdp.env={env}", f"hydra.run.dir={folder / 'gen'}"])
