@@ -60,8 +60,10 @@ def config(*overrides: str) -> DictConfig:
     from airl_cli.settings.overrides import syntax_problem
 
     texts = [str(o) for o in overrides]
+    if option := next((o for o in texts if o.startswith("-")), None):
+        raise ConfigError(f"'{option}' is an option of the command line, not an override")
     if (problem := syntax_problem(texts, "fit", [])) is not None:
-        raise ConfigError(problem.replace(" is not an option of airl fit (its options: ; see airl fit --help)", " is an option of the command line, not an override"))
+        raise ConfigError(problem)
     launcher_discoverable()  # hydra/launcher=airl's config comes with the plugin
     with initialize_config_dir(config_dir=conf_dir(), version_base="1.3", job_name="api"):
         return compose("airl", overrides=checked("fit", texts).overrides)

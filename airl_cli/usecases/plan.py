@@ -16,6 +16,7 @@ from airl_cli.core.mmdp.bounds import bracket
 from airl_cli.core.mmdp.count_bracket import count_bracket
 from airl_cli.core.mmdp.exact import EXACT_MAX_HISTORIES, TooManyHistories, check_exact_size
 from airl_cli.core.mmdp.planner import layered_rewards
+from airl_cli.core.mmdp.policy_graph import reward_layers
 from airl_cli.errors import ConfigError
 from airl_cli.io.mmdp_files import MMDPProblem
 from airl_cli.settings.config import PlanSettings
@@ -33,10 +34,9 @@ def check_exact(problem: MMDPProblem, settings: PlanSettings) -> None:
     are too many to enumerate, before any planning (``jobs.plan.prepare``)."""
     if settings.method != "exact":
         return
-    M, S, A = problem.shape
-    T = layered_rewards(problem.transitions, problem.rewards, horizon=settings.horizon).horizon
+    _, S, A = problem.shape
     try:
-        check_exact_size(S, A, T)
+        check_exact_size(S, A, reward_layers(np.ndim(problem.rewards), settings.horizon))
     except TooManyHistories as err:
         raise ConfigError(exact_refusal(err, settings.horizon)) from None
 

@@ -330,6 +330,13 @@ def layered_rewards(
     return LayeredRewards(np.ascontiguousarray(R), np.zeros((M, S)))
 
 
+def reward_layers(rewards_ndim: int, horizon: int) -> int:
+    """T, the layers of states ``layered_rewards(P, R, horizon=horizon)`` makes of stationary rewards
+    R of ``rewards_ndim`` dimensions, without building them: H for state rewards (M, S), H + 1 for
+    action (M, S, A) or transition (M, S, A, S) rewards over H decisions."""
+    return horizon if rewards_ndim == 2 else horizon + 1
+
+
 def _as_layered(P: np.ndarray, R) -> LayeredRewards:
     return R if isinstance(R, LayeredRewards) else layered_rewards(P, R)
 

@@ -17,6 +17,7 @@ from tiny import random_dynamics
 from airl_cli.core.mdp.planning import backward_induction
 from airl_cli.core.mmdp.baselines import cadp, graph_returns, markov_returns, mvp, plan, state_weights, wsu
 from airl_cli.core.mmdp.planner import PolicyGraph, expand_beliefs, layered_rewards, markov_graph, solve
+from airl_cli.core.mmdp.policy_graph import reward_layers
 
 
 def tiny(seed, *, M=2, S=2, A=2, T=2):
@@ -99,6 +100,18 @@ def test_stationary_rewards_equal_their_repetition_over_time():
     s_a = solve(P, r0[:, :, 0, 0], p0, horizon=4)  # (M, S) state rewards over 4 layers
     s_b = solve(P, np.repeat(r0[:, None, :, 0, 0], 4, axis=1), p0)
     assert s_a.value == pytest.approx(s_b.value, rel=1e-12)
+
+
+@pytest.mark.parametrize("shape", [(2, 3), (2, 3, 2), (2, 3, 2, 3)], ids=["state", "action", "transition"])
+@pytest.mark.parametrize("horizon", [1, 4])
+def test_reward_layers_counts_the_layers_layered_rewards_builds(shape, horizon):
+    P = np.stack([random_dynamics(np.random.default_rng(j), 3, 2) for j in range(2)])
+    R = np.random.default_rng(1).normal(size=shape)
+    if len(shape) == 2 and horizon == 1:  # state rewards need two layers
+        with pytest.raises(ValueError):
+            layered_rewards(P, R, horizon=horizon)
+        return
+    assert reward_layers(R.ndim, horizon) == layered_rewards(P, R, horizon=horizon).horizon
 
 
 @pytest.mark.parametrize("form", ["state", "action"])
