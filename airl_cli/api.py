@@ -172,8 +172,15 @@ def score(dataset: Dataset, learned: Learned) -> pd.DataFrame:
     For method=airl (optim=exact) ``equilibrium_score`` is the game's own learner's: its mixture p of policies.
 
     Raises:
-        ValueError: learned weights of another number of features or demonstration dynamics than the dataset's.
+        ValueError: learned weights of another number of features or demonstration dynamics than the
+            dataset's, or a learned policy (or per-step weights) of another horizon, states or actions.
     """
+    if learned.policy is not None and learned.policy.shape != (dataset.horizon - 1, dataset.n_states, dataset.n_actions):
+        T1, S, A = learned.policy.shape
+        raise ValueError(f"the learned policy is for T = {T1 + 1}, S = {S}, A = {A}; the dataset has T = {dataset.horizon}, "
+                         f"S = {dataset.n_states}, A = {dataset.n_actions}: score a policy on a dataset of its own horizon, states and actions")
+    if learned.step_weights is not None and learned.step_weights.shape[1] != dataset.horizon:
+        raise ValueError(f"the learned per-step weights are for T = {learned.step_weights.shape[1]}, the dataset has T = {dataset.horizon}")
     if learned.weights is not None:
         D, K = learned.weights.shape
         if K != dataset.n_features or D not in (1, dataset.n_dynamics):

@@ -100,6 +100,10 @@ def test_scoring_a_run_on_another_problem_or_a_broken_folder_is_one_sentence(tmp
     other = api.make_dataset("mdp.n_states=6", "mdp.n_actions=3", "mdp.horizon=5", "mdp.n_features=4", "demos.n=5")
     with pytest.raises(ValueError, match=r"the learned weights are \(D, K\) = \(3, 3\), the dataset has .* K = 4 features"):
         api.score(other, api.load_learned("f"))
+    assert runner.invoke(app, ["fit", "hydra.run.dir=bc", *SMALL, "method=bc"]).exit_code == 0
+    larger = api.make_dataset("mdp.n_states=7", "mdp.n_actions=3", "mdp.horizon=5", "mdp.n_features=3", "demos.n=5")
+    with pytest.raises(ValueError, match="the learned policy is for T = 5, S = 6, A = 3; the dataset has T = 5, S = 7, A = 3"):
+        api.score(larger, api.load_learned("bc"))
     with pytest.raises(FileNotFoundError, match="has no metrics.json"):
         api.load_learned(tmp_path)
     (tmp_path / "f" / "weights.json").write_text("{")
