@@ -400,7 +400,7 @@ def test_the_estimate_counts_the_bracket_s_grid_and_the_refusal_names_it():
     default, finer, none = (estimate_fit(**sizes, grid_work=w) for w in (10**6, 4 * 10**6, 0))
     assert none.parts["bracket grid"] == 0 and finer.parts["bracket grid"] == 4 * default.parts["bracket grid"]
     huge = estimate_fit(**sizes, grid_work=10**12)
-    assert refusal(huge, 23 * 2**30, iterations=8).endswith("lower pbvi.bracket_grid, or mdp.n_states, mdp.horizon")
+    assert refusal(huge, 23 * 2**30, iterations=8).endswith("lower pbvi.bracket_grid, or mdp.n_states, mdp.n_actions, mdp.horizon")
     assert refusal(finer, 23 * 2**30, iterations=8) is None
 
 
@@ -425,7 +425,7 @@ def test_the_refusal_never_advises_iterations_that_do_not_fit():
     huge = estimate_fit(n_states=100_000, **sizes, iterations=8)
     sentence = refusal(huge, 23 * 2**30, iterations=8)
     assert "pbvi.iterations (to" not in sentence and "\n" not in sentence
-    assert "does not fit even with the smallest planner (pbvi.iterations=1" in sentence and sentence.endswith("lower mdp.n_states, mdp.horizon")
+    assert "does not fit even with the smallest planner (pbvi.iterations=1" in sentence and sentence.endswith("lower mdp.n_states, mdp.n_actions, mdp.horizon")
     assert refusal(estimate_fit(n_states=100_000, **sizes, iterations=1), 23 * 2**30, iterations=1) is not None
     # where it is advised, the advised number of iterations does fit (by the same estimate)
     for S, T in [(5000, 50), (2000, 50), (300, 30), (1000, 20)]:

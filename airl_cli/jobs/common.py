@@ -168,7 +168,7 @@ def memory_estimate(job: FitJob) -> tuple[Estimate, int | None] | None:
 
 #: The settings that size each problem airl builds, for a refusal to name (an environment's states are its own).
 SIZE_SETTINGS = {
-    "random": "mdp.n_states, mdp.horizon",
+    "random": "mdp.n_states, mdp.n_actions, mdp.horizon",
     "grid": "mdp.size, mdp.horizon",
     "objectworld": "mdp.size, mdp.horizon",
     "windy": "mdp.width, mdp.height, mdp.horizon",

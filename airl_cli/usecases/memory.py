@@ -175,7 +175,7 @@ def refusal(
     *,
     iterations: int | None = None,
     workers: int = 1,
-    shrink: str = "mdp.n_states, mdp.horizon",
+    shrink: str = "mdp.n_states, mdp.n_actions, mdp.horizon",
     what: str = "this fit",
 ) -> str | None:
     """One sentence refusing a fit that will not fit in ``available`` bytes, or None if it fits.

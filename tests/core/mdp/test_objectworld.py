@@ -222,7 +222,7 @@ def test_memory_estimate_knows_the_objectworld_sizes():
     assert sizes == {"n_states": 64, "n_actions": 5, "horizon": 20, "n_dynamics": 3, "n_demos": 100, "n_next": 5, "action_features": False}
     sentence = refusal(estimate_fit(**expanded_sizes(sizes, "airl"), iterations=16), 2**30, iterations=16, shrink=_shrink(fit_job(cfg).problem))
     assert sentence is not None and sentence.endswith("or mdp.size, mdp.horizon")
-    assert _shrink(api.config()) == "mdp.n_states, mdp.horizon"
+    assert _shrink(api.config()) == "mdp.n_states, mdp.n_actions, mdp.horizon"
 
 
 # --------------------------------------------------------------------------- config errors
