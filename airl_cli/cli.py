@@ -265,12 +265,16 @@ def plot(
     the tolerance; for optim=gradient the objective per step and the gradient's norm; for a
     comparison method the columns of its history.csv.
     """
+    from pathlib import Path
+
     from airl_cli.io.files import describe_os_error
+    from airl_cli.io.run_folder import read_experiment
     from airl_cli.jobs.common import err_console, out_console
     from airl_cli.readings.plotting import draw_folder
+    from airl_cli.settings.experiments import study_siblings
 
     try:
-        paths = draw_folder(folder)
+        paths = draw_folder(folder, siblings=study_siblings(read_experiment(folder) or {}) if Path(folder).is_dir() else [])
     except (ValueError, FileNotFoundError) as err:
         refuse(err, err_console)
     except OSError as err:

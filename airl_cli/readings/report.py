@@ -17,7 +17,6 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import pandas as pd
-from omegaconf import OmegaConf
 
 from airl_cli.errors import AirlError
 from airl_cli.io.files import atomic_write, write_text
@@ -28,7 +27,6 @@ from airl_cli.readings.certificates import certificates
 from airl_cli.readings.claims import claims_numbers, claims_table, measure_claims, reading_of
 from airl_cli.readings.summaries import summary_of
 from airl_cli.readings.summaries.base import demonstrated, methods
-from airl_cli.settings.paths import conf_dir
 
 START, END = "<!-- claims table: written by make_report.py -->", "<!-- end of the claims table -->"
 ORDER = list(NAMES)
@@ -39,12 +37,6 @@ Tables = dict[str, tuple[dict, pd.DataFrame]]
 
 # --------------------------------------------------------------------------------------------
 # reading the sweeps
-
-
-def _study(name: str) -> str:
-    """An experiment's study (the sweep folder's stem), read from its config file without composing it."""
-    node = OmegaConf.load(Path(conf_dir()) / "experiment" / f"{name}.yaml")
-    return str(OmegaConf.select(node, "experiment.study", default=None) or name)
 
 
 def read_table(folder: Path, meta: dict) -> pd.DataFrame:
@@ -68,11 +60,12 @@ def load(sweeps: Path, profile: str = "full") -> Tables:
     from airl_cli.settings.experiments import (  # composing the configs: only when reporting
         experiment_names,
         experiment_section,
+        study_of,
     )
 
     out = {}
     for name in experiment_names():
-        folder = sweeps / f"{_study(name)}-{profile}"
+        folder = sweeps / f"{study_of(name)}-{profile}"
         if not (folder / "results.csv").is_file():
             continue
         meta = experiment_section(name)

@@ -15,8 +15,9 @@ from typing import TYPE_CHECKING
 from airl_cli.errors import ConfigError
 from airl_cli.io.files import atomic_write, write_json, write_text
 from airl_cli.io.results_table import TABLE, table_record
-from airl_cli.io.run_folder import EXPERIMENT_FILE
+from airl_cli.io.run_folder import EXPERIMENT_FILE, read_experiment
 from airl_cli.readings.summaries import summary_of
+from airl_cli.settings.experiments import study_siblings
 from airl_cli.sweep.folder import check_folder, unwritable
 from airl_cli.sweep.job_files import STALE, damaged_jobs
 from airl_cli.sweep.pool import call
@@ -129,14 +130,22 @@ def read_rows(paths: list[Path]) -> pd.DataFrame:
 
 
 def draw_figures(folder: Path) -> list[Path]:
-    """The experiment's figures (``airl_cli.readings.plotting.draw``): the PNGs and the PDFs drawn at once
-    on two warm workers if the sweep has them, else here; the same files either way."""
+    """The experiment's figures, then those of the other experiments of its study, which the same
+    jobs make (fig15's cosine figure beside fig14's curves: ``settings.experiments.study_siblings``)."""
+    siblings = study_siblings(read_experiment(folder) or {})
+    return [path for meta in [None, *siblings] for path in _draw(folder, meta)]
+
+
+def _draw(folder: Path, meta: dict | None) -> list[Path]:
+    """One experiment's figures (``airl_cli.readings.plotting.draw``; ``meta`` None: the folder's
+    experiment.json): the PNGs and the PDFs drawn at once on two warm workers if the sweep has them,
+    else here; the same files either way."""
     target = "airl_cli.readings.plotting:draw"
-    parts = call([(target, (folder, ("png",))), (target, (folder, ("pdf",)))])
+    parts = call([(target, (folder, ("png",), meta)), (target, (folder, ("pdf",), meta))])
     if parts is None:
         from airl_cli.readings.plotting import draw
 
-        return draw(folder)
+        return draw(folder, meta=meta)
     png, pdf = parts
     return [path for pair in zip(png, pdf, strict=True) for path in pair]
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 import signal
 import subprocess
 import sys
@@ -231,11 +232,17 @@ def test_the_cluster_code_path_gives_the_same_table_as_the_local_one(tmp_path, l
 
 
 def test_the_two_figures_of_one_study_share_its_jobs(tmp_path):
-    """fig14 and fig15 are one sweep: the second command reuses every job and draws its own figure."""
+    """fig14 and fig15 are one sweep: the first command draws both figures (its table is the
+    other's), and the second reuses every job; ``airl plot`` of the folder draws both too."""
     args = ["sweep", "profile=quick", "hydra/launcher=basic", "method=airl"]
     first = runner.invoke(app, [*args, "experiment=fig14"])
     assert first.exit_code == 0, first.output
     folder = tmp_path / "results" / "sweeps" / "fig14_15-quick-method=airl"
+    assert sorted(p.name for p in (folder / "figures").glob("*.png")) == ["fig14_curves.png", "fig15_cosine.png"]
+    shutil.rmtree(folder / "figures")
+    plotted = runner.invoke(app, ["plot", str(folder)])
+    assert plotted.exit_code == 0, plotted.output
+    assert sorted(p.name for p in (folder / "figures").glob("*.png")) == ["fig14_curves.png", "fig15_cosine.png"]
     stamps = {p: p.stat().st_mtime_ns for p in folder.glob("*/rows.csv")}
     second = runner.invoke(app, [*args, "experiment=fig15"])
     assert second.exit_code == 0, second.output

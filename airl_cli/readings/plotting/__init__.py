@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import os
 import re
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -67,10 +67,11 @@ def _unfinished(folder: Path) -> str:
     return ": its sweep has not finished; the same airl sweep command with --partial draws the jobs that have"
 
 
-def _read_meta(folder: Path) -> dict[str, Any]:
+def _read_meta(folder: Path, meta: dict[str, Any] | None = None) -> dict[str, Any]:
+    """The folder's experiment.json (or ``meta`` in its place), checked."""
     if not folder.is_dir():
         raise ValueError(f"The sweep folder {folder} does not exist." if not folder.exists() else f"{folder} is a file, not a sweep folder.")
-    meta = read_experiment(folder)
+    meta = read_experiment(folder) if meta is None else meta
     if meta is None:
         raise ValueError(f"The sweep folder {folder} has no experiment.json{_unfinished(folder)}.")
     for key in ("name", "figures"):
@@ -133,8 +134,9 @@ def partial_title(meta: dict[str, Any]) -> str:
     return f"{title} [partial: {finished} of {jobs} jobs]"
 
 
-def draw(folder: str | os.PathLike, formats: tuple[str, ...] = ("png", "pdf")) -> list[Path]:
-    """Draw every figure experiment.json lists; return the paths written, each figure's in
+def draw(folder: str | os.PathLike, formats: tuple[str, ...] = ("png", "pdf"), meta: dict[str, Any] | None = None) -> list[Path]:
+    """Draw every figure experiment.json (or ``meta``: another experiment of the sweep's study,
+    ``settings.experiments.study_siblings``) lists; return the paths written, each figure's in
     ``formats`` order.
 
     Files go to ``folder/figures/{name}_{kind}.png`` and ``.pdf`` (for "alphas":
@@ -143,7 +145,7 @@ def draw(folder: str | os.PathLike, formats: tuple[str, ...] = ("png", "pdf")) -
     formats apart (``airl sweep`` does, on its warm workers): the files are the same.
     """
     folder = Path(folder)
-    meta = _read_meta(folder)
+    meta = _read_meta(folder, meta)
     names = list(dict.fromkeys(meta["figures"]))
     name = str(meta["name"])
     kinds = figure_kinds(meta)
@@ -178,14 +180,16 @@ def _write(out: Path, figures: Callable[[], list[tuple[str, Figure]]], formats: 
     return [path for paths in zip(*written.values(), strict=True) for path in paths]
 
 
-def draw_folder(folder: str | os.PathLike, formats: tuple[str, ...] = ("png", "pdf")) -> list[Path]:
-    """``airl plot``: a sweep folder's figures (:func:`draw`), or a fit's run folder's convergence
-    figure (``figures/convergence.png`` and ``.pdf``); ValueError in one sentence for anything else."""
+def draw_folder(folder: str | os.PathLike, formats: tuple[str, ...] = ("png", "pdf"), siblings: Sequence[dict[str, Any]] = ()) -> list[Path]:
+    """``airl plot``: a sweep folder's figures (:func:`draw`; then those of ``siblings``, the other
+    experiments of its study, ``settings.experiments.study_siblings``), or a fit's run folder's
+    convergence figure (``figures/convergence.png`` and ``.pdf``); ValueError in one sentence for anything else."""
     folder = Path(folder)
     if not folder.is_dir():
         raise ValueError(f"The folder {folder} does not exist." if not folder.exists() else f"{folder} is a file, not a folder.")
     if (folder / "experiment.json").exists() or (folder / "results.csv").exists() or _unfinished(folder):
-        return draw(folder, formats)  # (a sweep interrupted before its first table: draw says so)
+        # (a sweep interrupted before its first table: draw says so)
+        return [path for meta in [None, *siblings] for path in draw(folder, formats, meta)]
     if not is_fit_folder(folder):
         raise ValueError(
             f"{folder} is neither a fit's run folder (metrics.json and history.csv, from airl fit) "

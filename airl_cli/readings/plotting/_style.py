@@ -144,10 +144,35 @@ def _title(fig: Figure, meta: Mapping[str, Any], fallback: str) -> None:
 
 
 def _legend(fig: Figure, handles: list, ncols: int | None = None) -> None:
-    """A legend below the axes, in as many rows as the figure's width needs (about 2.3 inches an entry)."""
+    """A legend below the axes, in as many columns (at most 6) as the figure's width holds: its
+    entries measured in the legend's font (``_legend_columns``)."""
     if handles:
-        fits = max(1, int(fig.get_figwidth() / 2.3))
-        fig.legend(handles=handles, loc="outside lower center", ncols=ncols or min(len(handles), 6, fits), frameon=False)
+        labels = [h.get_label() for h in handles]
+        fig.legend(handles=handles, loc="outside lower center", ncols=ncols or _legend_columns(labels, fig.get_figwidth()), frameon=False)
+
+
+def _legend_columns(labels: list[str], width: float, most: int = 6) -> int:
+    """The most columns (at most ``most``) whose widths, each its widest entry's (its label's width in
+    the legend's font plus the handle and the spaces, ``LEGEND_ENTRY`` font sizes), add up to at most
+    ``width`` inches; entries fill the columns top to bottom, as matplotlib's legend does."""
+    from matplotlib import rcParams
+    from matplotlib.font_manager import FontProperties
+    from matplotlib.textpath import TextToPath
+
+    font = FontProperties(size=rcParams["legend.fontsize"])
+    size = font.get_size_in_points()
+    measure = TextToPath()
+    wide = [(measure.get_text_width_height_descent(label, font, ismath=False)[0] + LEGEND_ENTRY * size) / 72 for label in labels]
+    for n in range(min(len(labels), most), 1, -1):
+        rows = math.ceil(len(labels) / n)
+        if sum(max(wide[i : i + rows]) for i in range(0, len(labels), rows)) <= width:
+            return n
+    return 1
+
+
+#: A legend entry's width beyond its label, in font sizes: the handle (2), the pad after it (0.8),
+#: the space between columns (2) and the border's share (0.5).
+LEGEND_ENTRY = 5.3
 
 
 def _x_axis(ax, xs: np.ndarray, log: bool, label: str) -> None:

@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
+from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.collections import LineCollection
 from matplotlib.colors import to_hex
 from matplotlib.figure import Figure
@@ -218,6 +219,16 @@ def test_cosine_against_the_swept_variable_leaves_out_bc():
                if len(line.get_ydata()) == 2)  # the horizontal line at 0
     low, high = ax.get_ylim()
     assert low < 0 < high and low >= -1.05 and high <= 1.05
+
+
+@pytest.mark.parametrize("methods", [("airl", "mce"), ("airl", "mce", "projection", "mmp")])
+def test_the_legend_lies_inside_the_figure(methods):
+    """Two methods and the long band entry in one row were wider than the 7-inch figure (its ends cut off)."""
+    fig = fit_figures.cosine(make_table("n_demos", methods=methods), make_meta(["cosine"]))
+    renderer = FigureCanvasAgg(fig).get_renderer()
+    fig.draw(renderer)
+    box, page = fig.legends[0].get_window_extent(renderer), fig.bbox
+    assert box.x0 >= page.x0 and box.x1 <= page.x1
 
 
 def test_cosine_per_run_bars():
