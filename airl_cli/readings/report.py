@@ -267,6 +267,9 @@ def write(report: Report, out: Path, *, replace: bool = False) -> list[Path]:
     claims table: between the marker lines of ``out/README.md`` if it has them (experiments/README.md
     does), else into ``out/claims.md``.
 
+    A figure that the last report's results.md showed and this one does not is removed from
+    ``out/figures/`` (figures it never showed, a page's own, are left).
+
     Raises:
         AirlError: before writing anything, if the report would drop experiments or claims that the
             files in ``out`` hold (a report from fewer sweeps than the last one), unless ``replace``.
@@ -280,6 +283,7 @@ def write(report: Report, out: Path, *, replace: bool = False) -> list[Path]:
         )
     readme = out / "README.md"
     text = readme.read_text(encoding="utf-8") if readme.is_file() else ""
+    before = (out / "results.md").read_text(encoding="utf-8") if (out / "results.md").is_file() else ""
     written = []
     for source, target in report.figures:
         data = source.read_bytes()
@@ -291,7 +295,14 @@ def write(report: Report, out: Path, *, replace: bool = False) -> list[Path]:
         written.append(write_text(readme, head + START + "\n" + report.claims + "\n" + END + rest.split(END, 1)[1]))
     else:
         written.append(write_text(out / "claims.md", report.claims + "\n"))
+    for name in sorted(set(figure_names(before)) - {target for _, target in report.figures}):
+        (out / "figures" / name).unlink(missing_ok=True)  # the last report's, which this one no longer shows
     return written
+
+
+def figure_names(results: str) -> list[str]:
+    """The files under figures/ that a results.md shows (``![...](figures/NAME)``)."""
+    return re.findall(r"!\[[^\]]*\]\(figures/([^)/]+)\)", results)
 
 
 def make_report(sweeps: str | Path, out: str | Path, profile: str = "full", *, replace: bool = False) -> list[Path]:

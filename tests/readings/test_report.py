@@ -135,6 +135,23 @@ def test_a_report_from_fewer_sweeps_is_refused_and_changes_nothing(sweeps, tmp_p
     assert "| fig05 |" not in (out / "README.md").read_text() and "| fig04 |" in (out / "README.md").read_text()
 
 
+def test_a_figure_the_last_report_showed_and_this_one_does_not_is_removed(sweeps, tmp_path):
+    """--replace without a variant's sweep kept its figure in figures/ (a walk through the commands);
+    a figure no report showed (a page's own) stays."""
+    out = tmp_path / "report"
+    assert runner.invoke(app, ["report", str(sweeps), "--out", str(out)]).exit_code == 0
+    variant = out / "figures" / "mdp.transition_uniform_fig04_histogram.png"
+    own = out / "figures" / "drawn_by_a_script.png"
+    own.write_bytes(b"\x89PNG own")
+    assert variant.is_file()
+    shutil.rmtree(sweeps / "fig04-full-mdp.transition=uniform")
+    assert runner.invoke(app, ["report", str(sweeps), "--out", str(out)]).exit_code != 0  # it would drop the variant's section
+    assert variant.is_file()
+    result = runner.invoke(app, ["report", str(sweeps), "--out", str(out), "--replace"])
+    assert result.exit_code == 0, result.output
+    assert not variant.exists() and own.is_file() and (out / "figures" / "fig04_histogram.png").is_file()
+
+
 def test_a_report_that_keeps_every_claim_is_written(sweeps, tmp_path):
     out = tmp_path / "experiments"
     out.mkdir()
