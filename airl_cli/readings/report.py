@@ -87,17 +87,21 @@ def _variant_folders(sweeps: Path, meta: dict, profile: str) -> list[tuple[Path,
 
 
 def load_variants(sweeps: Path, experiments: Tables, profile: str = "full") -> Tables:
-    """Variants run as `airl sweep experiment=NAME OVERRIDES`: folder <study>-<profile>-<overrides>."""
+    """Variants run as `airl sweep experiment=NAME OVERRIDES`: folder <study>-<profile>-<overrides>,
+    one entry per experiment of the study (fig14's and fig15's from one folder), each with its
+    folder's ``slug``, the prefix of its figures' names, unique within the study."""
     out = {}
-    by_study = {meta["study"]: (name, meta) for name, (meta, _) in experiments.items()}
-    slugs: set[str] = set()
-    for name, meta in by_study.values():
+    slugs: dict[Path, str] = {}
+    taken: set[tuple[str, str]] = set()
+    for name, (meta, _) in experiments.items():
         for folder, overrides in _variant_folders(sweeps, meta, profile):
-            slug = re.sub(r"[^A-Za-z0-9.]+", "_", overrides)
-            if slug in slugs:  # optim.lam=0.01,-1 and optim.lam=0.01,1: one name, two figures
-                slug += "_" + hashlib.sha1(overrides.encode()).hexdigest()[:8]
-            slugs.add(slug)
-            out[f"{name} with {overrides}"] = ({**meta, "folder": str(folder), "slug": slug}, read_table(folder, meta))
+            if folder not in slugs:
+                slug = re.sub(r"[^A-Za-z0-9.]+", "_", overrides)
+                if (meta["study"], slug) in taken:  # optim.lam=0.01,-1 and optim.lam=0.01,1: one name, two figures
+                    slug += "_" + hashlib.sha1(overrides.encode()).hexdigest()[:8]
+                taken.add((meta["study"], slug))
+                slugs[folder] = slug
+            out[f"{name} with {overrides}"] = ({**meta, "folder": str(folder), "slug": slugs[folder]}, read_table(folder, meta))
     return dict(sorted(out.items(), key=lambda item: item[1][0]["folder"]))
 
 

@@ -178,3 +178,35 @@ def test_a_partial_sweep_says_so_and_two_variants_never_share_a_figure(sweeps, t
     shown = [line.split("(figures/")[1].rstrip(")") for line in results.splitlines() if "optim.lam" in line and line.startswith("![")]
     assert len(shown) == len(set(shown)) == 2
     assert sorted((out / "figures" / name).read_bytes() for name in shown) == [b"\x89PNG optim.lam=0.01,-1", b"\x89PNG optim.lam=0.01,1"]
+
+
+def grid_table(x_values, dynamics=("tau_1", "tau_2")) -> pd.DataFrame:
+    """A grid study's results table (fig12-fig15's columns): 10 runs of airl and mce."""
+    return pd.DataFrame([{"seed": seed, "method": method, "dynamics": d, "x": x, "learner_score": 0.97, "demonstrator_score": 0.95,
+                          "cosine_similarity": 0.8, "seconds": 0.5}
+                         for seed in range(10) for method in ("airl", "mce") for d in dynamics for x in x_values])
+
+
+def test_a_variant_of_a_study_of_two_experiments_is_reported_for_each(tmp_path):
+    """fig14 and fig15 are one study: its variant folder was reported as fig15's alone (fig14's
+    performance and figure left out), and the same overrides of two studies got a hashed prefix."""
+    root = tmp_path / "sweeps"
+    variant = "loss=squared_euclidean,method=airl"
+    for folder, table, figures in (("fig14_15-full", grid_table([1, 10]), ("fig14_curves", "fig15_cosine")),
+                                   (f"fig14_15-full-{variant}", grid_table([1, 10]), ("fig14_curves", "fig15_cosine")),
+                                   ("fig12-full", grid_table(range(10)), ("fig12_run_bars",)),
+                                   (f"fig12-full-{variant}", grid_table(range(10)), ("fig12_run_bars",))):
+        (root / folder / "figures").mkdir(parents=True)
+        table.to_csv(root / folder / "results.csv", index=False)
+        for name in figures:
+            (root / folder / "figures" / f"{name}.png").write_bytes(b"\x89PNG " + f"{folder} {name}".encode())
+    out = tmp_path / "report"
+    result = runner.invoke(app, ["report", str(root), "--out", str(out)])
+    assert result.exit_code == 0, result.output
+    results = (out / "results.md").read_text()
+    slug = "loss_squared_euclidean_method_airl"
+    for name, figure in (("fig14", "fig14_curves"), ("fig15", "fig15_cosine"), ("fig12", "fig12_run_bars")):
+        assert f"## {name} with {variant}" in results
+        assert f"![{slug}_{figure}.png](figures/{slug}_{figure}.png)" in results
+        assert (out / "figures" / f"{slug}_{figure}.png").read_bytes().endswith(figure.encode())
+
