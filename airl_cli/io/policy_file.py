@@ -1,5 +1,5 @@
 """``policy.npz``, the policy ``airl plan`` writes: the policy graph's arrays and, for a Markov
-method, ``markov_policy`` (T, S)."""
+method, ``markov_policy`` (T, S); ``best_policy.npz``, the bracket's better policy, as a graph."""
 
 from __future__ import annotations
 
@@ -13,10 +13,12 @@ from airl_cli.core.mmdp.planner import PolicyGraph
 from airl_cli.io.files import atomic_write
 
 
-def save_policy(path: Path, result: Plan) -> None:
-    """The policy graph's arrays (``PolicyGraph.to_arrays``) and, if Markov, ``markov_policy`` (T, S)."""
-    arrays = result.graph.to_arrays()
-    if result.policy is not None:
+def save_policy(path: Path, result: Plan | PolicyGraph) -> None:
+    """The policy graph's arrays (``PolicyGraph.to_arrays``) and, for a plan of a Markov method,
+    ``markov_policy`` (T, S)."""
+    graph = result if isinstance(result, PolicyGraph) else result.graph
+    arrays = graph.to_arrays()
+    if isinstance(result, Plan) and result.policy is not None:
         arrays["markov_policy"] = result.policy
 
     def write(handle) -> None:

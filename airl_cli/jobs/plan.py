@@ -3,7 +3,8 @@
 Reads a CSV folder or an ``.npz`` (``airl_cli.io.mmdp_files``), plans over ``plan.horizon`` decisions,
 and writes to the run folder: ``plan.json`` (objective on the training models, mean return on the
 test models, time, the bracket on the optimum whatever the planner), ``policy.npz`` (the policy graph's arrays, and ``markov_policy`` (T, S) for
-Markov methods; ``airl_cli.io.policy_file.load_policy`` reads it back) and ``config.yaml``.
+Markov methods; ``airl_cli.io.policy_file.load_policy`` reads it back), ``best_policy.npz`` where the
+bracket's lower side is a policy that earns more than the plan's (the same arrays), and ``config.yaml``.
 """
 
 from __future__ import annotations
@@ -24,7 +25,7 @@ from airl_cli.plain_progress import PlainProgress
 from airl_cli.settings.config import PlanSettings, plan_settings
 from airl_cli.settings.paths import conf_dir
 from airl_cli.usecases.memory import plan_refusal
-from airl_cli.usecases.plan import bracket_optimum, check_exact, run_plan
+from airl_cli.usecases.plan import bracket_optimum, check_exact, mean_test_return, run_plan
 
 
 class PlanInput(NamedTuple):
@@ -95,7 +96,13 @@ def main(cfg: DictConfig, plan: PlanInput) -> dict:
         "bracket_beliefs": None if br is None else br.beliefs,
         "bracket_count_layers": None if br is None else br.count_layers,
         "bracket_tol": settings.bracket_tol,
+        "best_policy": None,
     }
+    better = br is not None and br.better_policy(result.objective)
+    if better:  # the bracket's lower side is a policy that earns more than the plan's: written beside it
+        record["best_policy"] = {"file": "best_policy.npz", "objective": br.policy_value,
+                                 "test_return": mean_test_return(problem, settings, br.policy, discount)}
+        save_policy(folder / "best_policy.npz", br.policy)
     save_policy(folder / "policy.npz", result)
     write_json(folder / "plan.json", record)
     save_config(cfg, folder)
@@ -113,10 +120,19 @@ def main(cfg: DictConfig, plan: PlanInput) -> dict:
         how += [f"with each model known: {br.corner:.4f}"] if br.corner is not None else []
         within = f"within plan.bracket_tol = {settings.bracket_tol:g}" if br.width <= settings.bracket_tol else f"wider than plan.bracket_tol = {settings.bracket_tol:g}"
         lines.append(f"  the optimum on the training models lies in [{br.lower:.4f}, {br.upper:.4f}] whatever the planner (relative width {br.width:.2g}, {within}; {'; '.join(how)})")
+        if better:
+            best = record["best_policy"]
+            on_test = f", {best['test_return']:.4f} on the test models" if best["test_return"] is not None else ""
+            base = "this plan's graph" if settings.method == "pbvi" else "PBVI's graph"
+            count = (f" (the bracket's lower side, {br.lower:.4f}, is the count program's policy, over (t, s, counts) nodes: not written)"
+                     if br.lower > best["objective"] else "")
+            lines.append(f"  a better policy, {base} with a node for each belief the bracket backed up: "
+                         f"{best['objective']:.4f} on the training models{on_test}; written to best_policy.npz{count}")
         if br.width > settings.bracket_tol and br.spent:
             lines.append(f"  the bracket stopped at its budget of beliefs (plan.bracket_beliefs = {settings.bracket_beliefs:,} per state and decision): a larger plan.bracket_beliefs narrows it")
     out_console.print("\n".join(lines), soft_wrap=True)
-    out_console.print(f"wrote {folder / 'plan.json'} and {folder / 'policy.npz'}", soft_wrap=True)
+    written = f"{folder / 'plan.json'}, {folder / 'policy.npz'} and {folder / 'best_policy.npz'}" if better else f"{folder / 'plan.json'} and {folder / 'policy.npz'}"
+    out_console.print(f"wrote {written}", soft_wrap=True)
     return record
 
 

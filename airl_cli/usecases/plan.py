@@ -16,7 +16,7 @@ from airl_cli.core.mmdp.bounds import bracket
 from airl_cli.core.mmdp.count_bracket import count_bracket
 from airl_cli.core.mmdp.exact import EXACT_MAX_HISTORIES, TooManyHistories, check_exact_size
 from airl_cli.core.mmdp.planner import layered_rewards
-from airl_cli.core.mmdp.policy_graph import reward_layers
+from airl_cli.core.mmdp.policy_graph import PolicyGraph, reward_layers
 from airl_cli.errors import ConfigError
 from airl_cli.io.mmdp_files import MMDPProblem
 from airl_cli.settings.config import PlanSettings
@@ -60,11 +60,7 @@ def run_plan(
     except ValueError as err:  # the input was checked; what is left is a setting
         raise ConfigError(f"plan.method={settings.method}: {err}") from None
     seconds = time.perf_counter() - start
-    test = None
-    if problem.test_transitions is not None:
-        L = layered_rewards(problem.test_transitions, problem.test_rewards, horizon=settings.horizon, discount=discount)
-        test = float(graph_returns(result.graph, problem.test_transitions, L, problem.initial).mean())
-    return result, discount, test, seconds
+    return result, discount, mean_test_return(problem, settings, result.graph, discount), seconds
 
 
 @dataclass(frozen=True)
@@ -78,6 +74,9 @@ class OptimumBracket:
         count_layers: the layers the count program ran exactly before its bounds took over
             (``core.mmdp.count_bracket``; None where the moves are of too many kinds, or it is off).
         spent: the sawtooth stopped at its budget of beliefs (or rounds) short of ``plan.bracket_tol``.
+        policy: the sawtooth's lower side, a policy graph (the plan's, or PBVI's, with a node per
+            backed-up belief), and ``policy_value`` its objective; None without the sawtooth. The
+            count program's lower side is a policy too, but over (t, s, counts) nodes, not kept.
     """
 
     lower: float
@@ -86,6 +85,12 @@ class OptimumBracket:
     corner: float | None
     count_layers: int | None
     spent: bool = False
+    policy: PolicyGraph | None = None
+    policy_value: float | None = None
+
+    def better_policy(self, objective: float) -> bool:
+        """The sawtooth's policy earns more than a plan of this objective, beyond rounding (1e-9 relative)."""
+        return self.policy_value is not None and self.policy_value - objective > 1e-9 * max(1.0, abs(objective))
 
     @property
     def width(self) -> float:
@@ -144,4 +149,13 @@ def bracket_optimum(problem: MMDPProblem, settings: PlanSettings, result: Plan, 
         max(lo for lo, _ in sides), min(up for _, up in sides), 0 if br is None else br.beliefs,
         None if br is None else br.corner, None if cut is None else cut.layers,
         spent=br is not None and br.upper - br.lower > target,
+        policy=None if br is None else br.graph, policy_value=None if br is None else br.lower,
     )
+
+
+def mean_test_return(problem: MMDPProblem, settings: PlanSettings, graph: PolicyGraph, discount: float) -> float | None:
+    """The policy ``graph``'s mean return on the problem's test models (None without them)."""
+    if problem.test_transitions is None:
+        return None
+    L = layered_rewards(problem.test_transitions, problem.test_rewards, horizon=settings.horizon, discount=discount)
+    return float(graph_returns(graph, problem.test_transitions, L, problem.initial).mean())

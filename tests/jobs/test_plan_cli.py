@@ -139,6 +139,15 @@ def test_plan_end_to_end_writes_objective_test_return_and_a_policy_that_runs_aga
     graph = load_policy(out / "policy.npz")
     L = layered_rewards(problem.transitions, problem.rewards, horizon=horizon, discount=0.9)
     assert graph_returns(graph, problem.transitions, L, problem.initial).mean() == pytest.approx(record["objective"], rel=1e-12)
+    best = record["best_policy"]
+    if best is not None:  # the bracket's policy earns more than the plan's: written beside it, and it earns what plan.json says
+        assert best["objective"] > record["objective"] and record["optimum_bracket"][0] >= best["objective"] - 1e-9
+        better = load_policy(out / "best_policy.npz")
+        assert graph_returns(better, problem.transitions, L, problem.initial).mean() == pytest.approx(best["objective"], rel=1e-12)
+        assert best["test_return"] == pytest.approx(best["objective"], rel=1e-12)  # the test models are the training ones
+        assert "written to best_policy.npz" in result.output
+    else:
+        assert not (out / "best_policy.npz").exists()
     if method == "counts":  # the optimum: what enumerating every history finds, and its own bracket
         exact = runner.invoke(app, ["plan", f"plan.input={folder}", "plan.method=exact", "plan.horizon=3", f"hydra.run.dir={tmp_path / 'x'}"])
         assert exact.exit_code == 0
@@ -323,3 +332,23 @@ def test_a_large_belief_set_is_announced_before_planning(tmp_path):
     assert "note: plan.iterations=12 allows up to 2,048 belief points" in result.stderr
     quiet = runner.invoke(app, ["plan", f"plan.input={folder}", "plan.iterations=11", f"hydra.run.dir={tmp_path / 'q'}"])
     assert quiet.exit_code == 0 and "belief points" not in quiet.stderr
+
+
+def test_a_plan_below_the_brackets_policy_gets_that_policy_beside_it(tmp_path):
+    """The bracket's lower side is a policy (PBVI's graph with a node per backed-up belief); where it
+    earns more than the plan's (the averaged model's Markov policy here), it is written to
+    best_policy.npz and earns, on the training models, what plan.json and the summary say."""
+    rng = np.random.default_rng(3)
+    P = rng.dirichlet(np.full(5, 0.3), size=(3, 5, 2))  # (M, S, A, S), peaked rows: the models disagree
+    r = rng.normal(size=(3, 5, 2))
+    np.savez(tmp_path / "mmdp.npz", transitions=P, rewards=r, initial=np.full(5, 0.2), discount=0.95)
+    result = runner.invoke(app, ["plan", "plan.input=mmdp.npz", "plan.method=mean", "plan.horizon=8", "hydra.run.dir=out"])
+    assert result.exit_code == 0, result.output
+    record = json.loads((tmp_path / "out" / "plan.json").read_text())
+    best = record["best_policy"]
+    assert best is not None and best["objective"] > record["objective"] and best["test_return"] is None
+    L = layered_rewards(P, r, horizon=8, discount=0.95)
+    value = graph_returns(load_policy(tmp_path / "out" / "best_policy.npz"), P, L, np.full(5, 0.2)).mean()
+    assert value == pytest.approx(best["objective"], rel=1e-12)
+    assert f"{best['objective']:.4f} on the training models; written to best_policy.npz" in result.output.replace("\n", "")
+
