@@ -100,7 +100,7 @@ def main(cfg: DictConfig, plan: PlanInput) -> dict:
     }
     better = br is not None and br.better_policy(result.objective)
     if better:  # the bracket's lower side is a policy that earns more than the plan's: written beside it
-        record["best_policy"] = {"file": "best_policy.npz", "objective": br.policy_value,
+        record["best_policy"] = {"file": "best_policy.npz", "objective": br.policy_value, "source": br.policy_source,
                                  "test_return": mean_test_return(problem, settings, br.policy, discount)}
         save_policy(folder / "best_policy.npz", br.policy)
     save_policy(folder / "policy.npz", result)
@@ -123,11 +123,12 @@ def main(cfg: DictConfig, plan: PlanInput) -> dict:
         if better:
             best = record["best_policy"]
             on_test = f", {best['test_return']:.4f} on the test models" if best["test_return"] is not None else ""
-            base = "this plan's graph" if settings.method == "pbvi" else "PBVI's graph"
-            count = (f" (the bracket's lower side, {br.lower:.4f}, is the count program's policy, over (t, s, counts) nodes: not written)"
-                     if br.lower > best["objective"] else "")
-            lines.append(f"  a better policy, {base} with a node for each belief the bracket backed up: "
-                         f"{best['objective']:.4f} on the training models{on_test}; written to best_policy.npz{count}")
+            if br.policy_source == "count":
+                what = f"the count program's (exact over {br.count_layers} layers, then the likeliest models' own policies)"
+            else:
+                what = f"{'this plan' if settings.method == 'pbvi' else 'PBVI'}'s graph with a node for each belief the bracket backed up"
+            lines.append(f"  a better policy, the bracket's lower side, {what}: {best['objective']:.4f} on the training models{on_test}; "
+                         "written to best_policy.npz")
         if br.width > settings.bracket_tol and br.spent:
             lines.append(f"  the bracket stopped at its budget of beliefs (plan.bracket_beliefs = {settings.bracket_beliefs:,} per state and decision): a larger plan.bracket_beliefs narrows it")
     out_console.print("\n".join(lines), soft_wrap=True)

@@ -74,9 +74,10 @@ class OptimumBracket:
         count_layers: the layers the count program ran exactly before its bounds took over
             (``core.mmdp.count_bracket``; None where the moves are of too many kinds, or it is off).
         spent: the sawtooth stopped at its budget of beliefs (or rounds) short of ``plan.bracket_tol``.
-        policy: the sawtooth's lower side, a policy graph (the plan's, or PBVI's, with a node per
-            backed-up belief), and ``policy_value`` its objective; None without the sawtooth. The
-            count program's lower side is a policy too, but over (t, s, counts) nodes, not kept.
+        policy: the lower side's policy, the better of the sawtooth's graph (the plan's, or PBVI's,
+            with a node per backed-up belief: ``policy_source`` "sawtooth") and the cut count
+            program's (``core.mmdp.count_bracket.cut_graph``: "count"); ``policy_value`` its
+            objective; None without either.
     """
 
     lower: float
@@ -87,6 +88,7 @@ class OptimumBracket:
     spent: bool = False
     policy: PolicyGraph | None = None
     policy_value: float | None = None
+    policy_source: str | None = None
 
     def better_policy(self, objective: float) -> bool:
         """The sawtooth's policy earns more than a plan of this objective, beyond rounding (1e-9 relative)."""
@@ -140,16 +142,19 @@ def bracket_optimum(problem: MMDPProblem, settings: PlanSettings, result: Plan, 
     if settings.bracket_nodes > 0 and (br is None or br.upper - br.lower > target):
         L = layered_rewards(dyn, problem.rewards, horizon=settings.horizon, discount=discount)
         # the program in half the memory free now (its beliefs grow with the models: riverswim's M = 100, 0.9 GB)
-        cut = count_bracket(dyn, L, problem.initial, prior, max_nodes=settings.bracket_nodes, max_bytes=available_memory() // 2)
+        cut = count_bracket(dyn, L, problem.initial, prior, max_nodes=settings.bracket_nodes, max_bytes=available_memory() // 2, policy=True)
         if cut is not None:
             sides.append((cut.lower, cut.upper))
     if not sides:
         return None
+    # the lower side's policy: the sawtooth's graph, or the count program's where it earns more
+    policies = ([(br.lower, br.graph, "sawtooth")] if br is not None else []) + ([(cut.lower, cut.graph, "count")] if cut is not None and cut.graph is not None else [])
+    value, graph, source = max(policies, key=lambda p: p[0]) if policies else (None, None, None)
     return OptimumBracket(
         max(lo for lo, _ in sides), min(up for _, up in sides), 0 if br is None else br.beliefs,
         None if br is None else br.corner, None if cut is None else cut.layers,
         spent=br is not None and br.upper - br.lower > target,
-        policy=None if br is None else br.graph, policy_value=None if br is None else br.lower,
+        policy=graph, policy_value=value, policy_source=source,
     )
 
 

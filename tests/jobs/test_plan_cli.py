@@ -352,3 +352,23 @@ def test_a_plan_below_the_brackets_policy_gets_that_policy_beside_it(tmp_path):
     assert value == pytest.approx(best["objective"], rel=1e-12)
     assert f"{best['objective']:.4f} on the training models; written to best_policy.npz" in result.output.replace("\n", "")
 
+
+
+def test_the_count_programs_policy_is_written_where_it_is_the_brackets_lower_side(tmp_path):
+    """Moves of a few kinds (a ring whose models slip by 0.1, 0.3, 0.5), the sawtooth off: the
+    bracket's lower side is the count program's policy, here the whole program's (the optimum), and
+    best_policy.npz holds it as a graph that earns it."""
+    S, slips = 5, (0.1, 0.3, 0.5)
+    intended = np.stack([np.eye(S), np.roll(np.eye(S), 1, axis=1)])  # (A, S, S): stay, move on
+    P = np.stack([np.stack([(1 - p) * intended[a] + p * intended.mean(axis=0) for a in range(2)], axis=1) for p in slips])
+    r = np.random.default_rng(4).normal(size=(3, S, 2))
+    np.savez(tmp_path / "ring.npz", transitions=P, rewards=r, initial=np.full(S, 1 / S), discount=0.9)
+    result = runner.invoke(app, ["plan", "plan.input=ring.npz", "plan.method=mean", "plan.horizon=6", "plan.bracket_beliefs=0", "hydra.run.dir=out"])
+    assert result.exit_code == 0, result.output
+    record = json.loads((tmp_path / "out" / "plan.json").read_text())
+    best = record["best_policy"]
+    assert best["source"] == "count" and best["objective"] == pytest.approx(record["optimum_bracket"][0], abs=1e-12)
+    assert record["optimum_bracket"][1] == pytest.approx(record["optimum_bracket"][0], abs=1e-9)  # the whole program: the optimum
+    L = layered_rewards(P, r, horizon=6, discount=0.9)
+    assert graph_returns(load_policy(tmp_path / "out" / "best_policy.npz"), P, L, np.full(S, 1 / S)).mean() == pytest.approx(best["objective"], rel=1e-12)
+    assert "the count program's" in result.output

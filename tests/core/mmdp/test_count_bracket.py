@@ -193,3 +193,43 @@ def test_the_cut_s_policy_holds_an_episode_s_end_per_model_with_the_values_and_m
         assert held.upper == every.upper
         assert held.value == pytest.approx(np.einsum("jts,jts->", R, held.marginals), abs=1e-12)
         assert held.value <= solve_counts(dyn, R, p0, max_kinds=S * A * S).value + 1e-9 <= held.upper + 2e-9
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_the_cut_policy_as_a_graph_earns_the_brackets_lower_side_in_every_model(seed):
+    """``cut_graph`` writes the cut program's policy as a policy graph over the nodes it reaches:
+    evaluated by ``graph_returns`` (a forward pass over its nodes, written independently) it earns
+    ``cut_response``'s value and per-model returns, at every cut and for the whole program (the
+    optimum, ``solve_counts``'s), with episode ends held (absorbing states) and on models it was not
+    planned for (a next state no training model moves to goes to a node of its own)."""
+    from airl_cli.core.mmdp import counts
+    from airl_cli.core.mmdp.baselines import graph_returns
+    from airl_cli.core.mmdp.count_bracket import cut_graph, cut_response
+
+    rng = np.random.default_rng(seed)
+    P = slip_ring(S=5)
+    M, S = P.shape[:2]
+    T = 6
+    if seed % 2:  # an episode's end: a cell every model keeps whatever the action, with rewards of states
+        P[:, 0] = 0.0
+        P[:, 0, :, 0] = 1.0
+    R = rng.normal(size=(M, T, S))
+    p0 = rng.dirichlet(np.ones(S))
+    dyn = sparse_dynamics(P)
+    L = layered_rewards(dyn, R)
+    kinds = move_kinds(dyn, 12)
+    for prior in (None, np.array([0.5, 0.3, 0.2])):
+        for layers in range(2, T + 1):
+            program = counts.CountProgram(dyn, kinds, layers, np.full(M, 1.0 / M) if prior is None else prior)
+            cut = cut_response(dyn, L, p0, prior, layers=layers, program=program)
+            graph, value = cut_graph(dyn, L, p0, prior, layers=layers, program=program)
+            returns = graph_returns(graph, P, L, p0)
+            assert value == pytest.approx(cut.value, abs=1e-10)
+            assert np.allclose(returns, cut.values, atol=1e-10)
+            br = count_bracket(dyn, L, p0, prior, max_nodes=n_nodes(S, kinds.n_kinds, layers), policy=True)
+            assert br.layers == layers and np.allclose(graph_returns(br.graph, P, L, p0), returns, atol=1e-12)
+            assert (float(returns.sum()) if prior is None else float(prior @ returns)) == pytest.approx(br.lower, abs=1e-10)
+        assert value == pytest.approx(solve_counts(P, R, p0, prior=prior).value, abs=1e-9)  # the whole program: the optimum
+    other = rng.dirichlet(np.ones(S), size=(2, S, 2))  # dense test models: every next state reachable
+    expected = graph_returns(graph, other, layered_rewards(other, R[:2]), p0)
+    assert np.all(np.isfinite(expected))
