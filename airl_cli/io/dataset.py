@@ -63,6 +63,7 @@ from airl_cli.core.mdp.sparse import SparseDynamics, sparse_dynamics
 from airl_cli.errors import DatasetError
 from airl_cli.io.dataset_checks import (
     demonstrations,
+    demos_within,
     discount_and_actions,
     dynamics,
     environment_keys,
@@ -242,6 +243,7 @@ def validate(raw: dict[str, np.ndarray]) -> Dataset:
     states, actions = demonstrations(raw, P, p0, T)
     fexp, w_star, loss = optional_arrays(raw, D, S, K, T)
     discount, allowed = discount_and_actions(raw, S, A)
+    demos_within(states, actions, allowed)
     test = held_out_dynamics(raw, S, A)
     expert, beta = expert_model(raw)
     goal, environment, perturbation = environment_keys(raw, S)

@@ -247,6 +247,18 @@ def discount_and_actions(raw: dict, S: int, A: int) -> tuple[float, np.ndarray |
     return discount, allowed
 
 
+def demos_within(states: np.ndarray | None, actions: np.ndarray | None, allowed: np.ndarray | None) -> None:
+    """Every demonstrated action is one that ``allowed`` (S, A) says exists in its state (states
+    (D, N, T), actions (D, N, T-1); nothing to check without either)."""
+    if allowed is None or actions is None:
+        return
+    taken = allowed[states[..., :-1], actions]
+    if not taken.all():
+        j, n, t = (int(i) for i in np.argwhere(~taken)[0])
+        fail(f"key 'demo_actions' takes action {int(actions[j, n, t])} in state {int(states[j, n, t])} (dynamics {j + 1}, "
+             f"demonstration {n}, step {t}), which 'allowed_actions' says does not exist there")
+
+
 def expert_model(raw: dict) -> tuple[str, float | None]:
     """How the demonstrations' expert is modelled: 'expert' ("tau", the thesis's, when absent, or
     "own") and 'expert_beta' (a soft-optimal own expert's entropy weight > 0; None: hard)."""

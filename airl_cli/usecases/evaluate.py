@@ -2,12 +2,15 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
 from airl_cli.core.mdp import identifiability
 from airl_cli.core.mdp.basics import discounted
 from airl_cli.core.mdp.planning import backward_induction, expected_return, optimal_expert
 from airl_cli.core.mdp.scores import cosine_similarity, goal_probability, mixture_performance, normalised, return_bounds
+from airl_cli.core.mdp.sparse import SparseDynamics
 from airl_cli.core.mdp.state_action import decision_policy, expand_transitions, policy_on_expansion
 from airl_cli.io.dataset import Dataset
 from airl_cli.usecases.state_action import expanded, expanded_policies
@@ -44,6 +47,30 @@ def learner_policy(dataset: Dataset, weights: np.ndarray, j: int, P=None) -> np.
     return policy
 
 
+def within_allowed(dataset: Dataset) -> Dataset:
+    """``dataset`` with every action that ``allowed_actions`` says does not exist made a copy of its
+    state's first allowed action (its transitions in every dynamics, its features of (s, a)): every
+    policy of the copy behaves as one over the allowed actions alone, so the scores' plans (the
+    learner's, the demonstrator's, the best and worst returns) choose among the actions that exist.
+    The dataset itself without ``allowed_actions``."""
+    allowed = dataset.allowed_actions
+    if allowed is None:
+        return dataset
+    S, A = allowed.shape
+    pick = np.where(allowed, np.arange(A)[None, :], allowed.argmax(axis=1)[:, None])  # (S, A): the action each one behaves as
+    rows = np.arange(S)[:, None]
+
+    def moved(P):
+        if P is None:
+            return None
+        if isinstance(P, SparseDynamics):
+            return SparseDynamics(P.next_states, np.ascontiguousarray(P.probs[:, rows, pick]))
+        return np.asarray(P)[:, rows, pick]
+
+    features = dataset.features[..., rows, pick, :] if dataset.action_features else dataset.features
+    return replace(dataset, transitions=moved(dataset.transitions), test_transitions=moved(dataset.test_transitions), features=features)
+
+
 def scored_dynamics(dataset: Dataset) -> list[tuple[str, int, object]]:
     """(name, j, (S, A, S) dynamics) of every dynamics scored: tau, tau_1..tau_D, then the held-out
     test_1..test_E (``Dataset.test_transitions``); j picks the learner's weights (``weights_for``):
@@ -70,8 +97,10 @@ def score_rows(
     dynamics (for methods that learn a policy, not a reward). ``equilibrium`` = (policies (n, T-1,
     S), mix (n,)) is the game's own learner (method=airl): its score, the mix-weighted performance
     of its policies, is ``equilibrium_score`` (None without it). Scores and returns are None when
-    the dataset has no true weights; the cosine is None without weights.
+    the dataset has no true weights; the cosine is None without weights. Every plan chooses among the
+    actions the dataset's ``allowed_actions`` says exist (``within_allowed``).
     """
+    dataset = within_allowed(dataset)
     if dataset.action_features:  # every score of phi(s, a) is its expansion's (usecases.state_action)
         S, A = dataset.n_states, dataset.n_actions
         mapped = None if policies is None else [policy_on_expansion(p, S, A) for p in policies]
@@ -112,6 +141,7 @@ def score_rows(
 
 def score_learned(dataset: Dataset, learned) -> list[dict]:
     """``score_rows`` for a ``usecases.learned.Learned``: its weights, or its one policy for every dynamics, and its equilibrium."""
+    dataset = within_allowed(dataset)
     scored = scored_dynamics(dataset)
     policies = None if learned.policy is None else [learned.policy] * len(scored)
     if learned.step_weights is not None:  # a time-dependent reward: its own policies
