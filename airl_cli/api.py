@@ -30,7 +30,7 @@ from omegaconf import DictConfig
 
 from airl_cli.core.irl.options import CertifiedOptions, FitOptions, PlannerOptions
 from airl_cli.errors import ConfigError
-from airl_cli.io.dataset import Dataset, read_dataset, write_dataset
+from airl_cli.io.dataset import Dataset, problem_record, read_dataset, write_dataset
 from airl_cli.io.fit_folder import read_fit
 from airl_cli.io.results_table import read_results_table
 from airl_cli.settings.command_line import config_groups
@@ -173,7 +173,8 @@ def score(dataset: Dataset, learned: Learned) -> pd.DataFrame:
 
     Raises:
         ValueError: learned weights of another number of features or demonstration dynamics than the
-            dataset's, or a learned policy (or per-step weights) of another horizon, states or actions.
+            dataset's, a learned policy (or per-step weights) of another horizon, states or actions, or a run
+            (``load_learned``) that learned on other features than the dataset's.
     """
     if learned.policy is not None and learned.policy.shape != (dataset.horizon - 1, dataset.n_states, dataset.n_actions):
         T1, S, A = learned.policy.shape
@@ -188,6 +189,13 @@ def score(dataset: Dataset, learned: Learned) -> pd.DataFrame:
                 f"the learned weights are (D, K) = ({D}, {K}), the dataset has D = {dataset.n_dynamics} demonstration dynamics and K = {dataset.n_features} features;"
                 " score a fit on its own dataset (api.with_test_dynamics adds new dynamics to it)"
             )
+    fitted = learned.info.get("problem")
+    if fitted is not None and fitted.get("features_sha256") != problem_record(dataset)["features_sha256"]:
+        raise ValueError(
+            f"the run learned on a problem of other features (S = {fitted['states']}, A = {fitted['actions']}, K = {fitted['features']}; "
+            f"this dataset: S = {dataset.n_states}, A = {dataset.n_actions}, K = {dataset.n_features}): score it on its own dataset, "
+            "or on it with new dynamics (api.with_test_dynamics)"
+        )
     return pd.DataFrame(score_learned(dataset, learned))
 
 
@@ -201,7 +209,8 @@ def load_learned(folder: str | os.PathLike) -> Learned:
         FileNotFoundError, ValueError: one sentence, naming the folder and what is missing or wrong.
     """
     files = read_fit(folder)
-    return Learned(files.method, files.weights, files.policy, {}, step_weights=files.step_weights)
+    problem = files.metrics.get("problem")  # the problem it learned on (runs since the record: None before)
+    return Learned(files.method, files.weights, files.policy, {}, info={} if problem is None else {"problem": problem}, step_weights=files.step_weights)
 
 
 def with_test_dynamics(dataset: Dataset, transitions) -> Dataset:

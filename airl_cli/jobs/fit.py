@@ -12,7 +12,7 @@ import numpy as np
 from omegaconf import DictConfig
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
-from airl_cli.io.dataset import Dataset, read_dataset, write_dataset
+from airl_cli.io.dataset import Dataset, problem_record, read_dataset, write_dataset
 from airl_cli.io.fit_folder import write_fit
 from airl_cli.jobs.common import Prepared, check_memory, err_console, out_console, output_dir, run_job, save_config, size_note, warm_up
 from airl_cli.jobs.fit_summary import fit_warnings, summary_text, verbose_lines
@@ -118,7 +118,8 @@ def fit_and_write(
     text = summary_text(dataset, settings, learned, rows, seconds, loss)
     if generated:
         write_dataset(folder / "dataset.npz", dataset)
-    metrics = {"method": learned.method, "shared": learned.shared, **learned.info, "scored": dataset.true_weights is not None, "dynamics": rows}
+    metrics = {"method": learned.method, "shared": learned.shared, **learned.info, "scored": dataset.true_weights is not None, "dynamics": rows,
+               "problem": problem_record(dataset)}
     if plays_game(learned.method):
         metrics["loss"] = loss  # what loss=auto chose (file: the dataset file's own array)
     timing = {"fit_seconds": round(seconds, 6)}

@@ -100,6 +100,11 @@ def test_scoring_a_run_on_another_problem_or_a_broken_folder_is_one_sentence(tmp
     other = api.make_dataset("mdp.n_states=6", "mdp.n_actions=3", "mdp.horizon=5", "mdp.n_features=4", "demos.n=5")
     with pytest.raises(ValueError, match=r"the learned weights are \(D, K\) = \(3, 3\), the dataset has .* K = 4 features"):
         api.score(other, api.load_learned("f"))
+    same_shapes = api.make_dataset("mdp.n_states=9", "mdp.n_actions=3", "mdp.horizon=5", "mdp.n_features=3", "demos.n=5")  # D = 3, K = 3 too
+    with pytest.raises(ValueError, match=r"the run learned on a problem of other features \(S = 6, A = 3, K = 3; this dataset: S = 9, A = 3, K = 3\)"):
+        api.score(same_shapes, api.load_learned("f"))
+    own = api.load_dataset("f/dataset.npz")
+    api.score(api.with_test_dynamics(own, np.full((1, 6, 3, 6), 1 / 6)), api.load_learned("f"))  # its own features, new dynamics: scored
     assert runner.invoke(app, ["fit", "hydra.run.dir=bc", *SMALL, "method=bc"]).exit_code == 0
     larger = api.make_dataset("mdp.n_states=7", "mdp.n_actions=3", "mdp.horizon=5", "mdp.n_features=3", "demos.n=5")
     with pytest.raises(ValueError, match="the learned policy is for T = 5, S = 6, A = 3; the dataset has T = 5, S = 7, A = 3"):
