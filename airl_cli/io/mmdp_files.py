@@ -211,6 +211,8 @@ def read_npz(path: str | os.PathLike) -> MMDPProblem:
 
 
 def _validate(raw: dict[str, np.ndarray]) -> MMDPProblem:
+    if "rewards" not in raw and {"features", "horizon"} <= set(raw):
+        raise DatasetError("this is an airl fit dataset (demonstrations and features, no rewards), not a multi-model MDP: fit it with airl fit data=FILE")
     for key in ("transitions", "rewards", "initial"):
         if key not in raw:
             raise DatasetError(f"key '{key}' is missing")
@@ -228,6 +230,8 @@ def _validate(raw: dict[str, np.ndarray]) -> MMDPProblem:
     if P.ndim != 4 or P.shape[1] != P.shape[3]:
         raise DatasetError(f"key 'transitions' must have shape (M, S, A, S), got {P.shape}")
     M, S, A, _ = P.shape
+    if min(M, S, A) < 1:
+        raise DatasetError(f"key 'transitions' has shape {P.shape}: a multi-model MDP needs at least one model, one state and one action")
 
     def rewards_of(key: str, n_models: int) -> np.ndarray:
         r = arrays[key]

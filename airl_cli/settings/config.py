@@ -383,7 +383,7 @@ def plan_settings(cfg: DictConfig | Mapping) -> PlanSettings:
         input=path,
         method=p.choice("method", PLAN_METHODS),
         horizon=p.int("horizon", lo=1),
-        iterations=p.int("iterations", lo=1, hi=20),
+        iterations=p.int("iterations", lo=1, hi=PBVI_MAX_ITERATIONS),
         bracket_beliefs=p.int("bracket_beliefs", lo=0, default=BRACKET_BELIEFS),
         bracket_grid=p.int("bracket_grid", lo=0, default=GRID_WORK),
         bracket_nodes=p.int("bracket_nodes", lo=0, default=PLAN_BRACKET_NODES),

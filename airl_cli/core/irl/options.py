@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from airl_cli.core.mmdp.budget import GRID_WORK
+from airl_cli.core.mmdp.budget import GRID_WORK, PBVI_MAX_ITERATIONS  # noqa: F401 (the configuration's limit, read through this module)
 
 #: The step-size schedules eta_t of ``FitOptions.schedule`` (thesis Table I).
 SCHEDULES = ("inverse_sqrt", "inverse", "constant")
@@ -25,8 +25,6 @@ BRACKET_MAX_BELIEFS = 200_000
 #: many (t, s, count) nodes by default (``PlannerOptions.bracket_nodes``; the exact program's own limit, ``counts.MAX_NODES``).
 BRACKET_NODES = 100_000_000
 
-#: The most PBVI iterations a configuration may ask for: up to 2^(iterations-1) belief points each.
-PBVI_MAX_ITERATIONS = 20
 
 
 @dataclass(frozen=True)

@@ -169,3 +169,9 @@ def _nodes(iterations: int) -> int:
     257 at 10) and de-duplication keeps 0.4-0.8 node per point. Half the bound, plus one, is above
     every measurement."""
     return max_beliefs(iterations) // 2 + 1
+
+
+#: PBVI's iterations at most (``solvers.Pbvi``, ``airl plan``'s ``plan.iterations``, the fit's
+#: ``pbvi.iterations``): the belief set holds up to 2^(iterations-1) points, 2^19 at this.
+PBVI_MAX_ITERATIONS = 20
+

@@ -26,6 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from airl_cli.core.mmdp import bounds, counts, planner
+from airl_cli.core.mmdp.budget import PBVI_MAX_ITERATIONS
 
 
 @dataclass(frozen=True)
@@ -50,6 +51,12 @@ class MultiModelProblem:
     discount: float = 1.0
     prior: np.ndarray | None = None
 
+    def __post_init__(self) -> None:
+        if self.horizon is not None and (isinstance(self.horizon, bool) or not isinstance(self.horizon, (int, np.integer)) or self.horizon < 1):
+            raise ValueError(f"horizon must be a whole number >= 1 (or None for rewards with a time axis), got {self.horizon!r}")
+        if not 0.0 < float(self.discount) <= 1.0:
+            raise ValueError(f"discount must be in (0, 1], got {self.discount!r}")
+
 
 @dataclass(frozen=True)
 class Pbvi:
@@ -68,6 +75,16 @@ class Pbvi:
     expansion: str = "sample"
     expectations: str = "exact"
     n_samples: int = 50_000
+
+    def __post_init__(self) -> None:
+        if isinstance(self.iterations, bool) or not isinstance(self.iterations, (int, np.integer)) or not 1 <= self.iterations <= PBVI_MAX_ITERATIONS:
+            raise ValueError(f"iterations must be a whole number from 1 to {PBVI_MAX_ITERATIONS} (at most 2^(iterations-1) belief points), got {self.iterations!r}")
+        if self.expansion not in ("sample", "all"):
+            raise ValueError(f"expansion must be 'sample' or 'all', got {self.expansion!r}")
+        if self.expectations not in ("exact", "monte_carlo"):
+            raise ValueError(f"expectations must be 'exact' or 'monte_carlo', got {self.expectations!r}")
+        if not isinstance(self.n_samples, (int, np.integer)) or self.n_samples < 1:
+            raise ValueError(f"n_samples must be a whole number >= 1, got {self.n_samples!r}")
 
     def solve(self, problem: MultiModelProblem) -> planner.Solution:
         return planner.solve(

@@ -58,3 +58,15 @@ def test_the_count_program_is_the_exact_optimum_on_a_slip_grid_and_declines_in_o
     assert sol.value == pytest.approx(exact.value, abs=1e-9)
     with pytest.raises(ValueError, match="nodes"):
         solve(Counts(max_nodes=5), problem)
+
+
+def test_settings_a_solver_cannot_use_are_refused_when_it_is_made():
+    """A walk through the API: Pbvi(iterations=25) on a 4-state problem ran for more than ten
+    minutes (2^24 belief points), Pbvi(iterations=0) was refused only at solve, and horizon=5.0
+    ended in Python's TypeError."""
+    for make, words in ((lambda: Pbvi(iterations=25), "from 1 to 20"), (lambda: Pbvi(iterations=0), "from 1 to 20"),
+                        (lambda: Pbvi(expansion="every"), "'sample' or 'all'"), (lambda: Pbvi(n_samples=0), "n_samples"),
+                        (lambda: MultiModelProblem(np.ones((1, 1, 1, 1)), np.ones((1, 1)), np.ones(1), horizon=5.0), "whole number"),
+                        (lambda: MultiModelProblem(np.ones((1, 1, 1, 1)), np.ones((1, 1)), np.ones(1), horizon=2, discount=0.0), "discount")):
+        with pytest.raises(ValueError, match=words):
+            make()
