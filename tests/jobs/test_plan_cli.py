@@ -177,6 +177,20 @@ def test_plan_reads_an_npz_with_a_prior(tmp_path):
     assert result.exit_code == 2 and "key 'rewards' must have shape" in result.output
 
 
+@pytest.mark.parametrize("arrays, words", [
+    (dict(transitions=np.ones((2, 3, 0, 3)), rewards=np.ones((2, 3, 0)), initial=np.full(3, 1 / 3)), "at least one model, one state and one action"),
+    (dict(transitions=np.ones((0, 3, 2, 3)), rewards=np.ones((0, 3, 2)), initial=np.full(3, 1 / 3)), "at least one model, one state and one action"),
+    (dict(transitions=np.ones((1, 2, 1, 2)) / 2, features=np.ones((2, 1)), initial=np.full(2, 0.5), horizon=np.int64(3)), "an airl fit dataset"),
+])
+def test_a_file_of_no_actions_or_models_or_an_irl_dataset_is_one_sentence(tmp_path, arrays, words):
+    """A walk through the commands: no actions or no models ended in numpy's traceback; an airl fit
+    dataset said only "key 'rewards' is missing"."""
+    np.savez(tmp_path / "odd.npz", **arrays)
+    result = runner.invoke(app, ["plan", "plan.input=odd.npz", "hydra.run.dir=r"])
+    assert result.exit_code == 2 and words in result.output and "Traceback" not in result.output
+    assert not (tmp_path / "r").exists()
+
+
 def test_exact_on_a_long_horizon_is_refused_in_one_sentence(tmp_path):
     folder = write_folder(tmp_path / "mmdp")
     result = runner.invoke(app, ["plan", f"plan.input={folder}", "plan.method=exact", "plan.horizon=40", f"hydra.run.dir={tmp_path / 'r'}"])

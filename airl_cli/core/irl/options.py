@@ -26,7 +26,6 @@ BRACKET_MAX_BELIEFS = 200_000
 BRACKET_NODES = 100_000_000
 
 
-
 @dataclass(frozen=True)
 class PlannerOptions:
     """How the adversary's best response is computed (thesis §5.3.1, chapter 6).
