@@ -48,7 +48,7 @@ def summary_text(dataset: Dataset, settings: FitSettings, learned: Learned, rows
     elif not learns_reward(learned.method):
         how = "action frequencies of the demonstrations"
     else:
-        how = f"one shared w, {info['iterations']} iterations"
+        how = f"one shared w, {info['iterations']} iteration{'' if info['iterations'] == 1 else 's'}"
     given = f", N={dataset.n_demos}" if dataset.feature_expectations is None else ", exact feature expectations"
     given += f", discount {dataset.discount:g}" if dataset.discount < 1.0 else ""
     lines = [

@@ -80,8 +80,9 @@ def max_margin_planning(
     Returns:
         ``BaselineResult`` with weights (D, K), identical rows holding the w of the lowest
         objective seen. History columns "step", "objective" (f at that step's w), "grad_norm"
-        (Euclidean norm of the subgradient) and "eta", one row per iteration. Its ``stop``: the cap
-        (subgradient descent has no rule of its own), the subgradient's norm at the returned w and,
+        (Euclidean norm of the subgradient) and "eta", one row per iteration. Its ``stop``: the cap,
+        or "tolerance" where a subgradient is exactly 0 (w is then the minimiser: the steps stop
+        there, as every later one would stay), the subgradient's norm at the returned w and,
         with lam > 0, min f bracketed by f at the returned w and the bound of every step's
         minorant (``baselines.bundle_lower_bound``; f is lam-strongly convex: each max_pi is a
         maximum of functions linear in w).
@@ -110,9 +111,12 @@ def max_margin_planning(
         etas.append(eta)
         points.append(w)
         subgradients.append(g)
+        if not np.any(g):  # 0 is a subgradient: w minimises f (and every later step would stay at w)
+            break
         w = w - eta * g
+    steps = len(objective)
     history = {
-        "step": np.arange(max_iterations),
+        "step": np.arange(steps),
         "objective": np.array(objective),
         "grad_norm": np.array(grad_norm),
         "eta": np.array(etas),
@@ -120,4 +124,5 @@ def max_margin_planning(
     best = int(np.argmin(objective))  # the first of the lowest, as best_w
     lower = bundle_lower_bound(np.array(objective), np.array(points), np.array(subgradients), lam) if lam > 0 else None
     bracket = None if lower is None else (min(lower, objective[best]), objective[best])
-    return BaselineResult(np.tile(best_w, (D, 1)), None, history, Stop("max_iterations", "the subgradient's norm at w", grad_norm[best], bracket, objective[best], max_iterations))
+    reason = "tolerance" if steps < max_iterations or grad_norm[best] == 0.0 else "max_iterations"
+    return BaselineResult(np.tile(best_w, (D, 1)), None, history, Stop(reason, "the subgradient's norm at w", grad_norm[best], bracket, objective[best], steps))

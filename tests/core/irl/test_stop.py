@@ -77,6 +77,19 @@ def test_mmp_bracket_holds_the_enumerated_minimum_and_narrows(seed):
     assert widths[-1] < widths[0] and widths[-1] < 1e-2 * max(1.0, abs(f_star))
 
 
+def test_mmp_stops_where_a_subgradient_is_zero_with_the_weights_it_would_return_at_its_cap():
+    """A walk through the commands: one state, one action, so every policy matches the demonstrations
+    and f(w) = lam/2 |w|^2 is minimised at w = 0, where the first subgradient is 0; MMP ran its 100
+    steps there and said "NOT converged". It stops at the first step now, converged, with the same w."""
+    P = np.ones((2, 1, 1, 1))
+    phi = np.array([[1.0, 2.0]])
+    targets = phi * 2  # T = 2: two states, each with features phi
+    res = max_margin_planning(P, phi, np.ones(1), 2, targets, lam=1e-3, max_iterations=100)
+    assert res.stop.reason == "tolerance" and res.stop.converged and res.stop.iterations == 1 and res.stop.value == 0.0
+    assert np.array_equal(res.weights, np.zeros((1, 2))) and res.stop.bracket == (0.0, 0.0)
+    assert len(res.history["objective"]) == 1
+
+
 def test_bundle_bound_is_between_the_best_single_point_and_the_minimum():
     """f(w) = lam/2 |w|^2 + max_i (c_i . w + d_i): the bound of points on a path is at least each
     point's own (eq. 1) and at most the QP's minimum."""
