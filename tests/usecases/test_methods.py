@@ -90,3 +90,10 @@ def test_the_api_fit_takes_the_loss_and_the_seed_by_name():
     assert zero_one.info["objective"] != typed.info["objective"]  # the loss was the one named
     with pytest.raises(ConfigError, match="loss='nope' is not a loss airl knows"):
         api.fit(dataset, method=api.Mce(), loss="nope")
+
+
+def test_behavioural_cloning_without_demonstrated_actions_says_what_a_file_and_a_generated_problem_need():
+    """A walk through the commands: its advice for a dataset file was demos=sampled, which a file ignores."""
+    dataset = dataclasses.replace(api.make_dataset("mdp.n_states=5", "mdp.n_actions=2", "mdp.horizon=4", "demos.n=3"), demo_actions=None)
+    with pytest.raises(ConfigError, match="a dataset file needs the keys 'demo_states' and 'demo_actions', a generated problem demos=sampled"):
+        api.fit(dataset, "method=bc")

@@ -196,8 +196,8 @@ class Bc(_Options):
     def check(self, dataset: Dataset) -> None:
         if dataset.demo_actions is None:
             raise ConfigError(
-                "method=bc clones demonstrated actions, and this dataset has none ('demo_actions' is missing); "
-                "use demos=sampled or demos=optimal_path"
+                "method=bc clones demonstrated actions, and this dataset has none ('demo_actions' is missing): "
+                "a dataset file needs the keys 'demo_states' and 'demo_actions', a generated problem demos=sampled or demos=optimal_path"
             )
 
     def fit(self, dataset: Dataset, rng: np.random.Generator, callback=None, planner_progress=None) -> Learned:
