@@ -74,6 +74,7 @@ from airl_cli.io.dataset_checks import (
     held_out_dynamics,
     numeric,
     optional_arrays,
+    renormalised,
     probabilities,
     shape,
 )
@@ -237,7 +238,7 @@ def validate(raw: dict[str, np.ndarray]) -> Dataset:
     phi = features(raw, S, A, T)
     K = phi.shape[-1]
 
-    p0 = numeric("initial", np.asarray(raw["initial"]))
+    p0 = renormalised(np.asarray(raw["initial"]), numeric("initial", np.asarray(raw["initial"])))
     shape("initial", p0, (S,), "(S,)")
     probabilities("initial", p0)
 

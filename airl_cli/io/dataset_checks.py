@@ -43,6 +43,19 @@ def shape(key: str, x: np.ndarray, expected: tuple, meaning: str) -> None:
         fail(f"key '{key}' must have shape {meaning} = {expected}, but has shape {x.shape}")
 
 
+def renormalised(raw: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """``x``, the float64 copy of a file's probabilities ``raw`` (rows along the last axis), each row
+    divided by its sum where ``raw`` is a float of fewer than 64 bits (float32, float16) and every
+    row sums to 1 within that type's rounding (4 eps a term): such rows cannot sum to 1 within the
+    checks' 1e-8 as written. Any other ``x`` as it is (the checks then judge it)."""
+    if not (np.issubdtype(raw.dtype, np.floating) and raw.dtype.itemsize < 8) or x.size == 0:
+        return x
+    sums = x.sum(axis=-1, keepdims=True)
+    if np.all(np.abs(sums - 1.0) <= 4 * np.finfo(raw.dtype).eps * x.shape[-1]):
+        return x / sums
+    return x
+
+
 def probabilities(key: str, x: np.ndarray) -> None:
     try:
         check_probabilities(x, name=f"key '{key}'")
@@ -62,7 +75,7 @@ def dynamics(raw: dict[str, np.ndarray], prefix: str = "") -> np.ndarray | Spars
         missing = f"the required key '{dense}' is missing" if not sparse else f"'{sparse[0]}' is given without '{({nxt_key, probs_key} - {sparse[0]}).pop()}'"
         fail(f"{missing}; give the dynamics as '{dense}' (M, S, A, S) or as '{nxt_key}' (S, R) with '{probs_key}' (M, S, A, R)")
     if dense in raw:
-        P = numeric(dense, np.asarray(raw[dense]))
+        P = renormalised(np.asarray(raw[dense]), numeric(dense, np.asarray(raw[dense])))
         if P.ndim != 4 or P.shape[1] != P.shape[3]:
             fail(f"key '{dense}' must have shape (M, S, A, S), but has shape {P.shape}")
         key = dense
@@ -132,7 +145,7 @@ def sparse_keys(raw: dict[str, np.ndarray], prefix: str = "") -> SparseDynamics:
     """The dynamics of the sparse keys, kept sparse: next states (S, R) and their probabilities (M, S, A, R)."""
     nxt_key, probs_key = prefix + SPARSE_KEYS[0], prefix + SPARSE_KEYS[1]
     nxt = numeric(nxt_key, np.asarray(raw[nxt_key]), integer=True)
-    probs = numeric(probs_key, np.asarray(raw[probs_key]))
+    probs = renormalised(np.asarray(raw[probs_key]), numeric(probs_key, np.asarray(raw[probs_key])))
     if nxt.ndim != 2 or nxt.shape[1] < 1:
         fail(f"key '{nxt_key}' must have shape (S, R) with R >= 1, but has shape {nxt.shape}")
     S, R = nxt.shape

@@ -45,6 +45,7 @@ import pandas as pd
 
 from airl_cli.core.mdp.basics import check_probabilities
 from airl_cli.errors import DatasetError
+from airl_cli.io.dataset_checks import renormalised
 from airl_cli.io.npz_members import check_declared_sizes
 
 TRANSITION_COLUMNS = ("idstatefrom", "idaction", "idstateto", "idoutcome", "probability", "reward")
@@ -225,7 +226,7 @@ def _validate(raw: dict[str, np.ndarray]) -> MMDPProblem:
             raise DatasetError(f"key '{key}' must hold real numbers, not {value.dtype}")
         if not np.all(np.isfinite(value)):
             raise DatasetError(f"key '{key}' holds a NaN or an infinite value")
-        arrays[key] = value.astype(np.float64)
+        arrays[key] = renormalised(value, value.astype(np.float64)) if key in ("transitions", "initial", "prior", "test_transitions") else value.astype(np.float64)
     P = arrays["transitions"]
     if P.ndim != 4 or P.shape[1] != P.shape[3]:
         raise DatasetError(f"key 'transitions' must have shape (M, S, A, S), got {P.shape}")

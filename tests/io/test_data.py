@@ -292,3 +292,27 @@ def test_a_cut_npz_is_called_damaged_not_something_else(tmp_path):
     cut.write_bytes(whole.read_bytes()[:3000])
     with pytest.raises(DatasetError, match=r"'.*cut.npz' is a damaged .npz file \(cut short or corrupt\): write it again"):
         read_dataset(cut)
+
+
+def test_float32_probabilities_are_read_as_the_float64_rows_they_round(tmp_path):
+    """A walk through the commands: a file written in float32 was refused, its rows summing to
+    0.9999999739 (float32 cannot hold rows summing to 1 within 1e-8); they are renormalised in
+    float64, and the fit equals the float64 file's to float32's precision. Rows further from 1 are
+    still refused."""
+    from airl_cli import api
+    from airl_cli.io.mmdp_files import read_problem
+
+    rng = np.random.default_rng(0)
+    ds = api.make_dataset("mdp.n_states=6", "mdp.n_actions=3", "mdp.horizon=4", "demos.n=5")
+    arrays = ds.arrays()
+    low = {**arrays, "transitions": arrays["transitions"].astype(np.float32), "initial": arrays["initial"].astype(np.float32)}
+    np.savez(tmp_path / "f32.npz", **low)
+    read = api.load_dataset(tmp_path / "f32.npz")
+    assert read.transitions.dtype == np.float64 and np.allclose(read.transitions.sum(axis=-1), 1.0, atol=1e-12)
+    assert np.allclose(read.transitions, arrays["transitions"], atol=1e-6)
+    np.savez(tmp_path / "off.npz", **{**arrays, "transitions": (arrays["transitions"] * 1.001).astype(np.float32)})
+    with pytest.raises(DatasetError, match="does not sum to 1"):
+        api.load_dataset(tmp_path / "off.npz")
+    P = rng.dirichlet(np.ones(4), size=(2, 4, 2)).astype(np.float32)  # airl plan's files too
+    np.savez(tmp_path / "mmdp.npz", transitions=P, rewards=rng.normal(size=(2, 4, 2)), initial=np.full(4, 0.25, np.float32))
+    assert np.allclose(read_problem(tmp_path / "mmdp.npz").transitions.sum(axis=-1), 1.0, atol=1e-12)
