@@ -185,7 +185,7 @@ def main(cfg: DictConfig, job: FitJob) -> None:
     if VERBOSE and plays_game(run.learned.method):
         out_console.print("\n" + "\n".join(verbose_lines(run.learned.info)), soft_wrap=True)
     out_console.print(f"\nwrote {folder} (fit in {run.seconds:.2f} s)", soft_wrap=True)
-    for sentence in fit_warnings(run.learned.info):
+    for sentence in fit_warnings(run.learned.info, run.dataset):
         err_console.print(f"warning: {sentence}", soft_wrap=True)
         WARNED.append(sentence)
 

@@ -5,6 +5,8 @@ sentences it warns with on stderr (``fit_warnings``, which ``--strict`` turns in
 
 from __future__ import annotations
 
+import numpy as np
+
 from airl_cli.io.dataset import Dataset
 from airl_cli.jobs.common import vector_text
 from airl_cli.methods import STOP_WORDS, learns_reward, plays_game
@@ -68,6 +70,8 @@ def summary_text(dataset: Dataset, settings: FitSettings, learned: Learned, rows
         lines.append(f"stopped   {stop_sentence(info)}")
     if constant := constant_sentence(info):
         lines.append(f"warning   {constant}")
+    if zero := zero_truth_sentence(dataset):
+        lines.append(f"warning   {zero}")
     if learned.weights is not None:
         lines += ["", "learned weights:"]
         if learned.step_weights is not None:
@@ -203,7 +207,14 @@ def _bracket_effort(info: dict) -> str:
     return f"of {info['bracket_beliefs']:,} beliefs{grid}"
 
 
-def fit_warnings(info: dict) -> list[str]:
+def zero_truth_sentence(dataset: Dataset) -> str | None:
+    """The sentence for a dataset whose true weights are all 0 (None otherwise): its scores say nothing."""
+    if dataset.true_weights is None or np.any(dataset.true_weights):
+        return None
+    return "the dataset's true weights are all 0: every policy is optimal for the true reward, so every score is 1 and cos(w, w*) is 0"
+
+
+def fit_warnings(info: dict, dataset: Dataset | None = None) -> list[str]:
     """The sentences a fit warns with on stderr: a certified learner whose bracket is wider than
     optim.tol (stopped at a budget: "NOT converged"; else held open by its planner, the Markov
     adversary's game or the grid's resolution), with the width it reached and the setting that
@@ -220,4 +231,6 @@ def fit_warnings(info: dict) -> list[str]:
         out.append(degenerate_sentence(info))
     if constant := constant_sentence(info):
         out.append(constant)
+    if dataset is not None and (zero := zero_truth_sentence(dataset)):
+        out.append(zero)
     return out

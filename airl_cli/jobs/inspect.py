@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import numpy as np
+
 from airl_cli.core.mdp.sparse import SparseDynamics
 from airl_cli.errors import AirlError, refuse
 from airl_cli.io.dataset import read_dataset
@@ -41,7 +43,18 @@ def describe(path: str) -> str:
         lines.append(f"  demonstrations: N={ds.n_demos} per dynamics ({acts})")
     if ds.feature_expectations is not None:
         lines.append("  feature expectations: given (used instead of the demonstrations' mean)")
-    lines.append("  true weights: " + ("given, runs will be scored" if ds.true_weights is not None else "absent, runs cannot be scored"))
+    if ds.true_weights is None:
+        lines.append("  true weights: absent, runs cannot be scored")
+    elif not np.any(ds.true_weights):
+        lines.append("  true weights: all 0: every policy is optimal for the true reward, so every score will be 1 and cos(w, w*) 0")
+    else:
+        lines.append("  true weights: given, runs will be scored")
+    if ds.environment is not None:
+        lines.append(f"  environment: {ds.environment}" + (f"; tau_1..tau_D: {ds.perturbation}" if ds.perturbation else ""))
+    elif ds.perturbation:
+        lines.append(f"  tau_1..tau_D: {ds.perturbation}")
+    if ds.goal_states is not None:
+        lines.append(f"  goal: {int(ds.goal_states.sum())} state(s); runs report the probability of reaching one within the horizon")
     lines.append("  loss: " + ("given (S, S)" if ds.loss is not None else "absent, the config's loss will be used"))
     if ds.discount < 1.0:
         lines.append(f"  discount: gamma = {ds.discount:g}, step t weighted by gamma^t (optim=gradient refuses it; the certified learner takes it)")

@@ -458,3 +458,16 @@ def test_override_strings_are_split_in_one_module():
     found = [str(p.relative_to(package)) for p in package.rglob("*.py") if splitting.search(p.read_text()) and p.name != "overrides.py"]
     assert not found, found
     assert splitting.search((package / "settings" / "overrides.py").read_text())
+
+
+def test_true_weights_of_zero_are_said_by_inspect_and_fit(tmp_path, monkeypatch):
+    """A walk through the commands: a file whose true weights were all 0 scored 1.0000 for every
+    method with cos(w, w*) 0, with no word that every policy is then optimal."""
+    monkeypatch.chdir(tmp_path)
+    assert runner.invoke(app, ["generate", "hydra.run.dir=g", *SMALL[:5]]).exit_code == 0
+    arrays = dict(np.load(tmp_path / "g" / "dataset.npz"))
+    arrays["true_weights"] = np.zeros_like(arrays["true_weights"])
+    np.savez(tmp_path / "w0.npz", **arrays)
+    assert "true weights: all 0: every policy is optimal" in runner.invoke(app, ["inspect", "w0.npz"]).output
+    result = runner.invoke(app, ["fit", "--strict", "data=w0.npz", "method=mce", "hydra.run.dir=f"])
+    assert result.exit_code == 3 and result.output.count("the dataset's true weights are all 0") == 2  # the summary and stderr
