@@ -87,6 +87,14 @@ def _plan(line: CommandLine) -> SweepPlan:
             f"with data=FILE every job learns from that file, so this sweep's {', '.join(ignored)} would change nothing; "
             "drop data= (the experiment builds its own problems), or run airl fit -m data=FILE with the settings to vary"
         )
+    if first_job.get("data") is not None:  # the file every job reads, checked once before any folder (a missing one failed every job)
+        from airl_cli.errors import DatasetError
+        from airl_cli.io.dataset import read_dataset
+
+        try:
+            read_dataset(str(first_job.data))
+        except DatasetError as err:
+            raise ConfigError(str(err)) from None
     job_config = OmegaConf.to_container(first_job, resolve=False)
     del job_config["hydra"]
     settings = shared_settings(plain(OmegaConf.create(job_config)), swept)

@@ -200,6 +200,7 @@ def test_a_job_that_fails_on_bad_input_is_reported(tmp_path):
         (["sweep", "experiment=fig12", "hydra.launcher.n_jobs=abc"], "hydra.launcher.n_jobs"),
         (["sweep", "experiment=fig12", "hydra.launcher.n_jobs=0"], "hydra.launcher.n_jobs"),
         (["plot", "nowhere"], "nowhere"),
+        (["sweep", "experiment=fig04", "profile=quick", "data=nowhere.npz"], "dataset file 'nowhere.npz' does not exist"),  # checked before any job
     ],
 )
 def test_bad_sweep_input(args, needle):
