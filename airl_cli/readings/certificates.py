@@ -24,14 +24,19 @@ def fits_of_the_method(table: pd.DataFrame) -> pd.DataFrame:
 def certificates(tables: Tables) -> str:
     """A markdown table: per experiment (or variant, by its label) with certified fits, the fits,
     those whose bracket is within ``optim.tol``, the brackets' median and widest relative width, and
-    the fits flagged degenerate; a last row sums them up ('' where no experiment has such fits)."""
+    the fits flagged degenerate; a last row sums them up ('' where no experiment has such fits).
+    Experiments that read one sweep folder (fig14 and fig15, a study's variants) are one row,
+    their labels joined: the same fits, counted once."""
+    by_folder: dict[str, list[str]] = {}
+    for label, (meta, _) in tables.items():
+        by_folder.setdefault(str(meta.get("folder", label)), []).append(label)
     rows, every = [], []
-    for label, (_, table) in tables.items():
-        fits = fits_of_the_method(table)
+    for labels in by_folder.values():
+        fits = fits_of_the_method(tables[labels[0]][1])
         if fits.empty:
             continue
         every.append(fits)
-        rows.append(f"| {label} | " + _cells(fits) + " |")
+        rows.append(f"| {' + '.join(labels)} | " + _cells(fits) + " |")
     if not rows:
         return ""
     head = ["| experiment | certified fits | bracket within optim.tol | bracket width, median [widest] | flagged degenerate |", "|---|---:|---:|---:|---:|"]

@@ -29,3 +29,17 @@ def test_one_row_per_experiment_counting_each_job_once_and_a_total():
     assert certificates({"fig02_03": tables["fig02_03"]}) == ""
     old = _table([1e-4], [True], [False]).drop(columns="bracket_width")  # a table of an earlier version
     assert certificates({"fig05": ({}, old)}).splitlines()[2] == "| fig05 | 1 | 1 | – | 0 |"
+
+
+def test_experiments_of_one_sweep_folder_are_one_row_counted_once():
+    """A walk through the commands: fig14 and fig15 read one sweep (as fig17 and fig18 do), and the
+    table counted its fits twice, in their rows and in the total."""
+    shared = _table([2e-4, 5e-4], [True, True], [False, False])
+    tables = {
+        "fig14": ({"folder": "s/fig14_15-full"}, shared),
+        "fig15": ({"folder": "s/fig14_15-full"}, shared),
+        "fig05": ({"folder": "s/fig05-full"}, _table([1e-3], [False], [False])),
+    }
+    text = certificates(tables).splitlines()
+    assert text[2] == "| fig14 + fig15 | 2 | 2 | 3.5e-04 [5.0e-04] | 0 |"
+    assert text[3].startswith("| fig05 | 1 |") and text[4].startswith("| **all** | 3 | 2 |") and len(text) == 5
