@@ -215,7 +215,8 @@ def sweep(
     Jobs that finished in an earlier run of the same command, or with the same config in another
     sweep folder beside this one (copied from there), are skipped (--partial: a table
     and figures of those alone, running nothing). The folder is
-    results/sweeps/<experiment>-<profile>/ unless hydra.sweep.dir=PATH says otherwise.
+    results/sweeps/<experiment>-<profile>/ (fig14_15-<profile> for fig14 and fig15, one sweep;
+    fig17_18-<profile> for fig17 and fig18) unless hydra.sweep.dir=PATH says otherwise.
     The jobs run on one warm worker per core (hydra.launcher.n_jobs=N for fewer);
     hydra/launcher=basic runs them one by one, hydra/launcher=submitit_slurm on a cluster.
     """

@@ -76,6 +76,10 @@ def test_a_quick_profile_report(sweeps, tmp_path):
     result = runner.invoke(app, ["report", str(sweeps), "--out", str(out), "--profile", "quick"])
     assert result.exit_code == 0, result.output
     assert "| airl | 0.700 |" in (out / "results.md").read_text() and "quick" in (out / "results.md").read_text()
+    assert (out / "claims.md").read_text().startswith("*Sweeps of profile=quick: a small size")  # its verdicts are not the claims'
+    full = tmp_path / "full"
+    assert runner.invoke(app, ["report", str(sweeps), "--out", str(full)]).exit_code == 0
+    assert (full / "claims.md").read_text().startswith("| claim |")
 
 
 def test_airl_report_help():
