@@ -214,3 +214,21 @@ def test_a_variant_of_a_study_of_two_experiments_is_reported_for_each(tmp_path):
         assert f"![{slug}_{figure}.png](figures/{slug}_{figure}.png)" in results
         assert (out / "figures" / f"{slug}_{figure}.png").read_bytes().endswith(figure.encode())
 
+
+
+def test_a_section_shows_the_dynamics_never_demonstrated_in_a_table_of_their_own():
+    """A walk through the commands: windy_transfer's section read 0.974 against the demonstrator's
+    0.938 over the demonstrated winds alone, while under its three held-out targets the same fits
+    scored 0.684 against 0.914; FrozenLake's held-out slippery lake (tau) was nowhere."""
+    from airl_cli.kinds.fit.summaries.scores import section
+
+    rows = [{"method": "airl", "dynamics": d, "x": 10, "seed": s, "learner_score": score, "demonstrator_score": demo, "seconds": 1.0}
+            for s in range(2) for d, score, demo in (("tau", 0.1, 1.0), ("tau_1", 0.97, 0.9), ("test_1", 0.6, 0.9))]
+    table = pd.DataFrame(rows)
+    meta = {"x": "n_demos", "x_label": "N"}
+    text = section({**meta, "dynamics": ["tau_1", "test_1"]}, table)
+    demonstrated, never = text.split("Never demonstrated (test_1):")
+    assert "| 10 | 0.900 | 0.970 (100%) |" in demonstrated and "| 10 | 0.900 | 0.600 (0%) |" in never
+    text = section({**meta, "dynamics": ["tau", "tau_1"]}, table.query("dynamics != 'test_1'"))
+    assert "Never demonstrated (tau):" in text and "| 10 | 1.000 | 0.100 (0%) |" in text
+    assert "Never demonstrated" not in section({**meta, "dynamics": ["tau_1"]}, table.query("dynamics != 'test_1'"))  # chapter 7's

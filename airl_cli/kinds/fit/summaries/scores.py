@@ -4,6 +4,7 @@ value against the demonstrator's; in the report, per swept value (or per run) wi
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import TYPE_CHECKING
 
 from airl_cli.readings.summaries.base import Summary, demonstrated, fmt, methods, with_claim
@@ -40,9 +41,10 @@ def _median_block(rows: pd.DataFrame, x_name: str, what: str) -> list[str]:
     return lines
 
 
-def per_run_scores(table: pd.DataFrame) -> str:
-    """Per method: median, min, share of (run, tau_j) above 99%; the demonstrator's median."""
-    t = demonstrated(table)
+def per_run_scores(table: pd.DataFrame, pick: Callable[[pd.DataFrame], pd.DataFrame] = demonstrated) -> str:
+    """Per method: median, min, share of (run, tau_j) above 99%; the demonstrator's median
+    (``pick``: the rows read, the demonstration dynamics' by default)."""
+    t = pick(table)
     lines = ["| method | median | min | share > 99% | demonstrator (median) | fit seconds (median) |", "|---|---|---|---|---|---|"]
     for m in methods(t):
         s = t[t["method"] == m]
@@ -53,9 +55,10 @@ def per_run_scores(table: pd.DataFrame) -> str:
     return "\n".join(lines)
 
 
-def versus_demonstrator(table: pd.DataFrame, x_label: str) -> str:
-    """Per swept value: learner median per method (over runs and tau_j), demonstrator median, share beating it."""
-    t = demonstrated(table)
+def versus_demonstrator(table: pd.DataFrame, x_label: str, pick: Callable[[pd.DataFrame], pd.DataFrame] = demonstrated) -> str:
+    """Per swept value: learner median per method (over runs and tau_j), demonstrator median, share
+    beating it (``pick``: the rows read, the demonstration dynamics' by default)."""
+    t = pick(table)
     ms = methods(t)
     head = f"| {x_label} | demonstrator | " + " | ".join(f"{m} (beats demo)" for m in ms) + " |"
     lines = [head, "|" + "---|" * (2 + len(ms))]
@@ -74,8 +77,19 @@ def versus_demonstrator(table: pd.DataFrame, x_label: str) -> str:
 
 
 def section(meta: dict, table: pd.DataFrame) -> str:
-    """Per run when the runs are what is swept (Figs. 12, 13, 17), else per swept value."""
-    return per_run_scores(table) if meta["x"] == "run" else versus_demonstrator(table, meta["x_label"])
+    """Per run when the runs are what is swept (Figs. 12, 13, 17), else per swept value; over the
+    demonstration dynamics, then, in a table of their own, over those never demonstrated that the
+    experiment scores: the held-out test_e, and tau where its ``dynamics`` list it (FrozenLake's
+    slippery lake)."""
+    def table_of(pick: Callable[[pd.DataFrame], pd.DataFrame]) -> str:
+        return per_run_scores(table, pick) if meta["x"] == "run" else versus_demonstrator(table, meta["x_label"], pick)
+
+    listed = [str(d) for d in meta.get("dynamics") or []]
+    held = [d for d in sorted(table["dynamics"].astype(str).unique()) if d.startswith("test_") or (d == "tau" and "tau" in listed)]
+    if not held:
+        return table_of(demonstrated)
+    never = table_of(lambda t: t[t["dynamics"].astype(str).isin(held)])
+    return f"{table_of(demonstrated)}\n\nNever demonstrated ({', '.join(held)}):\n\n{never}"
 
 
 SUMMARY = Summary(terminal=terminal, section=section)
