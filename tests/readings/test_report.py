@@ -232,3 +232,16 @@ def test_a_section_shows_the_dynamics_never_demonstrated_in_a_table_of_their_own
     text = section({**meta, "dynamics": ["tau", "tau_1"]}, table.query("dynamics != 'test_1'"))
     assert "Never demonstrated (tau):" in text and "| 10 | 1.000 | 0.100 (0%) |" in text
     assert "Never demonstrated" not in section({**meta, "dynamics": ["tau_1"]}, table.query("dynamics != 'test_1'"))  # chapter 7's
+
+
+def test_the_cosine_experiments_terminal_summary_is_of_the_cosine():
+    """A walk through the commands: fig15's and fig18's sweeps printed the scores' table under their
+    claim about cos(w, w*)."""
+    from airl_cli.kinds.fit.summaries.cosine import terminal
+
+    table = pd.DataFrame([{"method": m, "dynamics": d, "x": x, "seed": s, "learner_score": 0.9, "demonstrator_score": 0.8, "seconds": 1.0,
+                           "cosine_similarity": c + 0.01 * s}
+                          for m, c in (("airl", 0.5), ("mce", 0.7)) for d in ("tau", "tau_1") for x in (1, 10) for s in range(3)])
+    text = terminal({"x": "n_demos", "thesis": "the cosine similarity is always above 0.6"}, table)
+    assert "median cos(w, w*) over runs, under tau_1:" in text and "0.5100" in text and "0.7100" in text
+    assert "normalised performance" not in text and text.rstrip().endswith("thesis: the cosine similarity is always above 0.6")
