@@ -17,7 +17,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from airl_cli.errors import AirlError
-from airl_cli.io.run_folder import read_experiment
+from airl_cli.io.run_folder import JOB_ERROR, JOB_ROWS, read_experiment
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -55,6 +55,11 @@ def read_results_table(folder: str | os.PathLike) -> pd.DataFrame:
     data = path.read_bytes()
     meta = read_experiment(folder) or {}
     if not data.strip():
+        failed = sorted(folder.glob(f"*/{JOB_ERROR}"))
+        if failed and not any(folder.glob(f"*/{JOB_ROWS}")):  # not damaged: no job finished
+            first = failed[0].read_text(encoding="utf-8", errors="replace").strip().splitlines()
+            raise DamagedTable(f"{path} is empty: no job of its sweep finished, {len(failed)} stopped on bad input ({failed[0].parent.name}: "
+                               f"{first[0] if first else 'no reason written'}); run it again with settings its jobs accept, or move {folder} out of the way")
         raise DamagedTable(f"{path} is empty{rebuild}")
     if "table_sha256" in meta and hashlib.sha256(data).hexdigest() != meta["table_sha256"]:
         now = max(data.count(b"\n") - 1, 0)

@@ -12,6 +12,9 @@ from airl_cli.io.files import write_text
 
 #: A sweep folder's description (its experiment's settings, the profile, how many jobs finished).
 EXPERIMENT_FILE = "experiment.json"
+#: A sweep job's rows for the results table (written last: its presence means the job is done) and
+#: its one-sentence error when it stopped on bad input (``sweep.spec`` names them for the sweep).
+JOB_ROWS, JOB_ERROR = "rows.csv", "error.txt"
 
 
 def read_experiment(folder: str | os.PathLike) -> dict | None:

@@ -12,10 +12,11 @@ from pathlib import Path
 
 from omegaconf import DictConfig, OmegaConf
 
-#: A job's rows for the results table; written last, so its presence means the job is done.
-ROWS = "rows.csv"
-#: A job's one-sentence error, when it stopped on bad input (its rows are then absent).
-ERROR = "error.txt"
+from airl_cli.io.run_folder import JOB_ERROR, JOB_ROWS
+
+#: A job's rows for the results table (written last, so its presence means the job is done), and its
+#: one-sentence error when it stopped on bad input (its rows are then absent): ``io.run_folder``'s.
+ROWS, ERROR = JOB_ROWS, JOB_ERROR
 
 #: Quick profile: this many runs at most, the first and last swept value (or the experiment's
 #: ``quick_values``), the first two methods (or variants).

@@ -245,3 +245,17 @@ def test_the_cosine_experiments_terminal_summary_is_of_the_cosine():
     text = terminal({"x": "n_demos", "thesis": "the cosine similarity is always above 0.6"}, table)
     assert "median cos(w, w*) over runs, under tau_1:" in text and "0.5100" in text and "0.7100" in text
     assert "normalised performance" not in text and text.rstrip().endswith("thesis: the cosine similarity is always above 0.6")
+
+
+def test_a_sweep_whose_every_job_stopped_on_bad_input_says_so_not_rebuild_it(tmp_path):
+    """A walk through the commands: such a folder's empty results.csv stopped airl report with
+    "run the same airl sweep command again to rebuild it (no job runs again)", which cannot help."""
+    from airl_cli.io.results_table import DamagedTable, read_results_table
+
+    folder = tmp_path / "fig04-quick-data=nowhere.npz"
+    for job in ("method=airl,seed=0", "method=mce,seed=0"):
+        (folder / job).mkdir(parents=True)
+        (folder / job / "error.txt").write_text("dataset file 'nowhere.npz' does not exist\n")
+    (folder / "results.csv").write_text("\n")
+    with pytest.raises(DamagedTable, match=r"no job of its sweep finished, 2 stopped on bad input \(method=airl,seed=0: dataset file 'nowhere.npz' does not exist\)"):
+        read_results_table(folder)
