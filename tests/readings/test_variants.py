@@ -40,3 +40,15 @@ def test_the_summary_counts_flagged_runs_and_pairs_above_the_demonstrator():
     assert thesis["w_median"] == 3e-5 and thesis["w_min"] == 1e-5 and thesis["w_max"] == 0.4
     assert thesis["learner_median"] == 0.85
     assert (mce["variant"], mce["runs"], mce["certified"], mce["flagged"]) == ("mce", 2, False, 0)
+
+
+def test_the_figures_points_sit_around_their_swept_value_whatever_variants_the_sweep_ran():
+    """A walk through the commands: a quick sweep of 2 of the experiment's 7 variants drew both left
+    of their ticks (S = 8 and 18 for 10 and 20): the offsets were centred on the 7 listed."""
+    from airl_cli.kinds.fit.figures.variants import variants
+
+    rows = [row(x=x, seed=s, matching=m, **{"weight_sharing": True}) for x in (10.0, 20.0) for s in range(2) for m in ("total", "per_step")]
+    meta = {"dynamics": ["tau_1"], "variants": ["thesis", "markov", "per_step", "markov_per_step", "unshared", "squared_features", "mce"], "x_label": "S"}
+    fig = variants(pd.DataFrame(rows), meta)
+    xs = sorted(float(x) for line in fig.axes[0].get_lines() if len(line.get_xdata()) == 2 for x in line.get_xdata())
+    assert len(xs) == 4 and np.isclose(xs[0] * xs[1], 100.0) and np.isclose(xs[2] * xs[3], 400.0)  # a factor apart either side of 10 and 20

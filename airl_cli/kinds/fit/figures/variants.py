@@ -33,14 +33,14 @@ def variants(df: pd.DataFrame, meta: Mapping[str, Any]) -> Figure:
     )
     fig = Figure(figsize=(11.0, 3.9))
     axes = fig.subplots(1, 3)
-    names = list(dict.fromkeys([*(meta.get("variants") or []), *summary["variant"]]))
+    listed = list(dict.fromkeys([*(meta.get("variants") or []), *summary["variant"]]))
+    names = [n for n in listed if (summary["variant"] == n).any()]  # the variants drawn: the offsets centre on them
     for i, name in enumerate(names):
         rows = summary[summary["variant"] == name].sort_values("x")
-        if rows.empty:
-            continue
         baseline = name in METHOD_COLOURS  # a comparison method's row beside the variants, in its own colour
-        colour = METHOD_COLOURS[name] if baseline else _COLOURS[i % len(_COLOURS)]
-        style = dict(color=colour, linestyle="--" if baseline else "-", marker=_MARKERS[i % len(_MARKERS)], markersize=4)
+        k = listed.index(name)  # colour and marker by the experiment's list: the same variant, the same look in every sweep
+        colour = METHOD_COLOURS[name] if baseline else _COLOURS[k % len(_COLOURS)]
+        style = dict(color=colour, linestyle="--" if baseline else "-", marker=_MARKERS[k % len(_MARKERS)], markersize=4)
         x = rows["x"] * 1.04 ** (i - (len(names) - 1) / 2)  # a small offset apart, so equal values stay visible
         for ax, (column, _) in zip(axes, _PANELS):
             if not rows[column].isna().all():
