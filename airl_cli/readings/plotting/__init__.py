@@ -134,6 +134,15 @@ def partial_title(meta: dict[str, Any]) -> str:
     return f"{title} [partial: {finished} of {jobs} jobs]"
 
 
+def variant_title(title: str, meta: dict[str, Any], folder: Path) -> str:
+    """``title`` with the overrides of a variant's sweep, read off its folder's name
+    (``<study>-<profile>-<overrides>``, as ``airl sweep`` names it; a ``partial/`` folder's is its
+    sweep's), so that its figure is told from the plain experiment's."""
+    name = (folder.parent if folder.name == "partial" else folder).name
+    prefix = f"{meta.get('study') or meta.get('name')}-{meta.get('profile') or 'full'}-"
+    return f"{title} [{name[len(prefix):]}]" if title and name.startswith(prefix) and len(name) > len(prefix) else title
+
+
 def draw(folder: str | os.PathLike, formats: tuple[str, ...] = ("png", "pdf"), meta: dict[str, Any] | None = None) -> list[Path]:
     """Draw every figure experiment.json (or ``meta``: another experiment of the sweep's study,
     ``settings.experiments.study_siblings``) lists; return the paths written, each figure's in
@@ -159,7 +168,7 @@ def draw(folder: str | os.PathLike, formats: tuple[str, ...] = ("png", "pdf"), m
 
     if df is not None:
         meta = {**meta, "title": sized_title(meta, df)}
-    meta = {**meta, "title": partial_title(meta)}
+    meta = {**meta, "title": variant_title(partial_title(meta), meta, folder)}
 
     def figures() -> list[tuple[str, Figure]]:
         made: list[tuple[str, Figure]] = []

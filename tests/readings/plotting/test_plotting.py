@@ -421,3 +421,13 @@ def test_times_plots_one_median_per_method_and_size_on_a_log_axis():
     assert np.allclose(airl.get_ydata(), [32.0, 64.0])
     mce = lines["MCE IRL"]
     assert np.allclose(mce.get_ydata(), [8.0, 16.0])
+
+
+def test_a_variants_figure_names_its_overrides_in_its_title(tmp_path):
+    """A walk through the commands: fig05-quick-optim.lam=0.02's figure had the plain sweep's title."""
+    meta = {"name": "fig05", "study": "fig05", "profile": "quick"}
+    assert plotting.variant_title("Fig. 5", meta, tmp_path / "fig05-quick-optim.lam=0.02") == "Fig. 5 [optim.lam=0.02]"
+    assert plotting.variant_title("Fig. 5", meta, tmp_path / "fig05-quick-optim.lam=0.02" / "partial") == "Fig. 5 [optim.lam=0.02]"
+    assert plotting.variant_title("Fig. 5", meta, tmp_path / "fig05-quick") == "Fig. 5"
+    assert plotting.variant_title("Fig. 5", meta, tmp_path / "mine") == "Fig. 5"  # hydra.sweep.dir=mine: no overrides known
+    assert plotting.variant_title("Fig. 14", {"name": "fig14", "study": "fig14_15"}, tmp_path / "fig14_15-full-method=airl") == "Fig. 14 [method=airl]"
