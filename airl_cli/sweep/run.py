@@ -8,6 +8,7 @@ and the figures are written, so that a stopped sweep resumes where it stopped.
 from __future__ import annotations
 
 import importlib
+import shutil
 import threading
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -26,7 +27,7 @@ from airl_cli.sweep.job_files import damaged_jobs, discard
 from airl_cli.sweep.plan import plan
 from airl_cli.sweep.pool import WorkerDied, environment, kept, prestart, shutdown, workers
 from airl_cli.sweep.spec import SweepPlan
-from airl_cli.sweep.table import TABLE, collect, damaged_line, draw_figures, medians_text, write_partial
+from airl_cli.sweep.table import PARTIAL, TABLE, collect, damaged_line, draw_figures, medians_text, write_partial
 
 #: The Hydra app of a sweep's jobs. Hydra names a job after its app's module ("job" here), so the
 #: sweep names it ``sweep`` itself: the jobs' ids (``sweep_0``...) and Hydra's records say ``sweep``.
@@ -224,4 +225,5 @@ def _run(sweep: SweepPlan, line: CommandLine, *, draw: bool, console: Console, o
         return 1
     if len(sweep.done()) == len(sweep.jobs):
         mark_complete(sweep.folder)  # every job, the table and the figures are written
+        shutil.rmtree(sweep.folder / PARTIAL, ignore_errors=True)  # a --partial table of some of them says less than the whole
     return 0

@@ -169,6 +169,8 @@ def test_an_interrupted_sweep_gets_a_partial_table(pristine, tmp_path, monkeypat
     theirs = rows_of(pristine / "results.csv", done)
     i = ours[0].index("seconds")  # fitted anew here: the same numbers but the time
     assert [r[:i] + r[i + 1 :] for r in ours] == [r[:i] + r[i + 1 :] for r in theirs]
+    finished = runner.invoke(app, [*SWEEP, f"hydra.sweep.dir={folder}"])  # the sweep finished: its partial table goes
+    assert finished.exit_code == 0 and (folder / "results.csv").exists() and not (folder / "partial").exists(), finished.output
 
 
 def test_partial_leaves_a_damaged_job_out_and_in_place(copy):
