@@ -141,14 +141,7 @@ def cut_response(dyn: SparseDynamics, L: LayeredRewards, p0: np.ndarray, prior: 
         ValueError: where the moves are of too many kinds for a count program.
     """
     T, M, S = L.horizon, dyn.probs.shape[0], dyn.probs.shape[1]
-    if not 2 <= layers <= T:
-        raise ValueError(f"a cut program has 2 to T = {T} layers, not {layers}")
-    weights = np.full(M, 1.0 / M) if prior is None else np.asarray(prior, dtype=np.float64)
-    if program is None:
-        kinds = move_kinds(dyn)
-        if kinds is None:
-            raise ValueError("the moves are of too many kinds for a count program")
-        program = CountProgram(dyn, kinds, layers, weights)
+    weights, program = _cut_program(dyn, L, prior, layers, program)
     p0 = np.asarray(p0, dtype=np.float64)
     objective = (lambda v: float(v.sum())) if prior is None else (lambda v: float(weights @ v))  # noqa: E731
     if layers == T:  # the whole program: its policy is optimal
@@ -199,7 +192,23 @@ def cut_graph(dyn: SparseDynamics, L: LayeredRewards, p0: np.ndarray, prior: np.
     Raises:
         ValueError: where the moves are of too many kinds for a count program.
     """
-    T, M, S = L.horizon, dyn.probs.shape[0], dyn.probs.shape[1]
+    M = dyn.probs.shape[0]
+    weights, program = _cut_program(dyn, L, prior, layers, program)
+    t0 = layers - 1
+    _, markov = _own_optimum(dyn, L, t0, to=0)
+    _, actions, choice = _cut_policy(program, dyn, L, t0, markov)
+    graph, value = _graph(program, dyn, L, p0, weights, actions, markov, choice, t0)
+    return graph, value * (M if prior is None else 1.0)  # the plain sum of the returns without a prior
+
+
+def _cut_program(dyn: SparseDynamics, L: LayeredRewards, prior: np.ndarray | None, layers: int, program: CountProgram | None) -> tuple[np.ndarray, CountProgram]:
+    """(the prior's weights (M,), uniform when None; the program cut after ``layers`` layers,
+    ``program`` itself where given), checking 2 <= layers <= T.
+
+    Raises:
+        ValueError: another number of layers, or moves of too many kinds for a count program.
+    """
+    T, M = L.horizon, dyn.probs.shape[0]
     if not 2 <= layers <= T:
         raise ValueError(f"a cut program has 2 to T = {T} layers, not {layers}")
     weights = np.full(M, 1.0 / M) if prior is None else np.asarray(prior, dtype=np.float64)
@@ -208,11 +217,7 @@ def cut_graph(dyn: SparseDynamics, L: LayeredRewards, p0: np.ndarray, prior: np.
         if kinds is None:
             raise ValueError("the moves are of too many kinds for a count program")
         program = CountProgram(dyn, kinds, layers, weights)
-    t0 = layers - 1
-    _, markov = _own_optimum(dyn, L, t0, to=0)
-    _, actions, choice = _cut_policy(program, dyn, L, t0, markov)
-    graph, value = _graph(program, dyn, L, p0, weights, actions, markov, choice, t0)
-    return graph, value * (M if prior is None else 1.0)  # the plain sum of the returns without a prior
+    return weights, program
 
 
 def _cut_policy(program: CountProgram, dyn: SparseDynamics, L: LayeredRewards, t0: int, markov: np.ndarray) -> tuple[np.ndarray, list[np.ndarray], np.ndarray]:
