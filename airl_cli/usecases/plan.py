@@ -76,7 +76,7 @@ class OptimumBracket:
         spent: the sawtooth stopped at its budget of beliefs (or rounds) short of ``plan.bracket_tol``.
         policy: the lower side's policy, the better of the sawtooth's graph (the plan's, or PBVI's,
             with a node per backed-up belief: ``policy_source`` "sawtooth") and the cut count
-            program's (``core.mmdp.count_bracket.cut_graph``: "count"); ``policy_value`` its
+            program's (``core.mmdp.count_graph.cut_graph``: "count"); ``policy_value`` its
             objective; None without either.
     """
 
@@ -142,7 +142,8 @@ def bracket_optimum(problem: MMDPProblem, settings: PlanSettings, result: Plan, 
     if settings.bracket_nodes > 0 and (br is None or br.upper - br.lower > target):
         L = layered_rewards(dyn, problem.rewards, horizon=settings.horizon, discount=discount)
         # the program in half the memory free now (its beliefs grow with the models: riverswim's M = 100, 0.9 GB)
-        cut = count_bracket(dyn, L, problem.initial, prior, max_nodes=settings.bracket_nodes, max_bytes=available_memory() // 2, policy=True)
+        cut = count_bracket(dyn, L, problem.initial, prior, max_nodes=settings.bracket_nodes, max_bytes=available_memory() // 2,
+                            policy_above=-np.inf if br is None else br.lower)
         if cut is not None:
             sides.append((cut.lower, cut.upper))
     if not sides:

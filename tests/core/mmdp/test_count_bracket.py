@@ -110,8 +110,9 @@ def test_the_cut_policy_s_returns_and_marginals_are_a_policy_s_by_simulation():
     chosen model's optimal policy; every history of the ring enumerated with its probability."""
     from itertools import product
 
-    from airl_cli.core.mmdp.count_bracket import _best_candidates, _own_optimum, _policy_value, cut_response
+    from airl_cli.core.mmdp.count_bracket import cut_response
     from airl_cli.core.mmdp.counts import CountProgram
+    from airl_cli.core.mmdp.cut_policy import best_candidates, own_optimum, policy_value
 
     rng = np.random.default_rng(11)
     P = slip_ring(S=4)
@@ -126,9 +127,9 @@ def test_the_cut_policy_s_returns_and_marginals_are_a_policy_s_by_simulation():
     cut = cut_response(dyn, L, p0, layers=layers, program=program)
     # the same policy, rebuilt from the program's pieces and played along every history
     t0 = layers - 1
-    own, policies = _own_optimum(dyn, L, t0)
-    follow = np.stack([_policy_value(dyn, L, t0, policies[k]) for k in range(M)])
-    W, choice = _best_candidates(program.last_beliefs, follow)
+    own, policies = own_optimum(dyn, L, t0)
+    follow = np.stack([policy_value(dyn, L, t0, policies[k]) for k in range(M)])
+    W, choice = best_candidates(program.last_beliefs, follow)
     _, actions = program.backward(L.step[:, :t0], W)
     values, marginals = np.zeros(M), np.zeros((M, T, S))
     for s0 in range(S):
@@ -204,7 +205,8 @@ def test_the_cut_policy_as_a_graph_earns_the_brackets_lower_side_in_every_model(
     planned for (a next state no training model moves to goes to a node of its own)."""
     from airl_cli.core.mmdp import counts
     from airl_cli.core.mmdp.baselines import graph_returns
-    from airl_cli.core.mmdp.count_bracket import cut_graph, cut_response
+    from airl_cli.core.mmdp.count_bracket import cut_response
+    from airl_cli.core.mmdp.count_graph import cut_graph
 
     rng = np.random.default_rng(seed)
     P = slip_ring(S=5)
@@ -226,9 +228,11 @@ def test_the_cut_policy_as_a_graph_earns_the_brackets_lower_side_in_every_model(
             returns = graph_returns(graph, P, L, p0)
             assert value == pytest.approx(cut.value, abs=1e-10)
             assert np.allclose(returns, cut.values, atol=1e-10)
-            br = count_bracket(dyn, L, p0, prior, max_nodes=n_nodes(S, kinds.n_kinds, layers), policy=True)
+            br = count_bracket(dyn, L, p0, prior, max_nodes=n_nodes(S, kinds.n_kinds, layers), policy_above=-np.inf)
             assert br.layers == layers and np.allclose(graph_returns(br.graph, P, L, p0), returns, atol=1e-12)
             assert (float(returns.sum()) if prior is None else float(prior @ returns)) == pytest.approx(br.lower, abs=1e-10)
+            for above in (None, br.lower):  # never asked, or a policy as good already (``airl plan``'s sawtooth): none built
+                assert count_bracket(dyn, L, p0, prior, max_nodes=n_nodes(S, kinds.n_kinds, layers), policy_above=above).graph is None
         assert value == pytest.approx(solve_counts(P, R, p0, prior=prior).value, abs=1e-9)  # the whole program: the optimum
     other = rng.dirichlet(np.ones(S), size=(2, S, 2))  # dense test models: every next state reachable
     expected = graph_returns(graph, other, layered_rewards(other, R[:2]), p0)
