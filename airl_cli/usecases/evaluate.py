@@ -52,7 +52,8 @@ def within_allowed(dataset: Dataset) -> Dataset:
     state's first allowed action (its transitions in every dynamics, its features of (s, a)): every
     policy of the copy behaves as one over the allowed actions alone, so the scores' plans (the
     learner's, the demonstrator's, the best and worst returns) choose among the actions that exist.
-    The dataset itself without ``allowed_actions``."""
+    The copy has no ``allowed_actions`` (every action of it exists), so a second call returns it
+    unchanged; the dataset itself without ``allowed_actions``."""
     allowed = dataset.allowed_actions
     if allowed is None:
         return dataset
@@ -68,7 +69,8 @@ def within_allowed(dataset: Dataset) -> Dataset:
         return np.asarray(P)[:, rows, pick]
 
     features = dataset.features[..., rows, pick, :] if dataset.action_features else dataset.features
-    return replace(dataset, transitions=moved(dataset.transitions), test_transitions=moved(dataset.test_transitions), features=features)
+    return replace(dataset, transitions=moved(dataset.transitions), test_transitions=moved(dataset.test_transitions), features=features,
+                   allowed_actions=None)
 
 
 def scored_dynamics(dataset: Dataset) -> list[tuple[str, int, object]]:

@@ -87,3 +87,16 @@ def test_demonstrations_that_take_a_missing_action_are_refused(tmp_path):
     np.savez(tmp_path / "bad.npz", **arrays)
     with pytest.raises(DatasetError, match=r"takes action 2 in state 3 \(dynamics 2, demonstration 2, step 3\), which 'allowed_actions' says does not exist there"):
         api.load_dataset(tmp_path / "bad.npz")
+
+
+def test_the_copy_over_the_allowed_actions_is_made_once(tmp_path):
+    """``within_allowed``'s copy is the problem written by hand (``without_the_missing_actions``) and
+    has every action: made again, it is returned as it is (``score_learned`` and ``score_rows`` both ask)."""
+    from airl_cli.usecases.evaluate import within_allowed
+
+    arrays = problem(np.random.default_rng(1), False)
+    np.savez(tmp_path / "allowed.npz", **arrays)
+    once = within_allowed(api.load_dataset(tmp_path / "allowed.npz"))
+    hand = without_the_missing_actions(arrays)
+    assert once.allowed_actions is None and within_allowed(once) is once
+    assert np.array_equal(once.transitions, hand["transitions"]) and np.array_equal(once.test_transitions, hand["test_transitions"])
