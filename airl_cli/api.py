@@ -30,8 +30,8 @@ from omegaconf import DictConfig
 
 from airl_cli.core.irl.options import CertifiedOptions, FitOptions, PlannerOptions
 from airl_cli.errors import ConfigError
-from airl_cli.io.dataset import Dataset, problem_record, read_dataset, write_dataset
-from airl_cli.io.fit_folder import read_fit
+from airl_cli.io.dataset import Dataset, read_dataset, write_dataset
+from airl_cli.io.fit_folder import problem_record, read_fit
 from airl_cli.io.results_table import read_results_table
 from airl_cli.settings.command_line import config_groups
 from airl_cli.settings.config import fit_settings, loss_and_seed, problem_settings

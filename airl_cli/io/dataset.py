@@ -51,7 +51,6 @@ read into a ``SparseDynamics`` and stays sparse: the planners, samplers and lear
 
 from __future__ import annotations
 
-import hashlib
 import os
 import zipfile
 from dataclasses import dataclass, fields
@@ -74,8 +73,8 @@ from airl_cli.io.dataset_checks import (
     held_out_dynamics,
     numeric,
     optional_arrays,
-    renormalised,
     probabilities,
+    renormalised,
     shape,
 )
 from airl_cli.io.files import atomic_write
@@ -380,16 +379,6 @@ def write_dataset(path: str | os.PathLike, dataset: Dataset) -> Path:
                     np.lib.format.write_array(entry, array, allow_pickle=False)
 
     return atomic_write(path, write)
-
-
-def problem_record(dataset: Dataset) -> dict:
-    """What a fit's metrics.json records of the problem it learned on: S, A, T, D, K and a digest
-    of the features (sha256 of their shape and bytes), so that a run's reward is scored on a
-    dataset of its own features (``api.score``)."""
-    phi = np.ascontiguousarray(dataset.features, dtype=np.float64)
-    digest = hashlib.sha256(repr(phi.shape).encode() + phi.tobytes()).hexdigest()
-    return {"states": dataset.n_states, "actions": dataset.n_actions, "horizon": dataset.horizon, "dynamics": dataset.n_dynamics,
-            "features": dataset.n_features, "features_sha256": digest}
 
 
 def features_of_actions(shape: tuple[int, ...], S: int, A: int) -> bool:

@@ -3,7 +3,8 @@
     weights.json   {"shared": bool, "weights": (D, K) one row per demonstration dynamics,
                     ["step_weights": (D, T, K) with game.matching=per_step]}   a method that learns a reward
     policy.npy     (T-1, S, A) float64, the policy of a method that learns no reward
-    metrics.json   {"method": its name, "shared", the learner's facts, "scored", "dynamics": the score rows}
+    metrics.json   {"method": its name, "shared", the learner's facts, "scored", "dynamics": the score rows,
+                    "problem": ``problem_record``}
     timing.json    {"fit_seconds", ["qp_seconds"]}
     history.csv    one row per iteration, one column per quantity the method records
     summary.txt    the terminal's summary (the same bytes for the same config)
@@ -14,6 +15,7 @@ one sentence what is missing or wrong.
 
 from __future__ import annotations
 
+import hashlib
 import io
 import json
 import os
@@ -22,6 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
+from airl_cli.io.dataset import Dataset
 from airl_cli.io.files import atomic_write, write_json, write_text
 
 WEIGHTS, POLICY, METRICS, TIMING, HISTORY, SUMMARY = "weights.json", "policy.npy", "metrics.json", "timing.json", "history.csv", "summary.txt"
@@ -79,6 +82,16 @@ def _npy_bytes(array: np.ndarray) -> bytes:
     buffer = io.BytesIO()
     np.lib.format.write_array(buffer, np.asarray(array), allow_pickle=False)
     return buffer.getvalue()
+
+
+def problem_record(dataset: Dataset) -> dict:
+    """What a fit's metrics.json records of the problem it learned on: S, A, T, D, K and a digest
+    of the features (sha256 of their shape and bytes), so that a run's reward is scored on a
+    dataset of its own features (``api.score``)."""
+    phi = np.ascontiguousarray(dataset.features, dtype=np.float64)
+    digest = hashlib.sha256(repr(phi.shape).encode() + phi.tobytes()).hexdigest()
+    return {"states": dataset.n_states, "actions": dataset.n_actions, "horizon": dataset.horizon, "dynamics": dataset.n_dynamics,
+            "features": dataset.n_features, "features_sha256": digest}
 
 
 def read_metrics(folder: str | os.PathLike) -> dict:

@@ -12,8 +12,8 @@ import numpy as np
 from omegaconf import DictConfig
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
-from airl_cli.io.dataset import Dataset, problem_record, read_dataset, write_dataset
-from airl_cli.io.fit_folder import write_fit
+from airl_cli.io.dataset import Dataset, read_dataset, write_dataset
+from airl_cli.io.fit_folder import problem_record, write_fit
 from airl_cli.jobs.common import Prepared, check_memory, err_console, out_console, output_dir, run_job, save_config, size_note, warm_up
 from airl_cli.jobs.fit_summary import fit_warnings, summary_text, verbose_lines
 from airl_cli.methods import THESIS, plays_game
