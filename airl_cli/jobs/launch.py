@@ -4,6 +4,7 @@ folder, and Hydra's records written whole."""
 
 from __future__ import annotations
 
+import contextlib
 import importlib
 import sys
 from collections.abc import Iterator
@@ -201,7 +202,11 @@ def _prepared_run(job: str, line: CommandLine, replace: bool) -> Iterator[tuple[
     from airl_cli.settings.hydra_internals import single_run
 
     module = importlib.import_module(f"airl_cli.jobs.{job}")
-    with single_run(conf_dir(), PRINT_ONLY[job], job, quote_paths(line)) as run:
+    with contextlib.ExitStack() as stack:
+        try:
+            run = stack.enter_context(single_run(conf_dir(), PRINT_ONLY[job], job, quote_paths(line)))
+        except ConfigError as err:  # a value Hydra's own settings refuse (hydra.job.chdir=maybe)
+            refuse(err)
         yield module, run, _prepared(module, run.job_cfg, line, replace)
 
 

@@ -190,19 +190,26 @@ def single_run(config_dir: str, config_name: str, task_name: str, overrides: Seq
     """Within: one run of Hydra's app ``config_name`` (searched in ``config_dir``; ``task_name`` is
     ``hydra.job.name``) composed with these override strings, exactly as ``@hydra.main`` composes
     it for a run (no ``--multirun``, ``hydra.mode`` unset in the config), and not started. Hydra's
-    global state is cleared afterwards. An error of Hydra's own (a composition that fails) is
-    reported as ``@hydra.main`` reports it (one line and exit 1)."""
+    global state is cleared afterwards. A composition that fails raises ``ConfigError`` in one
+    sentence (``composition_sentence``); Hydra's other errors are reported as ``@hydra.main``
+    reports them (exit 1)."""
     from hydra._internal.hydra import Hydra
     from hydra._internal.utils import create_config_search_path, run_and_report
     from hydra.core.global_hydra import GlobalHydra
     from hydra.core.utils import run_job
+    from hydra.errors import ConfigCompositionException
     from hydra.types import HydraContext, RunMode
     from omegaconf import open_dict, read_write
+
+    from airl_cli.errors import ConfigError
 
     hydra = run_and_report(lambda: Hydra.create_main_hydra2(task_name=task_name, config_search_path=create_config_search_path(config_dir)))
     try:
         line = [*overrides, "hydra.mode=RUN"]  # what @hydra.main adds when the config sets no mode
-        cfg = run_and_report(lambda: hydra.compose_config(config_name=config_name, overrides=line, with_log_configuration=True, run_mode=RunMode.RUN))
+        try:
+            cfg = hydra.compose_config(config_name=config_name, overrides=line, with_log_configuration=True, run_mode=RunMode.RUN)
+        except ConfigCompositionException as err:  # a value Hydra's own settings refuse (hydra.job.chdir=maybe)
+            raise ConfigError(composition_sentence(err)) from None
 
         def start(task: Callable[[Any], Any]) -> Any:
             def run() -> Any:
@@ -223,6 +230,15 @@ def single_run(config_dir: str, config_name: str, task_name: str, overrides: Seq
         yield SingleRun(cfg, job_cfg, start)
     finally:
         GlobalHydra.instance().clear()
+
+
+def composition_sentence(err: BaseException) -> str:
+    """Hydra's composition error in one sentence: its first line and its cause's, where it has one
+    ("Error merging override hydra.launcher.n_jobs=zero: Value 'zero' of type 'str' could not be
+    converted to Integer"; Hydra prints the cause's lines after it, its full key and types)."""
+    first = str(err).strip().splitlines()[0].rstrip(".") if str(err).strip() else type(err).__name__
+    cause = str(err.__cause__).strip().splitlines()[0].rstrip(".") if err.__cause__ is not None and str(err.__cause__).strip() else ""
+    return f"{first}: {cause}" if cause and cause not in first else first
 
 
 def defaults_with_overrides(defaults_list: Any, overrides: list[Any]) -> Any:

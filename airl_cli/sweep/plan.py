@@ -23,7 +23,7 @@ from airl_cli.io.run_folder import empty_folder_refusal
 from airl_cli.settings import compose_memo
 from airl_cli.settings.config import plain
 from airl_cli.settings.experiments import compose_airl, experiment_names  # noqa: F401 (experiment_names: the sweep's callers use it from here)
-from airl_cli.settings.hydra_internals import launcher_discoverable, overrides_dirname, split_sweep_overrides
+from airl_cli.settings.hydra_internals import composition_sentence, launcher_discoverable, overrides_dirname, split_sweep_overrides
 from airl_cli.settings.job import fit_job
 from airl_cli.settings.overrides import CommandLine, Override
 from airl_cli.settings.problem_defaults import PROBLEM_GROUPS
@@ -63,7 +63,7 @@ def _plan(line: CommandLine) -> SweepPlan:
     try:
         cfg = compose_airl(first)
     except HydraException as err:
-        raise ConfigError(str(err).splitlines()[0]) from None
+        raise ConfigError(composition_sentence(err)) from None
     if cfg.get("experiment") is None:
         raise ConfigError("name an experiment: airl sweep experiment=NAME (see airl sweep --help)")
     params = [f"{k}={v}" for k, v in (cfg.hydra.sweeper.params or {}).items()]
@@ -75,7 +75,7 @@ def _plan(line: CommandLine) -> SweepPlan:
     try:
         first_job = compose_airl([o.text for o in line.items if o.is_hydra] + jobs_overrides[0])
     except HydraException as err:
-        raise ConfigError(str(err).splitlines()[0]) from None
+        raise ConfigError(composition_sentence(err)) from None
     workers = _workers(first_job)
     if kind_of(first_job.experiment).fits:  # the sweep of a fit kind: its first job's memory, as airl fit checks it
         from airl_cli.jobs.common import check_memory

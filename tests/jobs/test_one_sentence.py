@@ -131,6 +131,11 @@ def test_an_empty_new_folder_is_accepted(tmp_path):
         (["generate", "-m", "seed=0,abc", "mdp.n_states=6", "mdp.horizon=3"], "'seed' must be a whole number, got 'abc'"),
         # issue 72 item 1: the sweep wrote its whole folder into the current one, exit 0
         (["sweep", "experiment=fig05", "profile=quick", "hydra.sweep.dir="], "hydra.sweep.dir= is empty (the run would write into the current folder)"),
+        # a value of Hydra's own settings: Hydra's five lines and exit 1 (a walk through the commands, session 88)
+        (["fit", "hydra.job.chdir=maybe"], "error merging override hydra.job.chdir=maybe: Value 'maybe' is not a valid bool"),
+        (["plan", "hydra.job.chdir=maybe"], "error merging override hydra.job.chdir=maybe: Value 'maybe' is not a valid bool"),
+        (["fit", "-m", "hydra.launcher.n_jobs=zero", "seed=0,1"], "hydra.launcher.n_jobs=zero: Value 'zero' of type 'str' could not be converted to Integer"),
+        (["sweep", "experiment=fig05", "profile=quick", "hydra.launcher.n_jobs=zero"], "hydra.launcher.n_jobs=zero: Value 'zero' of type 'str' could not be converted"),
     ],
 )
 def test_a_malformed_command_line_is_one_sentence_and_exit_2(tmp_path, args, needle):
