@@ -18,18 +18,22 @@ import numpy as np
 
 
 @numba.njit(cache=True, nogil=True, parallel=True)
-def _shifted(succ, along, W_next):  # pragma: no cover - compiled
+def _shifted(succ, along, W_next, needed):  # pragma: no cover - compiled
     """(n, S, C_t) Wk[k, s', c] = (b(c) . v_k) W_next(s', c + e_k): the next layer's values seen from
     layer t through a move of kind k, for every next state once per layer (``_backup`` reads them
     contiguously; gathering them per (s, next state) instead took twice its time).
 
-    succ (n, C_t) c + e_k's index; along (n, C_t) b(c) . v_k; W_next (S, C_t+1)."""
+    succ (n, C_t) c + e_k's index; along (n, C_t) b(c) . v_k; W_next (S, C_t+1); needed (n, S)
+    uint8: the (k, s') a move of this layer makes (``CountProgram.layer_masks``; the others are
+    left unset: no backup reads them)."""
     n, C = succ.shape
     S = W_next.shape[0]
     out = np.empty((n, S, C))
     for sp in numba.prange(S):
         row = W_next[sp]
         for k in range(n):
+            if not needed[k, sp]:
+                continue
             g, al, to = out[k, sp], along[k], succ[k]
             for i in range(C):
                 g[i] = al[i] * row[to[i]]
@@ -37,7 +41,7 @@ def _shifted(succ, along, W_next):  # pragma: no cover - compiled
 
 
 @numba.njit(cache=True, nogil=True, parallel=True)
-def _backup(reach, scale, kind, B, step, Wk, one):  # pragma: no cover - compiled
+def _backup(reach, scale, kind, B, step, Wk, one, rows):  # pragma: no cover - compiled
     """One layer of the program on values at the nodes' posteriors: W (S, C_t) and actions (S, C_t) from
     the next layer's values through each kind of move, Wk (n, S, C_t) (``_shifted``), with
     W(s, c) = max_a b(c) . r(t, s, a) + sum_s' lambda Wk(k, s', c), k the kind of the move s -a-> s'.
@@ -48,7 +52,9 @@ def _backup(reach, scale, kind, B, step, Wk, one):  # pragma: no cover - compile
     (with ``_shifted``, the 16 x 16 zero-one file's solve at its captured rewards 60-85 -> about
     30 ms in a benchmark, the same actions and values bit for bit). ``one`` (S,) uint8: the states
     where every action has the same value (absorbing, their rewards the same for each: action 0's,
-    which the ties take anyway, is the only one computed)."""
+    which the ties take anyway, is the only one computed). ``rows`` (S,) uint8: the states a history
+    can be in at this layer (``CountProgram.layer_masks``); the others' values are 0 and their actions 0
+    (no reachable node moves to them)."""
     M, S, A = step.shape
     R = reach.shape[1]
     C = B.shape[1]
@@ -56,6 +62,9 @@ def _backup(reach, scale, kind, B, step, Wk, one):  # pragma: no cover - compile
     action = np.zeros((S, C), dtype=np.int16)
     for s in numba.prange(S):
         v, best, act = np.empty(C), W[s], action[s]
+        if not rows[s]:
+            best[:] = 0.0
+            continue
         for a in range(1 if one[s] else A):
             v[:] = 0.0
             for j in range(M):
@@ -83,12 +92,13 @@ def _backup(reach, scale, kind, B, step, Wk, one):  # pragma: no cover - compile
 
 
 @numba.njit(cache=True, nogil=True, parallel=True)
-def _layer(reach, scale, kind, B, step, one, succ, along, W_next, chunk):  # pragma: no cover - compiled
+def _layer(reach, scale, kind, B, step, one, succ, along, W_next, chunk, rows, needed):  # pragma: no cover - compiled
     """One layer of the program: ``_backup`` of ``_shifted``'s values, a chunk of ``chunk`` count
     vectors at a time (each chunk's next-layer values seen through each kind of move, (n, S, chunk),
     stay in the core's cache instead of a (n, S, C_t) array written and read again: FrozenLake-v1 by
     id, 2 GB a pass). Every value is computed as those two compute it (the same bits); the chunks run
-    in parallel. Arguments as theirs; returns W (S, C_t) and the actions (S, C_t). Its per-state loop is
+    in parallel. Arguments as theirs (``rows``, ``needed``: ``_backup``'s and ``_shifted``'s masks);
+    returns W (S, C_t) and the actions (S, C_t). Its per-state loop is
     ``_backup``'s written out again: as one compiled function that both call, with offsets into the
     count vectors, FrozenLake-v1's solves took a third longer (the loops no longer vectorised)."""
     M, S, A = step.shape
@@ -103,12 +113,17 @@ def _layer(reach, scale, kind, B, step, one, succ, along, W_next, chunk):  # pra
         for sp in range(S):
             row = W_next[sp]
             for k in range(n):
+                if not needed[k, sp]:
+                    continue
                 gk, al, to = g[k, sp], along[k, i0 : i0 + m], succ[k, i0 : i0 + m]
                 for i in range(m):
                     gk[i] = al[i] * row[to[i]]
         v = np.empty(m)
         for s in range(S):
             best, act = W[s, i0 : i0 + m], action[s, i0 : i0 + m]
+            if not rows[s]:
+                best[:] = 0.0
+                continue
             for a in range(1 if one[s] else A):
                 v[:] = 0.0
                 for j in range(M):

@@ -145,16 +145,16 @@ def cut_response(dyn: SparseDynamics, L: LayeredRewards, p0: np.ndarray, prior: 
     p0 = np.asarray(p0, dtype=np.float64)
     objective = (lambda v: float(v.sum())) if prior is None else (lambda v: float(weights @ v))  # noqa: E731
     if layers == T:  # the whole program: its policy is optimal
-        values, marginals, _ = program.forward(program.backward(L.step, np.ascontiguousarray(program.last_beliefs @ L.last).T)[1], p0, L)
+        values, marginals, _ = program.forward(program.backward(L.step, np.ascontiguousarray(program.last_beliefs @ L.last).T, program.layer_masks(p0 > 0))[1], p0, L)
         return CutResponse(objective(values), objective(values), values, marginals, layers, program.n_nodes)
     t0, scale = layers - 1, float(M) if prior is None else 1.0
     own, policies = own_optimum(dyn, L, t0)  # (M, S), (M, T-1-t0, S)
     b = program.last_beliefs  # (C, M)
     step = L.step[:, :t0]
-    bound = _root(program, step, (b @ own).T, p0) * scale if upper else np.inf
+    bound = _root(program, step, (b @ own).T, p0) * scale if upper else np.inf  # the nodes a history from p0 reaches alone (``layer_masks``)
     follow = np.stack([policy_value(dyn, L, t0, policies[k]) for k in range(M)])  # (K = M, M, S)
     W, choice = best_candidates(b, follow)
-    _, actions = program.backward(step, W)
+    _, actions = program.backward(step, W, program.layer_masks(p0 > 0))
     before = LayeredRewards(np.ascontiguousarray(step), np.zeros((M, S)))
     held = program.absorbing & action_free(before)  # an episode's end: its mass held per model up to t0 (``counts._forward``)
     values, head, (states, index, mass) = program.forward(actions, p0, before, collapse=held)  # up to layer t0
@@ -197,6 +197,8 @@ def _policy_marginals(dyn: SparseDynamics, L: LayeredRewards, t0: int, policy: n
 
 
 def _root(program: CountProgram, step: np.ndarray, W: np.ndarray, p0: np.ndarray) -> float:
-    """p0 . (the first layer's node values) from the last layer's ``W`` (S, C)."""
-    W0, _ = program.backward(step, W)
+    """p0 . (the first layer's node values) from the last layer's ``W`` (S, C), backing up the nodes
+    a history from p0 reaches alone (``CountProgram.layer_masks``)."""
+    p0 = np.asarray(p0, dtype=np.float64)
+    W0, _ = program.backward(step, W, program.layer_masks(p0 > 0))
     return float(np.asarray(p0, dtype=np.float64) @ W0[:, 0])

@@ -12,7 +12,7 @@ from airl_cli.core.mdp.sparse import sparse_dynamics
 from airl_cli.core.mmdp import counts
 from airl_cli.core.mmdp.exact import exact_graph
 from airl_cli.core.mmdp.planner import solve
-from airl_cli.core.mmdp.policy_graph import layered_rewards
+from airl_cli.core.mmdp.policy_graph import LayeredRewards, layered_rewards
 
 
 def exact_value(P, R, p0, prior=None):
@@ -321,3 +321,73 @@ def test_the_layers_backed_up_in_chunks_give_the_bits_of_whole_layers(monkeypatc
     assert chunked.value == whole.value and np.array_equal(chunked.values, whole.values)
     assert np.array_equal(chunked.marginals, whole.marginals)
     assert all(np.array_equal(a, b) for a, b in zip(chunked.action, whole.action))
+
+
+def _alternating(dyn, S):
+    """``dyn`` (M, S, A, R) on two copies of its states, every move from one copy to the other: a
+    history from the first copy is in it at every other layer (as an expansion's decision states)."""
+    from airl_cli.core.mdp.sparse import SparseDynamics
+
+    nxt = dyn.next_states
+    reach = np.concatenate([np.where(nxt >= 0, nxt + S, -1), nxt])  # copy 0 moves into copy 1 and back
+    return SparseDynamics(reach, np.concatenate([dyn.probs, dyn.probs], axis=1))
+
+
+def _reached(program, start, layers):
+    """Per layer, the states a history from ``start`` may be in and the (kind, next state) of its moves:
+    a loop over every state, action and next state."""
+    S, A, R = program.kind.shape
+    active, out = start.copy(), []
+    for _ in range(layers):
+        needed, nxt = np.zeros((program.kinds.n_kinds, S), np.uint8), np.zeros(S, bool)
+        for s in np.flatnonzero(active):
+            for a in range(A):
+                for r in range(R):
+                    if program.reach[s, r] >= 0 and program.kind[s, a, r] >= 0:
+                        needed[program.kind[s, a, r], program.reach[s, r]] = 1
+                        nxt[program.reach[s, r]] = True
+        out.append((active.astype(np.uint8), needed))
+        active = nxt
+    return out
+
+
+@pytest.mark.parametrize("chunked", [False, True])
+@pytest.mark.parametrize("case", ["alternating", "one start"])
+def test_a_solve_backs_up_the_nodes_a_history_from_p0_reaches_alone_to_the_same_bits(monkeypatch, chunked, case):
+    """``solve`` backs up only the states a history from p0's support can be in at each layer, and each
+    next state only through the kinds of move that reach it (``layer_masks``, checked against a loop
+    over every move): the value, each model's return, the marginals and the action of every node the
+    policy reaches are those of a backup of every node, bit for bit; nodes no history reaches have
+    value and action 0. Whole layers and chunks (``_layer``); on two copies of a slip grid that
+    histories alternate between (half the nodes never reached), and from one state of a grid."""
+    monkeypatch.setattr(counts, "MIN_CHUNK", 1 if chunked else 10**9)
+    grid = slip_sparse(3, [0.0, 0.1, 0.3])
+    S, T = 9, 6  # decisions: T + 1 layers
+    dyn = _alternating(grid, S) if case == "alternating" else grid
+    n = dyn.probs.shape[1]
+    rng = np.random.default_rng(5)
+    L = layered_rewards(dyn, rng.normal(size=(3, T, n, dyn.probs.shape[2])))
+    p0 = np.zeros(n)
+    if case == "alternating":
+        p0[:S] = rng.dirichlet(np.ones(S))
+    else:
+        p0[4] = 1.0
+    T = L.horizon
+    program = counts.program(dyn, T)
+    masks = program.layer_masks(p0 > 0)
+    for (rows, needed), (rows_ref, needed_ref) in zip(masks, _reached(program, p0 > 0, T - 1), strict=True):
+        assert np.array_equal(rows, rows_ref) and np.array_equal(needed, needed_ref)
+    if case == "alternating":
+        assert [int(r.sum()) for r, _ in masks] == [S, S] * 3
+    sol = program.solve(L, p0)
+    _, every = program.backward(L.step, np.ascontiguousarray(program.last_beliefs @ L.last).T)  # every node
+    values, marginals, _ = program.forward(every, p0, L)
+    assert np.array_equal(sol.values, values) and np.array_equal(sol.marginals, marginals)
+    states, index = [np.flatnonzero(p0 > 0)], [np.zeros(int((p0 > 0).sum()), np.int64)]
+    for t in range(T - 1):  # the nodes the policy reaches, layer by layer: the same actions there
+        assert np.array_equal(sol.action[t][states[-1], index[-1]], every[t][states[-1], index[-1]])
+        rows = masks[t][0].astype(bool)
+        assert not sol.action[t][~rows].any()
+        _, _, (s_next, i_next, _) = program.forward(sol.action[: t + 1], p0, LayeredRewards(L.step[:, : t + 1], np.zeros((3, n))))
+        states.append(s_next)
+        index.append(i_next)
