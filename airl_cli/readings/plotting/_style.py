@@ -154,7 +154,9 @@ def _legend(fig: Figure, handles: list, ncols: int | None = None) -> None:
 def _legend_columns(labels: list[str], width: float, most: int = 6) -> int:
     """The most columns (at most ``most``) whose widths, each its widest entry's (its label's width in
     the legend's font plus the handle and the spaces, ``LEGEND_ENTRY`` font sizes), add up to at most
-    ``width`` inches; entries fill the columns top to bottom, as matplotlib's legend does."""
+    ``width`` inches; entries fill the columns top to bottom as matplotlib's legend splits them
+    (``numpy.array_split``: the first ``len % n`` columns one entry longer), so 4 entries in 3
+    columns are 3 columns of 2, 1 and 1, not 2 of 2."""
     from matplotlib import rcParams
     from matplotlib.font_manager import FontProperties
     from matplotlib.textpath import TextToPath
@@ -164,8 +166,7 @@ def _legend_columns(labels: list[str], width: float, most: int = 6) -> int:
     measure = TextToPath()
     wide = [(measure.get_text_width_height_descent(label, font, ismath=False)[0] + LEGEND_ENTRY * size) / 72 for label in labels]
     for n in range(min(len(labels), most), 1, -1):
-        rows = math.ceil(len(labels) / n)
-        if sum(max(wide[i : i + rows]) for i in range(0, len(labels), rows)) <= width:
+        if sum(max(column) for column in np.array_split(np.asarray(wide), n)) <= width:
             return n
     return 1
 

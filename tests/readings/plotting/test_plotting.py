@@ -231,6 +231,17 @@ def test_the_legend_lies_inside_the_figure(methods):
     assert box.x0 >= page.x0 and box.x1 <= page.x1
 
 
+def test_a_single_methods_curves_legend_lies_inside_the_figure():
+    """One method's curves: few entries, two with long band labels; laid out in three columns,
+    matplotlib splits four of them 2, 1, 1 (not 2, 2), and the legend ran past both edges of the figure."""
+    fig = fit_figures.curves(make_table("n_demos", methods=("airl",)), make_meta(["curves"], methods=["airl"], threshold=None))
+    renderer = FigureCanvasAgg(fig).get_renderer()
+    fig.draw(renderer)
+    box, page = fig.legends[0].get_window_extent(renderer), fig.bbox
+    assert len(fig.legends[0].get_texts()) == 4
+    assert box.x0 >= page.x0 and box.x1 <= page.x1
+
+
 def test_cosine_per_run_bars():
     fig = fit_figures.cosine(make_table("run"), make_meta(["cosine"], "run"))
     assert len(fig.axes) == 1
