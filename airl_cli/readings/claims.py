@@ -136,20 +136,42 @@ def fig08(t: pd.DataFrame, others: dict) -> Measured:
     return Measured(text, PARTLY if shared is not None and beats < numbers["shared_beats"] else NO, numbers)
 
 
-def fig09(t: pd.DataFrame, _: dict) -> tuple[str, str]:
+def _all_degenerate(a: pd.DataFrame) -> list[float]:
+    """The swept values x (ascending) at which every fit is flagged degenerate (``degenerate`` True:
+    a minimiser whose reward the demonstrations do not constrain, so its scores are the planner's
+    tie-break and where the solve stopped, not the data's); none without that column."""
+    if "degenerate" not in a:
+        return []
+    flagged = a["degenerate"].astype(str).eq("True").groupby(a["x"]).all()
+    return sorted(float(x) for x in flagged.index[flagged.to_numpy()])
+
+
+def fig09(t: pd.DataFrame, _: dict) -> Measured:
+    """Small sigma: both near 100%; larger sigma (>= 0.1): the learner above the demonstrator. A
+    sigma at which every fit is degenerate is not judged (the text says from which on), and a claim
+    about larger sigma that cannot be judged at some of them at most partly holds."""
     a = _airl(t)
     med = a.groupby("x")[["learner_score", "demonstrator_score"]].median()
-    small, large = med[med.index <= 0.02], med[med.index >= 0.1]
-    high = bool((small >= 0.95).all().all())
-    above = float((large.learner_score > large.demonstrator_score).mean())
-    lo, hi = med.index.min(), med.index.max()
+    untested = _all_degenerate(a)
+    judged = med.drop(index=untested)
+    small, large = judged[judged.index <= 0.02], judged[judged.index >= 0.1]
+    high = bool(len(small)) and bool((small >= 0.95).all().all())
+    above = float((large.learner_score > large.demonstrator_score).mean()) if len(large) else 0.0
+    lo, hi = med.index.min(), (judged.index.max() if len(judged) else med.index.max())
     text = (
         f"σ = {lo:g}: {med.learner_score[lo]:.3f} vs {med.demonstrator_score[lo]:.3f}; "
         f"σ = {hi:g}: {med.learner_score[hi]:.3f} vs {med.demonstrator_score[hi]:.3f}; learner above at {above:.0%} of σ ≥ 0.1"
     )
     numbers = {"above": above, **{f"learner_{x:g}": med.learner_score[x] for x in med.index},
                **{f"demonstrator_{x:g}": med.demonstrator_score[x] for x in med.index}}
-    return Measured(text, HOLDS if high and above == 1 else PARTLY if high or above >= 0.5 else NO, numbers)
+    if untested:
+        tail = untested == [float(x) for x in med.index if x >= untested[0]]  # every sigma from the first on
+        where = f"σ ≥ {untested[0]:g}" if tail else "σ = " + ", ".join(f"{x:g}" for x in untested)
+        text += f" judged; {where}: every fit degenerate, not judged"
+        numbers["untested_from"] = untested[0]
+    capped = any(x >= 0.1 for x in untested)
+    verdict = HOLDS if high and above == 1 and not capped else PARTLY if high or above >= 0.5 else NO
+    return Measured(text, verdict, numbers)
 
 
 def _per_run(t: pd.DataFrame) -> pd.Series:

@@ -37,6 +37,25 @@ def test_fig05_counts_pairs_from_n_10_on():
     assert claims.fig05(table([0.1, 0.1] + [0.95] * 8, x=x), {})[1] == claims.HOLDS
 
 
+def test_fig09_leaves_out_the_sigmas_whose_fits_are_all_degenerate():
+    x = [0.01, 0.01, 0.1, 0.1, 0.5, 0.5]
+    demo = 0.9
+    t = table([0.99, 0.99, 0.95, 0.95, 0.95, 0.95], demo=demo, x=x)
+    t.loc[t["x"] == 0.01, "demonstrator_score"] = 0.99  # small sigma: both near 100%
+    text, verdict = claims.fig09(t, {})
+    assert verdict == claims.HOLDS and "not judged" not in text  # no flag column: every sigma judged
+    t["degenerate"] = [x_ >= 0.5 for x_ in t["x"]]  # every fit at sigma = 0.5 flagged
+    t.loc[t["x"] == 0.5, "learner_score"] = 0.1  # its scores noise, far below the demonstrator
+    measured = claims.fig09(t, {})
+    assert "σ ≥ 0.5: every fit degenerate, not judged" in measured[0] and "σ = 0.1: 0.950 vs 0.900" in measured[0]
+    assert measured[1] == claims.PARTLY  # above at every judged sigma, but the largest is not judged
+    assert measured.numbers["above"] == 1.0 and measured.numbers["untested_from"] == 0.5
+    t.loc[(t["x"] == 0.5) & (t["seed"] == 4), "degenerate"] = False  # one fit there is not flagged: judged, and below
+    assert claims.fig09(t, {})[1] == claims.PARTLY and "not judged" not in claims.fig09(t, {})[0]
+    t.loc[t["x"] == 0.5, "learner_score"] = 0.95
+    assert claims.fig09(t, {})[1] == claims.HOLDS
+
+
 def test_fig18_and_fig15_cosines():
     t = table([0.9] * 4, cos=[-0.5, 0.7, 0.8, -0.1])
     assert claims.fig18(t, {}) == ("cos < 0 in 50% of runs (median 0.30)", claims.HOLDS)
