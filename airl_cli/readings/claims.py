@@ -160,7 +160,8 @@ def fig09(t: pd.DataFrame, _: dict) -> Measured:
     lo, hi = med.index.min(), (judged.index.max() if len(judged) else med.index.max())
     text = (
         f"σ = {lo:g}: {med.learner_score[lo]:.3f} vs {med.demonstrator_score[lo]:.3f}; "
-        f"σ = {hi:g}: {med.learner_score[hi]:.3f} vs {med.demonstrator_score[hi]:.3f}; learner above at {above:.0%} of σ ≥ 0.1"
+        f"σ = {hi:g}: {med.learner_score[hi]:.3f} vs {med.demonstrator_score[hi]:.3f}; "
+        + (f"learner above at {above:.0%} of σ ≥ 0.1" if len(large) else "no σ ≥ 0.1")
     )
     numbers = {"above": above, **{f"learner_{x:g}": med.learner_score[x] for x in med.index},
                **{f"demonstrator_{x:g}": med.demonstrator_score[x] for x in med.index}}

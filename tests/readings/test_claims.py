@@ -54,6 +54,9 @@ def test_fig09_leaves_out_the_sigmas_whose_fits_are_all_degenerate():
     assert claims.fig09(t, {})[1] == claims.PARTLY and "not judged" not in claims.fig09(t, {})[0]
     t.loc[t["x"] == 0.5, "learner_score"] = 0.95
     assert claims.fig09(t, {})[1] == claims.HOLDS
+    t["degenerate"] = [x_ >= 0.1 for x_ in t["x"]]  # no larger sigma left to judge: the claim's second half untested
+    text, verdict = claims.fig09(t, {})
+    assert "no σ ≥ 0.1 judged; σ ≥ 0.1: every fit degenerate, not judged" in text and verdict == claims.PARTLY
 
 
 def test_fig18_and_fig15_cosines():
