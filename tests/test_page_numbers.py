@@ -407,6 +407,21 @@ def test_the_environments_table_says_which_fit_stopped_at_its_time_budget():
     assert constant["table"].splitlines()[3].split(" | ")[8] == "1.000"
 
 
+def test_where_the_time_goes_from_the_fits_and_qp_seconds():
+    """The performance page's time table: the QP's share and the rest's of each fit, hand-computed;
+    a row past its time limit or measured before the QP's seconds were recorded is left out."""
+    rows = [{"case": "cliffwalking", "process s": 36.0, "iterations": 1089, "planner calls": 682, "learner support": 334,
+             "adversary support": 358, "fit s": 34.7, "QP s": 19.4},
+            {"case": "default-s1", "process s": 10.6, "iterations": 115, "planner calls": 116, "learner support": None,
+             "adversary support": None, "fit s": 9.0, "QP s": 0.45},
+            {"case": "ow64-01", "process s": "> 400"},
+            {"case": "ow8-01", "process s": 1.7, "iterations": 21, "planner calls": 23, "fit s": 0.5}]
+    lines = page_numbers._time_table(rows, "case", lambda r: page_numbers.CASE_NAMES[r["case"]]).splitlines()
+    assert len(lines) == 4
+    assert lines[2] == "| CliffWalking-v1 by id | 1,089 | 682 | 334 / 358 | 34.7 | 19.4 s (56%) | 15.3 s (44%) |"
+    assert lines[3] == "| default, seed 1 | 115 | 116 | — | 9.0 | 0.5 s (5%) | 8.6 s (95%) |"
+
+
 def test_viano_s_tables_as_the_page_prints_them():
     """Ours, the published number and the relative difference; the prose's largest differences."""
     def t(rows, published=None, expert=-128.8, expert_published=None):

@@ -246,6 +246,25 @@ def _closing_sentence(rows: list[dict]) -> str:
     return "; ".join(parts)
 
 
+def _time_table(rows: list[dict], label: str, name) -> str:
+    """Where each fit's time goes (benchmarks' rows with "fit s" and "QP s"): its iterations and
+    planner calls, the strategies each player mixes at the end, the fit's seconds and the share of
+    them in the restricted game's QP solves of its iterations (timing.json's ``qp_seconds``; the rest:
+    the players' oracles, the brackets, and the QP's re-solves when strategies are pruned); rows
+    measured before the QP's time was recorded, or past a time limit, are left out."""
+    lines = [f"| {label} | iterations | planner calls | strategies mixed (learner / adversary) | fit s | in the iterations' QP solves | the rest |",
+             "| --- | ---: | ---: | ---: | ---: | ---: | ---: |"]
+    for r in rows:
+        if r.get("QP s") is None or isinstance(r.get("process s"), str):
+            continue
+        fit, qp = r["fit s"], r["QP s"]
+        mixed = "—" if r.get("learner support") is None else f"{r['learner support']:,} / {r['adversary support']:,}"
+        cells = [name(r), _cell(r["iterations"], ","), _cell(r["planner calls"], ","), mixed, _cell(fit, ".1f"),
+                 f"{qp:.1f} s ({qp / fit:.0%})", f"{fit - qp:.1f} s ({(fit - qp) / fit:.0%})"]
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
 def _default_fit_tables(values: dict) -> dict:
     """The performance page's two tables and what its sentences say of them."""
     rows = values["rows"]
@@ -267,7 +286,8 @@ def _default_fit_tables(values: dict) -> dict:
     seeds = [r for r in rows if r["case"].startswith("default-")]
     return {
         "seeds": _seeds_table(seeds), "seeds_closing": _closing_sentence(seeds),
-        "first": _fit_table(first, with_t=True), "first_closed": closed(first), "first_n": len(first),
+        "first": _fit_table(first, with_t=True), "time": _time_table(rows, "case", lambda r: CASE_NAMES.get(r["case"], r["case"])),
+        "first_closed": closed(first), "first_n": len(first),
         "default_ratio_low": default_low, "default_ratio_high": default_high, "ow_ratio_low": ow_low, "ow_ratio_high": ow_high,
         "growth": _fit_table(growth, with_t=False), "growth_closed": closed(growth), "growth_n": len(growth),
         "growth_timeouts": f"; {words.get(len(timeouts), len(timeouts))} ran past {timeouts[0]['process s'][2:]} s"
@@ -324,7 +344,8 @@ def _environment_tables(values: dict) -> dict:
     mce = {r["env"]: r for r in values["rows"] if r["method"] == "mce"}
     ratio = {env: airl[env]["process s"] / mce[env]["process s"] for env in airl
              if env in mce and not isinstance(airl[env]["process s"], str) and not isinstance(mce[env]["process s"], str)}
-    return {"table": "\n".join(lines), "ratio": {env: _cell(x, "x1") for env, x in ratio.items()}}
+    return {"table": "\n".join(lines), "ratio": {env: _cell(x, "x1") for env, x in ratio.items()},
+            "time": _time_table([r for r in values["rows"] if r["method"] == "airl"], "environment by id", lambda r: r["env"])}
 
 
 def _stopped_cell(row: dict, budget: float | None) -> str:
