@@ -7,8 +7,9 @@ times `airl fit data=FILE` (the thesis's method with no options, or with ``--ext
 minimum that the fit ends with (``bracket_relative_gap``; the JSON also holds [L, U], the closing
 steps and the bracket's grid resolution), whether it met its tolerance, its
 iterations and planner calls, the adversary's best responses it used, the median wall time of
-the fit (and of its restricted QP's solves, the rest being the players' oracles and the brackets; the JSON
-also holds the strategies each player mixes at the end) and of the whole process, MCE IRL's process, their ratio and the peak resident memory.
+the fit, of its iterations' QP solves (timing.json's ``qp_seconds``: the rest is the players'
+oracles, the brackets and the pruning's re-solves) and of the whole process, MCE IRL's process,
+their ratio and the peak resident memory (the JSON also holds the strategies each player mixes at the end).
 The fits must come out the same in every repeat (the script stops if not). ``--json FILE`` also
 writes the rows as JSON, with the commit, the machine and the command (the performance pages'
 tables are rendered from docs/numbers/default_fit.json: ``python benchmarks/pages.py``).
@@ -131,7 +132,7 @@ def measure(name: str, file: Path, folder: Path, extra: list[str], repeat: int, 
         "iterations": m.get("iterations"), "planner calls": m.get("planner_calls"), "best responses": m.get("best_responses", "-"),
         # who answered the adversary: the bracket's grid of beliefs, else the planner the fit chose
         "planner": "grid" if m.get("best_responses") == "grid" else m.get("planner"),
-        # where the fit's time goes: the restricted game's QP, the rest being the oracles and brackets; the game's size at the end
+        # where the fit's time goes: its iterations' QP solves (the rest: the oracles, the brackets, the pruning); the game's size at the end
         "fit s": median(f["fit_seconds"] for f in fits), "QP s": median(f["qp_seconds"] for f in fits),
         "learner support": m.get("learner_support"), "adversary support": m.get("adversary_support"), "process s": wall, "MCE process s": mce_wall,
         "process / MCE": wall / mce_wall, "peak MB": max(peaks) / 2**20,

@@ -111,8 +111,8 @@ def measure(env: str, method: str, file: Path, folder: Path, timeout: float, bud
         "stopped": m.get("stopped"), "converged": m.get("converged"),
         "objective width": m.get("objective_relative_width"),  # MCE IRL's and MMP's bracket on their own objective's optimum
         "constant reward": bool(m.get("constant_reward")),  # w . phi the same everywhere: the scores are a tie-break's
-        # where the fit's time goes: its restricted QP's solves (the thesis's method; the rest being its oracles and
-        # brackets), its planner calls and the strategies each player mixes at the end
+        # where the fit's time goes: its iterations' QP solves (the thesis's method; the rest: its oracles, brackets and
+        # pruning), its planner calls and the strategies each player mixes at the end
         "fit s": fitted["fit_seconds"], "QP s": fitted["qp_seconds"] if plays_game(method) else None,
         "planner calls": m.get("planner_calls"), "learner support": m.get("learner_support"), "adversary support": m.get("adversary_support"),
     })

@@ -408,7 +408,7 @@ def test_the_environments_table_says_which_fit_stopped_at_its_time_budget():
 
 
 def test_where_the_time_goes_from_the_fits_and_qp_seconds():
-    """The performance page's time table: the QP's share and the rest's of each fit, hand-computed;
+    """The time table (``_time_table``): the QP's share and the rest's of each fit, hand-computed;
     a row past its time limit or measured before the QP's seconds were recorded is left out."""
     rows = [{"case": "cliffwalking", "process s": 36.0, "iterations": 1089, "planner calls": 682, "learner support": 334,
              "adversary support": 358, "fit s": 34.7, "QP s": 19.4},
