@@ -247,9 +247,8 @@ def _closing_sentence(rows: list[dict]) -> str:
 
 
 def _time_table(rows: list[dict], label: str, name) -> str:
-    """Where each fit's time goes (benchmarks' rows with "fit s" and "QP s"), for the performance
-    page's "Where the time goes" section once the default-fit and environments sources are measured
-    on the sweeps' machine (docs/development.md's Log has this split as first measured): its iterations and
+    """Where each fit's time goes (benchmarks' rows with "fit s" and "QP s"; the performance page's
+    "Where the time goes"): its iterations and
     planner calls, the strategies each player mixes at the end, the fit's seconds and the share of
     them in the restricted game's QP solves of its iterations (timing.json's ``qp_seconds``; the rest:
     the players' oracles, the brackets, and the QP's re-solves when strategies are pruned); rows
