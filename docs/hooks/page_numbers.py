@@ -248,11 +248,11 @@ def _closing_sentence(rows: list[dict]) -> str:
 
 def _time_table(rows: list[dict], label: str, name) -> str:
     """Where each fit's time goes (benchmarks' rows with "fit s" and "QP s"; the performance page's
-    "Where the time goes"): its iterations and
-    planner calls, the strategies each player mixes at the end, the fit's seconds and the share of
-    them in the restricted game's QP solves of its iterations (timing.json's ``qp_seconds``; the rest:
-    the players' oracles, the brackets, and the QP's re-solves when strategies are pruned); rows
-    measured before the QP's time was recorded, or past a time limit, are left out."""
+    "Where the time goes"): its iterations and planner calls, the strategies each player mixes at
+    the end, the fit's seconds and the share of them in the restricted game's QP solves of its
+    iterations (timing.json's ``qp_seconds``; the rest: the players' oracles, the brackets, and the
+    QP's re-solves when strategies are pruned); rows measured before the QP's time was recorded, or
+    past a time limit, are left out."""
     lines = [f"| {label} | iterations | planner calls | strategies mixed (learner / adversary) | fit s | in the iterations' QP solves | the rest |",
              "| --- | ---: | ---: | ---: | ---: | ---: | ---: |"]
     for r in rows:
