@@ -407,6 +407,26 @@ def test_the_environments_table_says_which_fit_stopped_at_its_time_budget():
     assert constant["table"].splitlines()[3].split(" | ")[8] == "1.000"
 
 
+def test_the_thesis_method_against_mce_irl_at_its_cap_and_to_its_tolerance():
+    """The performance page's comparison (``_against_mce``): the thesis's method's process over MCE
+    IRL's at its default cap and over MCE IRL's run to its own stopping rule (``mce-uncapped``),
+    hand-computed; an environment without all three finished processes has no row."""
+    def row(env, method, seconds, iterations, **more):
+        return {"env": env, "method": method, "S": 64, "A": 4, "T": 201, "D": 3, "process s": seconds, "peak MB": 1.0, "bracket width": None,
+                "iterations": iterations, "score tau": 0.5, "score tau_j": 0.5, "demo score tau_j": 1.0, "return tau_j": 1.0,
+                "demo return tau_j": 2.0, "goal tau_j": 0.5, "demo goal tau_j": 0.6, **more}
+
+    rows = [row("FrozenLake8x8-v1", "airl", 68.0, 249, **{"bracket width": 0.17}),
+            row("FrozenLake8x8-v1", "mce", 6.8, 200, stopped="max_iterations", converged=False, **{"objective width": 3364.0}),
+            row("FrozenLake8x8-v1", "mce-uncapped", 65.0, 2955, stopped="tolerance", converged=True, **{"objective width": 1.9e-3}),
+            row("Taxi-v4", "airl", 300.0, 461), row("Taxi-v4", "mce", 16.0, 200), row("Taxi-v4", "mce-uncapped", "> 600", None)]
+    out = page_numbers._environment_tables({"budget": None, "rows": rows})
+    lines = out["against_mce"].splitlines()
+    assert len(lines) == 3  # Taxi-v4's uncapped run did not finish: no row
+    assert lines[2] == "| FrozenLake8x8-v1 | 68.0 | 1.7e-1 | 6.8 | 200 | cap | 3.4e3 | 10.0× | 65.0 | 2,955 | 1.9e-3 | 1.0× |"
+    assert out["ratio"] == {"FrozenLake8x8-v1": "10.0×", "Taxi-v4": "18.8×"}
+
+
 def test_where_the_time_goes_from_the_fits_and_qp_seconds():
     """The time table (``_time_table``): the QP's share and the rest's of each fit, hand-computed;
     a row past its time limit or measured before the QP's seconds were recorded is left out."""

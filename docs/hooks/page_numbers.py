@@ -342,11 +342,37 @@ def _environment_tables(values: dict) -> dict:
                      _cell(r["return tau_j"], ".3g") + demo_return, _cell(r["goal tau_j"], ".3f") + demo_goal]
         lines.append("| " + " | ".join([r["env"], size, r["method"], *cells]) + " |")
     airl = {r["env"]: r for r in values["rows"] if r["method"] == "airl"}
-    mce = {r["env"]: r for r in values["rows"] if r["method"] == "mce"}
-    ratio = {env: airl[env]["process s"] / mce[env]["process s"] for env in airl
-             if env in mce and not isinstance(airl[env]["process s"], str) and not isinstance(mce[env]["process s"], str)}
-    return {"table": "\n".join(lines), "ratio": {env: _cell(x, "x1") for env, x in ratio.items()},
+    ratio = {env: _cell(x, "x1") for env, x in _ratios(airl, values["rows"], "mce").items()}
+    return {"table": "\n".join(lines), "ratio": ratio, "against_mce": _against_mce(airl, values["rows"]),
             "time": _time_table([r for r in values["rows"] if r["method"] == "airl"], "environment by id", lambda r: r["env"])}
+
+
+def _ratios(airl: dict, rows: list[dict], method: str) -> dict:
+    """The thesis's method's process time over ``method``'s, per environment where both processes finished."""
+    other = {r["env"]: r for r in rows if r["method"] == method}
+    return {env: airl[env]["process s"] / other[env]["process s"] for env in airl
+            if env in other and not isinstance(airl[env]["process s"], str) and not isinstance(other[env]["process s"], str)}
+
+
+def _against_mce(airl: dict, rows: list[dict]) -> str:
+    """The thesis's method's process against MCE IRL's at its default cap (``mce``) and run to its own
+    stopping rule (``mce-uncapped``), one row per environment with all three rows measured."""
+    capped = {r["env"]: r for r in rows if r["method"] == "mce"}
+    uncapped = {r["env"]: r for r in rows if r["method"] == "mce-uncapped"}
+    to_capped, to_uncapped = _ratios(airl, rows, "mce"), _ratios(airl, rows, "mce-uncapped")
+    head = ["environment", "the thesis's method: s", "its bracket", "MCE IRL at its cap: s", "iterations", "stopped", "width",
+            "ratio", "MCE IRL to its tolerance: s", "iterations", "width", "ratio"]
+    lines = ["| " + " | ".join(head) + " |", "| --- | ---: | ---: | ---: | ---: | --- | ---: | ---: | ---: | ---: | ---: | ---: |"]
+    for env in airl:
+        if env not in to_capped or env not in to_uncapped:
+            continue
+        a, m, u = airl[env], capped[env], uncapped[env]
+        lines.append("| " + " | ".join([
+            env, _cell(a["process s"], ".1f"), _cell(a["bracket width"], "e1"),
+            _cell(m["process s"], ".1f"), _cell(m["iterations"], ","), _stopped_cell(m, None), _cell(m.get("objective width"), "e1"), _cell(to_capped[env], "x1"),
+            _cell(u["process s"], ".1f"), _cell(u["iterations"], ","), _cell(u.get("objective width"), "e1"), _cell(to_uncapped[env], "x1"),
+        ]) + " |")
+    return "\n".join(lines)
 
 
 def _stopped_cell(row: dict, budget: float | None) -> str:
