@@ -126,6 +126,7 @@ def measure(name: str, file: Path, folder: Path, extra: list[str], repeat: int, 
     if any(f["metrics"]["iterations"] != m["iterations"] or f["metrics"]["objective"] != m["objective"] for f in fits):
         raise SystemExit(f"the fit of {name} did not come out the same in its {repeat} runs: its times are not comparable")
     wall, mce_wall = median(walls), median(mce_walls)
+    mce = fit_row(folder / "mce0")["metrics"]  # whether MCE IRL reached its own tolerance, or stopped at its cap
     row = {
         "case": name, **_size(file), "bracket width": m.get("bracket_relative_gap"), "converged": m.get("converged"),
         "bracket": m.get("minimum_bracket"), "closing steps": m.get("close_steps"), "grid resolution": m.get("bracket_grid_resolution"),
@@ -136,6 +137,7 @@ def measure(name: str, file: Path, folder: Path, extra: list[str], repeat: int, 
         "fit s": median(f["fit_seconds"] for f in fits), "QP s": median(f["qp_seconds"] for f in fits),
         "learner support": m.get("learner_support"), "adversary support": m.get("adversary_support"), "process s": wall, "MCE process s": mce_wall,
         "process / MCE": wall / mce_wall, "peak MB": max(peaks) / 2**20,
+        "MCE iterations": mce.get("iterations"), "MCE converged": mce.get("converged"),
     }
     console.print(f"done {name}: " + ", ".join(f"{c} {_cell(row[c], c)}" for c in COLUMNS[3:]))
     return row

@@ -427,6 +427,24 @@ def test_the_thesis_method_against_mce_irl_at_its_cap_and_to_its_tolerance():
     assert out["ratio"] == {"FrozenLake8x8-v1": "10.0×", "Taxi-v4": "18.8×"}
 
 
+def test_the_default_fit_table_says_whether_mce_irl_reached_its_tolerance():
+    """The performance page's default-fit table (``_fit_table``): MCE IRL's iterations beside its
+    time, "(cap)" where it stopped at its cap, "—" for a row measured before they were recorded;
+    the passage counts the cases where it met its tolerance."""
+    def row(case, mce_iterations=None, mce_converged=None):
+        return {"case": case, "S": 20, "T": 10, "bracket width": 9.9e-4, "converged": True, "iterations": 110, "planner calls": 112,
+                "planner": "grid", "process s": 3.0, "MCE process s": 1.0, "process / MCE": 3.0, "peak MB": 340.0,
+                **({} if mce_iterations is None else {"MCE iterations": mce_iterations, "MCE converged": mce_converged})}
+
+    rows = [row("default-s0", 11, True), row("default-s1", 200, False), row("ow8-sq"), row("ow8-01", 28, True)]
+    out = page_numbers._default_fit_tables({"rows": rows})
+    lines = out["first"].splitlines()
+    assert lines[2] == "| default, seed 0 | 20 | 10 | 9.9e-4 | 110 | 112 | grid | 3.0 | 1.0 | 11 | 3.0× | 340 |"
+    assert lines[3].split(" | ")[9] == "200 (cap)" and lines[4].split(" | ")[9] == "—" and lines[5].split(" | ")[9] == "28"
+    assert out["first_mce_converged"] == 2 and out["first_n"] == 4
+    assert out["growth"].splitlines()[2].split(" | ")[8] == "—"  # the growth table (no T column): ow8-sq's
+
+
 def test_where_the_time_goes_from_the_fits_and_qp_seconds():
     """The time table (``_time_table``): the QP's share and the rest's of each fit, hand-computed;
     a row past its time limit or measured before the QP's seconds were recorded is left out."""

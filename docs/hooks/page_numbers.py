@@ -196,18 +196,27 @@ def _cell(value, spec: str = "") -> str:
 def _fit_table(rows: list[dict], *, with_t: bool) -> str:
     """The default fit against MCE IRL, one row per case (benchmarks/default_fit.py's rows)."""
     head = ["case", "S", *(["T"] if with_t else []), "bracket width", "iterations", "planner calls", "planner",
-            "process s", "MCE IRL's s", "ratio", "peak MB"]
-    lines = ["| " + " | ".join(head) + " |", "| --- | ---: |" + (" ---: |" if with_t else "") + " ---: | ---: | ---: | --- | ---: | ---: | ---: | ---: |"]
+            "process s", "MCE IRL's s", "its iterations", "ratio", "peak MB"]
+    lines = ["| " + " | ".join(head) + " |", "| --- | ---: |" + (" ---: |" if with_t else "") + " ---: | ---: | ---: | --- | ---: | ---: | ---: | ---: | ---: |"]
     for r in rows:
         cells = [CASE_NAMES.get(r["case"], r["case"]), _cell(r["S"], ","), *([_cell(r["T"])] if with_t else [])]
         if isinstance(r["process s"], str):  # stopped at the script's time limit
-            cells += ["—", "—", "—", r.get("planner") or "—", r["process s"].replace(">", "&gt;"), "—", "—", "—"]
+            cells += ["—", "—", "—", r.get("planner") or "—", r["process s"].replace(">", "&gt;"), "—", "—", "—", "—"]
         else:
             cells += [_cell(r["bracket width"], "e1"), _cell(r["iterations"], ","), _cell(r["planner calls"], ","),
-                      r.get("planner") or "—", _cell(r["process s"], ".1f"), _cell(r["MCE process s"], ".1f"),
+                      r.get("planner") or "—", _cell(r["process s"], ".1f"), _cell(r["MCE process s"], ".1f"), _mce_iterations(r),
                       _cell(r["process / MCE"], "x1"), _cell(r["peak MB"], ",.0f")]
         lines.append("| " + " | ".join(cells) + " |")
     return "\n".join(lines)
+
+
+def _mce_iterations(row: dict) -> str:
+    """MCE IRL's iterations in a default-fit row, "(cap)" after them where it stopped at its cap short
+    of its own tolerance (its time is then that of an unfinished fit); "—" for rows measured before
+    they were recorded."""
+    if row.get("MCE iterations") is None:
+        return "—"
+    return _cell(row["MCE iterations"], ",") + ("" if row.get("MCE converged") else " (cap)")
 
 
 CASE_NAMES = {
@@ -288,7 +297,7 @@ def _default_fit_tables(values: dict) -> dict:
     return {
         "seeds": _seeds_table(seeds), "seeds_closing": _closing_sentence(seeds),
         "first": _fit_table(first, with_t=True), "time": _time_table(rows, "case", lambda r: CASE_NAMES.get(r["case"], r["case"])),
-        "first_closed": closed(first), "first_n": len(first),
+        "first_closed": closed(first), "first_n": len(first), "first_mce_converged": sum(bool(r.get("MCE converged")) for r in first),
         "default_ratio_low": default_low, "default_ratio_high": default_high, "ow_ratio_low": ow_low, "ow_ratio_high": ow_high,
         "growth": _fit_table(growth, with_t=False), "growth_closed": closed(growth), "growth_n": len(growth),
         "growth_timeouts": f"; {words.get(len(timeouts), len(timeouts))} ran past {timeouts[0]['process s'][2:]} s"
