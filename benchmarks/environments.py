@@ -41,6 +41,11 @@ METHODS = ("airl", "mce", "robust_mce", "projection", "mmp", "bc", "mce-uncapped
 #: against both rows.
 UNCAPPED = {"mce-uncapped": ("mce", ("method.max_iterations=100000",))}
 
+
+def fit_method(label: str) -> tuple[str, tuple[str, ...]]:
+    """The method a row's ``label`` fits with, and its overrides (``UNCAPPED``; none for a method's own name)."""
+    return UNCAPPED.get(label, (label, ()))
+
 COLUMNS = (
     "env", "S", "A", "T", "D", "method", "process s", "peak MB", "bracket width", "iterations",
     "score tau", "score tau_j", "demo score tau_j", "return tau_j", "demo return tau_j", "goal tau_j", "demo goal tau_j",
@@ -66,13 +71,13 @@ def main() -> None:
         # a tiny problem with rewards of (s, a) (a fresh install's first such fit compiles its soft backup)
         run(["fit", "mdp.n_states=5", "mdp.horizon=4", f"hydra.run.dir={root / 'warm'}"])
         run(["generate", "mdp=gymnasium", "mdp.env=FrozenLake-v1", "mdp.horizon=5", f"hydra.run.dir={root / 'warm_sa'}"])
-        for method in dict.fromkeys(UNCAPPED.get(m, (m,))[0] for m in args.methods):
+        for method in dict.fromkeys(fit_method(m)[0] for m in args.methods):
             run(["fit", f"data={root / 'warm_sa' / 'dataset.npz'}", f"method={method}", f"hydra.run.dir={root / f'warm_sa_{method}'}"])
         for env in args.envs:
             folder = root / env.replace("/", "_")
             run(["generate", "mdp=gymnasium", f"mdp.env={env}", f"hydra.run.dir={folder / 'gen'}"])
             for method in args.methods:
-                game = plays_game(UNCAPPED.get(method, (method,))[0])
+                game = plays_game(fit_method(method)[0])
                 rows.append(measure(env, method, folder / "gen" / "dataset.npz", folder / method, args.timeout, args.budget if game else None))
     table = Table(title="the environments by id at their own horizon, every method (whole processes, all cores)")
     for col in COLUMNS:
@@ -88,7 +93,7 @@ def measure(env: str, method: str, file: Path, folder: Path, timeout: float, bud
     """One fit of ``file`` by ``method`` in a fresh process: its row (``COLUMNS``, and "stopped at budget"
     when a ``budget``, ``optim.max_seconds``, stopped the fit)."""
     row: dict = {"env": env, "method": method, **_sizes(file)}
-    name, extra = UNCAPPED.get(method, (method, ()))
+    name, extra = fit_method(method)
     limit = [] if budget is None else [f"optim.max_seconds={budget:g}"]
     try:
         wall, peak = run(["fit", f"data={file}", f"method={name}", *extra, f"hydra.run.dir={folder}", *limit], timeout)

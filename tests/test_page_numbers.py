@@ -408,7 +408,7 @@ def test_the_environments_table_says_which_fit_stopped_at_its_time_budget():
 
 
 def test_the_thesis_method_against_mce_irl_at_its_cap_and_to_its_tolerance():
-    """The performance page's comparison (``_against_mce``): the thesis's method's process over MCE
+    """The environments page's comparison (``_against_mce``): the thesis's method's process over MCE
     IRL's at its default cap and over MCE IRL's run to its own stopping rule (``mce-uncapped``),
     hand-computed; an environment without all three finished processes has no row."""
     def row(env, method, seconds, iterations, **more):

@@ -350,25 +350,29 @@ def _environment_tables(values: dict) -> dict:
                      _cell(r["score tau"], ".3f"), _cell(r["score tau_j"], ".3f") + tie,
                      _cell(r["return tau_j"], ".3g") + demo_return, _cell(r["goal tau_j"], ".3f") + demo_goal]
         lines.append("| " + " | ".join([r["env"], size, r["method"], *cells]) + " |")
-    airl = {r["env"]: r for r in values["rows"] if r["method"] == "airl"}
-    ratio = {env: _cell(x, "x1") for env, x in _ratios(airl, values["rows"], "mce").items()}
-    return {"table": "\n".join(lines), "ratio": ratio, "against_mce": _against_mce(airl, values["rows"]),
+    airl, capped, uncapped = (_by_env(values["rows"], m) for m in ("airl", "mce", "mce-uncapped"))
+    ratio = {env: _cell(x, "x1") for env, x in _ratios(airl, capped).items()}
+    return {"table": "\n".join(lines), "ratio": ratio, "against_mce": _against_mce(airl, capped, uncapped),
             "time": _time_table([r for r in values["rows"] if r["method"] == "airl"], "environment by id", lambda r: r["env"])}
 
 
-def _ratios(airl: dict, rows: list[dict], method: str) -> dict:
-    """The thesis's method's process time over ``method``'s, per environment where both processes finished."""
-    other = {r["env"]: r for r in rows if r["method"] == method}
+def _by_env(rows: list[dict], method: str) -> dict:
+    """The environments benchmark's rows of ``method``, by environment."""
+    return {r["env"]: r for r in rows if r["method"] == method}
+
+
+def _ratios(airl: dict, other: dict) -> dict:
+    """The thesis's method's process time over another row's (both by environment, ``_by_env``), per
+    environment where both processes finished."""
     return {env: airl[env]["process s"] / other[env]["process s"] for env in airl
             if env in other and not isinstance(airl[env]["process s"], str) and not isinstance(other[env]["process s"], str)}
 
 
-def _against_mce(airl: dict, rows: list[dict]) -> str:
+def _against_mce(airl: dict, capped: dict, uncapped: dict) -> str:
     """The thesis's method's process against MCE IRL's at its default cap (``mce``) and run to its own
-    stopping rule (``mce-uncapped``), one row per environment with all three rows measured."""
-    capped = {r["env"]: r for r in rows if r["method"] == "mce"}
-    uncapped = {r["env"]: r for r in rows if r["method"] == "mce-uncapped"}
-    to_capped, to_uncapped = _ratios(airl, rows, "mce"), _ratios(airl, rows, "mce-uncapped")
+    stopping rule (``mce-uncapped``), all by environment (``_by_env``): one row per environment
+    whose three processes finished."""
+    to_capped, to_uncapped = _ratios(airl, capped), _ratios(airl, uncapped)
     head = ["environment", "the thesis's method: s", "its bracket", "MCE IRL at its cap: s", "iterations", "stopped", "width",
             "ratio", "MCE IRL to its tolerance: s", "iterations", "width", "ratio"]
     lines = ["| " + " | ".join(head) + " |", "| --- | ---: | ---: | ---: | ---: | --- | ---: | ---: | ---: | ---: | ---: | ---: |"]
